@@ -1,0 +1,18 @@
+// The odocal command line: each command group registers its subcommands on
+// the CLI11 app. Commands return the process exit code through the callback
+// by throwing CLI::RuntimeError(code) after printing one clear line on stderr.
+#ifndef ODOCAL_RIG_COMMANDS_H_
+#define ODOCAL_RIG_COMMANDS_H_
+
+#include <CLI/CLI.hpp>
+
+namespace odocal::rig {
+
+void RegisterSimulateCommand(CLI::App& app);
+void RegisterUmbmarkCommand(CLI::App& app);
+void RegisterCvraCommand(CLI::App& app);
+void RegisterDemoCommand(CLI::App& app);
+
+}  // namespace odocal::rig
+
+#endif  // ODOCAL_RIG_COMMANDS_H_

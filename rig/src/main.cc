@@ -1,0 +1,14 @@
+// odocal: calibration station for differential-drive robots.
+#include <CLI/CLI.hpp>
+
+#include "odocal/rig/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"odocal: odometry calibration for differential-drive robots"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "odocal 0.1.0");
+  // Command groups; each registers its subcommands.
+  (void)app;
+  CLI11_PARSE(app, argc, argv);
+  return 0;
+}

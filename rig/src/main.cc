@@ -7,8 +7,10 @@ int main(int argc, char** argv) {
   CLI::App app{"odocal: odometry calibration for differential-drive robots"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "odocal 0.1.0");
-  // Command groups; each registers its subcommands.
-  (void)app;
+  odocal::rig::RegisterSimulateCommand(app);
+  odocal::rig::RegisterUmbmarkCommand(app);
+  odocal::rig::RegisterCvraCommand(app);
+  odocal::rig::RegisterDemoCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

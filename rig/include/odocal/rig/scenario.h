@@ -1,0 +1,36 @@
+// Scenario files: the virtual world a simulation runs in (robot with nominal
+// and true parameters, the run plan, hidden effects). YAML, millimetres and
+// degrees at the edge; parsed here into typed sim/calibration options.
+//
+// Parsing is strict: an unknown key, a missing required key, a value of the
+// wrong type or out of range is an error that names the file, the line and
+// the key path (e.g. `S.yaml:12: runs[1].procedure: unknown procedure 'spiral'`).
+#ifndef ODOCAL_RIG_SCENARIO_H_
+#define ODOCAL_RIG_SCENARIO_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/procedures.h"
+#include "odocal/sim/virtual_robot.h"
+
+namespace odocal::rig {
+
+struct Scenario {
+  std::string path;
+  std::uint64_t seed = 1;
+  sim::RobotConfig robot;
+  std::vector<calibration::RunSpec> runs;
+};
+
+// nullopt with `error` set (one line) when the file is missing or malformed.
+std::optional<Scenario> LoadScenario(const std::string& path, std::string* error);
+
+// A stable name for the i-th run (0-based): "run01_umbmark_cw".
+std::string RunName(int index, const calibration::RunSpec& spec);
+
+}  // namespace odocal::rig
+
+#endif  // ODOCAL_RIG_SCENARIO_H_

@@ -1,0 +1,34 @@
+// Running a scenario on the virtual robot and writing what it did: the truth
+// (for tests and benchmarks, never for estimators) and the telemetry.
+#ifndef ODOCAL_RIG_SIMULATION_H_
+#define ODOCAL_RIG_SIMULATION_H_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/robot_model.h"
+#include "odocal/rig/scenario.h"
+#include "odocal/sim/virtual_robot.h"
+
+namespace odocal::rig {
+
+struct SimulationResult {
+  calibration::ErrorFactors truth;
+  std::vector<std::string> run_names;
+  std::vector<sim::RunRecord> runs;
+};
+
+// Runs the scenario's runs in order on one robot (each starts where the
+// previous ended), with `believed` as the firmware's parameters when given.
+SimulationResult Simulate(const Scenario& scenario,
+                          const std::optional<calibration::WheelParams>& believed = std::nullopt);
+
+// Writes DIR/truth.json and DIR/<run>.telemetry.csv, DIR/<run>.trajectory.csv.
+// nullopt on success, else the error line.
+std::optional<std::string> WriteSimulation(const Scenario& scenario, const SimulationResult& result,
+                                           const std::string& dir);
+
+}  // namespace odocal::rig
+
+#endif  // ODOCAL_RIG_SIMULATION_H_

@@ -1,0 +1,115 @@
+// Scenario files: the issue's keys load into the right typed values; every
+// malformed file is rejected with the file, the line and the key named.
+#include "odocal/rig/scenario.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "odocal/test_util/test_util.h"
+
+namespace odocal::rig {
+namespace {
+
+std::string WriteTemp(const std::string& text) {
+  const std::string dir = test_util::MakeTempDir("odocal_scenario_");
+  const std::string path = dir + "/s.yaml";
+  std::ofstream(path) << text;
+  return path;
+}
+
+const char* kIssueScenario = R"(seed: 7
+robot:
+  nominal: {left_wheel_diameter_mm: 70.0, right_wheel_diameter_mm: 70.0, track_mm: 300.0, ticks_per_rev: 2048}
+  true:    {left_wheel_diameter_mm: 69.95, right_wheel_diameter_mm: 70.06, track_mm: 303.0}
+  start_pose: {x_mm: 0, y_mm: 0, heading_deg: 0}
+  speed_mm_s: 250
+  turn_rate_deg_s: 60
+runs:
+  - {procedure: umbmark, direction: cw, side_mm: 2000}
+  - {procedure: umbmark, direction: ccw, side_mm: 2000}
+  - {procedure: straight, distance_mm: 1500}
+  - {procedure: spin, turns: 3, direction: cw}
+  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}
+effects: []
+)";
+
+TEST(Scenario, LoadsTheIssuesKeys) {
+  std::string error;
+  const auto s = LoadScenario(WriteTemp(kIssueScenario), &error);
+  ASSERT_TRUE(s) << error;
+  EXPECT_EQ(s->seed, 7u);
+  EXPECT_NEAR(s->robot.nominal.track_m, 0.300, 1e-12);
+  EXPECT_EQ(s->robot.nominal.ticks_per_rev, 2048);
+  EXPECT_EQ(s->robot.truth.ticks_per_rev, 2048) << "defaults to the nominal encoder";
+  EXPECT_NEAR(s->robot.truth.left_wheel_diameter_m, 0.06995, 1e-12);
+  EXPECT_NEAR(s->robot.limits.turn_rate_rad_s, M_PI / 3.0, 1e-12);
+  ASSERT_EQ(s->runs.size(), 5u);
+  EXPECT_EQ(s->runs[0].direction, calibration::Direction::kCw);
+  EXPECT_NEAR(s->runs[1].side_m, 2.0, 1e-12);
+  EXPECT_EQ(s->runs[3].turns, 3);
+  EXPECT_EQ(s->runs[4].reference, calibration::Reference::kWall);
+  EXPECT_EQ(RunName(0, s->runs[0]), "run01_umbmark_cw");
+  EXPECT_EQ(RunName(2, s->runs[2]), "run03_straight");
+}
+
+struct BadCase {
+  std::string from;  // text replaced in the issue's scenario
+  std::string to;
+  std::string expected;  // must appear in the error
+};
+
+class ScenarioErrors : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(ScenarioErrors, NameTheField) {
+  std::string text = kIssueScenario;
+  const BadCase& c = GetParam();
+  const size_t at = text.find(c.from);
+  ASSERT_NE(at, std::string::npos) << c.from;
+  text.replace(at, c.from.size(), c.to);
+  const std::string path = WriteTemp(text);
+  std::string error;
+  EXPECT_FALSE(LoadScenario(path, &error));
+  EXPECT_NE(error.find(c.expected), std::string::npos) << error;
+  EXPECT_NE(error.find(path), std::string::npos) << "names the file: " << error;
+  EXPECT_EQ(error.find('\n'), std::string::npos) << "one line: " << error;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Malformed, ScenarioErrors,
+    ::testing::Values(
+        BadCase{"procedure: straight", "procedure: spiral", "runs[2].procedure: unknown procedure 'spiral'"},
+        BadCase{"track_mm: 300.0", "track_mm: -300.0", "robot.nominal.track_mm: must be positive"},
+        BadCase{"track_mm: 300.0", "track_mm: abc", "robot.nominal.track_mm: expected a number"},
+        BadCase{"track_mm: 300.0, ", "", "robot.nominal.track_mm: missing"},
+        BadCase{"seed: 7", "sede: 7", "sede: unknown key"},
+        BadCase{"speed_mm_s: 250", "sped_mm_s: 250", "robot.sped_mm_s: unknown key"},
+        BadCase{"direction: cw, side_mm", "direction: left, side_mm", "runs[0].direction: expected cw or ccw"},
+        BadCase{"side_mm: 2000}\n  - {procedure: umbmark, direction: ccw", "side_mm: 0}\n  - {procedure: umbmark, direction: ccw", "runs[0].side_mm: must be positive"},
+        BadCase{"turns: 3", "turns: 2.5", "runs[3].turns: expected a whole number"},
+        BadCase{"{procedure: straight, distance_mm: 1500}", "{procedure: straight, distance_mm: 1500, side_mm: 3}", "runs[2].side_mm: does not apply to procedure straight"},
+        BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0]: effect 'warp_drive'"},
+        BadCase{"  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
+                "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
+                "  - {procedure: straight, distance_mm: 1500}\n"
+                "  - {procedure: spin, turns: 3, direction: cw}\n"
+                "  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}\n",
+                "  []\n", "runs: expected a non-empty list"},
+        BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive integer"},
+        BadCase{"left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
+    [](const ::testing::TestParamInfo<BadCase>& info) { return "case" + std::to_string(info.index); });
+
+TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
+  std::string error;
+  EXPECT_FALSE(LoadScenario("/nonexistent/s.yaml", &error));
+  EXPECT_NE(error.find("/nonexistent/s.yaml: no such file"), std::string::npos) << error;
+  EXPECT_FALSE(LoadScenario(WriteTemp(""), &error));
+  EXPECT_NE(error.find("empty scenario file"), std::string::npos) << error;
+  EXPECT_FALSE(LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
+  EXPECT_NE(error.find("is a directory"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace odocal::rig

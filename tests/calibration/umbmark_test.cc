@@ -153,6 +153,8 @@ TEST(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
     const double after = EmaxAfterCorrection(config, before, 1, 1);
     EXPECT_GT(before.emax_syst_m / after, 50.0)
         << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
+    std::cout << "noise-free: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
+              << after * 1e3 << " mm\n";
   }
   {
     // With wheel noise, five runs each way; Es is 1.00079 here, which the
@@ -165,7 +167,27 @@ TEST(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
     const double after = EmaxAfterCorrection(config, before, 5, 99);
     EXPECT_GT(before.emax_syst_m / after, 50.0)
         << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
+    std::cout << "noisy, 5 runs: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
+              << after * 1e3 << " mm\n";
   }
+}
+
+TEST(UmbmarkCoupled, MeasuresTheTurnGainUnlessTheScaleIsGiven) {
+  // Es = 1.004: the square sees the turn gain Eb / Es; given the scale, Eb.
+  sim::RobotConfig config = test_util::ExactRobot(1.0, 1.0);
+  config.truth = test_util::TrueParamsFor(config.nominal, 1.002, 1.01, 1.004);
+  sim::VirtualRobot robot(config);
+  const UmbmarkInput input = RunSquares(robot, 1);
+  const UmbmarkSummary plain = EstimateUmbmark(input);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_NEAR(plain.coupled.Eb, 1.01 / 1.004, 2e-5);
+  UmbmarkOptions options;
+  options.mean_scale = 1.004;
+  const UmbmarkSummary scaled = EstimateUmbmark(input, options);
+  ASSERT_TRUE(scaled.ok());
+  EXPECT_NEAR(scaled.coupled.Eb, 1.01, 1e-9);
+  EXPECT_NEAR(scaled.coupled.Ed, 1.002, 1e-9);
+  EXPECT_NEAR(scaled.turn_scale, 1.01 / 1.004, 1e-9);
 }
 
 TEST(UmbmarkUncertainty, IntervalsFromRepeatedRunsCoverTheTruth) {

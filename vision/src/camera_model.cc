@@ -165,16 +165,60 @@ std::vector<cv::Point2d> CameraModel::ProjectWorld(
 
 std::vector<cv::Point2d> CameraModel::UndistortToNormalized(
     const std::vector<cv::Point2d>& pixels) const {
-  std::vector<cv::Point2d> out;
-  if (pixels.empty()) return out;
-  cv::undistortPoints(pixels, out, K_, D_, cv::noArray(), cv::noArray(), kUndistortCriteria);
+  // Newton on the distortion model (analytic 2x2 Jacobian): converges to
+  // machine precision in 3-4 steps, where OpenCV's fixed-point iteration
+  // needs ~20 at the image corners; the renderer undistorts every pixel corner.
+  const auto& d = intrinsics_.distortion;
+  const double k1 = d[0], k2 = d[1], p1 = d[2], p2 = d[3], k3 = d[4];
+  std::vector<cv::Point2d> out(pixels.size());
+  std::vector<cv::Point2d> fallback_in;
+  std::vector<size_t> fallback_index;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const double tx = (pixels[i].x - intrinsics_.cx) / intrinsics_.fx;
+    const double ty = (pixels[i].y - intrinsics_.cy) / intrinsics_.fy;
+    double x = tx, y = ty;
+    bool converged = false;
+    for (int it = 0; it < 30; ++it) {
+      const double r2 = x * x + y * y;
+      const double radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+      const double dradial = k1 + 2.0 * k2 * r2 + 3.0 * k3 * r2 * r2;
+      const double fx = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - tx;
+      const double fy = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - ty;
+      const double a = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
+      const double b = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+      const double c = b;
+      const double e = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+      const double det = a * e - b * c;
+      if (!(std::abs(det) > 1e-12)) break;
+      const double dx = (e * fx - b * fy) / det;
+      const double dy = (a * fy - c * fx) / det;
+      x -= dx;
+      y -= dy;
+      if (std::abs(dx) + std::abs(dy) < 1e-15) {
+        converged = true;
+        break;
+      }
+    }
+    if (converged && std::isfinite(x) && std::isfinite(y)) {
+      out[i] = cv::Point2d(x, y);
+    } else {
+      fallback_in.push_back(pixels[i]);
+      fallback_index.push_back(i);
+    }
+  }
+  if (!fallback_in.empty()) {
+    std::vector<cv::Point2d> fb;
+    cv::undistortPoints(fallback_in, fb, K_, D_, cv::noArray(), cv::noArray(), kUndistortCriteria);
+    for (size_t j = 0; j < fb.size(); ++j) out[fallback_index[j]] = fb[j];
+  }
   return out;
 }
 
 std::vector<cv::Point2d> CameraModel::UndistortPixels(const std::vector<cv::Point2d>& pixels) const {
-  std::vector<cv::Point2d> out;
-  if (pixels.empty()) return out;
-  cv::undistortPoints(pixels, out, K_, D_, cv::noArray(), K_, kUndistortCriteria);
+  auto out = UndistortToNormalized(pixels);
+  for (auto& p : out) {
+    p = cv::Point2d(p.x * intrinsics_.fx + intrinsics_.cx, p.y * intrinsics_.fy + intrinsics_.cy);
+  }
   return out;
 }
 

@@ -91,8 +91,9 @@ class CameraModel {
   std::vector<cv::Point2d> ProjectWorld(const std::vector<Eigen::Vector3d>& ps_world) const;
 
   // Distorted pixels -> undistorted normalised image coordinates (x/z, y/z),
-  // iterated to convergence (OpenCV's default 5 iterations leave ~0.01 px at
-  // the image corners with k1 = -0.12, too much for ground truth).
+  // solved to machine precision by Newton's method (OpenCV's default 5
+  // fixed-point iterations leave ~0.01 px at the image corners with
+  // k1 = -0.12, too much for ground truth); OpenCV's iteration is the fallback.
   std::vector<cv::Point2d> UndistortToNormalized(const std::vector<cv::Point2d>& pixels) const;
   // Distorted pixels -> undistorted pixels of the same pinhole (K, no distortion).
   std::vector<cv::Point2d> UndistortPixels(const std::vector<cv::Point2d>& pixels) const;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -164,14 +165,18 @@ TEST(Renderer, RejectsInvalidInput) {
   EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), testing::StandardTag(), o).ok);
 }
 
-TEST(Video, H264RoundTripWithTimestamps) {
+class Video : public ::testing::TestWithParam<Mp4WriterOptions::Backend> {};
+
+TEST_P(Video, H264RoundTripWithTimestamps) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_video");
+  Mp4WriterOptions wo;
+  wo.backend = GetParam();
   const std::string path = dir + "/clip.mp4";
   const CameraModel cam(Intrinsics{320, 240, 350.0, 350.0, 160.0, 120.0, {0, 0, 0, 0, 0}},
                         CameraMount{0, 0, 1000.0, 0, 0, 0});
   auto renderer = MakeRenderer(cam, testing::StandardTag(), testing::StandardRender());
   Mp4Writer writer;
-  const VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240));
+  const VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
   ASSERT_TRUE(opened.ok) << opened.message;
   std::vector<cv::Mat> frames;
   for (int i = 0; i < 10; ++i) {
@@ -179,7 +184,8 @@ TEST(Video, H264RoundTripWithTimestamps) {
     ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok);
   }
   EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok);  // wrong size
-  writer.Close();
+  const VideoStatus closed = writer.Close();
+  ASSERT_TRUE(closed.ok) << closed.message;
   ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok);
   std::ifstream ts(dir + "/clip.timestamps.csv");
   int lines = 0;
@@ -203,7 +209,11 @@ TEST(Video, H264RoundTripWithTimestamps) {
   std::filesystem::remove_all(dir);
 }
 
-TEST(Video, BadFilesGiveAClearStatus) {
+INSTANTIATE_TEST_SUITE_P(Backends, Video,
+                         ::testing::Values(Mp4WriterOptions::Backend::kOpenCv,
+                                           Mp4WriterOptions::Backend::kFfmpegCli));
+
+TEST(VideoFiles, BadFilesGiveAClearStatus) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_badvideo");
   VideoReader missing;
   VideoStatus s = missing.Open(dir + "/nope.mp4");
@@ -232,6 +242,32 @@ TEST(Video, BadFilesGiveAClearStatus) {
   Mp4Writer writer;
   EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok);
   EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok);
+  Mp4WriterOptions cli;
+  cli.backend = Mp4WriterOptions::Backend::kFfmpegCli;
+  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
+  EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok);
+  cli.crf = 99;
+  EXPECT_FALSE(writer.Open(dir + "/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
+
+  // A truncated file: the first half of a good one.
+  {
+    Mp4Writer good;
+    ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok);
+    for (int i = 0; i < 30; ++i) good.Write(cv::Mat(64, 64, CV_8U, cv::Scalar(4 * i)), i / 30.0);
+    good.Close();
+    std::ifstream in(dir + "/good.mp4", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir + "/cut.mp4", std::ios::binary).write(bytes.data(), bytes.size() / 2);
+  }
+  VideoReader truncated;
+  const VideoStatus t = truncated.Open(dir + "/cut.mp4");
+  int frames = 0;
+  if (t.ok) {
+    while (truncated.Read(&frame)) ++frames;
+  } else {
+    EXPECT_FALSE(t.message.empty());
+  }
+  EXPECT_LT(frames, 30);  // never more than what survived, never a crash
   std::filesystem::remove_all(dir);
 }
 

@@ -119,21 +119,37 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
-// H.264 .mp4 through OpenCV's FFmpeg backend (fourcc avc1), grey frames
-// written as BGR. Keeps each frame's timestamp for the timestamp list.
 struct VideoStatus {
   bool ok = false;
   std::string message;
 };
 
+// How Mp4Writer encodes. OpenCV 4.6's FFmpeg writer offers no quality
+// setting: libx264 runs at its default CRF 23, which at the standard
+// condition costs ~0.05 deg of heading per frame, and a static robot's
+// frames share the same artefacts so averaging does not remove them
+// (docs/vision.md). kFfmpegCli pipes raw frames to the `ffmpeg` program
+// instead, still H.264 in .mp4, at the CRF asked for.
+struct Mp4WriterOptions {
+  enum class Backend { kOpenCv, kFfmpegCli };
+  Backend backend = Backend::kOpenCv;
+  int crf = 12;  // kFfmpegCli only; 0 = lossless H.264
+  bool IsValid(std::string* why) const;
+};
+
+// H.264 .mp4 (fourcc avc1) of grey frames, and each frame's timestamp for
+// the timestamp list.
 class Mp4Writer {
  public:
   Mp4Writer();
   ~Mp4Writer();
-  // Fails with a clear message when this OpenCV build cannot write H.264.
-  VideoStatus Open(const std::string& path, double fps, cv::Size frame_size);
+  // Fails with a clear message when H.264 cannot be written here (no
+  // libx264 in this OpenCV/FFmpeg, no ffmpeg program, unwritable path).
+  VideoStatus Open(const std::string& path, double fps, cv::Size frame_size,
+                   const Mp4WriterOptions& options = {});
   VideoStatus Write(const cv::Mat& grey_frame, double timestamp_s);
-  void Close();
+  // Finishes the file (waits for ffmpeg with kFfmpegCli); safe to repeat.
+  VideoStatus Close();
   const std::vector<double>& timestamps_s() const { return timestamps_s_; }
   // "frame,t_s" lines, one per written frame.
   VideoStatus WriteTimestamps(const std::string& path) const;

@@ -167,7 +167,9 @@ TEST(Tracker, FollowsInRoiLosesAndReacquires) {
     ASSERT_EQ(t.find.status, DetectStatus::kOk) << i << ": " << t.find.message;
     EXPECT_EQ(t.used_roi, i > 0) << i;
     roi_frames += t.used_roi;
-    if (t.used_roi) EXPECT_LT(t.roi.area(), f.image.total() / 4);
+    if (t.used_roi) {
+      EXPECT_LT(t.roi.area(), f.image.total() / 4);
+    }
     EXPECT_LT(cv::norm(t.find.detection->corners_px[0] - f.corners_px[0]), 0.3);
   }
   EXPECT_EQ(roi_frames, 7);

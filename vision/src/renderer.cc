@@ -425,7 +425,13 @@ bool Mp4WriterOptions::IsValid(std::string* why) const {
     if (why) *why = "H.264 crf must be in [0, 51]";
     return false;
   }
-  return true;
+  static const char* kPresets[] = {"ultrafast", "superfast", "veryfast", "faster", "fast",
+                                   "medium",    "slow",      "slower",   "veryslow"};
+  for (const char* p : kPresets) {
+    if (preset == p) return true;
+  }
+  if (why) *why = "unknown x264 preset '" + preset + "'";
+  return false;
 }
 
 struct Mp4Writer::Impl {
@@ -483,7 +489,7 @@ VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_
   const std::string crf = std::to_string(options.crf);
   std::vector<std::string> args = {"ffmpeg", "-nostdin", "-y", "-loglevel", "error", "-f", "rawvideo",
                                    "-pix_fmt", "gray", "-s", size, "-r", rate, "-i", "pipe:0",
-                                   "-c:v", "libx264", "-preset", "medium", "-crf", crf,
+                                   "-c:v", "libx264", "-preset", options.preset, "-crf", crf,
                                    "-pix_fmt", "yuv420p", "-movflags", "+faststart", path};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());

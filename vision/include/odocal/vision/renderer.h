@@ -134,6 +134,8 @@ struct Mp4WriterOptions {
   enum class Backend { kOpenCv, kFfmpegCli };
   Backend backend = Backend::kOpenCv;
   int crf = 12;  // kFfmpegCli only; 0 = lossless H.264
+  // kFfmpegCli only: x264 speed preset (ultrafast ... veryslow).
+  std::string preset = "veryfast";
   bool IsValid(std::string* why) const;
 };
 

@@ -88,6 +88,7 @@ struct Renderer::Impl {
   int width = 0, height = 0;
   cv::Mat bitmap;         // total_width^2, 0 = black, 1 = white
   int total_width = 0;
+  int width_at_border = 0;
   double cell_m = 0.0;
   double plate_half_m = 0.0;
   cv::Mat corner_rays;    // (H+1) x (W+1) CV_64FC2: normalised coords of pixel corners
@@ -238,6 +239,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
       impl->bitmap.at<uint8_t>(r, c) = im->buf[r * im->stride + c] > 127 ? 1 : 0;
     }
   }
+  impl->width_at_border = family->width_at_border;
   impl->cell_m = tag.size_m() / family->width_at_border;
   impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * 1e-3;
 
@@ -331,8 +333,7 @@ RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
   if (const auto c = TrueCorners(T_world_robot_truth)) {
     frame.corners_px = *c;
     const double side_px = cv::norm((*c)[0] - (*c)[1]);
-    auto fam = internal::CreateFamily(m.tag.family);
-    const double margin = side_px / fam->width_at_border;
+    const double margin = side_px / m.width_at_border;
     frame.tag_visible = true;
     for (const auto& p : *c) {
       frame.tag_visible &= m.camera.InImage(Eigen::Vector2d(p.x, p.y), margin);

@@ -99,6 +99,28 @@ TEST_F(PlanarPose, MovingTagPerFramePoseWithinOneMillimetre) {
   std::printf("moving: worst per-frame error %.3f mm, %.4f deg\n", worst_mm, worst_deg);
 }
 
+TEST_F(PlanarPose, TagOffsetAndYawOnTheRobotAreUndone) {
+  TagSpec tag = testing::StandardTag();
+  tag.offset_x_mm = 60.0;
+  tag.offset_y_mm = -25.0;
+  tag.yaw_deg = 90.0;
+  auto r = Renderer::Create(camera_, tag, options_);
+  ASSERT_TRUE(r.ok) << r.message;
+  const Pose2 truth = Pose2::FromXYHeading(-0.4, -1.2, -0.8);
+  const RenderedFrame f = r.renderer->Render(truth);
+  // The tag is where the offset puts it...
+  const Pose2 expected_tag = truth * Pose2::FromXYHeading(0.06, -0.025, M_PI / 2);
+  EXPECT_THAT(f.T_world_tag, IsNearPose(expected_tag, 1e-9, 1e-9));
+  TagTracker tracker(detector_.get(), 5);
+  const auto corners = Corners(&tracker, f, camera_);
+  ASSERT_TRUE(corners);
+  const PlanarPoseResult p = MeasureTagPose(camera_, tag, *corners);
+  ASSERT_TRUE(p.ok) << p.message;
+  // ...and the measurement gives the robot back, not the tag.
+  EXPECT_THAT(p.T_world_tag, IsNearPose(expected_tag, 0.05, 0.05));
+  EXPECT_THAT(p.T_world_robot, IsNearPose(truth, 0.05, 0.05));
+}
+
 TEST_F(PlanarPose, RejectsCornersThatAreNotTheTag) {
   const TagCorners skewed{cv::Point2d(100, 100), cv::Point2d(300, 100), cv::Point2d(110, 120),
                           cv::Point2d(100, 400)};

@@ -21,6 +21,7 @@
 #include "odocal/vision/detector.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/renderer.h"
+#include "odocal/vision/video.h"
 
 using odocal::calibration::Pose2;
 using odocal::calibration::WrapAngle;
@@ -250,7 +251,7 @@ int main(int argc, char** argv) {
 
   // Static robot through H.264: the mean of a rest window's poses vs truth
   // (is the compression biased?). 30 frames (1 s) per position.
-  for (int crf : {-1, 18, 12}) {
+  for (int crf : {-1, 18, 12, 6}) {
   double encode_ms = 0;
   int encode_clips = 0;
   Mp4WriterOptions wo;

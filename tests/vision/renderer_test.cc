@@ -13,6 +13,7 @@
 
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/renderer.h"
+#include "odocal/vision/video.h"
 #include "vision_fixtures.h"
 
 namespace odocal::vision {

@@ -6,9 +6,10 @@
 // tilt, and that tilt leaks into x and y (IPPE's two-fold ambiguity, Collins &
 // Bartoli 2014). We instead intersect the rays through the undistorted corners
 // with the known plane and fit a planar rigid transform to the four plane
-// points (2-D Procrustes / Umeyama 1991 without scale). For a tag this small
-// (< 5 deg of view) that equals the reprojection-error minimiser to far below
-// the noise.
+// points (2-D Procrustes / Umeyama 1991 without scale). It weighs the four
+// corners equally in the plane rather than in the image; for a tag this
+// small (< 5 deg of view) the difference is negligible: rendered static tags
+// come out within 0.003 mm (tests/vision/planar_pose_test.cc).
 //
 // The plane (the camera's height above it and its tilt) is itself estimated
 // from many views of the tag at once: every view shares one plane, so one

@@ -1,0 +1,44 @@
+// Shared scene set-ups for the vision tests: the issue's standard condition
+// and a small, fast camera.
+#ifndef ODOCAL_TESTS_VISION_VISION_FIXTURES_H_
+#define ODOCAL_TESTS_VISION_VISION_FIXTURES_H_
+
+#include "odocal/vision/camera_model.h"
+#include "odocal/vision/renderer.h"
+#include "odocal/vision/tag.h"
+
+namespace odocal::vision::testing {
+
+// 1920x1080, fx = fy = 1400, distortion [-0.12, 0.05, 0, 0, 0], 2000 mm high,
+// pitch 3 deg (issue 3 §2 scenario keys).
+inline Intrinsics StandardIntrinsics() {
+  return Intrinsics{1920, 1080, 1400.0, 1400.0, 960.0, 540.0, {-0.12, 0.05, 0.0, 0.0, 0.0}};
+}
+inline CameraMount StandardMount() { return CameraMount{0.0, -1000.0, 2000.0, 0.0, 3.0, 0.0}; }
+inline CameraModel StandardCamera() { return CameraModel(StandardIntrinsics(), StandardMount()); }
+
+inline TagSpec StandardTag() {
+  TagSpec tag;
+  tag.family = "tag36h11";
+  tag.id = 5;
+  tag.size_mm = 80.0;
+  tag.height_mm = 150.0;
+  return tag;
+}
+
+inline RenderOptions StandardRender() {
+  RenderOptions o;
+  o.noise_sigma = 2.0;
+  o.blur_sigma_px = 0.8;
+  return o;
+}
+
+// 640x480 with the standard focal length scaled down: a quick camera.
+inline CameraModel SmallCamera() {
+  return CameraModel(Intrinsics{640, 480, 700.0, 700.0, 320.0, 240.0, {-0.12, 0.05, 0.0, 0.0, 0.0}},
+                     CameraMount{0.0, 0.0, 1200.0, 0.0, 2.0, 0.0});
+}
+
+}  // namespace odocal::vision::testing
+
+#endif  // ODOCAL_TESTS_VISION_VISION_FIXTURES_H_

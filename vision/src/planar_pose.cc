@@ -1,0 +1,250 @@
+#include "odocal/vision/planar_pose.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <ceres/ceres.h>
+#include <opencv2/calib3d.hpp>
+
+namespace odocal::vision {
+
+using calibration::Pose2;
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+// Camera over the tag plane: roll, pitch, height above the plane (m). The
+// gauge (x, y, yaw) is constant.
+struct CornerResidual {
+  CornerResidual(const Eigen::Vector2d& model_m, const cv::Point2d& observed_normalized,
+                 const Eigen::Vector3d& gauge, double focal_px)
+      : model(model_m), obs(observed_normalized), cam_x(gauge.x()), cam_y(gauge.y()),
+        yaw(gauge.z()), f(focal_px) {}
+
+  template <typename T>
+  bool operator()(const T* const camera, const T* const view, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T sr = sin(camera[0]), cr = cos(camera[0]);
+    const T sp = sin(camera[1]), cp = cos(camera[1]);
+    const double sy = std::sin(yaw), cy = std::cos(yaw);
+    // Columns of Rz(yaw) Ry(pitch) Rx(roll); the camera's optical axes are
+    // (col0, -col1, -col2) (see R_world_down in camera_model.h).
+    const T c0[3] = {cy * cp, sy * cp, -sp};
+    const T c1[3] = {cy * sp * sr - sy * cr, sy * sp * sr + cy * cr, cp * sr};
+    const T c2[3] = {cy * sp * cr + sy * sr, sy * sp * cr - cy * sr, cp * cr};
+    const T st = sin(view[2]), ct = cos(view[2]);
+    const T d[3] = {view[0] + ct * model.x() - st * model.y() - cam_x,
+                    view[1] + st * model.x() + ct * model.y() - cam_y, -camera[2]};
+    const T x = c0[0] * d[0] + c0[1] * d[1] + c0[2] * d[2];
+    const T y = -(c1[0] * d[0] + c1[1] * d[1] + c1[2] * d[2]);
+    const T z = -(c2[0] * d[0] + c2[1] * d[1] + c2[2] * d[2]);
+    residual[0] = f * (x / z - obs.x);
+    residual[1] = f * (y / z - obs.y);
+    return true;
+  }
+
+  Eigen::Vector2d model;
+  cv::Point2d obs;
+  double cam_x, cam_y, yaw, f;
+};
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
+                                const TagCorners& corners_px) {
+  PlanarPoseResult result;
+  const std::vector<cv::Point2d> px(corners_px.begin(), corners_px.end());
+  for (const auto& p : px) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      result.message = "corner is not finite";
+      return result;
+    }
+  }
+  const auto normalized = camera.UndistortToNormalized(px);
+  const Eigen::Matrix3d R = camera.T_world_camera().linear();
+  const Eigen::Vector3d c = camera.T_world_camera().translation();
+  const double h = tag.height_m();
+  std::array<Eigen::Vector2d, 4> plane;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d d = R * Eigen::Vector3d(normalized[k].x, normalized[k].y, 1.0);
+    const double s = (h - c.z()) / d.z();
+    if (!(s > 0.0) || !std::isfinite(s)) {
+      result.message = "corner ray does not meet the tag plane (camera below the tag?)";
+      return result;
+    }
+    const Eigen::Vector3d p = c + s * d;
+    plane[k] = p.head<2>();
+  }
+  // 2-D Procrustes: rotation from the cross-covariance of centred points.
+  const auto model = TagCornersInTag(tag.size_m());
+  Eigen::Vector2d mc = Eigen::Vector2d::Zero(), pc = Eigen::Vector2d::Zero();
+  for (int k = 0; k < 4; ++k) {
+    mc += model[k] / 4.0;
+    pc += plane[k] / 4.0;
+  }
+  double sdot = 0.0, scross = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d a = model[k] - mc, b = plane[k] - pc;
+    sdot += a.dot(b);
+    scross += a.x() * b.y() - a.y() * b.x();
+  }
+  const double theta = std::atan2(scross, sdot);
+  const Eigen::Rotation2Dd rot(theta);
+  const Eigen::Vector2d t = pc - rot * mc;
+  double sq = 0.0;
+  for (int k = 0; k < 4; ++k) sq += (rot * model[k] + t - plane[k]).squaredNorm();
+  result.rms_fit_mm = std::sqrt(sq / 4.0) * 1e3;
+  result.T_world_tag = Pose2::FromXYHeading(t.x(), t.y(), theta);
+  result.T_world_robot = result.T_world_tag * tag.T_robot_tag().inverse();
+  // A fit residual of a quarter of the tag means these are not the tag's corners.
+  if (result.rms_fit_mm > 0.25 * tag.size_mm) {
+    result.message = "corners do not fit a square of the tag's size (rms " +
+                     std::to_string(result.rms_fit_mm) + " mm)";
+    return result;
+  }
+  result.ok = true;
+  return result;
+}
+
+bool CameraPlaneOptions::IsValid(std::string* why) const {
+  if (max_iterations < 1 || !(huber_px >= 0.0) || min_views < 1) {
+    if (why) *why = "camera-plane options: max_iterations >= 1, huber_px >= 0, min_views >= 1";
+    return false;
+  }
+  return true;
+}
+
+std::string CameraPlaneResult::BriefReport() const {
+  std::ostringstream os;
+  os << (ok ? "ok" : "FAILED") << ": " << views_used << " views, rms " << rms_reprojection_px
+     << " px; roll " << mount.roll_deg << " +- " << sigma_roll_deg << " deg, pitch "
+     << mount.pitch_deg << " +- " << sigma_pitch_deg << " deg, height " << mount.height_mm
+     << " +- " << sigma_height_mm << " mm";
+  if (!message.empty()) os << " (" << message << ")";
+  return os.str();
+}
+
+CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const TagSpec& tag,
+                                             const std::vector<TagCorners>& views_corners_px,
+                                             const CameraMount& nominal_mount,
+                                             const CameraPlaneOptions& options) {
+  CameraPlaneResult result;
+  result.mount = nominal_mount;
+  std::string why;
+  if (!intrinsics.IsValid(&why) || !tag.IsValid(&why) || !options.IsValid(&why)) {
+    result.message = why;
+    return result;
+  }
+  if (static_cast<int>(views_corners_px.size()) < options.min_views) {
+    result.message = "need at least " + std::to_string(options.min_views) + " views of the tag, got " +
+                     std::to_string(views_corners_px.size());
+    return result;
+  }
+  const CameraModel nominal(intrinsics, nominal_mount);
+  const auto model = TagCornersInTag(tag.size_m());
+  std::vector<cv::Point3d> model3d;
+  for (const auto& m : model) model3d.emplace_back(m.x(), m.y(), 0.0);
+
+  // Undistorted observations, and per-view planes from IPPE for the start.
+  std::vector<std::vector<cv::Point2d>> normalized;
+  std::vector<double> nx, ny, nz, dist;
+  for (const auto& corners : views_corners_px) {
+    normalized.push_back(nominal.UndistortToNormalized({corners.begin(), corners.end()}));
+    cv::Mat rvec, tvec;
+    if (!cv::solvePnP(model3d, normalized.back(), cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec,
+                      tvec, false, cv::SOLVEPNP_IPPE)) {
+      continue;
+    }
+    cv::Mat rmat;
+    cv::Rodrigues(rvec, rmat);
+    Eigen::Vector3d n(rmat.at<double>(0, 2), rmat.at<double>(1, 2), rmat.at<double>(2, 2));
+    const Eigen::Vector3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+    if (n.z() > 0) n = -n;  // the plane's up normal points back at the camera
+    nx.push_back(n.x());
+    ny.push_back(n.y());
+    nz.push_back(n.z());
+    dist.push_back(std::abs(n.dot(t)));
+  }
+  if (static_cast<int>(nx.size()) < options.min_views) {
+    result.message = "too few views gave a pose for the starting estimate";
+    return result;
+  }
+  const Eigen::Vector3d n0 = Eigen::Vector3d(Median(nx), Median(ny), Median(nz)).normalized();
+  double camera[3] = {std::atan2(-n0.y(), -n0.z()), std::asin(std::clamp(-n0.x(), -1.0, 1.0)),
+                      Median(dist)};
+  CameraMount start = nominal_mount;
+  start.roll_deg = camera[0] * kRadToDeg;
+  start.pitch_deg = camera[1] * kRadToDeg;
+  start.height_mm = (camera[2] + tag.height_m()) * 1e3;
+  const CameraModel start_model(intrinsics, start);
+
+  const Eigen::Vector3d gauge(nominal_mount.x_mm * 1e-3, nominal_mount.y_mm * 1e-3,
+                              nominal_mount.yaw_deg / kRadToDeg);
+  std::vector<std::array<double, 3>> views;
+  std::vector<size_t> view_index;
+  ceres::Problem problem;
+  const double f = std::sqrt(intrinsics.fx * intrinsics.fy);
+  for (size_t i = 0; i < views_corners_px.size(); ++i) {
+    const auto pose = MeasureTagPose(start_model, tag, views_corners_px[i]);
+    if (!pose.ok) continue;
+    views.push_back({pose.T_world_tag.x(), pose.T_world_tag.y(), pose.T_world_tag.heading()});
+    view_index.push_back(i);
+  }
+  if (static_cast<int>(views.size()) < options.min_views) {
+    result.message = "too few views fit the tag model";
+    return result;
+  }
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (int k = 0; k < 4; ++k) {
+      auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, 3, 3>(
+          new CornerResidual(model[k], normalized[view_index[v]][k], gauge, f));
+      problem.AddResidualBlock(cost, options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr,
+                               camera, views[v].data());
+    }
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.parameter_tolerance = 1e-12;
+  solver_options.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (!summary.IsSolutionUsable()) {
+    result.message = "camera-plane adjustment failed: " + summary.message;
+    return result;
+  }
+  result.mount.roll_deg = camera[0] * kRadToDeg;
+  result.mount.pitch_deg = camera[1] * kRadToDeg;
+  result.mount.height_mm = (camera[2] + tag.height_m()) * 1e3;
+  result.views_used = static_cast<int>(views.size());
+  const int n_res = 8 * result.views_used;
+  result.rms_reprojection_px = std::sqrt(2.0 * summary.final_cost / n_res);
+  for (const auto& v : views) result.world_Ts_tag.push_back(Pose2::FromXYHeading(v[0], v[1], v[2]));
+
+  // Uncertainty of the camera block, scaled by the residual variance.
+  ceres::Covariance::Options cov_options;
+  ceres::Covariance covariance(cov_options);
+  std::vector<std::pair<const double*, const double*>> blocks = {{camera, camera}};
+  if (covariance.Compute(blocks, &problem)) {
+    double cov[9];
+    covariance.GetCovarianceBlock(camera, camera, cov);
+    const int dof = std::max(1, n_res - 3 - 3 * result.views_used);
+    const double s2 = 2.0 * summary.final_cost / dof;
+    result.sigma_roll_deg = std::sqrt(cov[0] * s2) * kRadToDeg;
+    result.sigma_pitch_deg = std::sqrt(cov[4] * s2) * kRadToDeg;
+    result.sigma_height_mm = std::sqrt(cov[8] * s2) * 1e3;
+  }
+  result.ok = true;
+  return result;
+}
+
+}  // namespace odocal::vision

@@ -1,0 +1,409 @@
+#include "odocal/vision/renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "apriltag_util.h"
+
+namespace odocal::vision {
+
+using calibration::Pose2;
+
+bool RenderOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (!(noise_sigma >= 0.0)) return fail("noise_sigma must be >= 0");
+  if (!(blur_sigma_px >= 0.0) || blur_sigma_px > 20.0) return fail("blur_sigma_px must be in [0, 20]");
+  if (!(exposure_s >= 0.0)) return fail("exposure_s must be >= 0");
+  if (max_motion_substeps < 1) return fail("max_motion_substeps must be >= 1");
+  if (!(motion_step_px > 0.0)) return fail("motion_step_px must be > 0");
+  if (!(body_radius_mm >= 0.0)) return fail("body_radius_mm must be >= 0");
+  if (!(plate_margin_mm >= 0.0)) return fail("plate_margin_mm must be >= 0");
+  if (edge_supersample < 1 || edge_supersample > 64) return fail("edge_supersample must be in [1, 64]");
+  return true;
+}
+
+namespace {
+
+// Value noise: a seeded hash of the lattice point, smoothstep-interpolated.
+double LatticeValue(int64_t ix, int64_t iy, uint64_t seed) {
+  uint64_t h = seed * 0x9E3779B97F4A7C15ull;
+  h ^= static_cast<uint64_t>(ix) * 0xC2B2AE3D27D4EB4Full;
+  h = (h ^ (h >> 31)) * 0xBF58476D1CE4E5B9ull;
+  h ^= static_cast<uint64_t>(iy) * 0x165667B19E3779F9ull;
+  h = (h ^ (h >> 29)) * 0x94D049BB133111EBull;
+  h ^= h >> 32;
+  return static_cast<double>(h & 0xFFFFFF) / static_cast<double>(0xFFFFFF) * 2.0 - 1.0;
+}
+
+double ValueNoise(double x, double y, uint64_t seed) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+  double tx = x - fx, ty = y - fy;
+  tx = tx * tx * (3.0 - 2.0 * tx);
+  ty = ty * ty * (3.0 - 2.0 * ty);
+  const double a = LatticeValue(ix, iy, seed), b = LatticeValue(ix + 1, iy, seed);
+  const double c = LatticeValue(ix, iy + 1, seed), d = LatticeValue(ix + 1, iy + 1, seed);
+  return (a * (1 - tx) + b * tx) * (1 - ty) + (c * (1 - tx) + d * tx) * ty;
+}
+
+double FloorTexture(double x_m, double y_m, uint64_t seed) {
+  // Tiles from 0.4 m down to 2.5 cm: structure at every scale the camera sees.
+  return 0.5 * ValueNoise(x_m / 0.4, y_m / 0.4, seed) +
+         0.3 * ValueNoise(x_m / 0.1, y_m / 0.1, seed + 1) +
+         0.2 * ValueNoise(x_m / 0.025, y_m / 0.025, seed + 2);
+}
+
+// Region ids for the coverage test: a pixel is uniform when its four corners
+// share one id. Tag cells get their own id each, so a pixel straddling two
+// cells of the same colour is still integrated (cheap, and never wrong).
+constexpr int kFloor = 0;
+constexpr int kBody = 1;
+constexpr int kPlate = 2;
+constexpr int kFirstCell = 16;
+
+}  // namespace
+
+struct Renderer::Impl {
+  CameraModel camera;
+  TagSpec tag;
+  RenderOptions options;
+  int width = 0, height = 0;
+  cv::Mat bitmap;         // total_width^2, 0 = black, 1 = white
+  int total_width = 0;
+  int width_at_border = 0;
+  double cell_m = 0.0;
+  double plate_half_m = 0.0;
+  cv::Mat corner_rays;    // (H+1) x (W+1) CV_64FC2: normalised coords of pixel corners
+  cv::Mat bg_sharp;       // CV_32F
+  cv::Mat bg_blur;        // CV_32F
+  std::vector<float> noise_pool;
+  cv::RNG rng;
+  std::mt19937_64 offset_rng;
+  int blur_margin = 0;
+  int blur_ksize = 1;
+
+  int Classify(const Eigen::Vector2d& q_robot, const Pose2& T_tag_robot) const {
+    const Eigen::Vector2d t = T_tag_robot * q_robot;
+    if (std::abs(t.x()) <= plate_half_m && std::abs(t.y()) <= plate_half_m) {
+      const double half = 0.5 * total_width * cell_m;
+      const int col = static_cast<int>(std::floor((t.x() + half) / cell_m));
+      const int row = static_cast<int>(std::floor((half - t.y()) / cell_m));
+      if (col >= 0 && col < total_width && row >= 0 && row < total_width) {
+        return kFirstCell + row * total_width + col;
+      }
+      return kPlate;
+    }
+    if (q_robot.squaredNorm() <= std::pow(options.body_radius_mm * 1e-3, 2)) return kBody;
+    return kFloor;
+  }
+
+  double Value(int id, double floor_value) const {
+    if (id >= kFirstCell) {
+      const int k = id - kFirstCell;
+      return bitmap.at<uint8_t>(k / total_width, k % total_width) ? options.tag_white
+                                                                  : options.tag_black;
+    }
+    if (id == kPlate) return options.tag_white;
+    if (id == kBody) return options.body_grey;
+    return floor_value;
+  }
+
+  // Robot-frame point where the ray through a pixel corner meets the tag plane.
+  Eigen::Vector2d CornerOnPlane(int cu, int cv_, const Pose2& T_robot_world) const {
+    const cv::Vec2d n = corner_rays.at<cv::Vec2d>(cv_, cu);
+    const Eigen::Vector3d d = camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
+    const Eigen::Vector3d c = camera.T_world_camera().translation();
+    const double s = (tag.height_m() - c.z()) / d.z();
+    if (!(s > 0.0)) return Eigen::Vector2d(1e9, 1e9);  // looks away from the plane: floor
+    const Eigen::Vector3d p = c + s * d;
+    return T_robot_world * Eigen::Vector2d(p.x(), p.y());
+  }
+
+  // Adds weight * (the scene at pose T_world_robot) to acc over `roi`.
+  void RenderPose(const Pose2& T_world_robot, const cv::Rect& roi, double weight, cv::Mat* acc) const {
+    const Pose2 T_robot_world = T_world_robot.inverse();
+    const Pose2 T_tag_robot = tag.T_robot_tag().inverse();
+    const int w = roi.width, h = roi.height;
+    std::vector<Eigen::Vector2d> q((w + 1) * (h + 1));
+    std::vector<int> id((w + 1) * (h + 1));
+    for (int j = 0; j <= h; ++j) {
+      for (int i = 0; i <= w; ++i) {
+        const int k = j * (w + 1) + i;
+        q[k] = CornerOnPlane(roi.x + i, roi.y + j, T_robot_world);
+        id[k] = Classify(q[k], T_tag_robot);
+      }
+    }
+    const int ss = options.edge_supersample;
+    const double inv_ss2 = 1.0 / (ss * ss);
+    for (int j = 0; j < h; ++j) {
+      float* out = acc->ptr<float>(j);
+      const float* bg = bg_sharp.ptr<float>(roi.y + j) + roi.x;
+      for (int i = 0; i < w; ++i) {
+        const int k00 = j * (w + 1) + i, k10 = k00 + 1, k01 = k00 + w + 1, k11 = k01 + 1;
+        double v;
+        if (id[k00] == id[k10] && id[k00] == id[k01] && id[k00] == id[k11]) {
+          v = Value(id[k00], bg[i]);
+        } else {
+          // Stratified samples; within one pixel the corner-to-plane map is
+          // bilinear to far better than 1e-4 px.
+          double sum = 0.0;
+          for (int b = 0; b < ss; ++b) {
+            const double ty = (b + 0.5) / ss;
+            const Eigen::Vector2d left = q[k00] * (1 - ty) + q[k01] * ty;
+            const Eigen::Vector2d right = q[k10] * (1 - ty) + q[k11] * ty;
+            for (int a = 0; a < ss; ++a) {
+              const double tx = (a + 0.5) / ss;
+              sum += Value(Classify(left * (1 - tx) + right * tx, T_tag_robot), bg[i]);
+            }
+          }
+          v = sum * inv_ss2;
+        }
+        out[i] += static_cast<float>(weight * v);
+      }
+    }
+  }
+
+  // Image bounding box of body and plate at a pose (empty if not in front).
+  cv::Rect2d GeometryBox(const Pose2& T_world_robot) const {
+    std::vector<Eigen::Vector3d> pts;
+    const double r = options.body_radius_mm * 1e-3;
+    for (int k = 0; k < 72; ++k) {
+      const double a = 2.0 * M_PI * k / 72.0;
+      // Circumscribed polygon so the sampled outline never cuts the disc.
+      const Eigen::Vector2d p = T_world_robot * Eigen::Vector2d(r / std::cos(M_PI / 72) * std::cos(a),
+                                                                r / std::cos(M_PI / 72) * std::sin(a));
+      pts.emplace_back(p.x(), p.y(), tag.height_m());
+    }
+    const Pose2 T_world_tag = T_world_robot * tag.T_robot_tag();
+    for (int sx = -1; sx <= 1; sx += 2) {
+      for (int sy = -1; sy <= 1; sy += 2) {
+        const Eigen::Vector2d p = T_world_tag * Eigen::Vector2d(sx * plate_half_m, sy * plate_half_m);
+        pts.emplace_back(p.x(), p.y(), tag.height_m());
+      }
+    }
+    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+    for (const auto& p : pts) {
+      const auto px = camera.ProjectWorld(p);
+      if (!px) return {};
+      x0 = std::min(x0, px->x());
+      y0 = std::min(y0, px->y());
+      x1 = std::max(x1, px->x());
+      y1 = std::max(y1, px->y());
+    }
+    return {x0, y0, x1 - x0, y1 - y0};
+  }
+};
+
+Renderer::Renderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Renderer::~Renderer() = default;
+
+RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
+                                const RenderOptions& options) {
+  RendererResult result;
+  std::string why;
+  if (!camera.intrinsics().IsValid(&why) || !tag.IsValid(&why) || !options.IsValid(&why)) {
+    result.message = why;
+    return result;
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->camera = camera;
+  impl->tag = tag;
+  impl->options = options;
+  impl->width = camera.intrinsics().width;
+  impl->height = camera.intrinsics().height;
+
+  auto family = internal::CreateFamily(tag.family);
+  internal::ImageU8Ptr im(apriltag_to_image(family.get(), tag.id));
+  impl->total_width = im->width;
+  impl->bitmap.create(im->height, im->width, CV_8U);
+  for (int r = 0; r < im->height; ++r) {
+    for (int c = 0; c < im->width; ++c) {
+      impl->bitmap.at<uint8_t>(r, c) = im->buf[r * im->stride + c] > 127 ? 1 : 0;
+    }
+  }
+  impl->width_at_border = family->width_at_border;
+  impl->cell_m = tag.size_m() / family->width_at_border;
+  impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * 1e-3;
+
+  // Normalised coordinates of every pixel corner (u - 0.5, v - 0.5), once.
+  const int W = impl->width, H = impl->height;
+  std::vector<cv::Point2d> corners;
+  corners.reserve(static_cast<size_t>(W + 1) * (H + 1));
+  for (int v = 0; v <= H; ++v) {
+    for (int u = 0; u <= W; ++u) corners.emplace_back(u - 0.5, v - 0.5);
+  }
+  const auto normalized = camera.UndistortToNormalized(corners);
+  impl->corner_rays = cv::Mat(H + 1, W + 1, CV_64FC2);
+  std::copy(normalized.begin(), normalized.end(), impl->corner_rays.ptr<cv::Point2d>(0));
+
+  // Static floor, sampled at the ray through the pixel centre.
+  impl->bg_sharp = cv::Mat(H, W, CV_32F);
+  const Eigen::Matrix3d R = camera.T_world_camera().linear();
+  const Eigen::Vector3d c = camera.T_world_camera().translation();
+  for (int v = 0; v < H; ++v) {
+    float* row = impl->bg_sharp.ptr<float>(v);
+    for (int u = 0; u < W; ++u) {
+      const cv::Vec2d n = (impl->corner_rays.at<cv::Vec2d>(v, u) + impl->corner_rays.at<cv::Vec2d>(v + 1, u + 1)) * 0.5;
+      const Eigen::Vector3d d = R * Eigen::Vector3d(n[0], n[1], 1.0);
+      const double s = -c.z() / d.z();
+      double value = options.floor_mean;
+      if (s > 0.0) {
+        const Eigen::Vector3d p = c + s * d;
+        value += options.floor_contrast * FloorTexture(p.x(), p.y(), options.seed);
+      }
+      row[u] = static_cast<float>(value);
+    }
+  }
+  if (options.blur_sigma_px > 0.0) {
+    impl->blur_margin = static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1;
+    impl->blur_ksize = 2 * static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1;
+    cv::GaussianBlur(impl->bg_sharp, impl->bg_blur, cv::Size(impl->blur_ksize, impl->blur_ksize),
+                     options.blur_sigma_px, options.blur_sigma_px, cv::BORDER_REPLICATE);
+  } else {
+    impl->bg_blur = impl->bg_sharp.clone();
+  }
+  impl->rng = cv::RNG(options.seed * 7919 + 17);
+  impl->offset_rng.seed(options.seed * 104729 + 3);
+  if (options.noise_sigma > 0.0) {
+    impl->noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
+    cv::Mat pool(1, static_cast<int>(impl->noise_pool.size()), CV_32F, impl->noise_pool.data());
+    impl->rng.fill(pool, cv::RNG::NORMAL, 0.0, options.noise_sigma);
+  }
+  result.renderer.reset(new Renderer(std::move(impl)));
+  result.ok = true;
+  return result;
+}
+
+RenderedFrame Renderer::Render(const Pose2& T_world_robot) {
+  return RenderPoses({T_world_robot}, T_world_robot);
+}
+
+RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& trajectory,
+                                       double t_mid_s) {
+  const double e = impl_->options.exposure_s;
+  const Pose2 mid = trajectory(t_mid_s);
+  if (e <= 0.0) return RenderPoses({mid}, mid);
+  // Image motion over the exposure, at the tag corners and the body's rim.
+  double motion_px = 0.0;
+  const auto c0 = TrueCorners(trajectory(t_mid_s - 0.5 * e));
+  const auto c1 = TrueCorners(trajectory(t_mid_s + 0.5 * e));
+  if (c0 && c1) {
+    for (int k = 0; k < 4; ++k) motion_px = std::max(motion_px, cv::norm((*c0)[k] - (*c1)[k]));
+  }
+  const Pose2 a = trajectory(t_mid_s - 0.5 * e), b = trajectory(t_mid_s + 0.5 * e);
+  const double rim_m = std::hypot(b.x() - a.x(), b.y() - a.y()) +
+                       std::abs(calibration::WrapAngle(b.heading() - a.heading())) *
+                           impl_->options.body_radius_mm * 1e-3;
+  const double px_per_m = impl_->camera.intrinsics().fx /
+                          std::max(0.1, impl_->camera.mount().height_mm * 1e-3 - impl_->tag.height_m());
+  motion_px = std::max(motion_px, rim_m * px_per_m);
+  const int n = std::clamp(static_cast<int>(std::ceil(motion_px / impl_->options.motion_step_px)) + 1,
+                           1, impl_->options.max_motion_substeps);
+  std::vector<Pose2> poses;
+  for (int k = 0; k < n; ++k) poses.push_back(trajectory(t_mid_s - 0.5 * e + (k + 0.5) / n * e));
+  return RenderPoses(poses, mid);
+}
+
+RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
+                                    const Pose2& T_world_robot_truth) {
+  Impl& m = *impl_;
+  const int W = m.width, H = m.height;
+  RenderedFrame frame;
+  frame.T_world_robot = T_world_robot_truth;
+  frame.T_world_tag = T_world_robot_truth * m.tag.T_robot_tag();
+  frame.motion_substeps = static_cast<int>(exposure_poses.size());
+  if (const auto c = TrueCorners(T_world_robot_truth)) {
+    frame.corners_px = *c;
+    const double side_px = cv::norm((*c)[0] - (*c)[1]);
+    const double margin = side_px / m.width_at_border;
+    frame.tag_visible = true;
+    for (const auto& p : *c) {
+      frame.tag_visible &= m.camera.InImage(Eigen::Vector2d(p.x, p.y), margin);
+    }
+  }
+
+  // Window that changes: geometry box, then + blur margin (inner), + blur margin (outer).
+  cv::Rect2d box;
+  bool any = false;
+  for (const auto& pose : exposure_poses) {
+    const cv::Rect2d b = m.GeometryBox(pose);
+    if (b.width <= 0) continue;
+    box = any ? (box | b) : b;
+    any = true;
+  }
+  const cv::Rect image_rect(0, 0, W, H);
+  cv::Rect inner, outer;
+  if (any) {
+    const int x0 = static_cast<int>(std::floor(box.x)) - 1 - m.blur_margin;
+    const int y0 = static_cast<int>(std::floor(box.y)) - 1 - m.blur_margin;
+    const int x1 = static_cast<int>(std::ceil(box.x + box.width)) + 2 + m.blur_margin;
+    const int y1 = static_cast<int>(std::ceil(box.y + box.height)) + 2 + m.blur_margin;
+    inner = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image_rect;
+    outer = cv::Rect(x0 - m.blur_margin, y0 - m.blur_margin, x1 - x0 + 2 * m.blur_margin,
+                     y1 - y0 + 2 * m.blur_margin) &
+            image_rect;
+  }
+
+  // Whole frame: blurred floor + pooled noise.
+  frame.image.create(H, W, CV_8U);
+  const size_t offset = m.noise_pool.empty() ? 0 : m.offset_rng() % (1u << 16);
+  for (int v = 0; v < H; ++v) {
+    const float* bg = m.bg_blur.ptr<float>(v);
+    uint8_t* out = frame.image.ptr<uint8_t>(v);
+    if (m.noise_pool.empty()) {
+      for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u]);
+    } else {
+      const float* nz = m.noise_pool.data() + offset + static_cast<size_t>(v) * W;
+      for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u] + nz[u]);
+    }
+  }
+  if (inner.area() <= 0) return frame;
+
+  // Redraw the window: geometry over the sharp floor, averaged over the
+  // exposure, blurred, fresh noise, quantised.
+  cv::Mat acc = cv::Mat::zeros(outer.size(), CV_32F);
+  const double weight = 1.0 / static_cast<double>(exposure_poses.size());
+  for (const auto& pose : exposure_poses) m.RenderPose(pose, outer, weight, &acc);
+  cv::Mat blurred;
+  if (m.options.blur_sigma_px > 0.0) {
+    cv::GaussianBlur(acc, blurred, cv::Size(m.blur_ksize, m.blur_ksize), m.options.blur_sigma_px,
+                     m.options.blur_sigma_px, cv::BORDER_REPLICATE);
+  } else {
+    blurred = acc;
+  }
+  cv::Mat window = blurred(cv::Rect(inner.x - outer.x, inner.y - outer.y, inner.width, inner.height));
+  cv::Mat noisy = window.clone();
+  if (m.options.noise_sigma > 0.0) {
+    cv::Mat noise(inner.size(), CV_32F);
+    m.rng.fill(noise, cv::RNG::NORMAL, 0.0, m.options.noise_sigma);
+    noisy += noise;
+  }
+  noisy.convertTo(frame.image(inner), CV_8U);  // rounds and saturates
+  return frame;
+}
+
+std::optional<std::array<cv::Point2d, 4>> Renderer::TrueCorners(const Pose2& T_world_robot) const {
+  const Pose2 T_world_tag = T_world_robot * impl_->tag.T_robot_tag();
+  std::array<cv::Point2d, 4> out;
+  const auto model = TagCornersInTag(impl_->tag.size_m());
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d p = T_world_tag * model[k];
+    const auto px = impl_->camera.ProjectWorld(Eigen::Vector3d(p.x(), p.y(), impl_->tag.height_m()));
+    if (!px) return std::nullopt;
+    out[k] = cv::Point2d(px->x(), px->y());
+  }
+  return out;
+}
+
+const CameraModel& Renderer::camera() const { return impl_->camera; }
+const TagSpec& Renderer::tag() const { return impl_->tag; }
+const RenderOptions& Renderer::options() const { return impl_->options; }
+const cv::Mat& Renderer::background() const { return impl_->bg_blur; }
+
+}  // namespace odocal::vision

@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev libceres-dev
   libopencv-dev libapriltag-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libboost-dev
+  ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
 )
 missing=()
 for p in "${packages[@]}"; do

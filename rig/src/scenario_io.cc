@@ -248,6 +248,58 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path) {
   return spec;
 }
 
+sim::Effects ParseEffects(const YAML::Node& effects) {
+  if (!effects.IsSequence()) Fail(effects, "effects", "expected a list");
+  sim::Effects out;
+  for (size_t i = 0; i < effects.size(); ++i) {
+    const YAML::Node e = effects[i];
+    const std::string path = "effects[" + std::to_string(i) + "]";
+    ExpectMap(e, path);
+    if (!e["name"]) Fail(e, Join(path, "name"), "missing (required)");
+    const std::string name = String(e["name"], Join(path, "name"));
+    auto twice = [&](bool already) {
+      if (already) Fail(e, path, "effect '" + name + "' is listed twice");
+    };
+    if (name == "tag_offset") {
+      CheckKeys(e, path, {"name", "x_mm", "y_mm"});
+      twice(out.tag_offset.has_value());
+      out.tag_offset = sim::TagOffsetEffect{RequiredNumber(e, path, "x_mm") * 1e-3,
+                                            RequiredNumber(e, path, "y_mm") * 1e-3};
+    } else if (name == "camera_latency") {
+      CheckKeys(e, path, {"name", "ms"});
+      twice(out.camera_latency.has_value());
+      out.camera_latency = sim::CameraLatencyEffect{RequiredNumber(e, path, "ms") * 1e-3};
+    } else if (name == "turn_slip") {
+      CheckKeys(e, path, {"name", "fraction_at_1rad_s"});
+      twice(out.turn_slip.has_value());
+      const double f = RequiredNumber(e, path, "fraction_at_1rad_s");
+      if (f < 0.0 || f >= 0.5) Fail(e["fraction_at_1rad_s"], Join(path, "fraction_at_1rad_s"), "must be in [0, 0.5)");
+      out.turn_slip = sim::TurnSlipEffect{f};
+    } else if (name == "lens_distortion") {
+      CheckKeys(e, path, {"name", "k1"});
+      twice(out.lens_distortion.has_value());
+      out.lens_distortion = sim::LensDistortionEffect{RequiredNumber(e, path, "k1")};
+    } else if (name == "encoder_backlash") {
+      CheckKeys(e, path, {"name", "ticks"});
+      twice(out.encoder_backlash.has_value());
+      const double ticks = RequiredNumber(e, path, "ticks");
+      if (ticks < 0.0) Fail(e["ticks"], Join(path, "ticks"), "must not be negative");
+      out.encoder_backlash = sim::EncoderBacklashEffect{ticks};
+    } else if (name == "carpet_drift") {
+      CheckKeys(e, path, {"name", "grain_deg", "rate_mm_per_m"});
+      twice(out.carpet_drift.has_value());
+      out.carpet_drift = sim::CarpetDriftEffect{RequiredNumber(e, path, "grain_deg") * kDegToRad,
+                                                RequiredNumber(e, path, "rate_mm_per_m") * 1e-3};
+    } else {
+      Fail(e["name"], Join(path, "name"),
+           "unknown effect '" + name +
+               "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
+               "encoder_backlash, carpet_drift)");
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::optional<Scenario> LoadScenario(const std::string& path, std::string* error) {
@@ -281,16 +333,7 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
     if (!runs.IsSequence() || runs.size() == 0) Fail(runs, "runs", "expected a non-empty list of runs");
     for (size_t i = 0; i < runs.size(); ++i)
       s.runs.push_back(ParseRun(runs[i], "runs[" + std::to_string(i) + "]"));
-    if (const YAML::Node effects = root["effects"]) {
-      if (!effects.IsSequence()) Fail(effects, "effects", "expected a list");
-      for (size_t i = 0; i < effects.size(); ++i) {
-        const std::string key = "effects[" + std::to_string(i) + "]";
-        const YAML::Node name = effects[i].IsMap() ? effects[i]["name"] : YAML::Node();
-        Fail(effects[i], key,
-             "effect '" + (name && name.IsScalar() ? name.Scalar() : std::string("?")) +
-                 "' is not available in this version (no hidden effects are modelled yet)");
-      }
-    }
+    if (const YAML::Node effects = root["effects"]) s.robot.effects = ParseEffects(effects);
     return s;
   } catch (const ScenarioError& e) {
     return fail(path + ":" + e.what());

@@ -90,7 +90,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"side_mm: 2000}\n  - {procedure: umbmark, direction: ccw", "side_mm: 0}\n  - {procedure: umbmark, direction: ccw", "runs[0].side_mm: must be positive"},
         BadCase{"turns: 3", "turns: 2.5", "runs[3].turns: expected a whole number"},
         BadCase{"{procedure: straight, distance_mm: 1500}", "{procedure: straight, distance_mm: 1500, side_mm: 3}", "runs[2].side_mm: does not apply to procedure straight"},
-        BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0]: effect 'warp_drive'"},
+        BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0].name: unknown effect 'warp_drive'"},
+        BadCase{"effects: []", "effects: [{name: turn_slip, fraction: 0.1}]", "effects[0].fraction: unknown key"},
+        BadCase{"effects: []", "effects: [{name: camera_latency}]", "effects[0].ms: missing"},
         BadCase{"  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
                 "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
                 "  - {procedure: straight, distance_mm: 1500}\n"
@@ -100,6 +102,30 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive integer"},
         BadCase{"left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
     [](const ::testing::TestParamInfo<BadCase>& info) { return "case" + std::to_string(info.index); });
+
+TEST(Scenario, LoadsEveryEffect) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("effects: []"), 11,
+               "effects:\n"
+               "  - {name: tag_offset, x_mm: 20, y_mm: -5}\n"
+               "  - {name: camera_latency, ms: 40}\n"
+               "  - {name: turn_slip, fraction_at_1rad_s: 0.02}\n"
+               "  - {name: lens_distortion, k1: 0.01}\n"
+               "  - {name: encoder_backlash, ticks: 3}\n"
+               "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n");
+  std::string error;
+  const auto s = LoadScenario(WriteTemp(text), &error);
+  ASSERT_TRUE(s) << error;
+  const sim::Effects& e = s->robot.effects;
+  EXPECT_EQ(e.Names().size(), 6u);
+  EXPECT_NEAR(e.tag_offset->x_m, 0.020, 1e-12);
+  EXPECT_NEAR(e.camera_latency->latency_s, 0.040, 1e-12);
+  EXPECT_NEAR(e.turn_slip->fraction_at_1rad_s, 0.02, 1e-12);
+  EXPECT_NEAR(e.lens_distortion->k1_delta, 0.01, 1e-12);
+  EXPECT_NEAR(e.encoder_backlash->ticks, 3.0, 1e-12);
+  EXPECT_NEAR(e.carpet_drift->grain_rad, M_PI / 2, 1e-12);
+  EXPECT_NEAR(e.carpet_drift->rate_m_per_m, 0.002, 1e-12);
+}
 
 TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   std::string error;

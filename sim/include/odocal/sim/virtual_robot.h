@@ -26,6 +26,7 @@
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
+#include "odocal/sim/effects.h"
 
 namespace odocal::sim {
 
@@ -55,6 +56,9 @@ struct RobotConfig {
   double rest_s = 1.0;   // standstill before and after each run
   double pause_s = 0.3;  // standstill between primitives
   std::uint64_t seed = 1;
+  // Hidden effects; the robot-side ones act here (turn_slip,
+  // encoder_backlash, carpet_drift), the camera-side ones in rendering.
+  Effects effects;
 
   bool IsValid(std::string* why) const;
 };

@@ -1,0 +1,64 @@
+// What was recorded of a calibration session, as estimators see it: for each
+// run, the robot's telemetry (robot clock) and the camera's measured poses
+// (video clock, as stamped), the rests before and after, and the return error.
+// Pure data: produced by rig/ from videos and telemetry files, or by tests
+// from the simulator; consumed by the estimators (UMBMark, CVRA, trajectory
+// least squares, explain). Nothing here is truth.
+//
+// Frames: the camera's measurement frame is the tag plane's world frame
+// (REP-103); poses are of the robot (axle midpoint), computed from the tag
+// with the operator's tag offset. Units: SI.
+#ifndef ODOCAL_CALIBRATION_MEASURED_SESSION_H_
+#define ODOCAL_CALIBRATION_MEASURED_SESSION_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/pose2.h"
+#include "odocal/calibration/procedures.h"
+#include "odocal/calibration/rest.h"
+#include "odocal/calibration/robot_model.h"
+
+namespace odocal::calibration {
+
+struct TelemetryRecord {
+  double t_s = 0.0;  // robot clock
+  std::int64_t left_ticks = 0;
+  std::int64_t right_ticks = 0;
+  Pose2 odometry;  // the robot's belief, in the run's start frame
+};
+
+struct CameraRecord {
+  double t_s = 0.0;  // video timestamp
+  bool valid = false;  // the tag was measured in this frame
+  Pose2 T_world_robot;
+  // Per-frame standard deviations of the measurement (from the detector's
+  // corner noise), for weighting.
+  double sigma_position_m = 0.0;
+  double sigma_heading_rad = 0.0;
+};
+
+struct MeasuredRun {
+  std::string name;
+  RunSpec spec;
+  std::vector<TelemetryRecord> telemetry;
+  std::vector<CameraRecord> camera;
+  std::optional<RestWindow> start_rest;
+  std::optional<RestWindow> end_rest;
+  // true - odometry in the start frame (the rests' relative pose, with the
+  // odometry's own end belief removed), when both rests were measured.
+  std::optional<RelativePose> return_error;
+  // Why a number is missing or doubtful: "tag_lost_mid_run", "no_start_rest", ...
+  std::vector<std::string> flags;
+};
+
+struct MeasuredSession {
+  WheelParams believed;  // the parameters the robot's firmware used
+  std::vector<MeasuredRun> runs;
+};
+
+}  // namespace odocal::calibration
+
+#endif  // ODOCAL_CALIBRATION_MEASURED_SESSION_H_

@@ -1,0 +1,71 @@
+// Hidden physical effects: what the virtual world does that the base model
+// (two wheel diameters and a track) does not. A scenario's `effects:` list
+// turns them on; estimators never see this struct.
+//
+// Robot-side effects act in VirtualRobot; camera-side effects act in the
+// virtual camera (rendering), which reads them from here too.
+// Frames: robot REP-103 (x forward, y left); world REP-103. Units: SI.
+#ifndef ODOCAL_SIM_EFFECTS_H_
+#define ODOCAL_SIM_EFFECTS_H_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace odocal::sim {
+
+// {name: tag_offset, x_mm, y_mm}: the tag's centre is not on the wheel-axle
+// midpoint; the operator's tag spec says it is where the scenario's tag key says.
+struct TagOffsetEffect {
+  double x_m = 0.0;
+  double y_m = 0.0;
+};
+
+// {name: camera_latency, ms}: video timestamps lag the telemetry clock: a
+// frame captured at telemetry time t is stamped t - latency.
+struct CameraLatencyEffect {
+  double latency_s = 0.0;
+};
+
+// {name: turn_slip, fraction_at_1rad_s}: in-place turns at omega rad/s achieve
+// (1 - fraction_at_1rad_s * |omega|) of the rotation the wheels imply.
+struct TurnSlipEffect {
+  double fraction_at_1rad_s = 0.0;
+};
+
+// {name: lens_distortion, k1}: the lens's true k1 is the calibration file's
+// plus this.
+struct LensDistortionEffect {
+  double k1_delta = 0.0;
+};
+
+// {name: encoder_backlash, ticks}: after a wheel reverses, this many encoder
+// ticks pass (the motor turns, the encoder counts) before the wheel moves.
+struct EncoderBacklashEffect {
+  double ticks = 0.0;
+};
+
+// {name: carpet_drift, grain_deg, rate_mm_per_m}: while driving, the robot
+// drifts to its left by rate * cos(heading - grain) per metre travelled
+// forward (largest along the grain, opposite going against it, none across).
+struct CarpetDriftEffect {
+  double grain_rad = 0.0;
+  double rate_m_per_m = 0.0;
+};
+
+struct Effects {
+  std::optional<TagOffsetEffect> tag_offset;
+  std::optional<CameraLatencyEffect> camera_latency;
+  std::optional<TurnSlipEffect> turn_slip;
+  std::optional<LensDistortionEffect> lens_distortion;
+  std::optional<EncoderBacklashEffect> encoder_backlash;
+  std::optional<CarpetDriftEffect> carpet_drift;
+
+  // The names of the effects that are on, in the order above.
+  std::vector<std::string> Names() const;
+  bool empty() const { return Names().empty(); }
+};
+
+}  // namespace odocal::sim
+
+#endif  // ODOCAL_SIM_EFFECTS_H_

@@ -1,0 +1,16 @@
+#include "odocal/sim/effects.h"
+
+namespace odocal::sim {
+
+std::vector<std::string> Effects::Names() const {
+  std::vector<std::string> names;
+  if (tag_offset) names.push_back("tag_offset");
+  if (camera_latency) names.push_back("camera_latency");
+  if (turn_slip) names.push_back("turn_slip");
+  if (lens_distortion) names.push_back("lens_distortion");
+  if (encoder_backlash) names.push_back("encoder_backlash");
+  if (carpet_drift) names.push_back("carpet_drift");
+  return names;
+}
+
+}  // namespace odocal::sim

@@ -4,7 +4,11 @@
 #include <iostream>
 #include <memory>
 
+#include <unistd.h>
+
+#include "odocal/rig/camera_sim.h"
 #include "odocal/rig/cli_util.h"
+#include "odocal/rig/output.h"
 #include "odocal/rig/commands.h"
 #include "odocal/rig/scenario.h"
 #include "odocal/rig/simulation.h"
@@ -26,7 +30,14 @@ void RegisterSimulateCommand(CLI::App& app) {
     const std::optional<Scenario> scenario = LoadScenario(args->scenario, &error);
     if (!scenario) Fail("simulate", kExitBadInput, error);
     const SimulationResult result = Simulate(*scenario);
-    if (auto write_error = WriteSimulation(*scenario, result, args->out))
+    if (auto dir_error = EnsureDirectory(args->out)) Fail("simulate", kExitFailure, *dir_error);
+    std::vector<RecordedRun> recorded;
+    if (scenario->camera) {
+      if (auto record_error = RecordRuns(*scenario, result, args->out, isatty(2), &recorded))
+        Fail("simulate", kExitFailure, *record_error);
+    }
+    if (auto write_error =
+            WriteSimulation(*scenario, result, args->out, scenario->camera ? &recorded : nullptr))
       Fail("simulate", kExitFailure, *write_error);
     std::printf("simulated %zu runs: Ed %.6f  Eb %.6f  Es %.6f (truth, relative to nominal)\n",
                 result.runs.size(), result.truth.Ed, result.truth.Eb, result.truth.Es);
@@ -35,6 +46,16 @@ void RegisterSimulateCommand(CLI::App& app) {
       const calibration::Pose2 e = result.runs[i].TrueEndInStartFrame();
       std::printf("  %-24s %12.3f %12.3f %12.5f\n", result.run_names[i].c_str(), e.x() * 1e3,
                   e.y() * 1e3, e.heading() * 180.0 / M_PI);
+    }
+    if (scenario->camera) {
+      int frames = 0, visible = 0;
+      for (const RecordedRun& r : recorded) {
+        frames += r.frames_written;
+        visible += r.frames_visible;
+      }
+      std::printf("recorded %d frames (tag in view in %d) to %zu videos\n", frames, visible,
+                  recorded.size());
+      std::printf("wrote %s/session.yaml (what the operator knows)\n", args->out.c_str());
     }
     std::printf("wrote %s/truth.json\n", args->out.c_str());
   });

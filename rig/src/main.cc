@@ -11,6 +11,8 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterUmbmarkCommand(app);
   odocal::rig::RegisterCvraCommand(app);
   odocal::rig::RegisterDemoCommand(app);
+  odocal::rig::RegisterMeasureCommand(app);
+  odocal::rig::RegisterBatchCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

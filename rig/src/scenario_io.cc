@@ -8,125 +8,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include "odocal/rig/scenario.h"
+#include "yaml_util.h"
 
 namespace odocal::rig {
 namespace {
 
-using calibration::RunSpec;
-
-constexpr double kDegToRad = M_PI / 180.0;
-
-// A parse failure that already carries the key path and the line.
-struct ScenarioError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-std::string Where(const YAML::Node& node, const std::string& key_path) {
-  std::ostringstream os;
-  if (node.Mark().line >= 0) {
-    os << (node.Mark().line + 1) << ": ";
-  } else {
-    os << " ";
-  }
-  os << key_path;
-  return os.str();
-}
-
-[[noreturn]] void Fail(const YAML::Node& node, const std::string& key_path,
-                       const std::string& message) {
-  throw ScenarioError(Where(node, key_path) + ": " + message);
-}
-
-void ExpectMap(const YAML::Node& node, const std::string& key_path) {
-  if (!node.IsMap()) Fail(node, key_path, "expected a mapping of keys");
-}
-
-void CheckKeys(const YAML::Node& node, const std::string& key_path,
-               const std::set<std::string>& allowed) {
-  ExpectMap(node, key_path);
-  for (const auto& entry : node) {
-    const std::string key = entry.first.as<std::string>();
-    if (!allowed.count(key)) {
-      std::string list;
-      for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      Fail(entry.first, key_path.empty() ? key : key_path + "." + key,
-           "unknown key (expected one of: " + list + ")");
-    }
-  }
-}
-
-std::string Join(const std::string& path, const std::string& key) {
-  return path.empty() ? key : path + "." + key;
-}
-
-double Number(const YAML::Node& node, const std::string& key_path) {
-  if (!node.IsScalar()) Fail(node, key_path, "expected a number");
-  double value = 0.0;
-  if (!YAML::convert<double>::decode(node, value) || !std::isfinite(value))
-    Fail(node, key_path, "expected a number, got '" + node.Scalar() + "'");
-  return value;
-}
-
-double RequiredNumber(const YAML::Node& parent, const std::string& path, const std::string& key) {
-  const YAML::Node node = parent[key];
-  if (!node) Fail(parent, Join(path, key), "missing (required)");
-  return Number(node, Join(path, key));
-}
-
-double OptionalNumber(const YAML::Node& parent, const std::string& path, const std::string& key,
-                      double fallback) {
-  const YAML::Node node = parent[key];
-  return node ? Number(node, Join(path, key)) : fallback;
-}
-
-double Positive(double value, const YAML::Node& node, const std::string& key_path) {
-  if (!(value > 0.0)) Fail(node, key_path, "must be positive");
-  return value;
-}
-
-long long Integer(const YAML::Node& node, const std::string& key_path) {
-  const double value = Number(node, key_path);
-  if (value != std::floor(value)) Fail(node, key_path, "expected a whole number");
-  return static_cast<long long>(value);
-}
-
-std::string String(const YAML::Node& node, const std::string& key_path) {
-  if (!node.IsScalar()) Fail(node, key_path, "expected a word");
-  return node.Scalar();
-}
-
-bool Bool(const YAML::Node& node, const std::string& key_path) {
-  bool value = false;
-  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value))
-    Fail(node, key_path, "expected true or false");
-  return value;
-}
-
-calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& path,
-                                     bool ticks_required, int default_ticks) {
-  CheckKeys(node, path,
-            {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"});
-  calibration::WheelParams p;
-  p.left_wheel_diameter_m =
-      Positive(RequiredNumber(node, path, "left_wheel_diameter_mm"), node,
-               Join(path, "left_wheel_diameter_mm")) * 1e-3;
-  p.right_wheel_diameter_m =
-      Positive(RequiredNumber(node, path, "right_wheel_diameter_mm"), node,
-               Join(path, "right_wheel_diameter_mm")) * 1e-3;
-  p.track_m = Positive(RequiredNumber(node, path, "track_mm"), node, Join(path, "track_mm")) * 1e-3;
-  if (node["ticks_per_rev"]) {
-    const long long ticks = Integer(node["ticks_per_rev"], Join(path, "ticks_per_rev"));
-    if (ticks <= 0 || ticks > (1LL << 30))
-      Fail(node["ticks_per_rev"], Join(path, "ticks_per_rev"), "must be a positive integer");
-    p.ticks_per_rev = static_cast<int>(ticks);
-  } else if (ticks_required) {
-    Fail(node, Join(path, "ticks_per_rev"), "missing (required)");
-  } else {
-    p.ticks_per_rev = default_ticks;
-  }
-  return p;
-}
-
+using namespace yaml_util;
 sim::RobotConfig ParseRobot(const YAML::Node& node) {
   const std::string path = "robot";
   CheckKeys(node, path,
@@ -177,75 +64,59 @@ sim::RobotConfig ParseRobot(const YAML::Node& node) {
   return c;
 }
 
-RunSpec ParseRun(const YAML::Node& node, const std::string& path) {
+CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
+  const std::string path = "camera";
   CheckKeys(node, path,
-            {"procedure", "direction", "side_mm", "distance_mm", "turns", "repeats", "reference",
-             "speed_mm_s", "turn_rate_deg_s"});
-  if (!node["procedure"]) Fail(node, Join(path, "procedure"), "missing (required)");
-  const std::string name = String(node["procedure"], Join(path, "procedure"));
-  const auto procedure = calibration::ParseProcedure(name);
-  if (!procedure) {
-    Fail(node["procedure"], Join(path, "procedure"),
-         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back)");
+            {"width", "height", "fx", "fy", "cx", "cy", "distortion", "pose", "fps", "noise_sigma",
+             "blur_sigma_px", "exposure_ms", "crf"});
+  CameraScenario c;
+  auto whole = [&](const char* key) {
+    if (!node[key]) Fail(node, Join(path, key), "missing (required)");
+    const long long v = Integer(node[key], Join(path, key));
+    if (v <= 0 || v > 20000) Fail(node[key], Join(path, key), "must be a positive pixel count");
+    return static_cast<int>(v);
+  };
+  c.intrinsics.width = whole("width");
+  c.intrinsics.height = whole("height");
+  c.intrinsics.fx = Positive(RequiredNumber(node, path, "fx"), node["fx"], "camera.fx");
+  c.intrinsics.fy = Positive(RequiredNumber(node, path, "fy"), node["fy"], "camera.fy");
+  c.intrinsics.cx = RequiredNumber(node, path, "cx");
+  c.intrinsics.cy = RequiredNumber(node, path, "cy");
+  if (const YAML::Node d = node["distortion"]) {
+    if (!d.IsSequence() || d.size() < 4 || d.size() > 5)
+      Fail(d, "camera.distortion", "expected a list of 4 or 5 numbers [k1, k2, p1, p2, k3]");
+    for (size_t i = 0; i < d.size(); ++i)
+      c.intrinsics.distortion[i] = Number(d[i], "camera.distortion[" + std::to_string(i) + "]");
   }
-  RunSpec spec;
-  spec.procedure = *procedure;
-  // Which keys each procedure takes; anything else is a mistake worth naming.
-  std::set<std::string> takes = {"procedure", "speed_mm_s", "turn_rate_deg_s"};
-  switch (spec.procedure) {
-    case calibration::Procedure::kUmbmark: takes.insert({"direction", "side_mm"}); break;
-    case calibration::Procedure::kStraight: takes.insert({"distance_mm"}); break;
-    case calibration::Procedure::kSpin: takes.insert({"turns", "direction", "reference"}); break;
-    case calibration::Procedure::kOutAndBack:
-      takes.insert({"distance_mm", "repeats", "direction", "reference"});
-      break;
-  }
-  for (const auto& entry : node) {
-    const std::string key = entry.first.as<std::string>();
-    if (!takes.count(key))
-      Fail(entry.first, Join(path, key), "does not apply to procedure " + name);
-  }
-  spec.direction = calibration::Direction::kCcw;
-  if (const YAML::Node d = node["direction"]) {
-    const std::string dir = String(d, Join(path, "direction"));
-    const auto parsed = calibration::ParseDirection(dir);
-    if (!parsed) Fail(d, Join(path, "direction"), "expected cw or ccw, got '" + dir + "'");
-    spec.direction = *parsed;
-  } else if (spec.procedure == calibration::Procedure::kUmbmark) {
-    Fail(node, Join(path, "direction"), "missing (required for umbmark: cw or ccw)");
-  }
-  if (spec.procedure == calibration::Procedure::kUmbmark)
-    spec.side_m = Positive(RequiredNumber(node, path, "side_mm"), node["side_mm"],
-                           Join(path, "side_mm")) * 1e-3;
-  if (spec.procedure == calibration::Procedure::kStraight ||
-      spec.procedure == calibration::Procedure::kOutAndBack)
-    spec.distance_m = Positive(RequiredNumber(node, path, "distance_mm"), node["distance_mm"],
-                               Join(path, "distance_mm")) * 1e-3;
-  if (spec.procedure == calibration::Procedure::kSpin) {
-    if (!node["turns"]) Fail(node, Join(path, "turns"), "missing (required for spin)");
-    const long long turns = Integer(node["turns"], Join(path, "turns"));
-    if (turns <= 0 || turns > 1000) Fail(node["turns"], Join(path, "turns"), "must be 1 to 1000");
-    spec.turns = static_cast<int>(turns);
-  }
-  if (const YAML::Node r = node["repeats"]) {
-    const long long repeats = Integer(r, Join(path, "repeats"));
-    if (repeats <= 0 || repeats > 1000) Fail(r, Join(path, "repeats"), "must be 1 to 1000");
-    spec.repeats = static_cast<int>(repeats);
-  }
-  if (const YAML::Node r = node["reference"]) {
-    const std::string ref = String(r, Join(path, "reference"));
-    const auto parsed = calibration::ParseReference(ref);
-    if (!parsed) Fail(r, Join(path, "reference"), "expected camera or wall, got '" + ref + "'");
-    spec.reference = *parsed;
-  }
-  if (const YAML::Node v = node["speed_mm_s"])
-    spec.speed_m_s = Positive(Number(v, Join(path, "speed_mm_s")), v, Join(path, "speed_mm_s")) * 1e-3;
-  if (const YAML::Node v = node["turn_rate_deg_s"])
-    spec.turn_rate_rad_s = Positive(Number(v, Join(path, "turn_rate_deg_s")), v,
-                                    Join(path, "turn_rate_deg_s")) * kDegToRad;
   std::string why;
-  if (!spec.IsValid(&why)) Fail(node, path, why);
-  return spec;
+  if (!c.intrinsics.IsValid(&why)) Fail(node, path, why);
+  if (!node["pose"]) Fail(node, "camera.pose", "missing (required)");
+  const YAML::Node pose = node["pose"];
+  CheckKeys(pose, "camera.pose", {"x_mm", "y_mm", "height_mm", "roll_deg", "pitch_deg", "yaw_deg"});
+  c.mount.x_mm = OptionalNumber(pose, "camera.pose", "x_mm", 0.0);
+  c.mount.y_mm = OptionalNumber(pose, "camera.pose", "y_mm", 0.0);
+  c.mount.height_mm =
+      Positive(RequiredNumber(pose, "camera.pose", "height_mm"), pose["height_mm"], "camera.pose.height_mm");
+  c.mount.roll_deg = OptionalNumber(pose, "camera.pose", "roll_deg", 0.0);
+  c.mount.pitch_deg = OptionalNumber(pose, "camera.pose", "pitch_deg", 0.0);
+  c.mount.yaw_deg = OptionalNumber(pose, "camera.pose", "yaw_deg", 0.0);
+  c.fps = OptionalNumber(node, path, "fps", 30.0);
+  if (!(c.fps > 0.0) || c.fps > 1000.0) Fail(node["fps"], "camera.fps", "must be in (0, 1000]");
+  c.render.noise_sigma = OptionalNumber(node, path, "noise_sigma", 2.0);
+  if (c.render.noise_sigma < 0.0) Fail(node["noise_sigma"], "camera.noise_sigma", "must not be negative");
+  c.render.blur_sigma_px = OptionalNumber(node, path, "blur_sigma_px", 0.8);
+  if (c.render.blur_sigma_px < 0.0)
+    Fail(node["blur_sigma_px"], "camera.blur_sigma_px", "must not be negative");
+  c.render.exposure_s = OptionalNumber(node, path, "exposure_ms", 4.0) * 1e-3;
+  if (c.render.exposure_s < 0.0 || c.render.exposure_s * c.fps > 1.0)
+    Fail(node["exposure_ms"], "camera.exposure_ms", "must be between 0 and one frame period");
+  c.render.seed = seed;
+  if (node["crf"]) {
+    const long long crf = Integer(node["crf"], "camera.crf");
+    if (crf < 0 || crf > 51) Fail(node["crf"], "camera.crf", "must be 0 to 51 (x264 CRF)");
+    c.crf = static_cast<int>(crf);
+  }
+  return c;
 }
 
 sim::Effects ParseEffects(const YAML::Node& effects) {
@@ -317,7 +188,7 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
   }
   if (!root || root.IsNull()) return fail(path + ": empty scenario file");
   try {
-    CheckKeys(root, "", {"seed", "robot", "runs", "effects"});
+    CheckKeys(root, "", {"seed", "robot", "runs", "effects", "tag", "camera"});
     Scenario s;
     s.path = path;
     if (const YAML::Node seed = root["seed"]) {
@@ -334,15 +205,21 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
     for (size_t i = 0; i < runs.size(); ++i)
       s.runs.push_back(ParseRun(runs[i], "runs[" + std::to_string(i) + "]"));
     if (const YAML::Node effects = root["effects"]) s.robot.effects = ParseEffects(effects);
+    if (root["tag"].IsDefined() != root["camera"].IsDefined()) {
+      Fail(root, root["tag"] ? "camera" : "tag",
+           "missing: a scenario with a camera needs a tag on the robot, and the other way round");
+    }
+    if (const YAML::Node tag = root["tag"]) s.tag = ParseTag(tag);
+    if (const YAML::Node camera = root["camera"]) s.camera = ParseCamera(camera, s.seed);
     return s;
-  } catch (const ScenarioError& e) {
+  } catch (const YamlError& e) {
     return fail(path + ":" + e.what());
   } catch (const YAML::Exception& e) {
     return fail(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
 }
 
-std::string RunName(int index, const RunSpec& spec) {
+std::string RunName(int index, const calibration::RunSpec& spec) {
   char name[64];
   const bool has_direction = spec.procedure != calibration::Procedure::kStraight;
   std::snprintf(name, sizeof(name), "run%02d_%s%s%s", index + 1,

@@ -6,7 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odocal/rig/camera_sim.h"
 #include "odocal/rig/output.h"
+#include "odocal/rig/session.h"
 
 namespace odocal::rig {
 namespace {
@@ -83,7 +85,8 @@ SimulationResult Simulate(const Scenario& scenario,
 }
 
 std::optional<std::string> WriteSimulation(const Scenario& scenario, const SimulationResult& result,
-                                           const std::string& dir) {
+                                           const std::string& dir,
+                                           const std::vector<RecordedRun>* recorded) {
   if (auto error = EnsureDirectory(dir)) return error;
   nlohmann::json runs = nlohmann::json::array();
   for (size_t i = 0; i < result.runs.size(); ++i) {
@@ -99,13 +102,19 @@ std::optional<std::string> WriteSimulation(const Scenario& scenario, const Simul
     j["odometry_end"] = PoseJson(run.odometry_end);
     j["telemetry"] = name + ".telemetry.csv";
     j["trajectory"] = name + ".trajectory.csv";
+    if (recorded) {
+      j["video"] = name + ".mp4";
+      j["frames"] = name + ".frames.csv";
+      j["frames_written"] = (*recorded)[i].frames_written;
+      j["frames_visible"] = (*recorded)[i].frames_visible;
+    }
     runs.push_back(j);
     if (auto error = WriteFileAtomically(dir + "/" + name + ".telemetry.csv", TelemetryCsv(run)))
       return error;
     if (auto error = WriteFileAtomically(dir + "/" + name + ".trajectory.csv", TrajectoryCsv(run)))
       return error;
   }
-  const nlohmann::json truth = {
+  nlohmann::json truth = {
       {"scenario", scenario.path},
       {"seed", scenario.seed},
       {"truth", {{"Ed", result.truth.Ed}, {"Eb", result.truth.Eb}, {"Es", result.truth.Es}}},
@@ -114,6 +123,33 @@ std::optional<std::string> WriteSimulation(const Scenario& scenario, const Simul
         {"true", WheelParamsJson(scenario.robot.truth)}}},
       {"runs", runs},
   };
+  if (recorded) {
+    const CameraScenario& cam = *scenario.camera;
+    const vision::CameraMount& m = cam.mount;
+    truth["camera"] = {{"mount", {{"x_mm", m.x_mm}, {"y_mm", m.y_mm}, {"height_mm", m.height_mm},
+                                  {"roll_deg", m.roll_deg}, {"pitch_deg", m.pitch_deg},
+                                  {"yaw_deg", m.yaw_deg}}}};
+    truth["effects"] = scenario.robot.effects.Names();
+    // What the operator knows.
+    Session session;
+    session.camera_file = dir + "/camera.yaml";
+    session.intrinsics = cam.intrinsics;
+    session.camera_mount_guess = OperatorMountGuess(cam.mount);
+    session.tag = *scenario.tag;
+    session.nominal = scenario.robot.nominal;
+    for (size_t i = 0; i < result.runs.size(); ++i) {
+      SessionRun run;
+      run.name = result.run_names[i];
+      run.spec = result.runs[i].spec;
+      run.video = (*recorded)[i].video;
+      run.timestamps = (*recorded)[i].timestamps;
+      run.telemetry = dir + "/" + run.name + ".telemetry.csv";
+      run.start_s = (*recorded)[i].start_s;
+      run.end_s = (*recorded)[i].end_s;
+      session.runs.push_back(run);
+    }
+    if (auto error = WriteSession(session, dir + "/session.yaml")) return error;
+  }
   return WriteFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
 }
 

@@ -12,6 +12,8 @@ void RegisterSimulateCommand(CLI::App& app);
 void RegisterUmbmarkCommand(CLI::App& app);
 void RegisterCvraCommand(CLI::App& app);
 void RegisterDemoCommand(CLI::App& app);
+void RegisterBatchCommand(CLI::App& app);
+void RegisterMeasureCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

@@ -15,14 +15,31 @@
 
 #include "odocal/calibration/procedures.h"
 #include "odocal/sim/virtual_robot.h"
+#include "odocal/vision/camera_model.h"
+#include "odocal/vision/renderer.h"
+#include "odocal/vision/tag.h"
 
 namespace odocal::rig {
+
+// The virtual camera of a scenario: what the camera is (intrinsics, its true
+// pose over the floor) and how it records (frame rate, exposure, noise, blur,
+// H.264 quality).
+struct CameraScenario {
+  vision::Intrinsics intrinsics;
+  vision::CameraMount mount;
+  double fps = 30.0;
+  vision::RenderOptions render;  // noise, blur, exposure; seeded from the scenario
+  int crf = 12;                  // H.264 quality (0 lossless; 23 is x264's default)
+};
 
 struct Scenario {
   std::string path;
   std::uint64_t seed = 1;
   sim::RobotConfig robot;
   std::vector<calibration::RunSpec> runs;
+  // Both present, or both absent: without them, simulate writes no video.
+  std::optional<vision::TagSpec> tag;
+  std::optional<CameraScenario> camera;
 };
 
 // nullopt with `error` set (one line) when the file is missing or malformed.

@@ -24,10 +24,15 @@ struct SimulationResult {
 SimulationResult Simulate(const Scenario& scenario,
                           const std::optional<calibration::WheelParams>& believed = std::nullopt);
 
-// Writes DIR/truth.json and DIR/<run>.telemetry.csv, DIR/<run>.trajectory.csv.
+struct RecordedRun;
+
+// Writes DIR/truth.json and DIR/<run>.telemetry.csv, DIR/<run>.trajectory.csv;
+// with `recorded` videos also DIR/session.yaml and DIR/camera.yaml (what an
+// operator would have) and the videos' entries in truth.json.
 // nullopt on success, else the error line.
 std::optional<std::string> WriteSimulation(const Scenario& scenario, const SimulationResult& result,
-                                           const std::string& dir);
+                                           const std::string& dir,
+                                           const std::vector<RecordedRun>* recorded = nullptr);
 
 }  // namespace odocal::rig
 

@@ -1,0 +1,83 @@
+// Measuring recorded sessions: videos -> the tag in every frame -> the
+// camera's plane over the tag -> planar robot poses -> rests -> each run's
+// return error with its uncertainty and quality flags.
+//
+// Return errors are the robot's end pose in its start frame (x along the
+// start heading, y left, theta CCW), from the rest before the run to the rest
+// after it; for closed paths this is true - odometry (docs/conventions.md).
+#ifndef ODOCAL_RIG_MEASURE_H_
+#define ODOCAL_RIG_MEASURE_H_
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/calibration/measured_session.h"
+#include "odocal/calibration/rest.h"
+#include "odocal/rig/session.h"
+#include "odocal/vision/planar_pose.h"
+#include "odocal/vision/video_track.h"
+
+namespace odocal::rig {
+
+struct MeasureOptions {
+  vision::VideoTrackOptions track;
+  vision::CameraPlaneOptions plane;
+  // Views used for the plane estimate: distinct positions, evenly spread.
+  int max_plane_views = 300;
+  double min_view_separation_px = 8.0;
+  calibration::RestOptions rest;
+  // Floors on a return error's sigma: what the spread of rest frames cannot
+  // see (compression artefacts shared by the frames of a rest, detector
+  // bias), measured on rendered truth at CRF 12 (docs/vision.md).
+  double systematic_sigma_position_m = 0.01e-3;
+  double systematic_sigma_heading_rad = 0.005 * M_PI / 180.0;
+  // A start (end) rest must begin (end) within this fraction of the run's
+  // span from its start (end).
+  double rest_search_fraction = 0.35;
+  // Gaps longer than this while the robot moves are flagged.
+  double flag_gap_s = 0.5;
+  int threads = 0;  // 0: one per core
+};
+
+// Flags that leave a run without a return error.
+bool IsFatalFlag(const std::string& flag);
+
+struct RunMeasurement {
+  SessionRun run;
+  vision::VideoTrack track;
+  calibration::MeasuredRun measured;
+};
+
+struct SessionMeasurement {
+  Session session;
+  vision::CameraPlaneResult plane;
+  bool plane_estimated = false;
+  std::vector<RunMeasurement> runs;
+  std::vector<std::string> flags;  // session-wide
+
+  calibration::MeasuredSession ToMeasuredSession() const;
+};
+
+// Progress: called with (frames done, frames expected) from worker threads.
+using ProgressFn = std::function<void(long, long)>;
+
+// Measures every session's runs (videos in parallel across cores). Fails
+// (nullopt + error) only for options; bad videos become flags.
+std::optional<std::vector<SessionMeasurement>> MeasureSessions(
+    const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
+    std::string* error);
+
+// One run's JSON entry of report.json: procedure, direction, video,
+// return_error {x_mm, y_mm, theta_deg} (null when fatal), sigma, flags, frames.
+nlohmann::json RunJson(const RunMeasurement& run);
+
+// A progress bar on stderr when it is a terminal, nothing otherwise.
+ProgressFn TerminalProgressBar(const std::string& label);
+
+}  // namespace odocal::rig
+
+#endif  // ODOCAL_RIG_MEASURE_H_

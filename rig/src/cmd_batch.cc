@@ -1,0 +1,316 @@
+// odocal batch SESSION.yaml... --out DIR     every run of every session -> report.json
+// odocal measure VIDEO --session S.yaml       the runs of one video and their return errors
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/calibration/corrections.h"
+#include "odocal/calibration/cvra.h"
+#include "odocal/calibration/statistics.h"
+#include "odocal/calibration/umbmark.h"
+#include "odocal/rig/cli_util.h"
+#include "odocal/rig/commands.h"
+#include "odocal/rig/measure.h"
+#include "odocal/rig/output.h"
+#include "odocal/rig/session.h"
+
+namespace odocal::rig {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+bool Usable(const calibration::MeasuredRun& m) {
+  if (!m.return_error) return false;
+  for (const std::string& f : m.flags)
+    if (IsFatalFlag(f)) return false;
+  return true;
+}
+
+nlohmann::json PlaneJson(const SessionMeasurement& sm) {
+  if (!sm.plane_estimated) return {{"estimated", false}, {"message", sm.plane.message}};
+  const vision::CameraPlaneResult& p = sm.plane;
+  return {{"estimated", true},
+          {"roll_deg", p.mount.roll_deg},
+          {"pitch_deg", p.mount.pitch_deg},
+          {"height_mm", p.mount.height_mm},
+          {"sigma", {{"roll_deg", p.sigma_roll_deg}, {"pitch_deg", p.sigma_pitch_deg},
+                     {"height_mm", p.sigma_height_mm}}},
+          {"views", p.views_used},
+          {"rms_reprojection_px", p.rms_reprojection_px}};
+}
+
+// Combines per-run CVRA results into {key, sigma_key, n, runs}.
+nlohmann::json CombineCvra(const std::string& key, const std::vector<double>& values,
+                           const std::vector<std::string>& names) {
+  const std::optional<double> se = calibration::StandardError(values);
+  return {{key, calibration::Mean(values)},
+          {"sigma_" + key, se ? nlohmann::json(*se) : nlohmann::json(nullptr)},
+          {"n", values.size()},
+          {"runs", names}};
+}
+
+struct Estimates {
+  nlohmann::json umbmark;  // null when no UMBMark
+  nlohmann::json cvra = nlohmann::json::object();
+  std::optional<calibration::UmbmarkSummary> umbmark_summary;
+  std::optional<double> cvra_ratio, cvra_scale, cvra_track;
+  std::vector<std::string> notes;
+};
+
+Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
+  Estimates e;
+  const calibration::WheelParams& nominal = sessions.front().session.nominal;
+  calibration::UmbmarkInput input;
+  input.track_m = nominal.track_m;
+  std::vector<double> ratios, scales, tracks;
+  std::vector<std::string> ratio_runs, scale_runs, track_runs;
+  for (const SessionMeasurement& sm : sessions) {
+    for (const RunMeasurement& rm : sm.runs) {
+      const calibration::MeasuredRun& m = rm.measured;
+      if (!Usable(m)) continue;
+      const calibration::Pose2& p = m.return_error->pose;
+      const calibration::RunSpec& spec = m.spec;
+      switch (spec.procedure) {
+        case calibration::Procedure::kUmbmark: {
+          if (input.side_m == 0.0) input.side_m = spec.side_m;
+          if (std::abs(spec.side_m - input.side_m) > 1e-9) {
+            e.notes.push_back(m.name + ": square of another side, not pooled");
+            break;
+          }
+          calibration::ReturnError err{p.x(), p.y(), p.heading()};
+          (spec.direction == calibration::Direction::kCw ? input.cw : input.ccw).push_back(err);
+          break;
+        }
+        case calibration::Procedure::kOutAndBack: {
+          if (spec.reference == calibration::Reference::kWall) {
+            e.notes.push_back(m.name + ": wall-referenced; the camera cannot see the wall's correction");
+            break;
+          }
+          const double travel = 2.0 * spec.distance_m * spec.repeats;
+          const calibration::CvraResult r =
+              calibration::WheelRatioFromCamera(travel, p.heading(), nominal.track_m);
+          if (r.ok()) {
+            ratios.push_back(r.value);
+            ratio_runs.push_back(m.name);
+          }
+          break;
+        }
+        case calibration::Procedure::kStraight: {
+          const calibration::CvraResult r =
+              calibration::ScaleFromStraight(spec.distance_m, p.x(), p.y(), p.heading());
+          if (r.ok()) {
+            scales.push_back(r.value);
+            scale_runs.push_back(m.name);
+          }
+          break;
+        }
+        case calibration::Procedure::kSpin: {
+          const double believed =
+              (spec.direction == calibration::Direction::kCcw ? 1.0 : -1.0) * 2.0 * M_PI * spec.turns;
+          const calibration::CvraResult r = calibration::TrackFromCamera(believed, p.heading());
+          if (r.ok()) {
+            tracks.push_back(r.value);
+            track_runs.push_back(m.name);
+          }
+          break;
+        }
+      }
+    }
+  }
+  if (!input.cw.empty() || !input.ccw.empty()) {
+    // Unequal counts (a flagged run dropped): pair the first n of each.
+    const size_t n = std::min(input.cw.size(), input.ccw.size());
+    if (input.cw.size() != input.ccw.size()) {
+      e.notes.push_back("umbmark: " + std::to_string(input.cw.size()) + " cw and " +
+                        std::to_string(input.ccw.size()) + " ccw usable runs; using " +
+                        std::to_string(n) + " of each");
+      input.cw.resize(n);
+      input.ccw.resize(n);
+    }
+    if (n > 0) {
+      const calibration::UmbmarkSummary s = calibration::EstimateUmbmark(input);
+      if (s.ok()) {
+        e.umbmark = UmbmarkJson(input, s);
+        e.umbmark_summary = s;
+      } else {
+        e.notes.push_back("umbmark: " + s.message);
+      }
+    }
+  }
+  if (!ratios.empty()) {
+    e.cvra["ratio"] = CombineCvra("Ed", ratios, ratio_runs);
+    e.cvra_ratio = calibration::Mean(ratios);
+  }
+  if (!scales.empty()) {
+    e.cvra["scale"] = CombineCvra("scale", scales, scale_runs);
+    e.cvra_scale = calibration::Mean(scales);
+  }
+  if (!tracks.empty()) {
+    e.cvra["track"] = CombineCvra("track_factor", tracks, track_runs);
+    e.cvra_track = calibration::Mean(tracks);
+  }
+  return e;
+}
+
+// UMBMark, when present, sets the ratio and the track (it measures both on
+// the same squares); CVRA's scale always applies; CVRA's ratio and track fill
+// in without UMBMark.
+calibration::WheelParams Corrected(const calibration::WheelParams& nominal, const Estimates& e) {
+  if (e.umbmark_summary) {
+    calibration::WheelParams p = calibration::ApplyUmbmarkCorrection(
+        nominal, e.umbmark_summary->coupled.Ed, e.umbmark_summary->coupled.Eb);
+    return calibration::ApplyCvra(p, std::nullopt, e.cvra_scale, std::nullopt);
+  }
+  return calibration::ApplyCvra(nominal, e.cvra_ratio, e.cvra_scale, e.cvra_track);
+}
+
+std::vector<Session> LoadSessionsOrFail(const std::string& command,
+                                        const std::vector<std::string>& paths) {
+  std::vector<Session> sessions;
+  for (const std::string& path : paths) {
+    std::string error;
+    const std::optional<Session> s = LoadSession(path, &error);
+    if (!s) Fail(command, kExitBadInput, error);
+    sessions.push_back(*s);
+  }
+  return sessions;
+}
+
+void PrintRuns(const std::vector<SessionMeasurement>& measured) {
+  std::printf("  %-22s %22s %22s %20s  %s\n", "run", "x [mm]", "y [mm]", "theta [deg]", "flags");
+  for (const SessionMeasurement& sm : measured) {
+    for (const RunMeasurement& rm : sm.runs) {
+      const nlohmann::json j = RunJson(rm);
+      std::string flags;
+      for (const auto& f : j["flags"]) flags += (flags.empty() ? "" : ", ") + f.get<std::string>();
+      if (j["return_error"].is_null()) {
+        std::printf("  %-22s %22s %22s %20s  %s\n", rm.measured.name.c_str(), "-", "-", "-",
+                    flags.empty() ? "no measurement" : flags.c_str());
+        continue;
+      }
+      char x[40], y[40], t[40];
+      std::snprintf(x, sizeof(x), "%.3f +/- %.3f", j["return_error"]["x_mm"].get<double>(),
+                    j["sigma"]["x_mm"].get<double>());
+      std::snprintf(y, sizeof(y), "%.3f +/- %.3f", j["return_error"]["y_mm"].get<double>(),
+                    j["sigma"]["y_mm"].get<double>());
+      std::snprintf(t, sizeof(t), "%.4f +/- %.4f", j["return_error"]["theta_deg"].get<double>(),
+                    j["sigma"]["theta_deg"].get<double>());
+      std::printf("  %-22s %22s %22s %20s  %s\n", rm.measured.name.c_str(), x, y, t,
+                  flags.empty() ? "ok" : flags.c_str());
+    }
+  }
+}
+
+int CountUsable(const std::vector<SessionMeasurement>& measured) {
+  int usable = 0;
+  for (const SessionMeasurement& sm : measured)
+    for (const RunMeasurement& rm : sm.runs) usable += Usable(rm.measured) ? 1 : 0;
+  return usable;
+}
+
+}  // namespace
+
+void RegisterBatchCommand(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> sessions;
+    std::string out;
+    int threads = 0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "batch", "Measure every run of recorded sessions from their videos; write DIR/report.json");
+  cmd->add_option("sessions", args->sessions, "Session files (session.yaml)")->required();
+  cmd->add_option("--out", args->out, "Output directory (created)")->required();
+  cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
+  cmd->callback([args]() {
+    const std::string name = "batch";
+    const std::vector<Session> sessions = LoadSessionsOrFail(name, args->sessions);
+    MeasureOptions options;
+    options.threads = args->threads;
+    std::string error;
+    const auto measured = MeasureSessions(sessions, options, TerminalProgressBar("measuring"), &error);
+    if (!measured) Fail(name, kExitFailure, error);
+    if (auto e = EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
+
+    nlohmann::json report = {{"sessions", nlohmann::json::array()}, {"runs", nlohmann::json::array()}};
+    for (const SessionMeasurement& sm : *measured) {
+      report["sessions"].push_back(
+          {{"session", sm.session.path}, {"camera_plane", PlaneJson(sm)}, {"flags", sm.flags}});
+      for (const RunMeasurement& rm : sm.runs) {
+        nlohmann::json j = RunJson(rm);
+        j["session"] = sm.session.path;
+        report["runs"].push_back(j);
+      }
+    }
+    const Estimates estimates = Estimate(*measured);
+    if (!estimates.umbmark.is_null()) report["umbmark"] = estimates.umbmark;
+    if (!estimates.cvra.empty()) report["cvra"] = estimates.cvra;
+    const calibration::WheelParams& nominal = sessions.front().nominal;
+    const bool any_estimate = estimates.umbmark_summary || estimates.cvra_ratio ||
+                              estimates.cvra_scale || estimates.cvra_track;
+    if (any_estimate) {
+      const calibration::WheelParams corrected = Corrected(nominal, estimates);
+      report["corrected"] = WheelParamsJson(corrected);
+      report["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+    }
+    report["notes"] = estimates.notes;
+    const int usable = CountUsable(*measured);
+    report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
+    if (auto e = WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
+      Fail(name, kExitFailure, *e);
+
+    PrintRuns(*measured);
+    if (estimates.umbmark_summary) std::printf("\n%s\n", estimates.umbmark_summary->BriefReport().c_str());
+    for (const std::string& note : estimates.notes) std::printf("note: %s\n", note.c_str());
+    std::printf("report: %s/report.json\n", args->out.c_str());
+    if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
+  });
+}
+
+void RegisterMeasureCommand(CLI::App& app) {
+  struct Args {
+    std::string video;
+    std::string session;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "measure", "Measure the runs of one video of a session: return errors with sigma and flags");
+  cmd->add_option("video", args->video, "Video file (one of the session's)")->required();
+  cmd->add_option("--session", args->session, "Session file (session.yaml)")->required();
+  cmd->add_flag("--json", args->json, "Print one JSON object");
+  cmd->callback([args]() {
+    const std::string name = "measure";
+    Session session = LoadSessionsOrFail(name, {args->session}).front();
+    namespace fs = std::filesystem;
+    if (!fs::exists(args->video)) Fail(name, kExitBadInput, args->video + ": no such file");
+    std::vector<SessionRun> runs;
+    for (const SessionRun& run : session.runs) {
+      if (fs::equivalent(run.video, args->video)) runs.push_back(run);
+    }
+    if (runs.empty())
+      Fail(name, kExitBadInput, args->video + " is not a run of " + args->session +
+                                    " (list it under runs: with its procedure and time span)");
+    session.runs = runs;
+    std::string error;
+    const auto measured = MeasureSessions({session}, MeasureOptions{}, TerminalProgressBar("measuring"), &error);
+    if (!measured) Fail(name, kExitFailure, error);
+    if (args->json) {
+      nlohmann::json j = {{"video", args->video}, {"camera_plane", PlaneJson(measured->front())},
+                          {"runs", nlohmann::json::array()}};
+      for (const RunMeasurement& rm : measured->front().runs) j["runs"].push_back(RunJson(rm));
+      std::cout << j.dump(2) << std::endl;
+    } else {
+      PrintRuns(*measured);
+    }
+    if (CountUsable(*measured) == 0)
+      Fail(name, kExitFailure, "no run could be measured (see the flags above)");
+  });
+}
+
+}  // namespace odocal::rig

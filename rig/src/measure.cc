@@ -1,0 +1,290 @@
+#include "odocal/rig/measure.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+namespace odocal::rig {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
+                                                        std::vector<std::string>* flags) {
+  std::vector<calibration::TelemetryRecord> records;
+  if (path.empty()) return records;
+  std::ifstream in(path);
+  if (!in) {
+    flags->push_back("telemetry_unreadable");
+    return records;
+  }
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string f[7];
+    for (auto& field : f) std::getline(fields, field, ',');
+    try {
+      calibration::TelemetryRecord r;
+      r.t_s = std::stod(f[0]);
+      r.left_ticks = std::stoll(f[1]);
+      r.right_ticks = std::stoll(f[2]);
+      r.odometry = calibration::Pose2::FromXYHeading(std::stod(f[3]) * 1e-3, std::stod(f[4]) * 1e-3,
+                                                     std::stod(f[5]) / kRadToDeg);
+      records.push_back(r);
+    } catch (const std::exception&) {
+      flags->push_back("telemetry_malformed");
+      records.clear();
+      return records;
+    }
+  }
+  return records;
+}
+
+// Views for the plane estimate: each new one at least `separation` px from
+// the last kept, then evenly thinned to `max_views`.
+std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
+                                          double separation_px, int max_views) {
+  std::vector<vision::TagCorners> views;
+  cv::Point2d last(-1e9, -1e9);
+  for (const RunMeasurement& run : runs) {
+    for (const vision::FrameObservation& f : run.track.frames) {
+      if (!f.corners_px) continue;
+      const auto& c = *f.corners_px;
+      const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+      if (cv::norm(centre - last) < separation_px) continue;
+      last = centre;
+      views.push_back(c);
+    }
+  }
+  if (static_cast<int>(views.size()) <= max_views) return views;
+  std::vector<vision::TagCorners> thinned;
+  for (int i = 0; i < max_views; ++i)
+    thinned.push_back(views[static_cast<size_t>(i) * views.size() / max_views]);
+  return thinned;
+}
+
+void MeasureRestsAndReturnError(const MeasureOptions& options, RunMeasurement* rm) {
+  calibration::MeasuredRun& m = rm->measured;
+  std::vector<calibration::PoseSample> samples;
+  for (const calibration::CameraRecord& c : m.camera) {
+    if (c.t_s < rm->run.start_s - 1e-6 || c.t_s > rm->run.end_s + 1e-6) continue;
+    samples.push_back({c.t_s, c.T_world_robot, c.valid});
+  }
+  const calibration::RestSummary rests = calibration::FindRests(samples, options.rest);
+  const double span = std::min(rm->run.end_s, samples.empty() ? 0.0 : samples.back().t_s) -
+                      std::max(rm->run.start_s, samples.empty() ? 0.0 : samples.front().t_s);
+  const double t0 = samples.empty() ? rm->run.start_s : samples.front().t_s;
+  const double t1 = samples.empty() ? rm->run.end_s : samples.back().t_s;
+  if (!rests.rests.empty() && rests.rests.front().t_begin_s <= t0 + options.rest_search_fraction * span)
+    m.start_rest = rests.rests.front();
+  if (!rests.rests.empty() && rests.rests.back().t_end_s >= t1 - options.rest_search_fraction * span &&
+      (!m.start_rest || rests.rests.size() >= 2))
+    m.end_rest = rests.rests.back();
+  if (!m.start_rest) m.flags.push_back("no_start_rest");
+  if (!m.end_rest) m.flags.push_back("no_end_rest");
+  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back("short_start_rest");
+  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back("short_end_rest");
+  // Gaps while moving: between the rests, longer than flag_gap_s.
+  if (m.start_rest && m.end_rest) {
+    double last_seen = m.start_rest->t_end_s, longest = 0.0;
+    for (const calibration::PoseSample& s : samples) {
+      if (s.t_s <= m.start_rest->t_end_s || s.t_s >= m.end_rest->t_begin_s || !s.valid) continue;
+      longest = std::max(longest, s.t_s - last_seen);
+      last_seen = s.t_s;
+    }
+    longest = std::max(longest, m.end_rest->t_begin_s - last_seen);
+    if (longest > options.flag_gap_s) {
+      char flag[64];
+      std::snprintf(flag, sizeof(flag), "tag_out_of_view_mid_run:%.1fs", longest);
+      m.flags.push_back(flag);
+    }
+    calibration::RelativePose r = calibration::Between(*m.start_rest, *m.end_rest);
+    const double sp = options.systematic_sigma_position_m;
+    const double sh = options.systematic_sigma_heading_rad;
+    r.covariance(0, 0) += sp * sp;
+    r.covariance(1, 1) += sp * sp;
+    r.covariance(2, 2) += sh * sh;
+    m.return_error = r;
+  }
+}
+
+}  // namespace
+
+bool IsFatalFlag(const std::string& flag) {
+  for (const char* fatal : {"video_unreadable", "tag_never_seen", "wrong_tag_id", "duplicate_tag_id",
+                            "no_start_rest", "no_end_rest"}) {
+    if (flag.rfind(fatal, 0) == 0) return true;
+  }
+  return false;
+}
+
+calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
+  calibration::MeasuredSession s;
+  s.believed = session.nominal;
+  for (const RunMeasurement& r : runs) s.runs.push_back(r.measured);
+  return s;
+}
+
+std::optional<std::vector<SessionMeasurement>> MeasureSessions(
+    const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
+    std::string* error) {
+  std::string why;
+  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why)) {
+    if (error) *error = "measure options: " + why;
+    return std::nullopt;
+  }
+  std::vector<SessionMeasurement> out(sessions.size());
+  // Phase 1: every run of every session, in parallel.
+  struct Job {
+    size_t session;
+    size_t run;
+  };
+  std::vector<Job> jobs;
+  long expected_frames = 0;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    out[s].session = sessions[s];
+    out[s].runs.resize(sessions[s].runs.size());
+    for (size_t r = 0; r < sessions[s].runs.size(); ++r) {
+      jobs.push_back({s, r});
+      const SessionRun& run = sessions[s].runs[r];
+      out[s].runs[r].run = run;
+      if (std::isfinite(run.end_s)) expected_frames += static_cast<long>((run.end_s - run.start_s) * 30.0) + 1;
+    }
+  }
+  std::atomic<size_t> next{0};
+  std::atomic<long> frames_done{0};
+  const unsigned cores = options.threads > 0 ? options.threads : std::thread::hardware_concurrency();
+  const size_t workers = std::max<size_t>(1, std::min<size_t>(jobs.size(), cores));
+  std::vector<std::thread> pool;
+  for (size_t w = 0; w < workers; ++w) {
+    pool.emplace_back([&]() {
+      for (size_t j = next++; j < jobs.size(); j = next++) {
+        const Session& session = sessions[jobs[j].session];
+        RunMeasurement& rm = out[jobs[j].session].runs[jobs[j].run];
+        std::vector<double> stamps;
+        if (!rm.run.timestamps.empty()) {
+          std::string stamp_error;
+          const auto read = vision::ReadTimestamps(rm.run.timestamps, &stamp_error);
+          if (read) {
+            stamps = *read;
+          } else {
+            rm.measured.flags.push_back("timestamps_unreadable");
+          }
+        }
+        rm.track = vision::TrackTagInVideo(rm.run.video, stamps, session.tag, session.intrinsics,
+                                           options.track, [&](int) {
+                                             const long done = ++frames_done;
+                                             if (progress && done % 10 == 0)
+                                               progress(done, expected_frames);
+                                           });
+      }
+    });
+  }
+  for (std::thread& t : pool) t.join();
+  if (progress) progress(frames_done, frames_done);
+
+  // Phase 2, per session: the plane, the poses, the rests.
+  for (SessionMeasurement& sm : out) {
+    const std::vector<vision::TagCorners> views =
+        PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views);
+    vision::CameraMount mount = sm.session.camera_mount_guess;
+    if (static_cast<int>(views.size()) >= options.plane.min_views) {
+      sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
+                                                    sm.session.camera_mount_guess, options.plane);
+      if (sm.plane.ok) {
+        mount = sm.plane.mount;
+        sm.plane_estimated = true;
+      }
+    }
+    if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
+    const vision::CameraModel camera(sm.session.intrinsics, mount);
+    for (RunMeasurement& rm : sm.runs) {
+      calibration::MeasuredRun& m = rm.measured;
+      m.name = rm.run.name;
+      m.spec = rm.run.spec;
+      m.telemetry = ReadTelemetry(rm.run.telemetry, &m.flags);
+      if (!rm.track.ok) {
+        m.flags.push_back("video_unreadable: " + rm.track.message);
+        continue;
+      }
+      if (rm.track.found == 0) {
+        m.flags.push_back(rm.track.wrong_id_frames > 0
+                              ? "wrong_tag_id: tags seen, never id " + std::to_string(sm.session.tag.id)
+                              : std::string("tag_never_seen"));
+        continue;
+      }
+      if (rm.track.duplicate_frames > 0) {
+        m.flags.push_back("duplicate_tag_id: id " + std::to_string(sm.session.tag.id) + " seen twice in " +
+                          std::to_string(rm.track.duplicate_frames) + " frames");
+      }
+      for (const vision::FrameObservation& f : rm.track.frames) {
+        calibration::CameraRecord c;
+        c.t_s = f.t_s;
+        if (f.corners_px) {
+          const vision::PlanarPoseResult pose =
+              vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
+          c.valid = pose.ok;
+          if (pose.ok) c.T_world_robot = pose.T_world_robot;
+        }
+        m.camera.push_back(c);
+      }
+      if (rm.track.duplicate_frames > 0) continue;
+      MeasureRestsAndReturnError(options, &rm);
+    }
+  }
+  return out;
+}
+
+nlohmann::json RunJson(const RunMeasurement& rm) {
+  const calibration::MeasuredRun& m = rm.measured;
+  nlohmann::json j = {{"name", m.name},
+                      {"procedure", calibration::ToString(m.spec.procedure)},
+                      {"direction", calibration::ToString(m.spec.direction)},
+                      {"video", rm.run.video}};
+  bool fatal = false;
+  for (const std::string& f : m.flags) fatal = fatal || IsFatalFlag(f);
+  if (m.return_error && !fatal) {
+    const calibration::RelativePose& r = *m.return_error;
+    j["return_error"] = {{"x_mm", r.pose.x() * 1e3}, {"y_mm", r.pose.y() * 1e3},
+                         {"theta_deg", r.pose.heading() * kRadToDeg}};
+    j["sigma"] = {{"x_mm", r.sigma_x_m() * 1e3}, {"y_mm", r.sigma_y_m() * 1e3},
+                  {"theta_deg", r.sigma_heading_rad() * kRadToDeg}};
+  } else {
+    j["return_error"] = nullptr;
+    j["sigma"] = nullptr;
+  }
+  j["flags"] = m.flags;
+  int searched = 0;
+  for (const auto& f : rm.track.frames) searched += f.searched ? 1 : 0;
+  j["frames"] = {{"decoded", rm.track.frames.size()}, {"tag_found", rm.track.found},
+                 {"searched", searched},
+                 {"start_rest", m.start_rest ? m.start_rest->n : 0},
+                 {"end_rest", m.end_rest ? m.end_rest->n : 0}};
+  return j;
+}
+
+ProgressFn TerminalProgressBar(const std::string& label) {
+  if (!isatty(2)) return {};
+  auto mutex = std::make_shared<std::mutex>();
+  return [label, mutex](long done, long total) {
+    std::lock_guard<std::mutex> lock(*mutex);
+    const double fraction = total > 0 ? std::min(1.0, static_cast<double>(done) / total) : 1.0;
+    const int width = 30, filled = static_cast<int>(fraction * width);
+    std::fprintf(stderr, "\r%s [%s%s] %3.0f%% %ld frames", label.c_str(),
+                 std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
+                 100.0 * fraction, done);
+    if (done >= total) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  };
+}
+
+}  // namespace odocal::rig

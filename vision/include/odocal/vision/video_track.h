@@ -1,0 +1,76 @@
+// Following the robot's tag through a whole video: decoding in its own thread
+// (pipelined with detection, so the measurement keeps up with the decoder),
+// window-of-interest tracking, full-frame search only to (re)acquire, and
+// edge-based corner refinement.
+//
+// Pixels: OpenCV convention (corners as TagDetector returns them, refined).
+// Time: the video's timestamps (seconds), from its timestamp list when given,
+// else frame index / fps.
+#ifndef ODOCAL_VISION_VIDEO_TRACK_H_
+#define ODOCAL_VISION_VIDEO_TRACK_H_
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/vision/camera_model.h"
+#include "odocal/vision/corner_refine.h"
+#include "odocal/vision/detector.h"
+#include "odocal/vision/planar_pose.h"
+#include "odocal/vision/tag.h"
+
+namespace odocal::vision {
+
+struct VideoTrackOptions {
+  DetectorOptions detector;  // family is taken from the tag spec
+  TrackerOptions tracker;
+  CornerRefineOptions refine;
+  bool refine_corners = true;
+  // While the tag is lost, search the whole frame only every this many frames
+  // (a full 1080p search costs ~20 ms, a tracked window ~0.4 ms).
+  int reacquire_every = 3;
+  // Every this many frames, search the whole frame for a second tag with the
+  // same id (the window never sees one); 0 = never.
+  int duplicate_check_every = 60;
+  // Decoded frames waiting for the tracker.
+  int queue_frames = 8;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct FrameObservation {
+  int index = 0;
+  double t_s = 0.0;
+  DetectStatus status = DetectStatus::kNotFound;
+  bool searched = false;  // false: skipped while lost (see reacquire_every)
+  bool used_roi = false;
+  bool refined = false;
+  std::optional<TagCorners> corners_px;  // when status == kOk
+};
+
+struct VideoTrack {
+  bool ok = false;
+  std::string message;
+  std::vector<FrameObservation> frames;
+  int found = 0;
+  int duplicate_frames = 0;
+  int wrong_id_frames = 0;  // other tags seen, not ours
+  double decode_s = 0.0;    // time in the decoder thread
+  double track_s = 0.0;     // time in detection, refinement
+  double wall_s = 0.0;
+};
+
+// `timestamps_s` may be empty (then index / fps); `camera` undistorts edge
+// samples for refinement. `on_frame(index)` is called after each frame.
+VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<double>& timestamps_s,
+                           const TagSpec& tag, const Intrinsics& intrinsics,
+                           const VideoTrackOptions& options = {},
+                           const std::function<void(int)>& on_frame = {});
+
+// Reads "frame,t_s" files as Mp4Writer::WriteTimestamps writes them.
+std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error);
+
+}  // namespace odocal::vision
+
+#endif  // ODOCAL_VISION_VIDEO_TRACK_H_

@@ -1,0 +1,227 @@
+// Corner refinement by fitting an exact edge model to the raw pixels.
+//
+// A pixel's value is the integral, over its unit square, of the scene blurred
+// by the optics. For a straight edge between two grey levels blurred by a
+// Gaussian of width s, the scene across the edge is a + b * Phi(d / s), d the
+// signed distance to the edge. The square projects on the edge normal
+// (cos t, sin t) as the convolution of two boxes of widths |cos t| and
+// |sin t|, so the pixel value is, with H'' = Phi,
+//   a + b s^2 / (w1 w2) * [H(u+w1/2+w2/2) - H(u+w1/2-w2/2) - H(u-w1/2+w2/2) + H(u-w1/2-w2/2)]
+// (u = d / s, widths in units of s), H(z) = ((z^2 + 1) Phi(z) + z phi(z)) / 2.
+// Fitting this to the pixels of a band along the edge locates the edge
+// without the sub-pixel-phase bias that any interpolated-profile method has
+// on edges parallel to the pixel grid (where every sample shares one phase).
+#include <cmath>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "odocal/vision/corner_refine.h"
+
+namespace odocal::vision {
+namespace {
+
+template <typename T>
+T Phi(const T& z) {
+  using std::erf;
+  return 0.5 * (1.0 + erf(z * M_SQRT1_2));
+}
+
+template <typename T>
+T SmallPhi(const T& z) {
+  using std::exp;
+  return exp(-0.5 * z * z) * (0.5 * M_2_SQRTPI * M_SQRT1_2);
+}
+
+// Second antiderivative of Phi.
+template <typename T>
+T H(const T& z) {
+  return 0.5 * ((z * z + 1.0) * Phi(z) + z * SmallPhi(z));
+}
+
+// First antiderivative of Phi.
+template <typename T>
+T G(const T& z) {
+  return z * Phi(z) + SmallPhi(z);
+}
+
+struct EdgePixels {
+  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted pixels
+  std::vector<double> value;
+};
+
+// Parameters: theta (normal angle), c (offset along the normal), a, b, log s.
+class EdgeModelCost {
+ public:
+  explicit EdgeModelCost(const EdgePixels* pixels) : pixels_(pixels) {}
+  template <typename T>
+  bool operator()(const T* const p, T* residual) const {
+    using std::abs;
+    using std::cos;
+    using std::exp;
+    using std::sin;
+    const T nx = cos(p[0]), ny = sin(p[0]);
+    const T s = exp(p[4]);
+    const T w1 = abs(nx) / s, w2 = abs(ny) / s;
+    for (size_t i = 0; i < pixels_->value.size(); ++i) {
+      const cv::Point2d& q = pixels_->undistorted[i];
+      const T u = (nx * q.x + ny * q.y - p[1]) / s;
+      T fraction;
+      if (w2 < 1e-3 || w1 < 1e-3) {
+        const T w = w1 < 1e-3 ? w2 : w1;  // a single box
+        fraction = (G(u + 0.5 * w) - G(u - 0.5 * w)) / w;
+      } else {
+        fraction = (H(u + 0.5 * w1 + 0.5 * w2) - H(u + 0.5 * w1 - 0.5 * w2) -
+                    H(u - 0.5 * w1 + 0.5 * w2) + H(u - 0.5 * w1 - 0.5 * w2)) /
+                   (w1 * w2);
+      }
+      residual[i] = p[2] + p[3] * fraction - pixels_->value[i];
+    }
+    return true;
+  }
+
+ private:
+  const EdgePixels* pixels_;
+};
+
+struct FittedLine {
+  cv::Point2d point;  // undistorted pixels
+  cv::Point2d dir;
+};
+
+std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point2d& a_px, const cv::Point2d& b_px,
+                                  const cv::Point2d& centre_px, const CameraModel* camera,
+                                  double half_width, double end_margin, double* rms) {
+  // The band: pixels whose centres lie within half_width of the segment
+  // (in distorted pixels, where the detector's corners are), away from its ends.
+  const cv::Point2d ab = b_px - a_px;
+  const double len = cv::norm(ab);
+  const cv::Point2d dir = ab * (1.0 / len);
+  cv::Point2d normal(-dir.y, dir.x);
+  if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
+  const int x0 = std::max(0, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
+  const int x1 = std::min(grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
+  const int y1 = std::min(grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
+  std::vector<cv::Point2d> centres;
+  EdgePixels pixels;
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const cv::Point2d q(x, y);
+      const double t = (q - a_px).dot(dir) / len;
+      const double d = (q - a_px).dot(normal);
+      if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
+      centres.push_back(q);
+      pixels.value.push_back(grey.at<uint8_t>(y, x));
+    }
+  }
+  if (pixels.value.size() < 20) return std::nullopt;
+  pixels.undistorted = camera ? camera->UndistortPixels(centres) : centres;
+  // Start: the detector's edge, mapped like the pixels.
+  std::vector<cv::Point2d> ends = {a_px, b_px};
+  if (camera) ends = camera->UndistortPixels(ends);
+  const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));
+  cv::Point2d u_normal(-u_dir.y, u_dir.x);
+  if (u_normal.dot(normal) < 0) u_normal = -u_normal;
+  double dark = 255.0, light = 0.0;
+  for (double v : pixels.value) {
+    dark = std::min(dark, v);
+    light = std::max(light, v);
+  }
+  if (light - dark < 20.0) return std::nullopt;
+  double p[5] = {std::atan2(u_normal.y, u_normal.x), u_normal.dot(ends[0]), dark, light - dark,
+                 std::log(0.9)};
+  ceres::Problem problem;
+  problem.AddResidualBlock(
+      new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5>(
+          new EdgeModelCost(&pixels), static_cast<int>(pixels.value.size())),
+      nullptr, p);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 25;
+  options.function_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-10;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
+  *rms = std::sqrt(2.0 * summary.final_cost / pixels.value.size());
+  const cv::Point2d n(std::cos(p[0]), std::sin(p[0]));
+  return FittedLine{n * p[1], cv::Point2d(-n.y, n.x)};
+}
+
+}  // namespace
+
+CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
+                                               const std::array<cv::Point2d, 4>& corners_px,
+                                               const CameraModel* camera,
+                                               const CornerRefineOptions& options) {
+  CornerRefineResult result;
+  result.corners_px = corners_px;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    result.message = why;
+    return result;
+  }
+  if (grey.empty() || grey.type() != CV_8UC1) {
+    result.message = "refinement needs an 8-bit grey image";
+    return result;
+  }
+  double perimeter = 0.0;
+  cv::Point2d centre(0, 0);
+  for (int k = 0; k < 4; ++k) {
+    perimeter += cv::norm(corners_px[(k + 1) % 4] - corners_px[k]);
+    centre += corners_px[k] * 0.25;
+  }
+  const double cell_px = perimeter / 4.0 / options.width_at_border;
+  if (cell_px < options.min_cell_px) {
+    result.message = "tag too small for edge refinement";
+    return result;
+  }
+  const double half_width = std::min(options.max_half_width_px, 0.45 * cell_px);
+  std::array<FittedLine, 4> lines;
+  double sq = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    double rms = 0.0;
+    const auto line = FitEdge(grey, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
+                              half_width, options.end_margin, &rms);
+    if (!line) {
+      result.message = "edge " + std::to_string(k) + " could not be fitted";
+      return result;
+    }
+    lines[k] = *line;
+    sq += rms * rms;
+  }
+  std::array<cv::Point2d, 4> refined;
+  for (int k = 0; k < 4; ++k) {
+    const FittedLine& a = lines[(k + 3) % 4];
+    const FittedLine& b = lines[k];
+    const double den = a.dir.x * b.dir.y - a.dir.y * b.dir.x;
+    if (std::abs(den) < 1e-6) {
+      result.message = "degenerate edges";
+      return result;
+    }
+    const cv::Point2d d = b.point - a.point;
+    const double t = (d.x * b.dir.y - d.y * b.dir.x) / den;
+    refined[k] = a.point + a.dir * t;
+  }
+  if (camera) {
+    const auto& in = camera->intrinsics();
+    for (auto& c : refined) {
+      const auto px =
+          camera->ProjectCamera(Eigen::Vector3d((c.x - in.cx) / in.fx, (c.y - in.cy) / in.fy, 1.0));
+      c = cv::Point2d(px->x(), px->y());
+    }
+  }
+  for (int k = 0; k < 4; ++k) {
+    if (cv::norm(refined[k] - corners_px[k]) > std::max(1.5, 0.3 * cell_px)) {
+      result.message = "refined corner moved implausibly far; keeping the input";
+      return result;
+    }
+  }
+  result.ok = true;
+  result.corners_px = refined;
+  result.rms_line_residual_px = std::sqrt(sq / 4.0);  // here: grey-level rms of the fits
+  return result;
+}
+
+}  // namespace odocal::vision

@@ -138,13 +138,27 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
            {"--board chessboard:9x6", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
            {"--board chessboard:9by6:25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
            {"--board chessboard:9x6:-25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
-           {"--board charuco:7x5:40:30:DICT_NOPE", "--board: unknown ArUco dictionary 'DICT_NOPE'"},
            {"--board chessboard:9x6:25 --format xml", "--format: expected opencv or ros, got 'xml'"},
        }) {
     r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) + " " + args +
                    " --out " + dir + "/x.yaml");
     EXPECT_EQ(r.exit_code, 2) << args;
     EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+  }
+
+  // ChArUco: parsed, and chessboard photographs are skipped for want of
+  // markers; or, in a build without OpenCV's aruco module, refused up front.
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                 " --board charuco:8x6:36:28:DICT_5X5_100 --out " + dir + "/x.yaml");
+  if (r.exit_code == 2) {
+    EXPECT_NE(r.err.find("ChArUco boards are not available in this build"), std::string::npos) << r.err;
+  } else {
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("skipping " + images[0] + ": no DICT_5X5_100 markers found"), std::string::npos) << r.err;
+    r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                   " --board charuco:8x6:36:28:DICT_NOPE --out " + dir + "/x.yaml");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("--board: unknown ArUco dictionary 'DICT_NOPE'"), std::string::npos) << r.err;
   }
 }
 

@@ -139,7 +139,9 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
       const cv::Mat image =
           std::filesystem::is_regular_file(path) ? cv::imread(path, cv::IMREAD_GRAYSCALE) : cv::Mat();
       if (image.empty()) {
-        o.reason = std::filesystem::exists(path) ? "cannot be read as an image" : "no such file";
+        o.reason = !std::filesystem::exists(path)       ? "no such file"
+                   : std::filesystem::is_directory(path) ? "is a directory"
+                                                         : "cannot be read as an image";
       } else if (!size.empty() && image.size() != size) {
         o.reason = "size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                    " differs from the first image's " + std::to_string(size.width) + "x" +

@@ -44,6 +44,10 @@ double MinSpacing(const std::vector<cv::Point2f>& points) {
   return best;
 }
 
+// DetectBoard's body; DetectBoard turns an OpenCV exception into "not found".
+BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
+                                  const BoardDetectionOptions& options);
+
 void RefineCorners(const cv::Mat& gray, int half_window, std::vector<cv::Point2f>* points) {
   const int cap = static_cast<int>(std::floor(0.4 * MinSpacing(*points)));
   const int half = std::max(2, std::min(half_window, cap));
@@ -86,6 +90,19 @@ bool CharucoAvailable() {
 
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options) {
+  try {
+    return DetectBoardOrThrow(image, board, options);
+  } catch (const cv::Exception& e) {
+    BoardDetection out;
+    out.message = "OpenCV: " + e.err;
+    return out;
+  }
+}
+
+namespace {
+
+BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
+                                  const BoardDetectionOptions& options) {
   BoardDetection out;
   cv::Mat gray;
   if (image.channels() == 3) {
@@ -163,6 +180,8 @@ BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
 #endif
   return out;
 }
+
+}  // namespace
 
 bool CameraCalibrationOptions::IsValid(std::string* why) const {
   if (min_views < 3) {

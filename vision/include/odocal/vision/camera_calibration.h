@@ -66,7 +66,8 @@ struct BoardDetectionOptions {
   bool sector_fallback = true;
 };
 
-// `gray` is an 8-bit image (colour is converted).
+// `image`: 8-bit grey, or BGR / BGRA (converted to grey). Not found (with
+// the reason in `message`) rather than an exception when OpenCV objects.
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options = {});
 

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterDemoCommand(app);
   odocal::rig::RegisterMeasureCommand(app);
   odocal::rig::RegisterBatchCommand(app);
+  odocal::rig::RegisterCalibrateCameraCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -3,9 +3,9 @@
 #include <fstream>
 #include <limits>
 
-#include <opencv2/core.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "odocal/rig/camera_io.h"
 #include "odocal/rig/output.h"
 #include "odocal/rig/scenario.h"
 #include "odocal/rig/session.h"
@@ -68,54 +68,11 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
 
 }  // namespace
 
-std::optional<vision::Intrinsics> ReadCameraFile(const std::string& path, std::string* error) {
-  auto fail = [&](const std::string& m) -> std::optional<vision::Intrinsics> {
-    if (error) *error = path + ": " + m;
-    return std::nullopt;
-  };
-  if (!fs::exists(path)) return fail("no such file");
-  cv::FileStorage fs_in;
-  try {
-    if (!fs_in.open(path, cv::FileStorage::READ)) return fail("cannot read as an OpenCV YAML file");
-  } catch (const cv::Exception& e) {
-    return fail("not an OpenCV YAML file");
-  }
-  cv::Mat K, D;
-  int width = 0, height = 0;
-  fs_in["camera_matrix"] >> K;
-  fs_in["distortion_coefficients"] >> D;
-  fs_in["image_width"] >> width;
-  fs_in["image_height"] >> height;
-  if (K.empty()) return fail("camera_matrix: missing");
-  if (D.empty()) return fail("distortion_coefficients: missing");
-  if (width <= 0) return fail("image_width: missing or not positive");
-  if (height <= 0) return fail("image_height: missing or not positive");
-  std::string why;
-  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why);
-  if (!intrinsics) return fail(why);
-  return intrinsics;
-}
-
-std::optional<std::string> WriteCameraFile(const vision::Intrinsics& intrinsics,
-                                           const std::string& path) {
-  const std::string temp = path + ".partial.yaml";
-  {
-    cv::FileStorage out(temp, cv::FileStorage::WRITE);
-    if (!out.isOpened()) return path + ": cannot write";
-    out << "image_width" << intrinsics.width;
-    out << "image_height" << intrinsics.height;
-    out << "camera_matrix" << intrinsics.CameraMatrix();
-    out << "distortion_coefficients" << intrinsics.DistortionCoeffs();
-  }
-  std::error_code ec;
-  fs::rename(temp, path, ec);
-  if (ec) return path + ": cannot move into place: " + ec.message();
-  return std::nullopt;
-}
-
 std::optional<std::string> WriteSession(const Session& session, const std::string& path) {
   const fs::path dir = fs::absolute(path).parent_path();
-  if (auto e = WriteCameraFile(session.intrinsics, session.camera_file)) return e;
+  CameraFile camera;
+  camera.intrinsics = session.intrinsics;
+  if (auto e = WriteCameraFile(session.camera_file, camera, CameraFileFormat::kOpenCv)) return e;
   YAML::Emitter out;
   out << YAML::Comment("odocal session: what the operator knows (no truth)");
   out << YAML::BeginMap;
@@ -168,9 +125,9 @@ std::optional<Session> LoadSession(const std::string& path, std::string* error) 
     if (!root["camera_file"]) Fail(root, "camera_file", "missing (required)");
     s.camera_file = Resolve(dir, String(root["camera_file"], "camera_file"));
     std::string camera_error;
-    const auto intrinsics = ReadCameraFile(s.camera_file, &camera_error);
-    if (!intrinsics) Fail(root["camera_file"], "camera_file", camera_error);
-    s.intrinsics = *intrinsics;
+    const auto camera = ReadCameraFile(s.camera_file, &camera_error);
+    if (!camera) Fail(root["camera_file"], "camera_file", camera_error);
+    s.intrinsics = camera->intrinsics;
     if (!root["camera_mount_guess"]) Fail(root, "camera_mount_guess", "missing (required)");
     const YAML::Node m = root["camera_mount_guess"];
     const std::string mp = "camera_mount_guess";

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "apriltag_util.h"
+#include "raster.h"
 
 namespace odocal::vision {
 
@@ -139,34 +140,11 @@ struct Renderer::Impl {
         id[k] = Classify(q[k], T_tag_robot);
       }
     }
-    const int ss = options.edge_supersample;
-    const double inv_ss2 = 1.0 / (ss * ss);
-    for (int j = 0; j < h; ++j) {
-      float* out = acc->ptr<float>(j);
-      const float* bg = bg_sharp.ptr<float>(roi.y + j) + roi.x;
-      for (int i = 0; i < w; ++i) {
-        const int k00 = j * (w + 1) + i, k10 = k00 + 1, k01 = k00 + w + 1, k11 = k01 + 1;
-        double v;
-        if (id[k00] == id[k10] && id[k00] == id[k01] && id[k00] == id[k11]) {
-          v = Value(id[k00], bg[i]);
-        } else {
-          // Stratified samples; within one pixel the corner-to-plane map is
-          // bilinear to far better than 1e-4 px.
-          double sum = 0.0;
-          for (int b = 0; b < ss; ++b) {
-            const double ty = (b + 0.5) / ss;
-            const Eigen::Vector2d left = q[k00] * (1 - ty) + q[k01] * ty;
-            const Eigen::Vector2d right = q[k10] * (1 - ty) + q[k11] * ty;
-            for (int a = 0; a < ss; ++a) {
-              const double tx = (a + 0.5) / ss;
-              sum += Value(Classify(left * (1 - tx) + right * tx, T_tag_robot), bg[i]);
-            }
-          }
-          v = sum * inv_ss2;
-        }
-        out[i] += static_cast<float>(weight * v);
-      }
-    }
+    internal::IntegratePixels(
+        w, h, q, id, options.edge_supersample, weight,
+        [&](const Eigen::Vector2d& p) { return Classify(p, T_tag_robot); },
+        [&](int region, int i, int j) { return Value(region, bg_sharp.at<float>(roi.y + j, roi.x + i)); },
+        acc);
   }
 
   // Image bounding box of body and plate at a pose (empty if not in front).
@@ -233,14 +211,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
 
   // Normalised coordinates of every pixel corner (u - 0.5, v - 0.5), once.
   const int W = impl->width, H = impl->height;
-  std::vector<cv::Point2d> corners;
-  corners.reserve(static_cast<size_t>(W + 1) * (H + 1));
-  for (int v = 0; v <= H; ++v) {
-    for (int u = 0; u <= W; ++u) corners.emplace_back(u - 0.5, v - 0.5);
-  }
-  const auto normalized = camera.UndistortToNormalized(corners);
-  impl->corner_rays = cv::Mat(H + 1, W + 1, CV_64FC2);
-  std::copy(normalized.begin(), normalized.end(), impl->corner_rays.ptr<cv::Point2d>(0));
+  impl->corner_rays = internal::PixelCornerRays(camera);
 
   // Static floor, sampled at the ray through the pixel centre.
   impl->bg_sharp = cv::Mat(H, W, CV_32F);
@@ -262,7 +233,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   }
   if (options.blur_sigma_px > 0.0) {
     impl->blur_margin = static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1;
-    impl->blur_ksize = 2 * static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1;
+    impl->blur_ksize = internal::BlurKernelSize(options.blur_sigma_px);
     cv::GaussianBlur(impl->bg_sharp, impl->bg_blur, cv::Size(impl->blur_ksize, impl->blur_ksize),
                      options.blur_sigma_px, options.blur_sigma_px, cv::BORDER_REPLICATE);
   } else {

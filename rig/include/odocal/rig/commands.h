@@ -14,6 +14,7 @@ void RegisterCvraCommand(CLI::App& app);
 void RegisterDemoCommand(CLI::App& app);
 void RegisterBatchCommand(CLI::App& app);
 void RegisterMeasureCommand(CLI::App& app);
+void RegisterCalibrateCameraCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

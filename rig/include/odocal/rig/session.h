@@ -48,14 +48,8 @@ struct Session {
 
 std::optional<Session> LoadSession(const std::string& path, std::string* error);
 // Writes `session` to `path` with paths relative to its directory, and the
-// intrinsics to session.camera_file (OpenCV FileStorage YAML).
+// intrinsics to session.camera_file (OpenCV FileStorage YAML; camera_io.h).
 std::optional<std::string> WriteSession(const Session& session, const std::string& path);
-
-// OpenCV FileStorage camera files (camera_matrix, distortion_coefficients,
-// image_width, image_height).
-std::optional<vision::Intrinsics> ReadCameraFile(const std::string& path, std::string* error);
-std::optional<std::string> WriteCameraFile(const vision::Intrinsics& intrinsics,
-                                           const std::string& path);
 
 }  // namespace odocal::rig
 

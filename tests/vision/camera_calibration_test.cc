@@ -1,0 +1,210 @@
+// Camera calibration on rendered boards with exact ground truth: chessboard
+// and (when this build has OpenCV's aruco module) ChArUco.
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+// The ChArUco case needs OpenCV's contrib aruco module (libopencv-contrib-dev),
+// the same condition under which odocal::vision is built with ChArUco support.
+#if __has_include(<opencv2/aruco/charuco.hpp>)
+#define ODOCAL_TEST_HAVE_ARUCO 1
+#include <opencv2/aruco/charuco.hpp>
+#endif
+
+#include "odocal/vision/board_render.h"
+#include "odocal/vision/camera_calibration.h"
+
+namespace odocal::vision {
+namespace {
+
+// 640x480 with clear barrel distortion and some decentring (seeded views below).
+Intrinsics Truth() {
+  return Intrinsics{640, 480, 610.0, 606.0, 322.5, 237.25, {-0.21, 0.09, 6e-4, -4e-4, 0.0}};
+}
+
+std::vector<cv::Mat> RenderViews(const BoardPattern& pattern, const std::vector<Eigen::Vector3d>& points,
+                                 int count, uint64_t seed) {
+  BoardPoseSampling sampling;
+  sampling.count = count;
+  sampling.seed = seed;
+  const auto poses = SampleBoardPoses(Truth(), points, sampling);
+  EXPECT_TRUE(poses);
+  std::vector<cv::Mat> images;
+  BoardRenderOptions o;  // noise 2 grey levels, blur 0.7 px
+  for (size_t i = 0; poses && i < poses->size(); ++i) {
+    o.seed = seed * 1000 + i;
+    const auto r = RenderBoard(Truth(), pattern, (*poses)[i], points, o);
+    EXPECT_TRUE(r.ok) << r.message;
+    images.push_back(r.frame.image);
+  }
+  return images;
+}
+
+void ExpectNearTruth(const CameraCalibrationResult& r, double rel_focal, double px_centre,
+                     double k1_tol) {
+  const Intrinsics t = Truth();
+  const Intrinsics& e = r.intrinsics;
+  EXPECT_NEAR(e.fx, t.fx, rel_focal * t.fx);
+  EXPECT_NEAR(e.fy, t.fy, rel_focal * t.fy);
+  EXPECT_NEAR(e.cx, t.cx, px_centre);
+  EXPECT_NEAR(e.cy, t.cy, px_centre);
+  EXPECT_NEAR(e.distortion[0], t.distortion[0], k1_tol);
+  ::testing::Test::RecordProperty(
+      "errors", "fx " + std::to_string(e.fx - t.fx) + " fy " + std::to_string(e.fy - t.fy) +
+                    " cx " + std::to_string(e.cx - t.cx) + " cy " + std::to_string(e.cy - t.cy) +
+                    " k1 " + std::to_string(e.distortion[0] - t.distortion[0]) + " k2 " +
+                    std::to_string(e.distortion[1] - t.distortion[1]) + " k3 " +
+                    std::to_string(e.distortion[4]) + " rms " +
+                    std::to_string(r.rms_reprojection_error_px));
+}
+
+TEST(CameraCalibration, RecoversIntrinsicsFromRenderedChessboards) {
+  CalibrationBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square_m = 0.025;
+  const auto images = RenderViews(BoardPattern::Chessboard(9, 6, 0.025), ChessboardCorners(9, 6, 0.025), 12, 1);
+  std::vector<BoardDetection> views;
+  for (const cv::Mat& image : images) {
+    BoardDetection d = DetectBoard(image, board);
+    ASSERT_TRUE(d.found) << d.message;
+    EXPECT_EQ(d.image_points.size(), 54u);
+    views.push_back(d);
+  }
+  const CameraCalibrationResult r = CalibrateCamera(views, cv::Size(640, 480));
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.views, 12);
+  EXPECT_EQ(r.corners, 12 * 54);
+  ASSERT_EQ(r.per_view_rms_px.size(), 12u);
+  // Measured over 8 seeds x 12 views (this set-up, k3 free): RMS 0.035-0.042
+  // px; worst errors fx 0.12 px, fy 0.12 px, cx 0.17 px, cy 0.28 px, k1
+  // 0.0025, each within 1.3 sigma of OpenCV's own standard deviations
+  // (fx ~0.17 px, cx ~0.3 px, k1 ~0.0015). The bounds are ~3x the worst
+  // case: focal lengths 0.1 % (the issue asks 0.5 %), principal point 1 px.
+  EXPECT_LT(r.rms_reprojection_error_px, 0.1);
+  ExpectNearTruth(r, 0.001, 1.0, 0.006);
+}
+
+TEST(CameraCalibration, NoBoardIsNamedAndTooFewViewsFail) {
+  CalibrationBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square_m = 0.025;
+  cv::Mat blank(480, 640, CV_8U, cv::Scalar(120));
+  cv::randn(blank, 120, 3);
+  const BoardDetection d = DetectBoard(blank, board);
+  EXPECT_FALSE(d.found);
+  EXPECT_EQ(d.message, "chessboard 9x6 not found");
+
+  const auto images = RenderViews(BoardPattern::Chessboard(9, 6, 0.025), ChessboardCorners(9, 6, 0.025), 2, 2);
+  std::vector<BoardDetection> views;
+  for (const cv::Mat& image : images) views.push_back(DetectBoard(image, board));
+  const CameraCalibrationResult r = CalibrateCamera(views, cv::Size(640, 480));
+  EXPECT_EQ(r.status, CameraCalibrationResult::Status::kTooFewViews);
+  EXPECT_EQ(r.message, "2 usable views, need at least 3");
+}
+
+TEST(CameraCalibration, RejectsInvalidBoards) {
+  std::string why;
+  CalibrationBoard board;
+  board.cols = 1;
+  board.rows = 6;
+  board.square_m = 0.025;
+  EXPECT_FALSE(board.IsValid(&why));
+  board.type = CalibrationBoard::Type::kCharuco;
+  board.cols = 5;
+  board.marker_m = 0.03;  // larger than the square
+  EXPECT_FALSE(board.IsValid(&why));
+  EXPECT_NE(why.find("marker"), std::string::npos);
+}
+
+#ifdef ODOCAL_TEST_HAVE_ARUCO
+// A ChArUco board at one cell per marker bit becomes the renderer's cell
+// pattern: DICT_5X5_100 markers are 7 bits across (border included), the
+// squares 9 bits, so 36 mm squares carry 28 mm markers. (CharucoBoard::draw
+// is not bit-exact at this scale, so the cells are laid out from the board's
+// own marker object points and Dictionary::drawMarker.)
+TEST(CameraCalibration, RecoversIntrinsicsFromRenderedCharucoBoards) {
+  ASSERT_TRUE(CharucoAvailable());
+  const int cols = 8, rows = 6;
+  const double bit_m = 0.004;
+  const auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_5X5_100);
+  const auto charuco = cv::aruco::CharucoBoard::create(cols, rows, 9 * bit_m, 7 * bit_m, dict);
+  BoardPattern pattern;
+  pattern.cells = cv::Mat(rows * 9, cols * 9, CV_8U, cv::Scalar(0));
+  for (size_t m = 0; m < charuco->ids.size(); ++m) {
+    // Marker corner 0 is its top-left in the board frame (y down, as the renderer's).
+    const cv::Point3f tl = charuco->objPoints[m][0];
+    const int x = static_cast<int>(std::lround(tl.x / bit_m)), y = static_cast<int>(std::lround(tl.y / bit_m));
+    pattern.cells(cv::Rect(x / 9 * 9, y / 9 * 9, 9, 9)).setTo(255);  // its square is white
+    cv::Mat marker;
+    dict->drawMarker(charuco->ids[m], 7, marker, 1);
+    marker.copyTo(pattern.cells(cv::Rect(x, y, 7, 7)));
+  }
+  pattern.cell_m = bit_m;
+  pattern.margin_m = 9 * bit_m;
+  // OpenCV's object points of the corners are the renderer's board frame.
+  std::vector<Eigen::Vector3d> points;
+  for (const cv::Point3f& p : charuco->chessboardCorners) points.emplace_back(p.x, p.y, p.z);
+
+  CalibrationBoard board;
+  board.type = CalibrationBoard::Type::kCharuco;
+  board.cols = cols;
+  board.rows = rows;
+  board.square_m = 9 * bit_m;
+  board.marker_m = 7 * bit_m;
+  board.dictionary = "DICT_5X5_100";
+  ASSERT_TRUE(board.IsValid(nullptr));
+  BoardPoseSampling sampling;
+  sampling.seed = 4;
+  sampling.max_tilt_deg = 35.0;
+  const auto poses = SampleBoardPoses(Truth(), points, sampling);
+  ASSERT_TRUE(poses);
+  std::vector<BoardDetection> views;
+  std::vector<double> errors;
+  cv::Point2d mean_error(0, 0);
+  for (size_t i = 0; i < poses->size(); ++i) {
+    BoardRenderOptions o;
+    o.seed = 40 + i;
+    const auto r = RenderBoard(Truth(), pattern, (*poses)[i], points, o);
+    ASSERT_TRUE(r.ok);
+    BoardDetection d = DetectBoard(r.frame.image, board);
+    if (!d.found) continue;
+    // Each detected corner is where the renderer put the corner with its id.
+    for (size_t k = 0; k < d.image_points.size(); ++k) {
+      const auto& op = d.object_points[k];
+      for (size_t j = 0; j < points.size(); ++j) {
+        if (std::abs(points[j].x() - op.x) < 1e-6 && std::abs(points[j].y() - op.y) < 1e-6) {
+          const cv::Point2d e = cv::Point2d(d.image_points[k]) - r.frame.points_px[j];
+          errors.push_back(cv::norm(e));
+          mean_error += e;
+        }
+      }
+    }
+    views.push_back(d);
+  }
+  RecordProperty("charuco_views", static_cast<int>(views.size()));
+  ASSERT_FALSE(errors.empty());
+  mean_error *= 1.0 / errors.size();
+  RecordProperty("charuco_mean_error_px", std::to_string(mean_error.x) + "," + std::to_string(mean_error.y));
+  std::sort(errors.begin(), errors.end());
+  const double median = errors[errors.size() / 2], p95 = errors[errors.size() * 95 / 100];
+  RecordProperty("charuco_corner_error_px", "median " + std::to_string(median) + " p95 " +
+                                                std::to_string(p95) + " max " + std::to_string(errors.back()) +
+                                                " n " + std::to_string(errors.size()));
+  EXPECT_GE(views.size(), 10u);
+  // Every corner is matched by id: a wrong board frame or layout would be off
+  // by whole squares (tens of px).
+  EXPECT_LT(median, 0.1);
+  EXPECT_LT(errors.back(), 2.0);
+  const CameraCalibrationResult r = CalibrateCamera(views, cv::Size(640, 480));
+  ASSERT_TRUE(r.ok()) << r.message;
+  // Measured (this seed): fx +0.43 px, fy +0.41, cx +0.16, cy -0.11, k1
+  // +0.0013, RMS 0.052 px; fewer corners than the chessboard (409 vs 648).
+  ExpectNearTruth(r, 0.002, 1.0, 0.006);
+}
+#endif
+
+}  // namespace
+}  // namespace odocal::vision

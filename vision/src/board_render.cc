@@ -1,0 +1,198 @@
+#include "odocal/vision/board_render.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "raster.h"
+
+namespace odocal::vision {
+namespace {
+
+// Region ids: cells are numbered from 0; these two are the rest of the plane.
+constexpr int kBeyondBoard = -1;
+constexpr int kQuietZone = -2;
+
+}  // namespace
+
+bool BoardPattern::IsValid(std::string* why) const {
+  auto fail = [&](const char* msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (cells.empty() || cells.type() != CV_8UC1) return fail("pattern cells must be a non-empty CV_8UC1 image");
+  if (!(cell_m > 0.0)) return fail("pattern cell size must be positive");
+  if (!(margin_m >= 0.0)) return fail("pattern margin must be >= 0");
+  return true;
+}
+
+BoardPattern BoardPattern::Chessboard(int inner_cols, int inner_rows, double square_m) {
+  BoardPattern p;
+  p.cells.create(inner_rows + 1, inner_cols + 1, CV_8U);
+  for (int r = 0; r <= inner_rows; ++r) {
+    for (int c = 0; c <= inner_cols; ++c) p.cells.at<uint8_t>(r, c) = (r + c) % 2 ? 255 : 0;
+  }
+  p.cell_m = square_m;
+  p.margin_m = square_m;
+  return p;
+}
+
+std::vector<Eigen::Vector3d> ChessboardCorners(int inner_cols, int inner_rows, double square_m) {
+  std::vector<Eigen::Vector3d> out;
+  for (int r = 0; r < inner_rows; ++r) {
+    for (int c = 0; c < inner_cols; ++c) out.emplace_back((c + 1) * square_m, (r + 1) * square_m, 0.0);
+  }
+  return out;
+}
+
+bool BoardRenderOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (!(noise_sigma >= 0.0)) return fail("noise_sigma must be >= 0");
+  if (!(blur_sigma_px >= 0.0) || blur_sigma_px > 20.0) return fail("blur_sigma_px must be in [0, 20]");
+  if (supersample < 1 || supersample > 64) return fail("supersample must be in [1, 64]");
+  return true;
+}
+
+BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& pattern,
+                              const Eigen::Isometry3d& T_camera_board,
+                              const std::vector<Eigen::Vector3d>& points_board,
+                              const BoardRenderOptions& options, double margin_px) {
+  BoardRenderResult result;
+  if (!intrinsics.IsValid(&result.message) || !pattern.IsValid(&result.message) ||
+      !options.IsValid(&result.message)) {
+    return result;
+  }
+  // The mount is irrelevant here: everything happens in the camera frame.
+  const CameraModel camera(intrinsics, CameraMount{});
+  const int W = intrinsics.width, H = intrinsics.height;
+  const cv::Mat rays = internal::PixelCornerRays(camera);
+
+  const Eigen::Matrix3d R = T_camera_board.linear();
+  const Eigen::Vector3d t = T_camera_board.translation();
+  const Eigen::Vector3d n = R.col(2);
+  const double n_t = n.dot(t);
+  const int rows = pattern.cells.rows, cols = pattern.cells.cols;
+  const double width_m = cols * pattern.cell_m, height_m = rows * pattern.cell_m;
+
+  auto classify = [&](const Eigen::Vector2d& q) {
+    const double x = q.x() / pattern.cell_m, y = q.y() / pattern.cell_m;
+    if (x >= 0.0 && y >= 0.0 && x < cols && y < rows) {
+      return static_cast<int>(y) * cols + static_cast<int>(x);
+    }
+    if (q.x() >= -pattern.margin_m && q.y() >= -pattern.margin_m &&
+        q.x() <= width_m + pattern.margin_m && q.y() <= height_m + pattern.margin_m) {
+      return kQuietZone;
+    }
+    return kBeyondBoard;
+  };
+  auto value = [&](int id, int, int) {
+    if (id >= 0) return pattern.cells.at<uint8_t>(id / cols, id % cols) ? options.white : options.black;
+    return id == kQuietZone ? options.white : options.background;
+  };
+
+  std::vector<Eigen::Vector2d> q(static_cast<size_t>(W + 1) * (H + 1));
+  std::vector<int> id(q.size());
+  for (int v = 0; v <= H; ++v) {
+    const cv::Vec2d* row = rays.ptr<cv::Vec2d>(v);
+    for (int u = 0; u <= W; ++u) {
+      const size_t k = static_cast<size_t>(v) * (W + 1) + u;
+      const Eigen::Vector3d d(row[u][0], row[u][1], 1.0);
+      const double n_d = n.dot(d);
+      const double s = std::abs(n_d) > 1e-12 ? n_t / n_d : -1.0;
+      if (s > 0.0) {
+        const Eigen::Vector3d p_board = R.transpose() * (s * d - t);
+        q[k] = p_board.head<2>();
+        id[k] = classify(q[k]);
+      } else {
+        // The ray misses the plane: far away, so samples interpolated towards it stay off the board.
+        q[k] = Eigen::Vector2d(1e9, 1e9);
+        id[k] = kBeyondBoard;
+      }
+    }
+  }
+  cv::Mat acc = cv::Mat::zeros(H, W, CV_32F);
+  internal::IntegratePixels(W, H, q, id, options.supersample, 1.0, classify, value, &acc);
+
+  if (options.blur_sigma_px > 0.0) {
+    const int k = internal::BlurKernelSize(options.blur_sigma_px);
+    cv::GaussianBlur(acc, acc, cv::Size(k, k), options.blur_sigma_px, options.blur_sigma_px,
+                     cv::BORDER_REPLICATE);
+  }
+  if (options.noise_sigma > 0.0) {
+    cv::Mat noise(H, W, CV_32F);
+    cv::RNG rng(options.seed * 6364136223846793005ull + 1442695040888963407ull);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_sigma);
+    acc += noise;
+  }
+  acc.convertTo(result.frame.image, CV_8U);  // rounds and saturates
+
+  result.frame.all_visible = true;
+  for (const Eigen::Vector3d& p : points_board) {
+    const auto px = camera.ProjectCamera(T_camera_board * p);
+    if (!px) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      result.frame.points_px.emplace_back(nan, nan);
+      result.frame.all_visible = false;
+      continue;
+    }
+    result.frame.points_px.emplace_back(px->x(), px->y());
+    result.frame.all_visible &= camera.InImage(*px, margin_px);
+  }
+  result.ok = true;
+  return result;
+}
+
+std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
+    const Intrinsics& intrinsics, const std::vector<Eigen::Vector3d>& points_board,
+    const BoardPoseSampling& sampling) {
+  if (points_board.empty() || !intrinsics.IsValid(nullptr)) return std::nullopt;
+  const CameraModel camera(intrinsics, CameraMount{});
+  Eigen::Vector3d lo = points_board[0], hi = points_board[0];
+  for (const auto& p : points_board) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const double extent_m = (hi - lo).head<2>().norm();
+  constexpr double kDeg = M_PI / 180.0;
+  std::mt19937_64 rng(sampling.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double a, double b) { return a + (b - a) * unit(rng); };
+  auto tilt = [&]() {
+    const double t = uniform(sampling.min_tilt_deg, sampling.max_tilt_deg) * kDeg;
+    return unit(rng) < 0.5 ? -t : t;
+  };
+  std::vector<Eigen::Isometry3d> poses;
+  for (int attempt = 0; attempt < 1000 * sampling.count && static_cast<int>(poses.size()) < sampling.count;
+       ++attempt) {
+    const Eigen::Matrix3d R =
+        (Eigen::AngleAxisd(uniform(-sampling.max_turn_deg, sampling.max_turn_deg) * kDeg, Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(tilt(), Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(tilt(), Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
+    const double z = intrinsics.fx * extent_m /
+                     (uniform(sampling.min_fill, sampling.max_fill) * intrinsics.width);
+    // Board centre on the ray through a random pixel (pinhole; the check below is exact).
+    const double u = uniform(0.0, intrinsics.width), v = uniform(0.0, intrinsics.height);
+    const Eigen::Vector3d c((u - intrinsics.cx) / intrinsics.fx * z, (v - intrinsics.cy) / intrinsics.fy * z, z);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = R;
+    T.translation() = c - R * centre;
+    bool inside = true;
+    for (const auto& p : points_board) {
+      const auto px = camera.ProjectCamera(T * p);
+      inside = inside && px && camera.InImage(*px, sampling.margin_px);
+      if (!inside) break;
+    }
+    if (inside) poses.push_back(T);
+  }
+  if (static_cast<int>(poses.size()) < sampling.count) return std::nullopt;
+  return poses;
+}
+
+}  // namespace odocal::vision

@@ -1,0 +1,259 @@
+#include "odocal/vision/camera_calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#ifdef ODOCAL_HAVE_ARUCO
+#include <opencv2/aruco/charuco.hpp>
+#endif
+
+namespace odocal::vision {
+namespace {
+
+#ifdef ODOCAL_HAVE_ARUCO
+// OpenCV's dictionary names, in the order of cv::aruco::PREDEFINED_DICTIONARY_NAME.
+const char* const kDictionaries[] = {
+    "DICT_4X4_50",  "DICT_4X4_100",  "DICT_4X4_250",  "DICT_4X4_1000",       "DICT_5X5_50",
+    "DICT_5X5_100", "DICT_5X5_250",  "DICT_5X5_1000", "DICT_6X6_50",         "DICT_6X6_100",
+    "DICT_6X6_250", "DICT_6X6_1000", "DICT_7X7_50",   "DICT_7X7_100",        "DICT_7X7_250",
+    "DICT_7X7_1000", "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5", "DICT_APRILTAG_25h9",
+    "DICT_APRILTAG_36h10", "DICT_APRILTAG_36h11"};
+
+std::optional<int> DictionaryId(const std::string& name) {
+  for (int i = 0; i < static_cast<int>(std::size(kDictionaries)); ++i) {
+    if (name == kDictionaries[i]) return i;
+  }
+  return std::nullopt;
+}
+
+cv::Ptr<cv::aruco::CharucoBoard> MakeCharucoBoard(const CalibrationBoard& board) {
+  const auto dict = cv::aruco::getPredefinedDictionary(*DictionaryId(board.dictionary));
+  return cv::aruco::CharucoBoard::create(board.cols, board.rows, static_cast<float>(board.square_m),
+                                         static_cast<float>(board.marker_m), dict);
+}
+#endif
+
+// Smallest distance between a corner and its successor in the list: the
+// corner spacing along a board row (or across a row break, which is longer).
+double MinSpacing(const std::vector<cv::Point2f>& points) {
+  double best = 1e9;
+  for (size_t i = 1; i < points.size(); ++i) best = std::min(best, cv::norm(points[i] - points[i - 1]));
+  return best;
+}
+
+// DetectBoard's body; DetectBoard turns an OpenCV exception into "not found".
+BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
+                                  const BoardDetectionOptions& options);
+
+void RefineCorners(const cv::Mat& gray, int half_window, std::vector<cv::Point2f>* points) {
+  const int cap = static_cast<int>(std::floor(0.4 * MinSpacing(*points)));
+  const int half = std::max(2, std::min(half_window, cap));
+  cv::cornerSubPix(gray, *points, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 100, 1e-4));
+}
+
+}  // namespace
+
+bool CalibrationBoard::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& msg) {
+    if (why) *why = msg;
+    return false;
+  };
+  if (type == Type::kChessboard) {
+    if (cols < 2 || rows < 2) return fail("a chessboard needs at least 2x2 inner corners");
+  } else {
+    if (cols < 3 || rows < 3) return fail("a ChArUco board needs at least 3x3 squares");
+    if (!(marker_m > 0.0) || !(marker_m < square_m))
+      return fail("the marker side must be positive and smaller than the square side");
+#ifdef ODOCAL_HAVE_ARUCO
+    if (!DictionaryId(dictionary)) return fail("unknown ArUco dictionary '" + dictionary + "'");
+#endif
+  }
+  if (!(square_m > 0.0) || !std::isfinite(square_m)) return fail("the square side must be positive");
+  return true;
+}
+
+int CalibrationBoard::MaxCorners() const {
+  return type == Type::kChessboard ? cols * rows : (cols - 1) * (rows - 1);
+}
+
+bool CharucoAvailable() {
+#ifdef ODOCAL_HAVE_ARUCO
+  return true;
+#else
+  return false;
+#endif
+}
+
+BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
+                           const BoardDetectionOptions& options) {
+  try {
+    return DetectBoardOrThrow(image, board, options);
+  } catch (const cv::Exception& e) {
+    BoardDetection out;
+    out.message = "OpenCV: " + e.err;
+    return out;
+  }
+}
+
+namespace {
+
+BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
+                                  const BoardDetectionOptions& options) {
+  BoardDetection out;
+  cv::Mat gray;
+  if (image.channels() == 3) {
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+  } else {
+    gray = image;
+  }
+  if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+
+  if (board.type == CalibrationBoard::Type::kChessboard) {
+    const cv::Size pattern(board.cols, board.rows);
+    // FAST_CHECK rejects images without a board quickly; ADAPTIVE_THRESH and
+    // NORMALIZE_IMAGE cope with uneven lighting. The classic detector misses
+    // some strongly tilted views (2 of 96 rendered 10-40 degree views); the
+    // sector-based detector finds those, so it is the fallback.
+    const bool found =
+        cv::findChessboardCorners(gray, pattern, out.image_points,
+                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE |
+                                      cv::CALIB_CB_FAST_CHECK) ||
+        (options.sector_fallback && cv::findChessboardCornersSB(gray, pattern, out.image_points));
+    if (!found) {
+      out.message = "chessboard " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +
+                    " not found";
+      out.image_points.clear();
+      return out;
+    }
+    RefineCorners(gray, options.subpix_half_window_px, &out.image_points);
+    // Row-major, x fastest: the order findChessboardCorners returns.
+    for (int r = 0; r < board.rows; ++r) {
+      for (int c = 0; c < board.cols; ++c) {
+        out.object_points.emplace_back(static_cast<float>(c * board.square_m),
+                                       static_cast<float>(r * board.square_m), 0.0f);
+      }
+    }
+    out.found = true;
+    return out;
+  }
+
+#ifdef ODOCAL_HAVE_ARUCO
+  const auto charuco = MakeCharucoBoard(board);
+  std::vector<std::vector<cv::Point2f>> marker_corners;
+  std::vector<int> marker_ids;
+  cv::aruco::detectMarkers(gray, charuco->dictionary, marker_corners, marker_ids);
+  if (marker_ids.empty()) {
+    out.message = "no " + board.dictionary + " markers found";
+    return out;
+  }
+  std::vector<cv::Point2f> corners;
+  std::vector<int> ids;
+  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, charuco, corners, ids);
+  if (static_cast<int>(ids.size()) < options.min_charuco_corners) {
+    out.message = "ChArUco board: only " + std::to_string(ids.size()) + " corners found (need " +
+                  std::to_string(options.min_charuco_corners) + ")";
+    return out;
+  }
+  if (cv::aruco::testCharucoCornersCollinear(charuco, ids)) {
+    out.message = "ChArUco board: the corners found are collinear";
+    return out;
+  }
+  // Pixel convention, converted here once: since opencv_contrib PR #3024
+  // (2021, in Debian's 4.6) interpolateCornersCharuco returns corners with
+  // (0, 0) at the top-left *corner* of the first pixel, half a pixel away
+  // from cornerSubPix / findChessboardCorners / projectPoints, which put it
+  // at that pixel's centre (OpenCV issue 22288; undone upstream by PR 28380
+  // in the new objdetect detector, 2026). Uncorrected, it moves cx and cy by
+  // +0.5 px. camera_calibration_test checks the corners against rendered
+  // truth, so an OpenCV with other behaviour fails there, not silently.
+  for (const cv::Point2f& p : corners) out.image_points.emplace_back(p.x - 0.5f, p.y - 0.5f);
+  for (int id : ids) out.object_points.push_back(charuco->chessboardCorners[id]);
+  out.found = true;
+#else
+  out.message = "ChArUco boards are not available in this build (OpenCV without the aruco module)";
+#endif
+  return out;
+}
+
+}  // namespace
+
+bool CameraCalibrationOptions::IsValid(std::string* why) const {
+  if (min_views < 3) {
+    if (why) *why = "min_views must be >= 3 (fewer cannot fix the principal point)";
+    return false;
+  }
+  return true;
+}
+
+CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views,
+                                        const cv::Size& image_size,
+                                        const CameraCalibrationOptions& options) {
+  CameraCalibrationResult result;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.message = why;
+    return result;
+  }
+  if (image_size.width <= 0 || image_size.height <= 0) {
+    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.message = "image size must be positive";
+    return result;
+  }
+  std::vector<std::vector<cv::Point3f>> object_points;
+  std::vector<std::vector<cv::Point2f>> image_points;
+  for (const BoardDetection& v : views) {
+    if (!v.found || v.image_points.size() != v.object_points.size() || v.image_points.size() < 4) {
+      result.status = CameraCalibrationResult::Status::kInvalidInput;
+      result.message = "every view must be a detection with at least 4 matched corners";
+      return result;
+    }
+    object_points.push_back(v.object_points);
+    image_points.push_back(v.image_points);
+    result.corners += static_cast<int>(v.image_points.size());
+  }
+  result.views = static_cast<int>(views.size());
+  if (result.views < options.min_views) {
+    result.status = CameraCalibrationResult::Status::kTooFewViews;
+    result.message = std::to_string(result.views) + " usable view" + (result.views == 1 ? "" : "s") +
+                     ", need at least " + std::to_string(options.min_views);
+    return result;
+  }
+  int flags = 0;
+  if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
+  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
+  cv::Mat K, D, std_intrinsics, std_extrinsics, per_view;
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    result.rms_reprojection_error_px = cv::calibrateCamera(
+        object_points, image_points, image_size, K, D, rvecs, tvecs, std_intrinsics,
+        std_extrinsics, per_view, flags,
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  } catch (const cv::Exception& e) {
+    result.status = CameraCalibrationResult::Status::kFailed;
+    result.message = "cv::calibrateCamera failed: " + e.err;
+    return result;
+  }
+  const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
+  if (!intrinsics || !std::isfinite(result.rms_reprojection_error_px)) {
+    result.status = CameraCalibrationResult::Status::kFailed;
+    result.message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
+    return result;
+  }
+  result.intrinsics = *intrinsics;
+  for (int i = 0; i < static_cast<int>(per_view.total()); ++i)
+    result.per_view_rms_px.push_back(per_view.at<double>(i));
+  for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i)
+    result.sigma[i] = std_intrinsics.at<double>(i);
+  result.status = CameraCalibrationResult::Status::kOk;
+  result.message = "ok";
+  return result;
+}
+
+}  // namespace odocal::vision

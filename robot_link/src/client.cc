@@ -306,24 +306,22 @@ Result<ParamSet> Client::ParseParamSet(const Bytes& body, olf_param_set_id which
   if (got_which != which || count != ParamTable().size()) return malformed();
   ParamSet set;
   uint32_t seen = 0;
-  for (uint8_t i = 0; i < count; ++i) {
-    std::string name;
+  // Entries come in table order (the order Hello's table checksum vouches
+  // for): type, then value.
+  for (size_t i = 0; i < count; ++i) {
     uint8_t type = 0;
-    if (!in.Str8(&name) || !in.U8(&type)) return malformed();
-    const std::optional<size_t> index = FindParam(name);
-    if (!index || type != static_cast<uint8_t>(ParamTable()[*index].type)) return malformed();
+    if (!in.U8(&type) || type != static_cast<uint8_t>(ParamTable()[i].type)) return malformed();
     if (type == OLF_TYPE_F64) {
       double v;
       if (!in.F64(&v)) return malformed();
-      set.Set(*index, v);
+      set.Set(i, v);
     } else {
       uint32_t v;
       if (!in.U32(&v)) return malformed();
-      set.Set(*index, v);
+      set.Set(i, v);
     }
-    seen |= 1u << *index;
   }
-  if (!in.AtEnd() || seen != (1u << ParamTable().size()) - 1) return malformed();
+  if (!in.AtEnd()) return malformed();
   // The robot's checksum of its own set must match ours of what we decoded:
   // an end-to-end check on top of the frame CRC.
   if (set.Checksum() != crc) {

@@ -267,13 +267,12 @@ static void handle_params_read(olf_ctx_t* ctx, const request_t* req) {
   olf_put_u32(ctx->tx_payload + at, olf_params_crc(set));
   at += 4;
   ctx->tx_payload[at++] = OLF_PARAM_COUNT;
+  /* Table order, type and value only: the names are covered by the table
+   * checksum the host verified in HELLO, and a short frame survives a noisy
+   * line far more often (at 1 % byte errors, 42 bytes arrive intact 66 % of
+   * the time, 120 bytes 30 %). */
   for (i = 0; i < OLF_PARAM_COUNT; ++i) {
-    const olf_param_desc_t* d = &olf_param_table()[i];
-    const size_t n = strlen(d->name);
-    ctx->tx_payload[at++] = (uint8_t)n;
-    memcpy(ctx->tx_payload + at, d->name, n);
-    at += n;
-    ctx->tx_payload[at++] = d->type;
+    ctx->tx_payload[at++] = olf_param_table()[i].type;
     at += olf_param_put(set, i, ctx->tx_payload + at);
   }
   send_reply(ctx, req, at);

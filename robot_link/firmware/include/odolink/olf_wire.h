@@ -41,7 +41,7 @@ enum olf_msg_type {
                                  /* the active set with one value changed   */
   OLF_MSG_STAGE_BEGIN = 0x05,    /* clear the staging area                  */
   OLF_MSG_STAGE_PUT = 0x06,      /* name, type, value into the staging area */
-  OLF_MSG_PARAMS_READ = 0x07,    /* which set -> ACK: mask, crc, entries    */
+  OLF_MSG_PARAMS_READ = 0x07,    /* which set -> ACK: mask, crc, values     */
   OLF_MSG_COMMIT = 0x08,         /* set crc32 -> persist + apply staged set */
   OLF_MSG_ROLLBACK = 0x09,       /* previous set becomes active again       */
   OLF_MSG_RUN_START = 0x0A,      /* procedure, direction, amount, count     */

@@ -1,5 +1,6 @@
 #include "odocal/robot_link/codec.h"
 
+#include <cassert>
 #include <cstdio>
 #include <cstring>
 
@@ -65,12 +66,14 @@ std::optional<Bytes> CobsDecode(std::span<const uint8_t> encoded) {
 }
 
 Bytes EncodeFrame(const Frame& frame) {
+  assert(frame.body.size() <= OLF_MAX_PAYLOAD - OLF_HEADER_SIZE);
   Bytes payload;
   payload.reserve(OLF_HEADER_SIZE + frame.body.size() + OLF_CRC_SIZE);
   payload.push_back(frame.version);
   payload.push_back(frame.type);
   payload.push_back(static_cast<uint8_t>(frame.seq));
   payload.push_back(static_cast<uint8_t>(frame.seq >> 8));
+  payload.push_back(static_cast<uint8_t>(frame.body.size()));
   payload.insert(payload.end(), frame.body.begin(), frame.body.end());
   const uint16_t crc = Crc16CcittFalse(payload);
   payload.push_back(static_cast<uint8_t>(crc >> 8));
@@ -121,6 +124,10 @@ std::optional<Frame> FrameDecoder::Feed(uint8_t byte) {
   const uint16_t crc = static_cast<uint16_t>(((*payload)[n - 2] << 8) | (*payload)[n - 1]);
   if (Crc16CcittFalse(std::span(payload->data(), n - 2)) != crc) {
     ++counters_.crc_errors;
+    return std::nullopt;
+  }
+  if ((*payload)[4] != n - OLF_HEADER_SIZE - OLF_CRC_SIZE) {
+    ++counters_.framing_errors;
     return std::nullopt;
   }
   ++counters_.frames;

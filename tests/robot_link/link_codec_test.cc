@@ -128,6 +128,30 @@ TEST(LinkFraming, DecoderResynchronisesAfterGarbage) {
   EXPECT_GT(decoder.counters().crc_errors + decoder.counters().framing_errors, 0u);
 }
 
+TEST(LinkFraming, DuplicatedTrailingZeroIsCaughtByTheLengthByte) {
+  // Without the body length in the header, a frame whose CRC-16 ends in 0x00
+  // still passes the CRC when that zero is duplicated (see olf_wire.h). Find
+  // such a frame and duplicate the COBS byte that encodes the zero.
+  int checked = 0;
+  for (uint16_t seq = 0; seq < 4000; ++seq) {
+    const Bytes wire = EncodeFrame(Frame{OLF_PROTOCOL_VERSION, OLF_MSG_PARAMS_READ, seq, {1}});
+    const std::optional<Bytes> payload = CobsDecode(std::span(wire).subspan(1, wire.size() - 2));
+    ASSERT_TRUE(payload);
+    if (payload->back() != 0) continue;
+    Bytes damaged = wire;
+    damaged.insert(damaged.end() - 1, damaged[damaged.size() - 2]);
+    FrameDecoder decoder;
+    for (uint8_t b : damaged) EXPECT_FALSE(decoder.Feed(b).has_value()) << "seq " << seq;
+    // The same damage without the length check would have passed the CRC:
+    const std::optional<Bytes> bad = CobsDecode(std::span(damaged).subspan(1, damaged.size() - 2));
+    ASSERT_TRUE(bad);
+    EXPECT_EQ(Crc16CcittFalse(std::span(bad->data(), bad->size() - 2)),
+              (bad->at(bad->size() - 2) << 8) | bad->back());
+    ++checked;
+  }
+  EXPECT_GT(checked, 5);
+}
+
 TEST(LinkFraming, FirmwareAnswersAfterGarbageAndIgnoresCorruptFrames) {
   Bytes out;
   olf_config_t config{};

@@ -81,11 +81,13 @@ static size_t begin_payload(olf_ctx_t* ctx, uint8_t type, uint16_t seq) {
   return OLF_HEADER_SIZE;
 }
 
-/* CRC, COBS, delimiters on both sides (the leading one flushes whatever
+/* Body length, CRC, COBS, delimiters on both sides (the leading one flushes whatever
  * garbage the receiver holds), then out. Returns the frame length in tx. */
 static size_t send_payload(olf_ctx_t* ctx, size_t len) {
-  const uint16_t crc = olf_crc16(ctx->tx_payload, len);
+  uint16_t crc;
   size_t n;
+  ctx->tx_payload[4] = (uint8_t)(len - OLF_HEADER_SIZE);
+  crc = olf_crc16(ctx->tx_payload, len);
   ctx->tx_payload[len] = (uint8_t)(crc >> 8);
   ctx->tx_payload[len + 1] = (uint8_t)crc;
   ctx->tx[0] = 0;
@@ -448,6 +450,10 @@ static void handle_frame(olf_ctx_t* ctx, size_t n) {
   crc = (uint16_t)((ctx->frame[n - 2] << 8) | ctx->frame[n - 1]);
   if (olf_crc16(ctx->frame, n - 2) != crc) {
     ++ctx->counters.crc_errors;
+    return;
+  }
+  if (ctx->frame[4] != n - OLF_HEADER_SIZE - OLF_CRC_SIZE) {
+    ++ctx->counters.framing_errors;
     return;
   }
   ++ctx->counters.frames_ok;

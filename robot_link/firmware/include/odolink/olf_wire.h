@@ -22,8 +22,11 @@
 /* Bumped on any incompatible change of the frame layout or of a message. */
 #define OLF_PROTOCOL_VERSION 1u
 
-/* Frame (before CRC and COBS): version u8, type u8, seq u16, body. */
-#define OLF_HEADER_SIZE 4u
+/* Frame (before CRC and COBS): version u8, type u8, seq u16, body_len u8,
+ * body. The explicit length matters: without it a duplicated trailing zero
+ * passes CRC-16/CCITT-FALSE whenever the CRC's low byte is 0x00 (1 frame in
+ * 256), because CRC(m, crc_hi) == crc_lo << 8 for a CRC without xorout. */
+#define OLF_HEADER_SIZE 5u
 #define OLF_CRC_SIZE 2u
 /* Largest header + body; a frame longer than this is dropped as garbage. */
 #define OLF_MAX_PAYLOAD 192u

@@ -1,5 +1,5 @@
 // Host-side framing of the odolink protocol (see docs/protocol.md):
-//   wire frame = 0x00, COBS(version u8, type u8, seq u16 LE, body, CRC-16 BE), 0x00
+//   wire frame = 0x00, COBS(version u8, type u8, seq u16 LE, body_len u8, body, CRC-16 BE), 0x00
 // CRC-16/CCITT-FALSE and CRC-32 come from Boost.CRC here, so the robot's
 // bitwise loops are checked against an independent implementation.
 #ifndef ODOCAL_ROBOT_LINK_CODEC_H_

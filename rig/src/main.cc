@@ -8,6 +8,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "odocal 0.1.0");
   // Command groups; each registers its subcommands.
+  odocal::rig::RegisterRobotCommand(app);
   (void)app;
   CLI11_PARSE(app, argc, argv);
   return 0;

@@ -180,39 +180,7 @@ TEST(LinkPty, WrongDevicePathAndNonTtyAreRefusedAtOpen) {
   EXPECT_EQ(SerialTransport::Open("/dev/null", odd).status, Status::kInvalidArgument);
 }
 
-// A peer on a pty that answers every request with `reply_for(request)`.
-class FakePeer {
- public:
-  explicit FakePeer(std::function<Bytes(const Frame&)> reply_for)
-      : pty_(std::move(*OpenPty().value)), reply_for_(std::move(reply_for)),
-        thread_([this] { Loop(); }) {}
-  ~FakePeer() {
-    stop_ = true;
-    thread_.join();
-  }
-  const std::string& path() const { return pty_.slave_path; }
-
- private:
-  void Loop() {
-    FrameDecoder decoder;
-    uint8_t buf[256];
-    while (!stop_) {
-      pollfd p{pty_.master.get(), POLLIN, 0};
-      if (::poll(&p, 1, 5) <= 0) continue;
-      const ssize_t n = ::read(pty_.master.get(), buf, sizeof buf);
-      for (ssize_t i = 0; i < n; ++i) {
-        if (std::optional<Frame> f = decoder.Feed(buf[i])) {
-          const Bytes out = reply_for_(*f);
-          if (::write(pty_.master.get(), out.data(), out.size()) < 0) return;
-        }
-      }
-    }
-  }
-  Pty pty_;
-  std::function<Bytes(const Frame&)> reply_for_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
+using testing::FakePeer;
 
 TEST(LinkPty, RobotSpeakingAnotherProtocolVersionIsNamed) {
   // A robot from the future: answers HELLO in its own version 2 layout.

@@ -4,13 +4,20 @@
 #ifndef ODOCAL_TESTS_ROBOT_LINK_LINK_TEST_UTIL_H_
 #define ODOCAL_TESTS_ROBOT_LINK_LINK_TEST_UTIL_H_
 
+#include <poll.h>
+#include <unistd.h>
+
 #include <array>
+#include <atomic>
+#include <functional>
 #include <optional>
+#include <thread>
 #include <random>
 #include <vector>
 
 #include "odocal/robot_link/codec.h"
 #include "odocal/robot_link/params.h"
+#include "odocal/robot_link/pty.h"
 #include "odocal/robot_link/transport.h"
 #include "odolink/olf_wire.h"
 
@@ -47,6 +54,40 @@ inline ParamSet RandomParamSet(std::mt19937& rng) {
   std::uniform_int_distribution<uint32_t> ticks(256, 65536);
   return ParamSet{diameter(rng), diameter(rng), track(rng), ticks(rng)};
 }
+
+// A peer on a pty that answers every request with `reply_for(request)`.
+class FakePeer {
+ public:
+  explicit FakePeer(std::function<Bytes(const Frame&)> reply_for)
+      : pty_(std::move(*OpenPty().value)), reply_for_(std::move(reply_for)),
+        thread_([this] { Loop(); }) {}
+  ~FakePeer() {
+    stop_ = true;
+    thread_.join();
+  }
+  const std::string& path() const { return pty_.slave_path; }
+
+ private:
+  void Loop() {
+    FrameDecoder decoder;
+    uint8_t buf[256];
+    while (!stop_) {
+      pollfd p{pty_.master.get(), POLLIN, 0};
+      if (::poll(&p, 1, 5) <= 0) continue;
+      const ssize_t n = ::read(pty_.master.get(), buf, sizeof buf);
+      for (ssize_t i = 0; i < n; ++i) {
+        if (std::optional<Frame> f = decoder.Feed(buf[i])) {
+          const Bytes out = reply_for_(*f);
+          if (::write(pty_.master.get(), out.data(), out.size()) < 0) return;
+        }
+      }
+    }
+  }
+  Pty pty_;
+  std::function<Bytes(const Frame&)> reply_for_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 }  // namespace odocal::robot_link::testing
 

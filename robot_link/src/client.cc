@@ -305,7 +305,6 @@ Result<ParamSet> Client::ParseParamSet(const Bytes& body, olf_param_set_id which
   }
   if (got_which != which || count != ParamTable().size()) return malformed();
   ParamSet set;
-  uint32_t seen = 0;
   // Entries come in table order (the order Hello's table checksum vouches
   // for): type, then value.
   for (size_t i = 0; i < count; ++i) {

@@ -150,7 +150,7 @@ void RegisterRobotCommand(CLI::App& app) {
   CLI::App* get = robot->add_subcommand("get", "print parameters (all, or the named ones)");
   AddLinkFlags(get, flags.get());
   get->add_option("names", *get_names, "parameter names");
-  get->add_option("--set", *which, "which set: active, staged, previous")
+  get->add_option("--which", *which, "which set: active, staged, previous")
       ->check(CLI::IsMember({"active", "staged", "previous"}))
       ->capture_default_str();
   get->callback([flags, get_names, which] {

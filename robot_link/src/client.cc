@@ -1,6 +1,7 @@
 #include "odocal/robot_link/client.h"
 
 #include <algorithm>
+#include <cassert>
 #include <array>
 #include <ostream>
 #include <random>
@@ -135,6 +136,7 @@ RunCommand RunCommand::FromRunSpec(const calibration::RunSpec& spec) {
 
 Client::Client(Transport& transport, const ClientOptions& options)
     : transport_(transport), options_(options) {
+  assert(options.IsValid(nullptr) && "ClientOptions out of range");
   if (options.first_seq) {
     next_seq_ = *options.first_seq;
   } else {

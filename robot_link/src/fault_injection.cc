@@ -1,5 +1,6 @@
 #include "odocal/robot_link/fault_injection.h"
 
+#include <cassert>
 #include <thread>
 
 namespace odocal::robot_link {
@@ -20,7 +21,9 @@ bool FaultOptions::IsValid(std::string* why) const {
 }
 
 FaultInjectingTransport::FaultInjectingTransport(Transport& inner, const FaultOptions& options)
-    : inner_(inner), options_(options), rng_(options.seed) {}
+    : inner_(inner), options_(options), rng_(options.seed) {
+  assert(options.IsValid(nullptr) && "FaultOptions out of range");
+}
 
 bool FaultInjectingTransport::Chance(double p) {
   if (p <= 0.0) return false;

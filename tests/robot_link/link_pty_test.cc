@@ -94,7 +94,7 @@ TEST(LinkPty, ConnectRunTelemetryPushRestartReadBack) {
 
     Result<PushReport> push = client.PushParams(pushed);
     ASSERT_TRUE(push.ok()) << push;
-    EXPECT_TRUE(backend.params().SameBits(pushed));
+    EXPECT_TRUE((*host.value)->active().SameBits(pushed));
   }  // the virtual robot powers off
   {
     Result<std::unique_ptr<FirmwareHost>> host = FirmwareHost::Start(HostOptions(storage), backend);

@@ -11,11 +11,6 @@
 
 namespace odocal::robot_link {
 
-void UniqueFd::Reset() {
-  if (fd_ >= 0) ::close(fd_);
-  fd_ = -1;
-}
-
 Result<Pty> OpenPty() {
   int master = -1, slave = -1;
   char name[PATH_MAX] = {};

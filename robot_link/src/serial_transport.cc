@@ -49,12 +49,10 @@ Result<std::unique_ptr<SerialTransport>> SerialTransport::Open(const std::string
   if (!options.IsValid(&why)) return R::Error(Status::kInvalidArgument, why);
   // O_NONBLOCK: a port with modem-control lines down must not block open();
   // every later wait goes through poll() with an explicit timeout.
-  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return R::Error(Status::kOpenFailed, Errno("cannot open " + path));
-  auto fail = [&](const std::string& msg) {
-    ::close(fd);
-    return R::Error(Status::kOpenFailed, msg);
-  };
+  UniqueFd owned(::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC));
+  if (!owned.valid()) return R::Error(Status::kOpenFailed, Errno("cannot open " + path));
+  const int fd = owned.get();
+  auto fail = [](const std::string& msg) { return R::Error(Status::kOpenFailed, msg); };
   if (!::isatty(fd)) return fail("cannot use " + path + ": not a serial device (not a tty)");
   termios tio{};
   if (::tcgetattr(fd, &tio) != 0) return fail(Errno("cannot configure " + path));
@@ -69,15 +67,13 @@ Result<std::unique_ptr<SerialTransport>> SerialTransport::Open(const std::string
   ::cfsetospeed(&tio, speed);
   if (::tcsetattr(fd, TCSANOW, &tio) != 0) return fail(Errno("cannot configure " + path));
   if (options.flush_on_open) ::tcflush(fd, TCIOFLUSH);
-  return R::Ok(std::unique_ptr<SerialTransport>(new SerialTransport(fd, path)));
+  return R::Ok(std::unique_ptr<SerialTransport>(new SerialTransport(std::move(owned), path)));
 }
-
-SerialTransport::~SerialTransport() { ::close(fd_); }
 
 IoResult SerialTransport::Write(std::span<const uint8_t> data) {
   size_t done = 0;
   while (done < data.size()) {
-    const ssize_t n = ::write(fd_, data.data() + done, data.size() - done);
+    const ssize_t n = ::write(fd_.get(), data.data() + done, data.size() - done);
     if (n > 0) {
       done += static_cast<size_t>(n);
       continue;
@@ -86,7 +82,7 @@ IoResult SerialTransport::Write(std::span<const uint8_t> data) {
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
       // Output buffer full: a device that does not drain within a second is
       // as good as gone.
-      pollfd p{fd_, POLLOUT, 0};
+      pollfd p{fd_.get(), POLLOUT, 0};
       const int r = ::poll(&p, 1, 1000);
       if (r == 0) return {IoStatus::kTimeout, done, "write to " + path_ + " stalled"};
       if (r > 0 && (p.revents & (POLLHUP | POLLERR))) {
@@ -103,7 +99,7 @@ IoResult SerialTransport::Write(std::span<const uint8_t> data) {
 }
 
 IoResult SerialTransport::Read(std::span<uint8_t> buffer, std::chrono::milliseconds timeout) {
-  pollfd p{fd_, POLLIN, 0};
+  pollfd p{fd_.get(), POLLIN, 0};
   int r;
   do {
     r = ::poll(&p, 1, static_cast<int>(timeout.count()));
@@ -113,7 +109,7 @@ IoResult SerialTransport::Read(std::span<uint8_t> buffer, std::chrono::milliseco
   if (!(p.revents & POLLIN) && (p.revents & (POLLHUP | POLLERR | POLLNVAL))) {
     return {IoStatus::kClosed, 0, "line to " + path_ + " hung up"};
   }
-  const ssize_t n = ::read(fd_, buffer.data(), buffer.size());
+  const ssize_t n = ::read(fd_.get(), buffer.data(), buffer.size());
   if (n > 0) return {IoStatus::kOk, static_cast<size_t>(n), ""};
   if (n == 0) return {IoStatus::kClosed, 0, "line to " + path_ + " hung up"};
   if (errno == EAGAIN || errno == EINTR) return {IoStatus::kTimeout, 0, ""};

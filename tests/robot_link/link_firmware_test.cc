@@ -173,6 +173,18 @@ TEST_F(LinkFirmwareTest, RepeatedSequenceNumberIsAnsweredFromCacheNotReExecuted)
   ASSERT_EQ(RawExchange(link_, start)->type, OLF_MSG_ACK);
   ASSERT_EQ(RawExchange(link_, start)->type, OLF_MSG_ACK);
   EXPECT_EQ(backend_.runs_started(), 1);
+
+  // A HELLO (a new session) in between: the same frame is a new request now,
+  // executed, and refused because the first run is still going.
+  const uint32_t cached = link_.robot().ctx().counters.retries_answered_from_cache;
+  ASSERT_EQ(RawExchange(link_, Request(OLF_MSG_HELLO, 500))->type, OLF_MSG_ACK);
+  ASSERT_EQ(RawExchange(link_, Request(OLF_MSG_HELLO, 500))->type, OLF_MSG_ACK);
+  std::optional<Frame> again = RawExchange(link_, start);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->type, OLF_MSG_NACK);
+  EXPECT_EQ(again->body.at(1), OLF_ERR_BUSY);
+  EXPECT_EQ(link_.robot().ctx().counters.retries_answered_from_cache, cached);
+  EXPECT_EQ(backend_.runs_started(), 1);
 }
 
 TEST_F(LinkFirmwareTest, OtherProtocolVersionIsRefusedWithTheRobotsVersion) {

@@ -466,8 +466,12 @@ static void handle_frame(olf_ctx_t* ctx, size_t n) {
   if (req.type >= OLF_MSG_ACK) return;
 
   /* A retry of the request answered last: send the same reply again, do not
-   * execute twice (a commit or a run start must happen once). */
-  if (ctx->has_cached_reply && req.seq == ctx->cached_seq && req.crc == ctx->cached_request_crc) {
+   * execute twice (a commit or a run start must happen once). HELLO is
+   * exempt: it opens every session and is read-only, so executing it always
+   * both answers fresh and replaces the cache, and a new session can never be
+   * answered from an old session's cache even if its seq happens to repeat. */
+  if (req.type != OLF_MSG_HELLO && ctx->has_cached_reply && req.seq == ctx->cached_seq &&
+      req.crc == ctx->cached_request_crc) {
     ++ctx->counters.retries_answered_from_cache;
     if (ctx->config.callbacks.write) {
       ctx->config.callbacks.write(ctx->config.callbacks.user, ctx->cached_reply,

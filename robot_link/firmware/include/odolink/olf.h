@@ -142,7 +142,8 @@ typedef struct {
   void (*write)(void* user, const uint8_t* data, size_t len);
   /* Start motion; return 0 to refuse (the host gets OLF_ERR_REJECTED). */
   int (*start_run)(void* user, const olf_run_cmd_t* cmd);
-  /* Immediate stop. The firmware still reports olf_run_complete() after. */
+  /* Immediate stop. The firmware must still call olf_run_complete() (status
+   * OLF_RUN_STOPPED) once the robot stands still: that ends the run. */
   void (*stop)(void* user);
   /* The active set changed (boot, commit, set, rollback). */
   void (*params_applied)(void* user, const olf_params_t* params);
@@ -207,7 +208,8 @@ typedef struct {
   olf_counters_t counters;
 } olf_ctx_t;
 
-/* Loads the persisted set (or the defaults), then calls params_applied. */
+/* Copies `config` (robot_name must stay valid), loads the persisted set (or
+ * the defaults), then calls params_applied. Also the reboot path. */
 void olf_init(olf_ctx_t* ctx, const olf_config_t* config);
 /* One received byte. Complete frames are handled right here (replies go out
  * through callbacks.write before this returns). */

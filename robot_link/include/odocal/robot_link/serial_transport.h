@@ -10,6 +10,7 @@
 
 #include "odocal/robot_link/result.h"
 #include "odocal/robot_link/transport.h"
+#include "odocal/robot_link/unique_fd.h"
 
 namespace odocal::robot_link {
 
@@ -28,7 +29,6 @@ class SerialTransport final : public Transport {
   // denied", "not a terminal") when the port cannot be used.
   static Result<std::unique_ptr<SerialTransport>> Open(const std::string& path,
                                                        const SerialOptions& options = {});
-  ~SerialTransport() override;
   SerialTransport(const SerialTransport&) = delete;
   SerialTransport& operator=(const SerialTransport&) = delete;
 
@@ -37,8 +37,8 @@ class SerialTransport final : public Transport {
   std::string Describe() const override { return path_; }
 
  private:
-  SerialTransport(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
-  int fd_;
+  SerialTransport(UniqueFd fd, std::string path) : fd_(std::move(fd)), path_(std::move(path)) {}
+  UniqueFd fd_;
   std::string path_;
 };
 

@@ -6,7 +6,12 @@
  *   odd:  the rest is split at 0xFF bytes into payloads (version, type,
  *         seq, body) that the harness frames correctly (length byte, CRC,
  *         COBS), so the request handlers see deep input, not CRC failures.
- *   bit 1 set: storage writes fail (persist errors on commit/set/rollback).
+ *   bit 1 set: storage writes fail (persist errors on commit/set/rollback);
+ *   bit 2 set (framed mode): "assisted" requests, so the fuzzer reaches the
+ *         commit and persistence paths it could never guess its way into:
+ *         for PARAM_GET/PARAM_SET/STAGE_PUT the first body byte picks a
+ *         table name that the harness writes out; for COMMIT an odd first
+ *         body byte is replaced by the CRC-32 of the staged set.
  * After every frame the harness may finish a running run and emit telemetry.
  *
  * Invariants checked (abort, which libFuzzer reports as a crash):
@@ -70,6 +75,34 @@ static int st_write(void* user, uint32_t off, const uint8_t* d, uint32_t n) {
   return 1;
 }
 
+/* Rewrites an assisted request into `out` (see the top comment); returns
+ * the new length. */
+static size_t assist(const olf_ctx_t* ctx, const uint8_t* p, size_t n, uint8_t* out,
+                     size_t cap) {
+  const uint8_t type = n > 1 ? p[1] : 0;
+  if (n < 5 || cap < n + OLF_MAX_NAME + 4) return 0;
+  memcpy(out, p, 4);
+  if (type == OLF_MSG_PARAM_GET || type == OLF_MSG_PARAM_SET || type == OLF_MSG_STAGE_PUT) {
+    const char* name = olf_param_table()[p[4] % OLF_PARAM_COUNT].name;
+    const size_t len = strlen(name);
+    out[4] = (uint8_t)len;
+    memcpy(out + 5, name, len);
+    memcpy(out + 5 + len, p + 5, n - 5);
+    return n + len;
+  }
+  if (type == OLF_MSG_COMMIT && (p[4] & 1)) {
+    const uint32_t crc = olf_params_crc(&ctx->staged);
+    out[4] = (uint8_t)crc;
+    out[5] = (uint8_t)(crc >> 8);
+    out[6] = (uint8_t)(crc >> 16);
+    out[7] = (uint8_t)(crc >> 24);
+    memcpy(out + 8, p + 5, n - 5);
+    return n + 3;
+  }
+  memcpy(out, p, n);
+  return n;
+}
+
 static void feed_framed(olf_ctx_t* ctx, const uint8_t* p, size_t n) {
   uint8_t payload[OLF_MAX_PAYLOAD + OLF_CRC_SIZE];
   uint8_t wire[OLF_MAX_ENCODED + 2];
@@ -130,7 +163,13 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     start = 1;
     for (i = 1; i <= size; ++i) {
       if (i == size || data[i] == 0xFF) {
-        feed_framed(&ctx, data + start, i - start);
+        if (data[0] & 4) {
+          uint8_t assisted[OLF_MAX_PAYLOAD + OLF_MAX_NAME + 8];
+          const size_t m = assist(&ctx, data + start, i - start, assisted, sizeof assisted);
+          if (m > 0) feed_framed(&ctx, assisted, m);
+        } else {
+          feed_framed(&ctx, data + start, i - start);
+        }
         check(&ctx);
         start = i + 1;
         now += 7;

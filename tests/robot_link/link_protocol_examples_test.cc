@@ -70,9 +70,9 @@ const std::map<std::string, std::string>& Golden() {
   return kGolden;
 }
 
-class Examples : public ::testing::Test {
+class LinkProtocolExamples : public ::testing::Test {
  protected:
-  Examples() : link_(RobotOptions{}, backend_, &storage_) {}
+  LinkProtocolExamples() : link_(RobotOptions{}, backend_, &storage_) {}
 
   // Sends `request`, returns the raw bytes the robot answered.
   Bytes Exchange(const Frame& request) {
@@ -112,7 +112,7 @@ class Examples : public ::testing::Test {
   LoopbackTransport link_;
 };
 
-TEST_F(Examples, WireFramesOfAPushAndARun) {
+TEST_F(LinkProtocolExamples, WireFramesOfAPushAndARun) {
   Show("reply HELLO", Exchange(testing::Request(OLF_MSG_HELLO, 1)));
   Show("reply STAGE_BEGIN", Exchange(testing::Request(OLF_MSG_STAGE_BEGIN, 2)));
   const ParamSet next{72.125, 71.875, 268.25, 4000};

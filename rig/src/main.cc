@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterMeasureCommand(app);
   odocal::rig::RegisterBatchCommand(app);
   odocal::rig::RegisterCalibrateCameraCommand(app);
+  // Command groups; each registers its subcommands.
+  odocal::rig::RegisterRobotCommand(app);
+  (void)app;
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -15,6 +15,7 @@ void RegisterDemoCommand(CLI::App& app);
 void RegisterBatchCommand(CLI::App& app);
 void RegisterMeasureCommand(CLI::App& app);
 void RegisterCalibrateCameraCommand(CLI::App& app);
+void RegisterRobotCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

@@ -166,6 +166,18 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
   return summary;
 }
 
+std::optional<RestWindow> SummarizeRest(const std::vector<PoseSample>& samples) {
+  size_t first_valid = samples.size();
+  for (size_t i = 0; i < samples.size(); ++i) {
+    if (samples[i].valid) {
+      first_valid = i;
+      break;
+    }
+  }
+  if (first_valid == samples.size()) return std::nullopt;
+  return Summarize(samples, first_valid, samples.size());
+}
+
 double RelativePose::sigma_x_m() const { return std::sqrt(covariance(0, 0)); }
 double RelativePose::sigma_y_m() const { return std::sqrt(covariance(1, 1)); }
 double RelativePose::sigma_heading_rad() const { return std::sqrt(covariance(2, 2)); }

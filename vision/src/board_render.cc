@@ -116,12 +116,13 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
     }
   }
   cv::Mat acc = cv::Mat::zeros(H, W, CV_32F);
-  internal::IntegratePixels(W, H, q, id, options.supersample, 1.0, classify, value, &acc);
+  internal::IntegratePixels(W, H, q, id, options.supersample, 1.0, options.seed * 0x2545F4914F6CDD1Dull + 1,
+                            classify, value, &acc);
 
   if (options.blur_sigma_px > 0.0) {
-    const int k = internal::BlurKernelSize(options.blur_sigma_px);
-    cv::GaussianBlur(acc, acc, cv::Size(k, k), options.blur_sigma_px, options.blur_sigma_px,
-                     cv::BORDER_REPLICATE);
+    cv::Mat blurred;
+    internal::OpticalBlur(acc, &blurred, options.blur_sigma_px);
+    acc = blurred;
   }
   if (options.noise_sigma > 0.0) {
     cv::Mat noise(H, W, CV_32F);

@@ -89,9 +89,10 @@ struct FittedLine {
   cv::Point2d dir;
 };
 
-std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point2d& a_px, const cv::Point2d& b_px,
-                                  const cv::Point2d& centre_px, const CameraModel* camera,
-                                  double half_width, double end_margin, double* rms) {
+std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
+                                  const cv::Point2d& b_px, const cv::Point2d& centre_px,
+                                  const CameraModel* camera, double half_width, double end_margin,
+                                  double* rms) {
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
   const cv::Point2d ab = b_px - a_px;
@@ -99,10 +100,11 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point2d& a_px, 
   const cv::Point2d dir = ab * (1.0 / len);
   cv::Point2d normal(-dir.y, dir.x);
   if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
-  const int x0 = std::max(0, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
-  const int x1 = std::min(grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
-  const int y0 = std::max(0, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
-  const int y1 = std::min(grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
+  // Image pixel (x, y) is grey(y - origin.y, x - origin.x).
+  const int x0 = std::max(origin.x, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
+  const int x1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
+  const int y0 = std::max(origin.y, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
+  const int y1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
   std::vector<cv::Point2d> centres;
   EdgePixels pixels;
   for (int y = y0; y <= y1; ++y) {
@@ -112,7 +114,7 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point2d& a_px, 
       const double d = (q - a_px).dot(normal);
       if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
       centres.push_back(q);
-      pixels.value.push_back(grey.at<uint8_t>(y, x));
+      pixels.value.push_back(grey.at<uint8_t>(y - origin.y, x - origin.x));
     }
   }
   if (pixels.value.size() < 20) return std::nullopt;
@@ -154,7 +156,8 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point2d& a_px, 
 CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
                                                const std::array<cv::Point2d, 4>& corners_px,
                                                const CameraModel* camera,
-                                               const CornerRefineOptions& options) {
+                                               const CornerRefineOptions& options,
+                                               const cv::Point& origin) {
   CornerRefineResult result;
   result.corners_px = corners_px;
   std::string why;
@@ -182,7 +185,7 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) {
     double rms = 0.0;
-    const auto line = FitEdge(grey, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
+    const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
                               half_width, options.end_margin, &rms);
     if (!line) {
       result.message = "edge " + std::to_string(k) + " could not be fitted";

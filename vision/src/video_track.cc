@@ -8,6 +8,8 @@
 #include <sstream>
 #include <thread>
 
+#include <opencv2/imgproc.hpp>
+
 #include "odocal/vision/video.h"
 
 namespace odocal::vision {
@@ -63,6 +65,15 @@ bool VideoTrackOptions::IsValid(std::string* why) const {
   if (duplicate_check_every < 0) return fail("duplicate_check_every must not be negative");
   if (queue_frames < 1) return fail("queue_frames must be at least 1");
   return true;
+}
+
+std::optional<TagCorners> RefineObservationExactly(const FrameObservation& observation,
+                                                   const CameraModel& camera) {
+  if (!observation.corners_px || observation.crop.empty()) return std::nullopt;
+  const CornerRefineResult r = RefineTagCornersByEdgeModel(
+      observation.crop, *observation.corners_px, &camera, CornerRefineOptions{}, observation.crop_origin);
+  if (!r.ok) return std::nullopt;
+  return r.corners_px;
 }
 
 std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error) {
@@ -168,6 +179,16 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
         obs.corners_px = refined.corners_px;
         obs.refined = true;
       }
+    }
+    if (obs.corners_px && options.keep_crops) {
+      cv::Rect box = cv::boundingRect(std::vector<cv::Point2f>(
+          {cv::Point2f((*obs.corners_px)[0]), cv::Point2f((*obs.corners_px)[1]),
+           cv::Point2f((*obs.corners_px)[2]), cv::Point2f((*obs.corners_px)[3])}));
+      const int margin = 8;
+      box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+            cv::Rect(0, 0, grey.cols, grey.rows);
+      obs.crop = grey(box).clone();
+      obs.crop_origin = box.tl();
     }
     lost = !obs.corners_px.has_value();
     lost_for = lost ? lost_for + 1 : 0;

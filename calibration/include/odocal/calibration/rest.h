@@ -73,6 +73,10 @@ struct RestSummary {
 
 RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions& options = {});
 
+// The mean and covariance of the valid samples, as a rest window (for
+// re-measuring a rest's frames more exactly); nullopt without valid samples.
+std::optional<RestWindow> SummarizeRest(const std::vector<PoseSample>& samples);
+
 // The pose of `end` in the frame of `start` (x along the start heading), with
 // its covariance propagated from both means (x_mm, y_mm, heading).
 struct RelativePose {

@@ -30,6 +30,9 @@ struct MeasureOptions {
   int max_plane_views = 300;
   double min_view_separation_px = 8.0;
   calibration::RestOptions rest;
+  // Refine the frames of each start and end rest with the exact edge model
+  // before averaging them.
+  bool exact_rest_refinement = true;
   // Floors on a return error's sigma: what the spread of rest frames cannot
   // see (compression artefacts shared by the frames of a rest, detector
   // bias), measured on rendered truth at CRF 12 (docs/vision.md).

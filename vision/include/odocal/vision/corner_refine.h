@@ -58,13 +58,17 @@ CornerRefineResult RefineTagCorners(const cv::Mat& grey, const std::array<cv::Po
 // levels and blur are fitted to the raw pixels of a band along it, each pixel
 // modelled as the area integral of a Gaussian-blurred straight edge. No
 // sub-pixel-phase bias on edges parallel to the pixel grid, where the
-// half-level method above is off by up to ~0.06 px; ~1 ms per tag, so the
-// pipeline spends it on the frames that are averaged (rests).
-// rms_line_residual_px reports the fits' rms grey-level residual instead.
+// half-level method above is off by ~0.02 px (0.02-0.03 deg of heading at the
+// standard condition; docs/vision.md). 1.5-4 ms per tag, so the pipeline
+// spends it on the frames that are averaged (rests).
+// `grey` may be a crop: its pixel (0, 0) is image pixel `origin`; corners
+// are in image pixels. rms_line_residual_px reports the fits' rms grey-level
+// residual instead.
 CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
                                                const std::array<cv::Point2d, 4>& corners_px,
                                                const CameraModel* camera,
-                                               const CornerRefineOptions& options = {});
+                                               const CornerRefineOptions& options = {},
+                                               const cv::Point& origin = {0, 0});
 
 }  // namespace odocal::vision
 

@@ -59,6 +59,10 @@ struct RenderOptions {
   double floor_mean = 120.0;
   double floor_contrast = 40.0;  // peak deviation of the floor texture
   int edge_supersample = 16;     // samples per axis in edge pixels
+  // The changing window is formed at this multiple of the resolution (blur
+  // at that scale, then area-averaged), so that the optical blur is close to
+  // a continuous one: see RenderPoses.
+  int optical_oversample = 2;
 
   bool IsValid(std::string* why) const;
 };

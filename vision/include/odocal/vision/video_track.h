@@ -35,6 +35,9 @@ struct VideoTrackOptions {
   int duplicate_check_every = 60;
   // Decoded frames waiting for the tracker.
   int queue_frames = 8;
+  // Keep the pixels around each found tag (a few kB a frame), so that the
+  // frames that end up averaged can be refined again, exactly, afterwards.
+  bool keep_crops = true;
 
   bool IsValid(std::string* why) const;
 };
@@ -47,7 +50,16 @@ struct FrameObservation {
   bool used_roi = false;
   bool refined = false;
   std::optional<TagCorners> corners_px;  // when status == kOk
+  // With keep_crops: the tag and its surroundings; crop pixel (0, 0) is image
+  // pixel crop_origin.
+  cv::Mat crop;
+  cv::Point crop_origin;
 };
+
+// The exact refinement (RefineTagCornersByEdgeModel) of a frame's corners
+// from its kept crop; nullopt without a crop or when the fit fails.
+std::optional<TagCorners> RefineObservationExactly(const FrameObservation& observation,
+                                                   const CameraModel& camera);
 
 struct VideoTrack {
   bool ok = false;

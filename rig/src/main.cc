@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterUmbmarkCommand(app);
   odocal::rig::RegisterCvraCommand(app);
   odocal::rig::RegisterDemoCommand(app);
+  odocal::rig::RegisterExplainCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -12,6 +12,7 @@ void RegisterSimulateCommand(CLI::App& app);
 void RegisterUmbmarkCommand(CLI::App& app);
 void RegisterCvraCommand(CLI::App& app);
 void RegisterDemoCommand(CLI::App& app);
+void RegisterExplainCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

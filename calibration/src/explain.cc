@@ -6,6 +6,8 @@
 #include <map>
 #include <sstream>
 
+#include <boost/math/distributions/chi_squared.hpp>
+
 namespace odocal::calibration {
 namespace {
 
@@ -52,6 +54,10 @@ bool ExplainOptions::IsValid(std::string* why) const {
   }
   if (max_effects < 0) {
     if (why) *why = "max_effects must not be negative";
+    return false;
+  }
+  if (!(wald_alpha > 0.0 && wald_alpha < 1.0)) {
+    if (why) *why = "wald_alpha must be in (0, 1)";
     return false;
   }
   if (!(alias_tolerance > 0.0 && alias_tolerance < 1.0)) {
@@ -189,6 +195,10 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       if (f.ok()) {
         trial.score = BicScore(current, f);
         trial.gap_m = f.gap_m;
+        trial.wald = f.Wald(e);
+        const int k = static_cast<int>(EffectParamIndices(e).size());
+        trial.wald_threshold = boost::math::quantile(
+            boost::math::complement(boost::math::chi_squared(k), options.wald_alpha));
       }
       trials.push_back(trial);
     }
@@ -196,7 +206,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     double best_score = -INFINITY;
     Effect best_effect = Effect::kTagOffset;
     for (const CandidateTrial& t : trials)
-      if (t.fitted && t.score > best_score) {
+      if (t.fitted && t.wald > t.wald_threshold && t.score > best_score) {
         best_score = t.score;
         best_effect = t.effect;
       }

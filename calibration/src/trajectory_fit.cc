@@ -296,6 +296,20 @@ const ParameterEstimate* TrajectoryFitResult::Find(std::string_view name) const 
   return nullptr;
 }
 
+double TrajectoryFitResult::Wald(Effect effect) const {
+  const std::vector<int> idx = EffectParamIndices(effect);
+  const int k = static_cast<int>(idx.size());
+  Eigen::VectorXd theta(k);
+  Eigen::MatrixXd sigma(k, k);
+  for (int a = 0; a < k; ++a) {
+    theta[a] = effects.values[idx[a]];
+    for (int b = 0; b < k; ++b) sigma(a, b) = effect_covariance(idx[a], idx[b]);
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(sigma);
+  if (ldlt.info() != Eigen::Success || !(sigma.diagonal().minCoeff() > 0.0)) return 0.0;
+  return theta.dot(ldlt.solve(theta));
+}
+
 std::string TrajectoryFitResult::BriefReport() const {
   std::ostringstream os;
   os << "trajectory fit: "
@@ -636,13 +650,23 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       row0 += static_cast<int>(rd.frame_t.size()) * m;
     }
   }
+  // The effect block's covariance (for significance tests of candidates).
+  result.effect_covariance.setZero();
+  {
+    std::vector<int> fx_index;  // column c of cov -> EffectParams index
+    for (Effect e : options.effects)
+      for (int idx : EffectParamIndices(e)) fx_index.push_back(idx);
+    for (size_t a = 0; a < fx_index.size(); ++a)
+      for (size_t b = 0; b < fx_index.size(); ++b)
+        result.effect_covariance(fx_index[a], fx_index[b]) = cov(kBase + a, kBase + b);
+  }
   // A direction in parameter space is estimable when it is orthogonal to
   // every null vector (in the normalised coordinates).
   auto estimable = [&](const Eigen::VectorXd& gradient) {
     const Eigen::VectorXd g = gradient.cwiseQuotient(norms);  // to normalised coordinates
     if (g.norm() == 0.0) return true;
     for (const Eigen::VectorXd& v : null_vectors)
-      if (std::abs(g.normalized().dot(v)) > 1e-3) return false;
+      if (std::abs(g.normalized().dot(v)) > 0.02) return false;
     return true;
   };
   for (const Eigen::VectorXd& v : null_vectors) {

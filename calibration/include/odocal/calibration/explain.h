@@ -15,7 +15,12 @@
 //    of frames AIC's fixed 2 per parameter would let any candidate absorb a
 //    little wheel noise and name invented physics. Keep the best candidate if
 //    its score exceeds `min_score` (10: "very strong" on Kass & Raftery's
-//    scale); repeat until no candidate does.
+//    scale) and its parameters differ from zero beyond their uncertainty
+//    (a Wald test at `wald_alpha`, with the covariance that includes the
+//    wheel noise: BIC alone counts frames as independent, and a candidate
+//    can then "explain" a little of the random walk of the wheels — seen as
+//    a carpet drift of 0.2 mm/m with an interval that holds zero). Repeat
+//    until no candidate passes both.
 //
 // Pure function of recorded data; I/O lives in rig/ (odocal explain).
 #ifndef ODOCAL_CALIBRATION_EXPLAIN_H_
@@ -33,6 +38,7 @@ struct ExplainOptions {
   TrajectoryFitOptions fit;  // its `effects` are ignored: explain chooses them
   std::vector<Effect> candidates{kAllEffects.begin(), kAllEffects.end()};
   double min_score = 10.0;
+  double wald_alpha = 1e-3;
   int max_effects = 4;
   double alias_tolerance = 0.02;
 
@@ -65,6 +71,10 @@ struct CandidateTrial {
   bool fitted = false;  // false: aliased or without signal, not fitted
   double score = 0.0;
   double gap_m = 0.0;
+  // Wald statistic of its parameters against zero, and the chi-square
+  // quantile it must exceed.
+  double wald = 0.0;
+  double wald_threshold = 0.0;
   AliasReport alias;
 };
 

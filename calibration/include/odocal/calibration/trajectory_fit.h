@@ -160,6 +160,12 @@ struct TrajectoryFitResult {
 
   // Ed, Es, Eb, then the effects' parameters in the order of options.effects.
   std::vector<ParameterEstimate> parameters;
+  // Covariance of the effect block (EffectParams order; zero where disabled).
+  Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize> effect_covariance =
+      Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize>::Zero();
+  // Wald statistic of an enabled effect's parameters against zero (chi-square
+  // with as many degrees of freedom as it has parameters).
+  double Wald(Effect effect) const;
   const ParameterEstimate* Find(std::string_view name) const;
 
   std::vector<FrameResidual> residuals;

@@ -158,7 +158,7 @@ TEST(Explain, SlipAtOneTurnRateIsReportedAsAliasedWithTheTrack) {
   for (const auto& a : r.aliased)
     if (a.effect == calibration::Effect::kTurnSlip) slip = &a;
   ASSERT_NE(slip, nullptr) << "turn_slip must be reported as indistinguishable";
-  EXPECT_LT(slip->separation, 0.02);
+  EXPECT_LT(slip->separation, 0.01);
   EXPECT_NE(std::find(slip->looks_like.begin(), slip->looks_like.end(), "Eb"), slip->looks_like.end());
   EXPECT_NE(slip->distinguishing_runs.find("two different turn rates"), std::string::npos);
   // ...and the track it fitted carries the slip: 1 - 0.03 * 60 deg/s is a

@@ -218,7 +218,7 @@ struct AliasReport {
 };
 
 AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
-                          double alias_tolerance = 0.02);
+                          double alias_tolerance = 0.01);
 
 // Which runs separate an effect from the base model, in words.
 std::string DistinguishingRuns(Effect effect);

@@ -158,12 +158,9 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   result.base_residuals = SummariseResiduals(session, result.base);
   TrajectoryFitResult current = result.base;
 
-  std::vector<Effect> candidates;
-  for (Effect e : options.candidates) {
-    // The lens model needs the camera's geometry; without it the candidate
-    // cannot be formed (reported as no signal below).
-    candidates.push_back(e);
-  }
+  // The lens candidate needs the camera's geometry; without it it cannot be
+  // formed and is reported as without signal.
+  const std::vector<Effect>& candidates = options.candidates;
   while (static_cast<int>(current.options.effects.size()) < options.max_effects) {
     std::vector<CandidateTrial> trials;
     const TrajectoryFitResult* best = nullptr;

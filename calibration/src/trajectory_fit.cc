@@ -427,8 +427,6 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       starts[r] = {p.x(), p.y(), p.heading()};
     }
   }
-  // The heading parameter is unwrapped while the first frame's is wrapped:
-  // keep each start near its first frame.
 
   std::vector<std::unique_ptr<ceres::CostFunction>> costs;
   for (RunData& rd : runs) {
@@ -568,7 +566,6 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       col_names.push_back(std::string(ToString(e)) + "." + names[k]);
     }
   }
-  const int n_model = static_cast<int>(cols.size());
   for (size_t r = 0; r < runs.size(); ++r)
     for (int c = 0; c < 3; ++c) {
       cols.push_back(kBase + kFx + 3 * static_cast<int>(r) + c);
@@ -734,7 +731,6 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       estimate(prefix + names[k], fx.values[idx[k]], g);
     }
   }
-  (void)n_model;
 
   result.status = TrajectoryFitResult::Status::kOk;
   if (!summary.IsSolutionUsable()) {

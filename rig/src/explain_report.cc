@@ -131,6 +131,9 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
       trials.push_back({{"effect", calibration::ToString(t.effect)},
                         {"fitted", t.fitted},
                         {"score", t.score},
+                        {"wald", t.wald},
+                        {"wald_threshold", t.wald_threshold},
+                        {"separation", t.alias.separation},
                         {"gap_mm", t.gap_m * 1e3}});
     steps.push_back({{"effect", calibration::ToString(s.effect)},
                      {"params", ParamsJson(s.params, false)},
@@ -144,6 +147,8 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
     if (t.fitted)
       rejected.push_back({{"effect", calibration::ToString(t.effect)},
                           {"score", t.score},
+                          {"wald", t.wald},
+                          {"wald_threshold", t.wald_threshold},
                           {"gap_mm", t.gap_m * 1e3}});
   nlohmann::json aliased = nlohmann::json::array();
   for (const calibration::AliasReport& a : result.aliased) aliased.push_back(AliasJson(a));
@@ -153,7 +158,10 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
       {"gap_after_mm", result.gap_after_m() * 1e3},
       {"effects_added", result.EffectsAdded()},
       {"noise_floor_mm", result.final_fit.noise_floor_m * 1e3},
-      {"criterion", "BIC drop, N_eff ln(SSE_before/SSE_after) - k ln(N_eff); kept above 10"},
+      {"criterion",
+       "BIC drop N_eff ln(SSE_before/SSE_after) - k ln(N_eff) above 10, and a Wald test of the "
+       "effect's parameters against zero (wheel noise included) above its chi-square 0.999 "
+       "quantile"},
       {"not_kept", rejected},
       {"cannot_tell", aliased},
       {"base", FitJson(result.base)},

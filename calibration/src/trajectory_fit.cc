@@ -175,6 +175,19 @@ struct RunResidual {
   }
 };
 
+// A weak prior on the base ratios at 1 (the nominal parameters): it keeps
+// the solver in a physical region along directions the data leave free, and
+// weighs ~1e-7 of the data on a determined parameter. It is left out of the
+// identifiability analysis and the covariance.
+struct BasePrior {
+  double sigma = 0.2;
+  template <typename T>
+  bool operator()(const T* base, T* residuals) const {
+    for (int i = 0; i < kBase; ++i) residuals[i] = (base[i] - 1.0) / sigma;
+    return true;
+  }
+};
+
 MotionKind StepKind(std::int64_t dl, std::int64_t dr) {
   if (dl == 0 && dr == 0) return MotionKind::kRest;
   if ((dl > 0 && dr < 0) || (dl < 0 && dr > 0)) return MotionKind::kTurn;
@@ -284,6 +297,8 @@ bool TrajectoryFitOptions::IsValid(std::string* why) const {
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0))
     return fail("rank_tolerance must be in (0, 1)");
   if (min_frames_per_run < 2) return fail("min_frames_per_run must be at least 2");
+  if (!(base_prior_sigma >= 0.0)) return fail("base_prior_sigma must not be negative");
+  if (!(max_ratio_sigma > 0.0)) return fail("max_ratio_sigma must be positive");
   for (size_t i = 0; i < effects.size(); ++i)
     for (size_t j = i + 1; j < effects.size(); ++j)
       if (effects[i] == effects[j]) return fail("an effect is listed twice");
@@ -435,6 +450,9 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
         functor, static_cast<int>(rd.frame_t.size()) * rd.residuals_per_frame));
   }
 
+  std::unique_ptr<ceres::CostFunction> prior(
+      new ceres::AutoDiffCostFunction<BasePrior, kBase, kBase>(
+          new BasePrior{options.base_prior_sigma}));
   ceres::Solver::Summary summary;
   for (int round = 0; round < options.irls_rounds; ++round) {
     ceres::Problem::Options problem_options;
@@ -444,6 +462,8 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     for (size_t r = 0; r < runs.size(); ++r)
       problem.AddResidualBlock(costs[r].get(), nullptr, base.data(), starts[r].data(),
                                fx.values.data());
+    if (options.base_prior_sigma > 0.0)
+      problem.AddResidualBlock(prior.get(), nullptr, base.data());
     std::vector<int> constant;
     for (int i = 0; i < kFx; ++i)
       if (!active[i]) constant.push_back(i);
@@ -702,6 +722,16 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   g.setZero();
   g[2] = 1.0;
   estimate("Eb", base[2], g);
+  // A ratio whose uncertainty spans more than its plausible range is not
+  // determined by these data, whatever the rank test says (a nearly flat
+  // direction just above the tolerance).
+  for (ParameterEstimate& e : result.parameters)
+    if (e.identifiable && e.sigma > options.max_ratio_sigma) {
+      e.identifiable = false;
+      result.unidentifiable.push_back(e.name + ": sigma " + Fixed(e.sigma, 4) +
+                                      " exceeds the plausible range of a ratio (" +
+                                      Fixed(options.max_ratio_sigma, 3) + ")");
+    }
   int c = kBase;
   for (Effect e : options.effects) {
     const std::string prefix = std::string(ToString(e)) + ".";

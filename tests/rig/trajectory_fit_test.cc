@@ -51,6 +51,19 @@ TEST(TrajectoryFit, ReportsWhatSpinsAtHomeCannotTell) {
   EXPECT_TRUE(fit.Find("Ed")->identifiable) << "Ed is a ratio, untouched by the common scale";
 }
 
+// Straights alone veer by L (r_R - r_L) / (Eb b): the wheel difference and
+// the track are one number there.
+TEST(TrajectoryFit, ReportsThatStraightsAloneCannotSeparateEdFromEb) {
+  const SessionUnderTest s = MakeSession({RunSpec::Straight(2.0), RunSpec::Straight(1.0)}, {}, 5);
+  const auto fit = FitTrajectory(s.session);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  std::printf("%s", fit.BriefReport().c_str());
+  EXPECT_FALSE(fit.unidentifiable.empty());
+  EXPECT_FALSE(fit.Find("Eb")->identifiable);
+  EXPECT_TRUE(fit.Find("Es")->identifiable) << "the camera is the length reference";
+  EXPECT_NEAR(fit.Find("Es")->value, s.truth.Es, 2.5 * fit.Find("Es")->sigma);
+}
+
 TEST(TrajectoryFit, AHomeAreaCameraStillCalibratesFromRestsAndNearbyLegs) {
   StandInCameraOptions camera;
   camera.home_radius_m = 0.3;

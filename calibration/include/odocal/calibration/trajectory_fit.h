@@ -117,6 +117,12 @@ struct TrajectoryFitOptions {
   // A normalised singular value below this (relative to the largest) marks a
   // parameter combination the data cannot determine.
   double rank_tolerance = 1e-5;
+  // A weak prior on r_left, r_right and Eb at 1 with this sigma, only to keep
+  // the solver physical along directions the data leave free (it is not part
+  // of the covariance or of the identifiability test); 0 turns it off.
+  double base_prior_sigma = 0.2;
+  // Ed, Es or Eb with a larger sigma is reported as not identifiable.
+  double max_ratio_sigma = 0.01;
   // Runs with fewer valid camera frames than this are left out (their start
   // pose cannot be determined).
   int min_frames_per_run = 10;

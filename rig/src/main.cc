@@ -14,9 +14,8 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterMeasureCommand(app);
   odocal::rig::RegisterBatchCommand(app);
   odocal::rig::RegisterCalibrateCameraCommand(app);
-  // Command groups; each registers its subcommands.
   odocal::rig::RegisterRobotCommand(app);
-  (void)app;
+  odocal::rig::RegisterExplainCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

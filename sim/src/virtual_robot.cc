@@ -11,6 +11,7 @@ using calibration::Pose2;
 using calibration::Primitive;
 using calibration::RunSpec;
 using calibration::WheelParams;
+using calibration::WrapAngle;
 
 // Position along a trapezoidal (or triangular) velocity profile.
 double TrapezoidPosition(double total, double speed, double accel, double t) {
@@ -94,6 +95,7 @@ VirtualRobot::Segment VirtualRobot::MakePrimitive(const Primitive& primitive,
   s.left_m = primitive.LeftTravel(believed_.track_m);
   s.right_m = primitive.RightTravel(believed_.track_m);
   s.lead_total = std::abs(primitive.amount);
+  s.is_turn = primitive.kind == Primitive::Kind::kTurn;
   if (primitive.kind == Primitive::Kind::kStraight) {
     s.lead_speed = spec.speed_m_s.value_or(config_.limits.speed_m_s);
     s.lead_accel = config_.limits.accel_m_s2;
@@ -130,10 +132,52 @@ void VirtualRobot::Stop() {
   moving_ = false;
 }
 
+double VirtualRobot::GroundTicks(double shaft_ticks, int* last_direction, double* dead_left) {
+  if (shaft_ticks == 0.0) return 0.0;
+  const int direction = shaft_ticks > 0.0 ? 1 : -1;
+  if (direction != *last_direction) {
+    // The shaft reversed: the gear lash must be taken up before the wheel
+    // follows. The encoder (on the motor shaft) counts all of it.
+    *last_direction = direction;
+    *dead_left = config_.effects.encoder_backlash ? config_.effects.encoder_backlash->ticks : 0.0;
+  }
+  const double consumed = std::min(std::abs(shaft_ticks), *dead_left);
+  *dead_left -= consumed;
+  return shaft_ticks - direction * consumed;
+}
+
+Pose2 VirtualRobot::MoveOnFloor(const Pose2& start, double true_left_m, double true_right_m,
+                                Motion motion) const {
+  const double track = config_.truth.track_m;
+  double left = true_left_m, right = true_right_m;
+  if (motion == Motion::kTurn && config_.effects.turn_slip) {
+    // turn_slip: the rotation is (1 - f |omega|) of what the wheels imply, omega
+    // being the wheel-implied rate of this control step; the (tiny) forward
+    // travel of an in-place turn is kept.
+    const double ds = 0.5 * (left + right);
+    const double dtheta = (right - left) / track;
+    const double omega = std::abs(dtheta) / control_period_s();
+    const double achieved = dtheta * (1.0 - config_.effects.turn_slip->fraction_at_1rad_s * omega);
+    left = ds - 0.5 * achieved * track;
+    right = ds + 0.5 * achieved * track;
+  }
+  Pose2 end = calibration::ArcStep(start, left, right, track);
+  if (motion == Motion::kStraight && config_.effects.carpet_drift) {
+    // carpet_drift: to the robot's left by rate * cos(heading - grain) per
+    // metre travelled forward (backwards travel drifts the other way).
+    const CarpetDriftEffect& drift = *config_.effects.carpet_drift;
+    const double ds = 0.5 * (left + right);
+    const double mid = start.heading() + 0.5 * WrapAngle(end.heading() - start.heading());
+    const double lateral = drift.rate_m_per_m * std::cos(mid - drift.grain_rad) * ds;
+    end = Pose2::FromXYHeading(end.x() - lateral * std::sin(mid), end.y() + lateral * std::cos(mid),
+                               end.heading());
+  }
+  return end;
+}
+
 void VirtualRobot::AdvanceWheels(double true_left_m, double true_right_m, double left_ticks,
-                                 double right_ticks) {
-  T_world_robot_ =
-      calibration::ArcStep(T_world_robot_, true_left_m, true_right_m, config_.truth.track_m);
+                                 double right_ticks, Motion motion) {
+  T_world_robot_ = MoveOnFloor(T_world_robot_, true_left_m, true_right_m, motion);
   left_shaft_ticks_ += left_ticks;
   right_shaft_ticks_ += right_ticks;
   IntegrateOdometry();
@@ -184,14 +228,18 @@ bool VirtualRobot::Step() {
       // The servo turns each shaft by its setpoint increment, in ticks.
       const double left_ticks = df * seg.left_m / believed_.LeftMetresPerTick();
       const double right_ticks = df * seg.right_m / believed_.RightMetresPerTick();
-      double true_left = left_ticks * true_left_per_tick;
-      double true_right = right_ticks * true_right_per_tick;
+      // encoder_backlash: only the shaft motion past the lash moves the wheel.
+      double true_left = GroundTicks(left_ticks, &left_direction_, &left_dead_ticks_) *
+                         true_left_per_tick;
+      double true_right = GroundTicks(right_ticks, &right_direction_, &right_dead_ticks_) *
+                          true_right_per_tick;
       const double sigma = config_.noise.wheel_sigma_m_per_sqrt_m;
       if (sigma > 0.0) {
         true_left += sigma * std::sqrt(std::abs(true_left)) * normal_(rng_);
         true_right += sigma * std::sqrt(std::abs(true_right)) * normal_(rng_);
       }
-      AdvanceWheels(true_left, true_right, left_ticks, right_ticks);
+      AdvanceWheels(true_left, true_right, left_ticks, right_ticks,
+                    seg.is_turn ? Motion::kTurn : Motion::kStraight);
       break;
     }
     case Segment::Kind::kWallAlign: {
@@ -206,7 +254,8 @@ bool VirtualRobot::Step() {
       seg.elapsed_s += dt;
       // The wheels roll with the rotation; the encoders count it.
       const double arc = seg.rotation_rad * step_fraction * config_.truth.track_m / 2.0;
-      AdvanceWheels(arc, -arc, arc / true_left_per_tick, -arc / true_right_per_tick);
+      AdvanceWheels(arc, -arc, arc / true_left_per_tick, -arc / true_right_per_tick,
+                    Motion::kPushed);
       break;
     }
   }

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
@@ -54,8 +56,19 @@ struct MeasuredRun {
   std::vector<std::string> flags;
 };
 
+// Where the camera looks at the floor, as its calibration says: the floor
+// point under the optical axis (measurement frame) and the height of the
+// centre of projection above the tag plane. What a lens model needs to map a
+// floor position to a normalised image radius (r = |p - centre| / height).
+struct FloorCamera {
+  Eigen::Vector2d centre_m = Eigen::Vector2d::Zero();
+  double height_m = 0.0;
+};
+
 struct MeasuredSession {
   WheelParams believed;  // the parameters the robot's firmware used
+  // The camera's geometry when known (lens effects need it).
+  std::optional<FloorCamera> camera;
   std::vector<MeasuredRun> runs;
 };
 

@@ -128,6 +128,7 @@ class VirtualRobot {
     double lead_total = 0.0;  // |distance| or |angle| of the leading quantity
     double lead_speed = 0.0;
     double lead_accel = 0.0;
+    bool is_turn = false;  // an in-place turn (turn_slip acts), else a straight
     double elapsed_s = 0.0;
     double done_fraction = 0.0;
     // kWallAlign: the true rotation to undo (rad).
@@ -137,8 +138,17 @@ class VirtualRobot {
   static Segment MakeRest(double duration_s);
   Segment MakePrimitive(const calibration::Primitive& primitive,
                         const calibration::RunSpec& spec) const;
+  // Moves the robot on the floor (with the effects that apply to `motion`)
+  // and turns the encoder shafts.
+  enum class Motion { kStraight, kTurn, kPushed };
   void AdvanceWheels(double true_left_m, double true_right_m, double left_ticks,
-                     double right_ticks);
+                     double right_ticks, Motion motion);
+  // The robot-side hidden effects of one control step of a primitive: the
+  // shaft ticks that move ground after encoder_backlash, and the true pose
+  // after turn_slip and carpet_drift.
+  double GroundTicks(double shaft_ticks, int* last_direction, double* dead_left);
+  calibration::Pose2 MoveOnFloor(const calibration::Pose2& start, double true_left_m,
+                                 double true_right_m, Motion motion) const;
   void IntegrateOdometry();
 
   RobotConfig config_;
@@ -155,6 +165,13 @@ class VirtualRobot {
   std::int64_t left_count_ = 0;
   std::int64_t right_count_ = 0;
   bool moving_ = false;
+  // encoder_backlash state per wheel: the direction the shaft last moved
+  // (+1 forward; a robot starts as if it last moved forward) and the dead
+  // ticks still to pass before the wheel moves again.
+  int left_direction_ = 1;
+  int right_direction_ = 1;
+  double left_dead_ticks_ = 0.0;
+  double right_dead_ticks_ = 0.0;
 
   calibration::RunSpec current_spec_;
   std::deque<Segment> segments_;

@@ -1,0 +1,234 @@
+// Full-trajectory least squares: the odometry model, driven by the recorded
+// encoder ticks, fitted to every pose the camera measured (in the spirit of
+// Antonelli, Chiaverini & Fusco 2005, "A calibration method for odometry of
+// mobile robots based on the least-squares technique", IEEE T-RO 21(5), and
+// Censi, Franchi, Marchionni & Oriolo 2013, "Simultaneous calibration of
+// odometry and sensor parameters for mobile robots", IEEE T-RO 29(2)).
+//
+// Model. For each run, a start pose (x, y, heading) in the camera's
+// measurement frame is a nuisance parameter. From it the model dead-reckons
+// with candidate parameters: between two telemetry samples the wheels roll
+// true travel = ticks * believed metres-per-tick * r (r_left, r_right), on a
+// true track Eb * believed track, along an exact arc (arc.h). The predicted
+// pose at each camera timestamp (interpolated between telemetry samples) is
+// compared with the measured pose, each frame whitened by its stated sigmas.
+// The rests before and after a run are part of the camera record (their
+// frames weigh n times one frame, as their mean would).
+//
+// Effects (the model library of `explain`): each adds its own parameters to
+// the model; those not enabled stay at zero. They are the inverses of what
+// the virtual world does (sim/effects.h):
+//   tag_offset       measured position = p + R(heading) (x, y)_tag
+//   camera_latency   a frame stamped s shows the robot at telemetry time s + latency
+//   turn_slip        in-place turns achieve (1 - f |omega|) of the wheel rotation
+//   lens_distortion  measured = c + (p - c)(1 + dk1 |p - c|^2 / h^2): the
+//                    first-order radial warp on the floor left by a k1 error
+//                    dk1 (image radius = floor radius / camera height)
+//   encoder_backlash after a wheel's ticks reverse, `ticks` counts pass without motion
+//   carpet_drift     while not turning in place, lateral drift to the left of
+//                    rate cos(heading - grain) per metre forward; fitted as the
+//                    linear pair (a, b) = rate (cos grain, sin grain)
+//
+// Robust loss: Huber on each frame's whitened error, by iteratively
+// reweighted least squares (the frames of a run share one dead-reckoned
+// cost block, so Ceres' per-block loss would down-weight a whole run). Huber
+// because it is quadratic for inliers (the covariance stays the Gaussian one)
+// and convex (no new local minima), while a lost or mis-detected tag frame
+// counts only linearly.
+//
+// Uncertainty: the covariance (J^T J)^-1 of the whitened problem (scaled up
+// when the residuals exceed the stated sigmas), plus the wheel noise the
+// model cannot fit: each step's random ground-travel error moves all later
+// poses, and through the pseudo-inverse of J the estimate (a sandwich term,
+// pinv(J) J_w Q J_w^T pinv(J)^T, with Q from wheel_sigma_m_per_sqrt_m).
+// Without it, intervals of Ed and Eb cover the truth far less than 95 %.
+// Identifiability: the singular values of the column-normalised
+// Jacobian; a combination whose singular value is below
+// `rank_tolerance` of the largest is reported, not estimated.
+//
+// Frames: measurement frame REP-103; robot REP-103. Units: SI.
+#ifndef ODOCAL_CALIBRATION_TRAJECTORY_FIT_H_
+#define ODOCAL_CALIBRATION_TRAJECTORY_FIT_H_
+
+#include <array>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "odocal/calibration/measured_session.h"
+#include "odocal/calibration/pose2.h"
+#include "odocal/calibration/robot_model.h"
+
+namespace odocal::calibration {
+
+// The candidate effects, named as scenario files name them.
+enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
+                    kCarpetDrift };
+inline constexpr std::array<Effect, 6> kAllEffects = {
+    Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
+    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift};
+std::string_view ToString(Effect effect);
+
+// The effect parameter block. Indices into `values` are fixed; a disabled
+// effect's values are held at zero.
+struct EffectParams {
+  enum Index {
+    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kSize
+  };
+  std::array<double, kSize> values{};
+
+  double tag_x_m() const { return values[kTagX]; }
+  double tag_y_m() const { return values[kTagY]; }
+  double latency_s() const { return values[kLatency]; }
+  double slip_fraction_at_1rad_s() const { return values[kSlip]; }
+  double k1_delta() const { return values[kK1]; }
+  double backlash_ticks() const { return values[kBacklash]; }
+  double drift_rate_m_per_m() const;
+  double drift_grain_rad() const;
+};
+
+// The indices of an effect's parameters in EffectParams.
+std::vector<int> EffectParamIndices(Effect effect);
+// Their names as reports spell them ("x_mm", ...), one per index.
+std::vector<std::string> EffectParamNames(Effect effect);
+
+struct TrajectoryFitOptions {
+  // The effects in the model besides the base parameters.
+  std::vector<Effect> effects;
+  // Fit the measured headings as well as the positions.
+  bool use_heading = true;
+  // Stand-ins for a frame whose stated sigma is zero.
+  double default_position_sigma_m = 1e-3;
+  double default_heading_sigma_rad = 0.2 * M_PI / 180.0;
+  // The robot's wheel noise: each wheel's ground travel random-walks about
+  // what its ticks say, with this standard deviation after 1 m (the
+  // scenario default, 0.05 mm/sqrt(m)). The model cannot fit it; it enters
+  // the parameters' covariance. From repeated runs or the robot's spec.
+  double wheel_sigma_m_per_sqrt_m = 0.05e-3;
+  // Huber threshold in robust standard deviations of the current whitened
+  // frame errors (1.4826 MAD); 0 turns the robust loss off.
+  double huber_threshold = 3.0;
+  int irls_rounds = 3;
+  int max_solver_iterations = 100;
+  // A normalised singular value below this (relative to the largest) marks a
+  // parameter combination the data cannot determine.
+  double rank_tolerance = 1e-5;
+  // A weak prior on r_left, r_right and Eb at 1 with this sigma, only to keep
+  // the solver physical along directions the data leave free (it is not part
+  // of the covariance or of the identifiability test); 0 turns it off.
+  double base_prior_sigma = 0.2;
+  // Ed, Es or Eb with a larger sigma is reported as not identifiable.
+  double max_ratio_sigma = 0.01;
+  // Runs with fewer valid camera frames than this are left out (their start
+  // pose cannot be determined).
+  int min_frames_per_run = 10;
+
+  bool IsValid(std::string* why) const;
+};
+
+enum class MotionKind { kRest, kStraight, kTurn };
+std::string_view ToString(MotionKind kind);
+
+// One measured frame against the model.
+struct FrameResidual {
+  int run = 0;
+  double t_s = 0.0;  // the camera timestamp
+  MotionKind motion = MotionKind::kRest;
+  Eigen::Vector2d measured_m = Eigen::Vector2d::Zero();
+  Eigen::Vector2d error_m = Eigen::Vector2d::Zero();  // model - measured
+  double heading_error_rad = 0.0;
+  double weight = 1.0;  // robust (IRLS) weight
+};
+
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double sigma = 0.0;  // 1-sigma; meaningless when !identifiable
+  bool identifiable = true;
+  double lower95() const { return value - 1.959963985 * sigma; }
+  double upper95() const { return value + 1.959963985 * sigma; }
+};
+
+struct TrajectoryFitResult {
+  enum class Status { kOk, kInvalidInput, kNoConvergence };
+  Status status = Status::kInvalidInput;
+  std::string message;
+
+  TrajectoryFitOptions options;
+  WheelScales scales;
+  EffectParams effects;
+  std::vector<Pose2> start_poses;  // per run; identity for runs left out
+  std::vector<bool> run_used;
+
+  // Ed, Es, Eb, then the effects' parameters in the order of options.effects.
+  std::vector<ParameterEstimate> parameters;
+  // Covariance of the effect block (EffectParams order; zero where disabled).
+  Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize> effect_covariance =
+      Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize>::Zero();
+  // Wald statistic of an enabled effect's parameters against zero (chi-square
+  // with as many degrees of freedom as it has parameters).
+  double Wald(Effect effect) const;
+  const ParameterEstimate* Find(std::string_view name) const;
+
+  std::vector<FrameResidual> residuals;
+  int n_frames = 0;
+  int n_parameters = 0;  // including the start poses
+  // RMS of |model - measured| position over the frames: the gap.
+  double gap_m = 0.0;
+  // The gap the stated frame noise alone would leave.
+  double noise_floor_m = 0.0;
+  // Sum of robust-weighted squared whitened residuals.
+  double weighted_sse = 0.0;
+  // Lag-one autocorrelation of the whitened residuals within runs (for the
+  // effective sample size of model selection), and the factor the camera
+  // part of the covariance was scaled by (max(1, reduced chi-square)).
+  double lag1_autocorrelation = 0.0;
+  double variance_factor = 1.0;
+  double condition_number = 0.0;
+  // Parameter combinations the data cannot determine, as readable lines.
+  std::vector<std::string> unidentifiable;
+
+  // The whitened, robust-weighted Jacobian at the solution over every
+  // parameter, enabled or not: base (r_left, r_right, Eb), the effect block
+  // (EffectParams order), then 3 per used run. For aliasing tests.
+  Eigen::MatrixXd jacobian;
+
+  bool ok() const { return status == Status::kOk; }
+  std::string BriefReport() const;
+};
+
+// Fits the model (base + options.effects) to a session. `warm_start`, when
+// given, seeds every parameter from an earlier fit of the same session.
+TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
+                                  const TrajectoryFitOptions& options = {},
+                                  const TrajectoryFitResult* warm_start = nullptr);
+
+// How well the data tells a candidate effect apart from the parameters of
+// `fit` (its base and enabled effects).
+struct AliasReport {
+  Effect effect = Effect::kTagOffset;
+  // Smallest sine of the angle between a combination of the candidate's
+  // Jacobian columns and the span of the fitted ones (1: orthogonal, 0: the
+  // data cannot tell them apart).
+  double separation = 1.0;
+  bool aliased = false;
+  // The fitted parameters it looks like (largest loadings first).
+  std::vector<std::string> looks_like;
+  // The runs that would tell them apart.
+  std::string distinguishing_runs;
+  bool no_signal = false;  // the candidate changes nothing on these data
+};
+
+AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
+                          double alias_tolerance = 0.01);
+
+// Which runs separate an effect from the base model, in words.
+std::string DistinguishingRuns(Effect effect);
+
+}  // namespace odocal::calibration
+
+#endif  // ODOCAL_CALIBRATION_TRAJECTORY_FIT_H_

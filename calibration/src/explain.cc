@@ -1,0 +1,246 @@
+#include "odocal/calibration/explain.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include <boost/math/distributions/chi_squared.hpp>
+
+namespace odocal::calibration {
+namespace {
+
+std::string Fixed(double v, int precision) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(precision) << v;
+  return os.str();
+}
+
+bool Contains(const std::vector<Effect>& effects, Effect e) {
+  return std::find(effects.begin(), effects.end(), e) != effects.end();
+}
+
+// The BIC drop from `before` to `after` (positive: `after` explains more
+// than its added parameters cost).
+double BicScore(const TrajectoryFitResult& before, const TrajectoryFitResult& after) {
+  const double n = static_cast<double>(after.jacobian.rows());
+  const double rho = after.lag1_autocorrelation;
+  const double n_eff = std::max(1.0, n * (1.0 - rho) / (1.0 + rho));
+  const int k = after.n_parameters - before.n_parameters;
+  if (!(after.weighted_sse > 0.0) || !(before.weighted_sse > 0.0)) return 0.0;
+  return n_eff * std::log(before.weighted_sse / after.weighted_sse) - k * std::log(n_eff);
+}
+
+std::vector<ParameterEstimate> ParamsOf(const TrajectoryFitResult& fit, Effect e) {
+  std::vector<ParameterEstimate> out;
+  const std::string prefix = std::string(ToString(e)) + ".";
+  for (const ParameterEstimate& p : fit.parameters)
+    if (p.name.rfind(prefix, 0) == 0) {
+      ParameterEstimate q = p;
+      q.name = p.name.substr(prefix.size());
+      out.push_back(q);
+    }
+  return out;
+}
+
+}  // namespace
+
+bool ExplainOptions::IsValid(std::string* why) const {
+  if (!fit.IsValid(why)) return false;
+  if (!(min_score >= 0.0)) {
+    if (why) *why = "min_score must not be negative";
+    return false;
+  }
+  if (max_effects < 0) {
+    if (why) *why = "max_effects must not be negative";
+    return false;
+  }
+  if (!(wald_alpha > 0.0 && wald_alpha < 1.0)) {
+    if (why) *why = "wald_alpha must be in (0, 1)";
+    return false;
+  }
+  if (!(alias_tolerance > 0.0 && alias_tolerance < 1.0)) {
+    if (why) *why = "alias_tolerance must be in (0, 1)";
+    return false;
+  }
+  return true;
+}
+
+ResidualSummary SummariseResiduals(const MeasuredSession& session, const TrajectoryFitResult& fit) {
+  ResidualSummary s;
+  std::map<int, std::pair<int, double>> motion, run;
+  for (const FrameResidual& r : fit.residuals) {
+    const double e2 = r.error_m.squaredNorm();
+    auto& m = motion[static_cast<int>(r.motion)];
+    m.first++;
+    m.second += e2;
+    auto& u = run[r.run];
+    u.first++;
+    u.second += e2;
+  }
+  for (const auto& [kind, acc] : motion)
+    s.by_motion.push_back({std::string(ToString(static_cast<MotionKind>(kind))), acc.first,
+                           std::sqrt(acc.second / acc.first)});
+  for (const auto& [index, acc] : run)
+    s.by_run.push_back({session.runs[index].name, acc.first, std::sqrt(acc.second / acc.first)});
+  std::vector<const FrameResidual*> sorted;
+  for (const FrameResidual& r : fit.residuals) sorted.push_back(&r);
+  const size_t n_worst = std::min<size_t>(5, sorted.size());
+  std::partial_sort(sorted.begin(), sorted.begin() + n_worst, sorted.end(),
+                    [](const FrameResidual* a, const FrameResidual* b) {
+                      return a->error_m.squaredNorm() > b->error_m.squaredNorm();
+                    });
+  for (size_t i = 0; i < n_worst; ++i)
+    s.worst.push_back({session.runs[sorted[i]->run].name, sorted[i]->t_s, sorted[i]->motion,
+                       sorted[i]->error_m.norm()});
+  return s;
+}
+
+std::vector<std::string> ExplainResult::EffectsAdded() const {
+  std::vector<std::string> names;
+  for (const ExplainStep& s : steps) names.emplace_back(ToString(s.effect));
+  return names;
+}
+
+std::string ExplainResult::BriefReport() const {
+  std::ostringstream os;
+  if (status != Status::kOk) {
+    os << "explain: " << message << "\n";
+    return os.str();
+  }
+  os << "base model: gap " << Fixed(gap_before_m() * 1e3, 3) << " mm (noise floor "
+     << Fixed(base.noise_floor_m * 1e3, 3) << " mm)\n";
+  for (const auto& g : base_residuals.by_motion)
+    os << "  during " << std::left << std::setw(9) << g.label << std::right << Fixed(g.rms_m * 1e3, 3)
+       << " mm RMS over " << g.n << " frames\n";
+  for (const ExplainStep& s : steps) {
+    os << "+ " << ToString(s.effect) << ": score " << Fixed(s.score, 1) << ", gap "
+       << Fixed(s.gap_after_m * 1e3, 3) << " mm;";
+    for (const ParameterEstimate& p : s.params)
+      os << " " << p.name << " " << std::setprecision(5) << p.value << " +/- "
+         << std::setprecision(2) << 1.959963985 * p.sigma;
+    os << "\n";
+  }
+  if (steps.empty()) os << "no effect explains a significant part of the gap\n";
+  for (const AliasReport& a : aliased) {
+    os << "? " << ToString(a.effect) << ": "
+       << (a.no_signal ? "these data carry no signal of it"
+                       : "indistinguishable here from the fitted model");
+    if (!a.no_signal) {
+      os << " (looks like";
+      for (const std::string& l : a.looks_like) os << " " << l;
+      os << ")";
+    }
+    os << "; to tell: " << a.distinguishing_runs << "\n";
+  }
+  os << "final: gap " << Fixed(gap_after_m() * 1e3, 3) << " mm\n" << final_fit.BriefReport();
+  return os.str();
+}
+
+ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& options) {
+  ExplainResult result;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    result.message = "options: " + why;
+    return result;
+  }
+  TrajectoryFitOptions fit_options = options.fit;
+  fit_options.effects.clear();
+  result.base = FitTrajectory(session, fit_options);
+  if (!result.base.ok()) {
+    result.status = result.base.status == TrajectoryFitResult::Status::kInvalidInput
+                        ? ExplainResult::Status::kInvalidInput
+                        : ExplainResult::Status::kNoConvergence;
+    result.message = "base fit: " + result.base.message;
+    return result;
+  }
+  result.base_residuals = SummariseResiduals(session, result.base);
+  TrajectoryFitResult current = result.base;
+
+  // The lens candidate needs the camera's geometry; without it it cannot be
+  // formed and is reported as without signal.
+  const std::vector<Effect>& candidates = options.candidates;
+  while (static_cast<int>(current.options.effects.size()) < options.max_effects) {
+    std::vector<CandidateTrial> trials;
+    const TrajectoryFitResult* best = nullptr;
+    std::vector<TrajectoryFitResult> fits;
+    fits.reserve(candidates.size());
+    for (Effect e : candidates) {
+      if (Contains(current.options.effects, e)) continue;
+      CandidateTrial trial;
+      trial.effect = e;
+      if (e == Effect::kLensDistortion && !session.camera) {
+        trial.alias.effect = e;
+        trial.alias.no_signal = true;
+        trial.alias.aliased = true;
+        trial.alias.distinguishing_runs = "the camera's floor geometry (centre, height)";
+        trials.push_back(trial);
+        continue;
+      }
+      trial.alias = CheckAliasing(current, e, options.alias_tolerance);
+      if (trial.alias.aliased) {
+        trials.push_back(trial);
+        continue;
+      }
+      TrajectoryFitOptions o = fit_options;
+      o.effects = current.options.effects;
+      o.effects.push_back(e);
+      fits.push_back(FitTrajectory(session, o, &current));
+      const TrajectoryFitResult& f = fits.back();
+      trial.fitted = f.ok();
+      if (f.ok()) {
+        trial.score = BicScore(current, f);
+        trial.gap_m = f.gap_m;
+        trial.wald = f.Wald(e);
+        const int k = static_cast<int>(EffectParamIndices(e).size());
+        trial.wald_threshold = boost::math::quantile(
+            boost::math::complement(boost::math::chi_squared(k), options.wald_alpha));
+      }
+      trials.push_back(trial);
+    }
+    // Pick the best-scoring fitted candidate.
+    double best_score = -INFINITY;
+    Effect best_effect = Effect::kTagOffset;
+    for (const CandidateTrial& t : trials)
+      if (t.fitted && t.wald > t.wald_threshold && t.score > best_score) {
+        best_score = t.score;
+        best_effect = t.effect;
+      }
+    for (const TrajectoryFitResult& f : fits)
+      if (f.ok() && f.options.effects.back() == best_effect) best = &f;
+    if (!best || best_score < options.min_score) {
+      result.rejected = trials;
+      break;
+    }
+    ExplainStep step;
+    step.effect = best_effect;
+    step.score = best_score;
+    step.gap_after_m = best->gap_m;
+    step.trials = trials;
+    current = *best;
+    step.params = ParamsOf(current, best_effect);
+    result.steps.push_back(step);
+  }
+  // Refresh the parameters of every step from the final fit (they were
+  // refitted together as effects were added).
+  for (ExplainStep& s : result.steps) s.params = ParamsOf(current, s.effect);
+  result.final_fit = current;
+  result.final_residuals = SummariseResiduals(session, current);
+  for (Effect e : candidates) {
+    if (Contains(current.options.effects, e)) continue;
+    AliasReport a;
+    if (e == Effect::kLensDistortion && !session.camera) {
+      a.effect = e;
+      a.aliased = a.no_signal = true;
+      a.distinguishing_runs = "the camera's floor geometry (centre, height)";
+    } else {
+      a = CheckAliasing(current, e, options.alias_tolerance);
+    }
+    if (a.aliased) result.aliased.push_back(a);
+  }
+  result.status = ExplainResult::Status::kOk;
+  return result;
+}
+
+}  // namespace odocal::calibration

@@ -1,0 +1,100 @@
+// odocal explain SESSION --out DIR
+//
+// Where the fitted model and the camera disagree, which missing effect
+// explains it (calibration/explain.h), written as DIR/explain.json and a
+// self-contained DIR/explain.html with the residuals before and after.
+//
+// SESSION, for now, is an `odocal simulate --out` directory seen through the
+// stand-in camera of measured_session_io.h (the camera pipeline will replace
+// it). It never reads the scenario's effects or truth.json's truth.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/calibration/explain.h"
+#include "odocal/rig/cli_util.h"
+#include "odocal/rig/commands.h"
+#include "odocal/rig/explain_report.h"
+#include "odocal/rig/measured_session_io.h"
+#include "odocal/rig/output.h"
+
+namespace odocal::rig {
+
+void RegisterExplainCommand(CLI::App& app) {
+  struct Args {
+    std::string session;
+    std::string out;
+    double sigma_mm = 1.0;
+    double sigma_deg = 0.3;
+    double fps = 30.0;
+    std::uint64_t seed = 1;
+    double home_radius_mm = 0.0;
+    std::string camera_centre_mm = "1000,0";
+    double camera_height_mm = 2500.0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "explain", "Fit the whole trajectory, find the effect the model misses, refit, report");
+  cmd->add_option("session", args->session,
+                  "Session: for now an `odocal simulate --out` directory (stand-in camera)")
+      ->required();
+  cmd->add_option("--out", args->out, "Output directory (created)")->required();
+  cmd->add_option("--camera-sigma-mm", args->sigma_mm, "Stand-in camera: position noise per frame")
+      ->capture_default_str();
+  cmd->add_option("--camera-sigma-deg", args->sigma_deg, "Stand-in camera: heading noise per frame")
+      ->capture_default_str();
+  cmd->add_option("--fps", args->fps, "Stand-in camera: frame rate")->capture_default_str();
+  cmd->add_option("--seed", args->seed, "Stand-in camera: noise seed")->capture_default_str();
+  cmd->add_option("--home-radius-mm", args->home_radius_mm,
+                  "Stand-in camera: sees only within this radius of the origin (0: everywhere)")
+      ->capture_default_str();
+  cmd->add_option("--camera-centre-mm", args->camera_centre_mm,
+                  "Floor point under the optical axis, X,Y")
+      ->capture_default_str();
+  cmd->add_option("--camera-height-mm", args->camera_height_mm, "Camera height above the floor")
+      ->capture_default_str();
+  cmd->callback([args]() {
+    StandInCameraOptions camera;
+    camera.sigma_position_m = args->sigma_mm * 1e-3;
+    camera.sigma_heading_rad = args->sigma_deg * M_PI / 180.0;
+    camera.fps = args->fps;
+    camera.seed = args->seed;
+    if (args->home_radius_mm != 0.0) camera.home_radius_m = args->home_radius_mm * 1e-3;
+    const auto centre = ParseNumberList(args->camera_centre_mm);
+    if (!centre || centre->size() != 2)
+      Fail("explain", kExitBadInput, "--camera-centre-mm: expected X,Y in millimetres");
+    camera.camera.centre_m = {(*centre)[0] * 1e-3, (*centre)[1] * 1e-3};
+    camera.camera.height_m = args->camera_height_mm * 1e-3;
+    std::string error;
+    if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
+    if (!std::filesystem::is_directory(args->session))
+      Fail("explain", kExitBadInput,
+           args->session + ": expected an `odocal simulate --out` directory (the camera "
+                           "pipeline's session files are not supported yet)");
+    const auto session = LoadSimulatedSession(args->session, camera, &error);
+    if (!session) Fail("explain", kExitBadInput, error);
+    const calibration::ExplainResult result = calibration::Explain(*session);
+    if (!result.ok()) Fail("explain", kExitFailure, result.message);
+    if (auto e = EnsureDirectory(args->out)) Fail("explain", kExitFailure, *e);
+    nlohmann::json j = ExplainJson(*session, result);
+    j["input"] = {{"session", args->session},
+                  {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
+                             "pipeline)"},
+                  {"camera_sigma_mm", args->sigma_mm},
+                  {"fps", args->fps},
+                  {"seed", args->seed}};
+    if (auto e = WriteFileAtomically(args->out + "/explain.json", j.dump(2) + "\n"))
+      Fail("explain", kExitFailure, *e);
+    if (auto e = WriteFileAtomically(args->out + "/explain.html", ExplainHtml(*session, result)))
+      Fail("explain", kExitFailure, *e);
+    std::fputs(result.BriefReport().c_str(), stdout);
+    std::printf("wrote %s/explain.json and explain.html\n", args->out.c_str());
+  });
+}
+
+}  // namespace odocal::rig

@@ -1,0 +1,208 @@
+#include "odocal/rig/explain_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace odocal::rig {
+namespace {
+
+using calibration::ParameterEstimate;
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+// An effect parameter at the edge: the scenario's key and its unit scale.
+std::pair<std::string, double> EdgeName(const std::string& name) {
+  if (name == "x_m") return {"x_mm", 1e3};
+  if (name == "y_m") return {"y_mm", 1e3};
+  if (name == "latency_s") return {"ms", 1e3};
+  if (name == "grain_rad") return {"grain_deg", kRadToDeg};
+  if (name == "rate_m_per_m") return {"rate_mm_per_m", 1e3};
+  return {name, 1.0};
+}
+
+nlohmann::json ParamsJson(const std::vector<ParameterEstimate>& params, bool intervals) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const ParameterEstimate& p : params) {
+    const auto [key, scale] = EdgeName(p.name);
+    if (!intervals) {
+      j[key] = p.value * scale;
+    } else if (p.identifiable) {
+      j[key] = {p.lower95() * scale, p.upper95() * scale};
+    } else {
+      j[key] = nullptr;
+    }
+  }
+  return j;
+}
+
+nlohmann::json SummaryJson(const calibration::ResidualSummary& s) {
+  nlohmann::json by_motion = nlohmann::json::object(), by_run = nlohmann::json::object(),
+                 worst = nlohmann::json::array();
+  for (const auto& g : s.by_motion) by_motion[g.label] = {{"rms_mm", g.rms_m * 1e3}, {"frames", g.n}};
+  for (const auto& g : s.by_run) by_run[g.label] = {{"rms_mm", g.rms_m * 1e3}, {"frames", g.n}};
+  for (const auto& w : s.worst)
+    worst.push_back({{"run", w.run},
+                     {"t_s", w.t_s},
+                     {"motion", calibration::ToString(w.motion)},
+                     {"error_mm", w.error_m * 1e3}});
+  return {{"by_motion", by_motion}, {"by_run", by_run}, {"largest", worst}};
+}
+
+nlohmann::json FitJson(const calibration::TrajectoryFitResult& fit) {
+  nlohmann::json params = nlohmann::json::object();
+  for (const ParameterEstimate& p : fit.parameters) {
+    const auto [key, scale] = EdgeName(p.name);
+    params[key] = {{"value", p.value * scale},
+                   {"sigma", p.identifiable ? nlohmann::json(p.sigma * scale) : nlohmann::json(nullptr)},
+                   {"interval95", p.identifiable ? nlohmann::json({p.lower95() * scale, p.upper95() * scale})
+                                                 : nlohmann::json(nullptr)},
+                   {"identifiable", p.identifiable}};
+  }
+  return {{"parameters", params},
+          {"gap_mm", fit.gap_m * 1e3},
+          {"noise_floor_mm", fit.noise_floor_m * 1e3},
+          {"frames", fit.n_frames},
+          {"condition_number", std::isfinite(fit.condition_number)
+                                   ? nlohmann::json(fit.condition_number)
+                                   : nlohmann::json(nullptr)},
+          {"lag1_autocorrelation", fit.lag1_autocorrelation},
+          {"variance_factor", fit.variance_factor},
+          {"not_identifiable", fit.unidentifiable}};
+}
+
+nlohmann::json AliasJson(const calibration::AliasReport& a) {
+  return {{"effect", calibration::ToString(a.effect)},
+          {"separation", a.separation},
+          {"no_signal", a.no_signal},
+          {"looks_like", a.looks_like},
+          {"distinguishing_runs", a.distinguishing_runs}};
+}
+
+// One SVG plot of |position error| per frame over the session's frames, runs
+// side by side, coloured by motion.
+std::string ResidualSvg(const calibration::MeasuredSession& session,
+                        const calibration::TrajectoryFitResult& fit, double y_max_mm,
+                        const std::string& title) {
+  const double w = 900, h = 220, left = 50, bottom = 30, top = 20;
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(1);
+  os << "<svg xmlns='http://www.w3.org/2000/svg' width='" << w << "' height='" << h
+     << "' style='background:#fff;border:1px solid #ccc'>\n";
+  os << "<text x='" << left << "' y='14' font-size='13'>" << title << "</text>\n";
+  const size_t n = fit.residuals.size();
+  auto X = [&](size_t i) { return left + (w - left - 10) * double(i) / std::max<size_t>(1, n - 1); };
+  auto Y = [&](double mm) { return h - bottom - (h - bottom - top) * std::min(mm, y_max_mm) / y_max_mm; };
+  for (int k = 0; k <= 4; ++k) {
+    const double v = y_max_mm * k / 4.0;
+    os << "<line x1='" << left << "' x2='" << w - 10 << "' y1='" << Y(v) << "' y2='" << Y(v)
+       << "' stroke='#eee'/><text x='4' y='" << Y(v) + 4 << "' font-size='10'>" << v
+       << " mm</text>\n";
+  }
+  int last_run = -1;
+  for (size_t i = 0; i < n; ++i) {
+    const calibration::FrameResidual& r = fit.residuals[i];
+    if (r.run != last_run) {
+      os << "<line x1='" << X(i) << "' x2='" << X(i) << "' y1='" << top << "' y2='" << h - bottom
+         << "' stroke='#999' stroke-dasharray='3,3'/><text x='" << X(i) + 2 << "' y='" << h - 8
+         << "' font-size='9'>" << session.runs[r.run].name << "</text>\n";
+      last_run = r.run;
+    }
+    const char* colour = r.motion == calibration::MotionKind::kTurn       ? "#d62728"
+                         : r.motion == calibration::MotionKind::kStraight ? "#1f77b4"
+                                                                          : "#7f7f7f";
+    os << "<circle cx='" << X(i) << "' cy='" << Y(r.error_m.norm() * 1e3) << "' r='1' fill='"
+       << colour << "'/>";
+  }
+  os << "\n</svg>\n";
+  return os.str();
+}
+
+}  // namespace
+
+nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
+                           const calibration::ExplainResult& result) {
+  (void)session;
+  nlohmann::json steps = nlohmann::json::array();
+  for (const calibration::ExplainStep& s : result.steps) {
+    nlohmann::json trials = nlohmann::json::array();
+    for (const calibration::CandidateTrial& t : s.trials)
+      trials.push_back({{"effect", calibration::ToString(t.effect)},
+                        {"fitted", t.fitted},
+                        {"score", t.score},
+                        {"wald", t.wald},
+                        {"wald_threshold", t.wald_threshold},
+                        {"separation", t.alias.separation},
+                        {"gap_mm", t.gap_m * 1e3}});
+    steps.push_back({{"effect", calibration::ToString(s.effect)},
+                     {"params", ParamsJson(s.params, false)},
+                     {"interval95", ParamsJson(s.params, true)},
+                     {"gap_after_mm", s.gap_after_m * 1e3},
+                     {"score", s.score},
+                     {"candidates", trials}});
+  }
+  nlohmann::json rejected = nlohmann::json::array();
+  for (const calibration::CandidateTrial& t : result.rejected)
+    if (t.fitted)
+      rejected.push_back({{"effect", calibration::ToString(t.effect)},
+                          {"score", t.score},
+                          {"wald", t.wald},
+                          {"wald_threshold", t.wald_threshold},
+                          {"gap_mm", t.gap_m * 1e3}});
+  nlohmann::json aliased = nlohmann::json::array();
+  for (const calibration::AliasReport& a : result.aliased) aliased.push_back(AliasJson(a));
+  return {
+      {"gap_before_mm", result.gap_before_m() * 1e3},
+      {"steps", steps},
+      {"gap_after_mm", result.gap_after_m() * 1e3},
+      {"effects_added", result.EffectsAdded()},
+      {"noise_floor_mm", result.final_fit.noise_floor_m * 1e3},
+      {"criterion",
+       "BIC drop N_eff ln(SSE_before/SSE_after) - k ln(N_eff) above 10, and a Wald test of the "
+       "effect's parameters against zero (wheel noise included) above its chi-square 0.999 "
+       "quantile"},
+      {"not_kept", rejected},
+      {"cannot_tell", aliased},
+      {"base", FitJson(result.base)},
+      {"final", FitJson(result.final_fit)},
+      {"residuals_before", SummaryJson(result.base_residuals)},
+      {"residuals_after", SummaryJson(result.final_residuals)},
+  };
+}
+
+std::string ExplainHtml(const calibration::MeasuredSession& session,
+                        const calibration::ExplainResult& result) {
+  double y_max = 0.0;
+  for (const auto& r : result.base.residuals) y_max = std::max(y_max, r.error_m.norm() * 1e3);
+  y_max = std::max(1.0, std::ceil(y_max));
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(3);
+  os << "<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>odocal explain</title>"
+        "<style>body{font-family:sans-serif;margin:2em}td,th{padding:2px 8px;text-align:left}"
+        "pre{background:#f6f6f6;padding:1em}</style></head><body>\n";
+  os << "<h1>Where model and measurement disagree</h1>\n";
+  os << "<p>Gap (RMS position residual): <b>" << result.gap_before_m() * 1e3
+     << " mm</b> with the base model, <b>" << result.gap_after_m() * 1e3
+     << " mm</b> after; noise floor " << result.final_fit.noise_floor_m * 1e3 << " mm.</p>\n";
+  os << "<h2>Steps</h2><table><tr><th>effect</th><th>parameters</th><th>gap after [mm]</th>"
+        "<th>score (BIC drop)</th></tr>\n";
+  for (const auto& s : result.steps) {
+    os << "<tr><td>" << calibration::ToString(s.effect) << "</td><td>";
+    for (const auto& p : s.params) os << p.name << " " << p.value << " &plusmn; " << 1.96 * p.sigma << "; ";
+    os << "</td><td>" << s.gap_after_m * 1e3 << "</td><td>" << s.score << "</td></tr>\n";
+  }
+  if (result.steps.empty()) os << "<tr><td colspan='4'>nothing significant</td></tr>\n";
+  os << "</table>\n";
+  os << "<p>Colours: <span style='color:#1f77b4'>straight</span>, "
+        "<span style='color:#d62728'>turn</span>, <span style='color:#7f7f7f'>rest</span>. "
+        "Same vertical scale in both plots.</p>\n";
+  os << ResidualSvg(session, result.base, y_max, "|model - camera| per frame, base model");
+  os << "<br/>\n";
+  os << ResidualSvg(session, result.final_fit, y_max, "|model - camera| per frame, after");
+  os << "<h2>Report</h2><pre>" << result.BriefReport() << "</pre>\n";
+  os << "</body></html>\n";
+  return os.str();
+}
+
+}  // namespace odocal::rig

@@ -1,0 +1,122 @@
+// The robot-side hidden effects of the virtual robot (turn_slip,
+// encoder_backlash, carpet_drift), each against an analytic truth that does
+// not share the simulator's code path.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "odocal/calibration/pose2.h"
+#include "odocal/sim/virtual_robot.h"
+#include "odocal/test_util/robots.h"
+
+namespace odocal::sim {
+namespace {
+
+using calibration::Direction;
+using calibration::Pose2;
+using calibration::RunSpec;
+using calibration::WrapAngle;
+
+// A perfect robot (Ed = Eb = 1) whose turns run at a constant rate: the
+// acceleration is so large that the ramps last a fraction of a control step.
+RobotConfig ConstantRateRobot() {
+  RobotConfig c = test_util::ExactRobot(1.0, 1.0);
+  c.limits.turn_accel_rad_s2 = 1e7;
+  c.limits.accel_m_s2 = 1e7;
+  return c;
+}
+
+TEST(TurnSlip, ASpinAtConstantRateTurnsOneMinusFOmegaOfThePlan) {
+  const double f = 0.03;
+  for (double omega : {0.5, 1.0, 2.0}) {
+    RobotConfig c = ConstantRateRobot();
+    c.effects.turn_slip = TurnSlipEffect{f};
+    VirtualRobot robot(c);
+    RunSpec spec = RunSpec::Spin(1, Direction::kCcw);
+    spec.turn_rate_rad_s = omega;
+    const RunRecord run = robot.Execute(spec);
+    // Planned: one full turn; achieved (1 - f omega) of it.
+    const double expected = WrapAngle(2.0 * M_PI * (1.0 - f * omega));
+    EXPECT_NEAR(run.TrueEndInStartFrame().heading(), expected, 2e-4) << "omega " << omega;
+    EXPECT_NEAR(run.TrueEndInStartFrame().translation().norm(), 0.0, 1e-4);
+  }
+}
+
+TEST(TurnSlip, StraightsDoNotSlip) {
+  RobotConfig c = ConstantRateRobot();
+  c.effects.turn_slip = TurnSlipEffect{0.05};
+  VirtualRobot robot(c);
+  const RunRecord run = robot.Execute(RunSpec::Straight(2.0));
+  EXPECT_NEAR(run.TrueEndInStartFrame().x(), 2.0, 1e-4);
+  EXPECT_NEAR(run.TrueEndInStartFrame().heading(), 0.0, 1e-5);
+}
+
+// One spin in place turns by (left + right travel) / track. After a reversal
+// the reversing wheel loses `ticks` of travel, so the spin falls short by
+// ticks * metres_per_tick / track, and only after a reversal.
+TEST(EncoderBacklash, EachReversalLosesExactlyTicksOfTravel) {
+  const double ticks = 12.0;
+  RobotConfig c = ConstantRateRobot();
+  c.effects.encoder_backlash = EncoderBacklashEffect{ticks};
+  VirtualRobot robot(c);
+  const double lost_rad = ticks * c.truth.LeftMetresPerTick() / c.truth.track_m;
+
+  // The robot starts as if it last moved forward: a ccw spin reverses the left wheel.
+  const RunRecord first = robot.Execute(RunSpec::Spin(1, Direction::kCcw));
+  EXPECT_NEAR(first.TrueEndInStartFrame().heading(), -lost_rad, 1e-5);
+  // The left wheel's lash is already taken up backwards: no loss.
+  const RunRecord second = robot.Execute(RunSpec::Spin(1, Direction::kCcw));
+  EXPECT_NEAR(second.TrueEndInStartFrame().heading(), 0.0, 1e-5);
+  // A cw spin reverses both wheels (the left forward again, the right
+  // backwards): both fall short, the cw turn by twice the loss.
+  const RunRecord third = robot.Execute(RunSpec::Spin(1, Direction::kCw));
+  EXPECT_NEAR(third.TrueEndInStartFrame().heading(), 2.0 * lost_rad, 1e-5);
+  EXPECT_NEAR(third.TrueEndInStartFrame().translation().norm(), 0.0, 1e-4);
+}
+
+TEST(EncoderBacklash, AnOutAndBackLosesTicksAtEveryReversal) {
+  const double ticks = 10.0, d = 1.0;
+  RobotConfig c = ConstantRateRobot();
+  VirtualRobot clean(c);
+  const Pose2 without = clean.Execute(RunSpec::OutAndBack(d, 1)).TrueEndInStartFrame();
+  c.effects.encoder_backlash = EncoderBacklashEffect{ticks};
+  VirtualRobot robot(c);
+  const Pose2 with = robot.Execute(RunSpec::OutAndBack(d, 1)).TrueEndInStartFrame();
+  // Reversals: turn +180 (left wheel back), forward (left forward again),
+  // turn -180 (right back). Loss of h = ticks * m_per_tick at each:
+  //  1. the +180 turn falls short by h / b: heading pi - h/b;
+  //  2. the return straight starts with the left wheel still while the right
+  //     rolls h: a pivot about the left wheel, +h/b, back to heading pi,
+  //     moving the axle midpoint by h/2;
+  //  3. the -180 turn, now the right wheel back, falls short by h / b.
+  // Net heading: +h/b; net position: the h/2 of the pivot.
+  const double h = ticks * c.truth.LeftMetresPerTick();
+  const double b = c.truth.track_m;
+  EXPECT_NEAR(WrapAngle(with.heading() - without.heading()), h / b, 2e-5);
+  EXPECT_NEAR((with.translation() - without.translation()).norm(), 0.5 * h, 0.1 * h);
+}
+
+TEST(CarpetDrift, AStraightAlongTheGrainEndsRateTimesLengthToTheLeft) {
+  const double rate = 0.01, L = 2.0;
+  for (auto [grain_deg, factor] : {std::pair{0.0, 1.0}, std::pair{180.0, -1.0},
+                                   std::pair{90.0, 0.0}, std::pair{60.0, 0.5}}) {
+    RobotConfig c = ConstantRateRobot();
+    c.effects.carpet_drift = CarpetDriftEffect{grain_deg * M_PI / 180.0, rate};
+    VirtualRobot robot(c);
+    const Pose2 end = robot.Execute(RunSpec::Straight(L)).TrueEndInStartFrame();
+    EXPECT_NEAR(end.y(), factor * rate * L, 1e-5) << "grain " << grain_deg;
+    EXPECT_NEAR(end.x(), L, 1e-4);
+    EXPECT_NEAR(end.heading(), 0.0, 1e-6) << "drift translates, it does not turn";
+  }
+}
+
+TEST(CarpetDrift, NoneDuringInPlaceTurns) {
+  RobotConfig c = ConstantRateRobot();
+  c.effects.carpet_drift = CarpetDriftEffect{0.0, 0.02};
+  VirtualRobot robot(c);
+  const Pose2 end = robot.Execute(RunSpec::Spin(2, Direction::kCcw)).TrueEndInStartFrame();
+  EXPECT_NEAR(end.translation().norm(), 0.0, 1e-5);
+}
+
+}  // namespace
+}  // namespace odocal::sim

@@ -18,7 +18,7 @@ using calibration::Pose2;
 constexpr double kDegToRad = M_PI / 180.0;
 
 // The true pose at time t, linear between samples (heading unwrapped).
-Pose2 Interpolate(const RecordedRun& run, double t) {
+Pose2 Interpolate(const SimulatedRunRecord& run, double t) {
   const std::vector<double>& ts = run.truth_t_s;
   if (t <= ts.front()) return run.truth_poses.front();
   if (t >= ts.back()) return run.truth_poses.back();
@@ -89,7 +89,7 @@ bool StandInCameraOptions::IsValid(std::string* why) const {
 }
 
 calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelParams& believed,
-                                                      const std::vector<RecordedRun>& runs,
+                                                      const std::vector<SimulatedRunRecord>& runs,
                                                       const StandInCameraOptions& options) {
   calibration::MeasuredSession session;
   session.believed = believed;
@@ -97,7 +97,7 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double period = 1.0 / options.fps;
-  for (const RecordedRun& run : runs) {
+  for (const SimulatedRunRecord& run : runs) {
     calibration::MeasuredRun mr;
     mr.name = run.name;
     mr.spec = run.spec;
@@ -151,11 +151,11 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
   return session;
 }
 
-std::vector<RecordedRun> RecordedRunsOf(const SimulationResult& result) {
-  std::vector<RecordedRun> runs;
+std::vector<SimulatedRunRecord> SimulatedRunRecordsOf(const SimulationResult& result) {
+  std::vector<SimulatedRunRecord> runs;
   for (size_t i = 0; i < result.runs.size(); ++i) {
     const sim::RunRecord& r = result.runs[i];
-    RecordedRun run;
+    SimulatedRunRecord run;
     run.name = result.run_names[i];
     run.spec = r.spec;
     for (const sim::TelemetrySample& s : r.telemetry)
@@ -191,7 +191,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
     return std::nullopt;
   }
   calibration::WheelParams believed;
-  std::vector<RecordedRun> runs;
+  std::vector<SimulatedRunRecord> runs;
   try {
     // Only the nominal parameters and the plan: never `truth`, true poses or effects.
     const nlohmann::json& nominal = doc.at("robot").at("nominal");
@@ -200,7 +200,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
     believed.track_m = nominal.at("track_mm").get<double>() * 1e-3;
     believed.ticks_per_rev = nominal.at("ticks_per_rev").get<int>();
     for (const nlohmann::json& j : doc.at("runs")) {
-      RecordedRun run;
+      SimulatedRunRecord run;
       run.name = j.at("name").get<std::string>();
       const auto procedure = calibration::ParseProcedure(j.at("procedure").get<std::string>());
       if (!procedure) throw std::runtime_error("runs[].procedure: unknown");

@@ -87,13 +87,20 @@ TEST(BoardRender, AntiAliasingIsAreaCorrect) {
   const double side_px = 0.02 * 800.0 / 1.0;  // 16 px at 1 m
   for (double turn_deg : {0.0, 17.0, 41.0}) {
     const Eigen::Isometry3d T = Pose(0, 0, turn_deg, Eigen::Vector3d(-0.0603, -0.0471, 1.0));
-    const BoardRenderResult r = RenderBoard(in, pattern, T, {}, o);
-    ASSERT_TRUE(r.ok);
-    cv::Mat f;
-    r.frame.image.convertTo(f, CV_64F);
-    const double darkness = cv::sum((o.white - f) / (o.white - o.black))[0];
+    // The sample grid of each edge pixel is shifted at random (per seed):
+    // unbiased coverage, a little noise per render. Average eight seeds.
+    double darkness = 0.0;
+    constexpr int kSeeds = 8;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+      o.seed = seed;
+      const BoardRenderResult r = RenderBoard(in, pattern, T, {}, o);
+      ASSERT_TRUE(r.ok);
+      cv::Mat f;
+      r.frame.image.convertTo(f, CV_64F);
+      darkness += cv::sum((o.white - f) / (o.white - o.black))[0] / kSeeds;
+    }
     // 8-bit rounding: at most 0.5/190 per edge pixel, unbiased; ~400 edge
-    // pixels. Measured |error| <= 0.06 px^2 of 3840.
+    // pixels. Measured |error| of the mean <= 0.3 px^2 of 3840.
     RecordProperty("area_error_px2_turn" + std::to_string(static_cast<int>(turn_deg)),
                    std::to_string(darkness - 15 * side_px * side_px));
     EXPECT_NEAR(darkness, 15 * side_px * side_px, 0.5) << turn_deg;

@@ -54,7 +54,7 @@ struct StandInCameraOptions {
 
 // One run as recorded by the simulator: its telemetry and its true poses
 // (at any rate; interpolated to the camera's frames).
-struct RecordedRun {
+struct SimulatedRunRecord {
   std::string name;
   calibration::RunSpec spec;
   std::vector<calibration::TelemetryRecord> telemetry;
@@ -64,11 +64,11 @@ struct RecordedRun {
 
 // The stand-in camera looking at recorded runs.
 calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelParams& believed,
-                                                      const std::vector<RecordedRun>& runs,
+                                                      const std::vector<SimulatedRunRecord>& runs,
                                                       const StandInCameraOptions& options);
 
 // The runs of an in-memory simulation (full control-rate trajectory).
-std::vector<RecordedRun> RecordedRunsOf(const SimulationResult& result);
+std::vector<SimulatedRunRecord> SimulatedRunRecordsOf(const SimulationResult& result);
 
 // From an `odocal simulate --out DIR` directory. nullopt with `error` (one
 // line naming the file) when it is missing or malformed.

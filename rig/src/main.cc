@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterBatchCommand(app);
   odocal::rig::RegisterCalibrateCameraCommand(app);
   odocal::rig::RegisterRobotCommand(app);
+  odocal::rig::RegisterRobotSimCommand(app);
   odocal::rig::RegisterExplainCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;

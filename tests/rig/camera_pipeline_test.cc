@@ -142,17 +142,24 @@ TEST_F(CameraAccuracy, MovingTagPosePerFrameWithinAMillimetre) {
     }
   }
   ASSERT_GT(measured_xy.size(), 200u);
-  Eigen::Matrix2Xd A(2, measured_xy.size()), B(2, true_xy.size());
+  // Rigid 2-D fit (Procrustes): rotation from the centred cross-covariance.
+  Eigen::Vector2d ca = Eigen::Vector2d::Zero(), cb = Eigen::Vector2d::Zero();
   for (size_t i = 0; i < measured_xy.size(); ++i) {
-    A.col(i) = measured_xy[i];
-    B.col(i) = true_xy[i];
+    ca += measured_xy[i] / measured_xy.size();
+    cb += true_xy[i] / true_xy.size();
   }
-  const Eigen::Matrix3d T = Eigen::umeyama(A, B, false);
-  const double yaw = std::atan2(T(1, 0), T(0, 0));
+  double sin_sum = 0.0, cos_sum = 0.0;
+  for (size_t i = 0; i < measured_xy.size(); ++i) {
+    const Eigen::Vector2d a = measured_xy[i] - ca, b = true_xy[i] - cb;
+    cos_sum += a.dot(b);
+    sin_sum += a.x() * b.y() - a.y() * b.x();
+  }
+  const double yaw = std::atan2(sin_sum, cos_sum);
+  const Eigen::Rotation2Dd R(yaw);
   double worst_mm = 0.0, worst_deg = 0.0;
   for (size_t i = 0; i < measured_xy.size(); ++i) {
-    const Eigen::Vector2d p = T.topLeftCorner<2, 2>() * A.col(i) + T.topRightCorner<2, 1>();
-    worst_mm = std::max(worst_mm, (p - B.col(i)).norm() * 1e3);
+    const Eigen::Vector2d p = R * (measured_xy[i] - ca) + cb;
+    worst_mm = std::max(worst_mm, (p - true_xy[i]).norm() * 1e3);
     worst_deg = std::max(worst_deg, std::abs(calibration::WrapAngle(measured_h[i] + yaw - true_h[i])) * 180 / M_PI);
   }
   std::printf("per-frame pose over %zu frames (moving included): worst %.3f mm, %.4f deg\n",

@@ -16,6 +16,7 @@ void RegisterBatchCommand(CLI::App& app);
 void RegisterMeasureCommand(CLI::App& app);
 void RegisterCalibrateCameraCommand(CLI::App& app);
 void RegisterRobotCommand(CLI::App& app);
+void RegisterRobotSimCommand(CLI::App& app);
 void RegisterExplainCommand(CLI::App& app);
 
 }  // namespace odocal::rig

@@ -1,0 +1,98 @@
+#include "odocal/sim/sim_motion_backend.h"
+
+namespace odocal::sim {
+
+calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
+  calibration::RunSpec spec;
+  spec.procedure = command.procedure;
+  spec.direction = command.direction;
+  switch (command.procedure) {
+    case calibration::Procedure::kUmbmark: spec.side_m = command.amount_mm * 1e-3; break;
+    case calibration::Procedure::kStraight: spec.distance_m = command.amount_mm * 1e-3; break;
+    case calibration::Procedure::kSpin: spec.turns = static_cast<int>(command.count); break;
+    case calibration::Procedure::kOutAndBack:
+      spec.distance_m = command.amount_mm * 1e-3;
+      spec.repeats = static_cast<int>(command.count);
+      break;
+  }
+  return spec;
+}
+
+SimMotionBackend::SimMotionBackend(const RobotConfig& config) : robot_(config) {}
+
+bool SimMotionBackend::StartRun(const robot_link::RunCommand& command) {
+  const calibration::RunSpec spec = RunSpecFromCommand(command);
+  if (!spec.IsValid(nullptr)) return false;
+  std::lock_guard<std::mutex> lock(mutex_);
+  robot_.StartRun(spec);
+  const TelemetrySample t = robot_.Telemetry();
+  start_left_ = t.left_ticks;
+  start_right_ = t.right_ticks;
+  running_ = true;
+  stopped_ = false;
+  pending_s_ = 0.0;
+  return true;
+}
+
+robot_link::StepResult SimMotionBackend::Step(double dt_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  robot_link::StepResult out;
+  if (running_ && !stopped_) {
+    pending_s_ += dt_s;
+    const double period = robot_.control_period_s();
+    while (pending_s_ >= period && running_) {
+      pending_s_ -= period;
+      running_ = robot_.Step();
+    }
+  }
+  const TelemetrySample t = robot_.Telemetry();
+  out.sample.left_ticks = static_cast<int32_t>(t.left_ticks - start_left_);
+  out.sample.right_ticks = static_cast<int32_t>(t.right_ticks - start_right_);
+  out.sample.x_mm = t.odometry.x() * 1e3;
+  out.sample.y_mm = t.odometry.y() * 1e3;
+  out.sample.heading_rad = t.odometry.heading();
+  if (stopped_) {
+    out.finished = true;
+    out.status = robot_link::RunStatus::kStopped;
+    stopped_ = false;
+  } else if (!running_) {
+    out.finished = true;
+    out.status = robot_link::RunStatus::kCompleted;
+  }
+  return out;
+}
+
+void SimMotionBackend::Stop() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!running_) return;
+  robot_.Stop();
+  running_ = false;
+  stopped_ = true;
+}
+
+void SimMotionBackend::SetParams(const robot_link::ParamSet& params) {
+  calibration::WheelParams p;
+  p.left_wheel_diameter_m = params.left_wheel_diameter_mm * 1e-3;
+  p.right_wheel_diameter_m = params.right_wheel_diameter_mm * 1e-3;
+  p.track_m = params.track_mm * 1e-3;
+  p.ticks_per_rev = static_cast<int>(params.ticks_per_rev);
+  std::lock_guard<std::mutex> lock(mutex_);
+  robot_.SetBelievedParams(p);
+}
+
+calibration::Pose2 SimMotionBackend::TruePose() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return robot_.true_pose();
+}
+
+double SimMotionBackend::RobotTime() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return robot_.time_s();
+}
+
+calibration::WheelParams SimMotionBackend::BelievedParams() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return robot_.believed_params();
+}
+
+}  // namespace odocal::sim

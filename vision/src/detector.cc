@@ -88,7 +88,18 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
   }
   cv::Rect window(0, 0, grey.cols, grey.rows);
   if (roi) {
-    window = *roi & window;
+    // Snap the window's origin to the decimation grid: libapriltag decimates
+    // from the window's first pixel, so an origin of another parity sees a
+    // different decimated image, and window and full-frame detections would
+    // differ by a few hundredths of a pixel.
+    const int step = std::max(1, static_cast<int>(std::lround(impl_->options.quad_decimate)));
+    cv::Rect snapped = *roi;
+    const int dx = ((snapped.x % step) + step) % step, dy = ((snapped.y % step) + step) % step;
+    snapped.x -= dx;
+    snapped.y -= dy;
+    snapped.width += dx;
+    snapped.height += dy;
+    window = snapped & window;
     if (window.width < 8 || window.height < 8) {
       result.status = DetectStatus::kBadInput;
       result.message = "region of interest lies (almost) outside the image";

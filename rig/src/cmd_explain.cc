@@ -4,9 +4,10 @@
 // explains it (calibration/explain.h), written as DIR/explain.json and a
 // self-contained DIR/explain.html with the residuals before and after.
 //
-// SESSION, for now, is an `odocal simulate --out` directory seen through the
-// stand-in camera of measured_session_io.h (the camera pipeline will replace
-// it). It never reads the scenario's effects or truth.json's truth.
+// SESSION is a session file (session.yaml: videos measured by the camera
+// pipeline, telemetry beside them), or an `odocal simulate --out` directory
+// seen through the stand-in camera of measured_session_io.h (fast, for
+// experiments). It never reads the scenario's effects or truth.json's truth.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -20,10 +21,44 @@
 #include "odocal/rig/cli_util.h"
 #include "odocal/rig/commands.h"
 #include "odocal/rig/explain_report.h"
+#include "odocal/rig/measure.h"
 #include "odocal/rig/measured_session_io.h"
+#include "odocal/rig/session.h"
 #include "odocal/rig/output.h"
 
 namespace odocal::rig {
+namespace {
+
+// A session file measured by the camera pipeline, with the camera geometry
+// the lens candidate needs: the tag-plane point on the optical axis and the
+// camera's height above that plane, from the session's estimated plane.
+std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::string& path,
+                                                                    std::string* error) {
+  const std::optional<Session> session = LoadSession(path, error);
+  if (!session) return std::nullopt;
+  const auto measured = MeasureSessions({*session}, MeasureOptions{}, TerminalProgressBar("measuring"), error);
+  if (!measured) return std::nullopt;
+  const SessionMeasurement& sm = measured->front();
+  calibration::MeasuredSession out = sm.ToMeasuredSession();
+  const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session->camera_mount_guess;
+  const vision::CameraModel camera(session->intrinsics, mount);
+  const auto axis = camera.UnprojectToWorldPlane(
+      Eigen::Vector2d(session->intrinsics.cx, session->intrinsics.cy), session->tag.height_m());
+  if (axis) {
+    out.camera = calibration::FloorCamera{Eigen::Vector2d(axis->x(), axis->y()),
+                                          (mount.height_mm - session->tag.height_mm) * 1e-3};
+  }
+  // Only runs with telemetry inform the trajectory fit.
+  int with_telemetry = 0;
+  for (const auto& run : out.runs) with_telemetry += run.telemetry.empty() ? 0 : 1;
+  if (with_telemetry == 0) {
+    if (error) *error = path + ": no run has telemetry (runs[].telemetry); explain needs the ticks";
+    return std::nullopt;
+  }
+  return out;
+}
+
+}  // namespace
 
 void RegisterExplainCommand(CLI::App& app) {
   struct Args {
@@ -41,7 +76,7 @@ void RegisterExplainCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "explain", "Fit the whole trajectory, find the effect the model misses, refit, report");
   cmd->add_option("session", args->session,
-                  "Session: for now an `odocal simulate --out` directory (stand-in camera)")
+                  "Session file (session.yaml), or an `odocal simulate --out` directory (stand-in camera)")
       ->required();
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
   cmd->add_option("--camera-sigma-mm", args->sigma_mm, "Stand-in camera: position noise per frame")
@@ -72,22 +107,27 @@ void RegisterExplainCommand(CLI::App& app) {
     camera.camera.height_m = args->camera_height_mm * 1e-3;
     std::string error;
     if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
-    if (!std::filesystem::is_directory(args->session))
-      Fail("explain", kExitBadInput,
-           args->session + ": expected an `odocal simulate --out` directory (the camera "
-                           "pipeline's session files are not supported yet)");
-    const auto session = LoadSimulatedSession(args->session, camera, &error);
-    if (!session) Fail("explain", kExitBadInput, error);
+    std::optional<calibration::MeasuredSession> session;
+    nlohmann::json input;
+    if (std::filesystem::is_directory(args->session)) {
+      session = LoadSimulatedSession(args->session, camera, &error);
+      if (!session) Fail("explain", kExitBadInput, error);
+      input = {{"session", args->session},
+               {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
+                          "pipeline)"},
+               {"camera_sigma_mm", args->sigma_mm},
+               {"fps", args->fps},
+               {"seed", args->seed}};
+    } else {
+      session = MeasureSessionForExplain(args->session, &error);
+      if (!session) Fail("explain", kExitBadInput, error);
+      input = {{"session", args->session}, {"camera", "camera pipeline (videos measured)"}};
+    }
     const calibration::ExplainResult result = calibration::Explain(*session);
     if (!result.ok()) Fail("explain", kExitFailure, result.message);
     if (auto e = EnsureDirectory(args->out)) Fail("explain", kExitFailure, *e);
     nlohmann::json j = ExplainJson(*session, result);
-    j["input"] = {{"session", args->session},
-                  {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
-                             "pipeline)"},
-                  {"camera_sigma_mm", args->sigma_mm},
-                  {"fps", args->fps},
-                  {"seed", args->seed}};
+    j["input"] = input;
     if (auto e = WriteFileAtomically(args->out + "/explain.json", j.dump(2) + "\n"))
       Fail("explain", kExitFailure, *e);
     if (auto e = WriteFileAtomically(args->out + "/explain.html", ExplainHtml(*session, result)))

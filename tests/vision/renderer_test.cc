@@ -225,6 +225,36 @@ INSTANTIATE_TEST_SUITE_P(Backends, Video,
                          ::testing::Values(Mp4WriterOptions::Backend::kOpenCv,
                                            Mp4WriterOptions::Backend::kFfmpegCli));
 
+// Two ffmpeg writers open at once, closed one after the other: the second
+// child must not hold the first one's socket (before close-on-exec it did,
+// and the first Close waited for ever: a deadlock of parallel recording).
+TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
+  const std::string dir = test_util::MakeTempDir("odocal_vision_two_writers");
+  Mp4WriterOptions wo;
+  wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
+  Mp4Writer a, b;
+  const VideoStatus opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
+  if (!opened_a.ok && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
+    GTEST_SKIP() << opened_a.message;
+  ASSERT_TRUE(opened_a.ok) << opened_a.message;
+  ASSERT_TRUE(b.Open(dir + "/b.mp4", 30.0, cv::Size(64, 48), wo).ok);
+  const cv::Mat grey(48, 64, CV_8U, cv::Scalar(128));
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(a.Write(grey, i / 30.0).ok);
+    ASSERT_TRUE(b.Write(grey, i / 30.0).ok);
+  }
+  ASSERT_TRUE(a.Close().ok);
+  ASSERT_TRUE(b.Close().ok);
+  for (const char* name : {"/a.mp4", "/b.mp4"}) {
+    VideoReader reader;
+    ASSERT_TRUE(reader.Open(dir + name).ok) << name;
+    cv::Mat frame;
+    int frames = 0;
+    while (reader.Read(&frame)) ++frames;
+    EXPECT_EQ(frames, 5) << name;
+  }
+}
+
 TEST(VideoFiles, BadFilesGiveAClearStatus) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_badvideo");
   VideoReader missing;

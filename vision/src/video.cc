@@ -74,8 +74,13 @@ VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_
   }
   // A socket rather than a pipe: send(MSG_NOSIGNAL) reports a dead ffmpeg as
   // an error instead of raising SIGPIPE in the caller's process.
+  // Close-on-exec: writers opened at once from several threads would
+  // otherwise hand each other's socket to their ffmpeg children, and no
+  // ffmpeg would see the end of its input (a deadlock at Close). The child's
+  // dup2 onto its stdin makes a descriptor without the flag.
   int fds[2];
-  if (socketpair(AF_UNIX, SOCK_STREAM, 0, fds) != 0) return {false, "cannot create a socket to ffmpeg"};
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
+    return {false, "cannot create a socket to ffmpeg"};
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);

@@ -1,5 +1,7 @@
 #include "odocal/vision/corner_refine.h"
 
+#include "corner_geometry.h"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -61,9 +63,7 @@ std::optional<double> EdgeOffset(const cv::Mat& im, const cv::Point2d& p, const 
   return best;
 }
 
-struct Line {
-  cv::Point2d point, dir;  // dir unit
-};
+using Line = internal::EdgeLine;
 
 // Total least squares with two rounds of 3-sigma (MAD) rejection.
 std::optional<Line> FitLine(std::vector<cv::Point2d> pts, double* rms) {
@@ -102,41 +102,17 @@ std::optional<Line> FitLine(std::vector<cv::Point2d> pts, double* rms) {
   return std::nullopt;
 }
 
-std::optional<cv::Point2d> Intersect(const Line& a, const Line& b) {
-  const double den = a.dir.x * b.dir.y - a.dir.y * b.dir.x;
-  if (std::abs(den) < 1e-6) return std::nullopt;
-  const cv::Point2d d = b.point - a.point;
-  const double t = (d.x * b.dir.y - d.y * b.dir.x) / den;
-  return a.point + a.dir * t;
-}
-
 }  // namespace
 
 CornerRefineResult RefineTagCorners(const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px,
                                     const CameraModel* camera, const CornerRefineOptions& options) {
   CornerRefineResult result;
   result.corners_px = corners_px;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    result.message = why;
-    return result;
-  }
-  if (grey.empty() || grey.type() != CV_8UC1) {
-    result.message = "refinement needs an 8-bit grey image";
-    return result;
-  }
-  double perimeter = 0.0;
-  cv::Point2d centre(0, 0);
-  for (int k = 0; k < 4; ++k) {
-    perimeter += cv::norm(corners_px[(k + 1) % 4] - corners_px[k]);
-    centre += corners_px[k] * 0.25;
-  }
-  const double cell_px = perimeter / 4.0 / options.width_at_border;
-  if (cell_px < options.min_cell_px) {
-    result.message = "tag too small for edge refinement";
-    return result;
-  }
-  const double half_width = std::min(options.max_half_width_px, 0.45 * cell_px);
+  const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
+  if (!extent) return result;
+  const cv::Point2d centre = extent->centre_px;
+  const double cell_px = extent->cell_px;
+  const double half_width = extent->half_width_px;
 
   std::array<Line, 4> lines;
   double sq_sum = 0.0;
@@ -172,33 +148,8 @@ CornerRefineResult RefineTagCorners(const cv::Mat& grey, const std::array<cv::Po
     sq_sum += rms * rms * pts.size();
     n_sum += static_cast<int>(pts.size());
   }
-  std::array<cv::Point2d, 4> refined;
-  for (int k = 0; k < 4; ++k) {
-    // Corner k joins edge k-1 (into it) and edge k (out of it).
-    const auto c = Intersect(lines[(k + 3) % 4], lines[k]);
-    if (!c) {
-      result.message = "degenerate edges";
-      return result;
-    }
-    refined[k] = *c;
-  }
-  if (camera) {
-    // Back to distorted pixels.
-    const auto& in = camera->intrinsics();
-    for (auto& c : refined) {
-      const auto px = camera->ProjectCamera(
-          Eigen::Vector3d((c.x - in.cx) / in.fx, (c.y - in.cy) / in.fy, 1.0));
-      c = cv::Point2d(px->x(), px->y());
-    }
-  }
-  for (int k = 0; k < 4; ++k) {
-    if (cv::norm(refined[k] - corners_px[k]) > std::max(1.5, 0.3 * cell_px)) {
-      result.message = "refined corner moved implausibly far; keeping the detector's";
-      return result;
-    }
-  }
-  result.ok = true;
-  result.corners_px = refined;
+  internal::CornersFromEdges(lines, camera, corners_px, cell_px, &result);
+  if (!result.ok) return result;
   result.edge_points_used = n_sum;
   result.rms_line_residual_px = std::sqrt(sq_sum / std::max(1, n_sum));
   return result;

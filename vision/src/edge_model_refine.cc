@@ -18,6 +18,8 @@
 
 #include "odocal/vision/corner_refine.h"
 
+#include "corner_geometry.h"
+
 namespace odocal::vision {
 namespace {
 
@@ -84,10 +86,7 @@ class EdgeModelCost {
   const EdgePixels* pixels_;
 };
 
-struct FittedLine {
-  cv::Point2d point;  // undistorted pixels
-  cv::Point2d dir;
-};
+using FittedLine = internal::EdgeLine;
 
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
@@ -160,27 +159,10 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
                                                const cv::Point& origin) {
   CornerRefineResult result;
   result.corners_px = corners_px;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    result.message = why;
-    return result;
-  }
-  if (grey.empty() || grey.type() != CV_8UC1) {
-    result.message = "refinement needs an 8-bit grey image";
-    return result;
-  }
-  double perimeter = 0.0;
-  cv::Point2d centre(0, 0);
-  for (int k = 0; k < 4; ++k) {
-    perimeter += cv::norm(corners_px[(k + 1) % 4] - corners_px[k]);
-    centre += corners_px[k] * 0.25;
-  }
-  const double cell_px = perimeter / 4.0 / options.width_at_border;
-  if (cell_px < options.min_cell_px) {
-    result.message = "tag too small for edge refinement";
-    return result;
-  }
-  const double half_width = std::min(options.max_half_width_px, 0.45 * cell_px);
+  const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
+  if (!extent) return result;
+  const cv::Point2d centre = extent->centre_px;
+  const double half_width = extent->half_width_px;
   std::array<FittedLine, 4> lines;
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) {
@@ -194,35 +176,8 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
     lines[k] = *line;
     sq += rms * rms;
   }
-  std::array<cv::Point2d, 4> refined;
-  for (int k = 0; k < 4; ++k) {
-    const FittedLine& a = lines[(k + 3) % 4];
-    const FittedLine& b = lines[k];
-    const double den = a.dir.x * b.dir.y - a.dir.y * b.dir.x;
-    if (std::abs(den) < 1e-6) {
-      result.message = "degenerate edges";
-      return result;
-    }
-    const cv::Point2d d = b.point - a.point;
-    const double t = (d.x * b.dir.y - d.y * b.dir.x) / den;
-    refined[k] = a.point + a.dir * t;
-  }
-  if (camera) {
-    const auto& in = camera->intrinsics();
-    for (auto& c : refined) {
-      const auto px =
-          camera->ProjectCamera(Eigen::Vector3d((c.x - in.cx) / in.fx, (c.y - in.cy) / in.fy, 1.0));
-      c = cv::Point2d(px->x(), px->y());
-    }
-  }
-  for (int k = 0; k < 4; ++k) {
-    if (cv::norm(refined[k] - corners_px[k]) > std::max(1.5, 0.3 * cell_px)) {
-      result.message = "refined corner moved implausibly far; keeping the input";
-      return result;
-    }
-  }
-  result.ok = true;
-  result.corners_px = refined;
+  internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
+  if (!result.ok) return result;
   result.rms_line_residual_px = std::sqrt(sq / 4.0);  // here: grey-level rms of the fits
   return result;
 }

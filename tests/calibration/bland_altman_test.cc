@@ -99,7 +99,7 @@ TEST(BlandAltman, MonteCarloRecoversBiasAndLimits) {
     EXPECT_NEAR(r.sd, sd, 0.15);
   }
   const int trials = 4000, n = 12;
-  int bias_covered = 0, lower_covered = 0, upper_covered = 0, outside = 0;
+  int bias_covered = 0, lower_covered = 0, upper_covered = 0, outside = 0, outliers = 0;
   for (int k = 0; k < trials; ++k) {
     std::vector<double> test, reference;
     for (int i = 0; i < n; ++i) {
@@ -112,18 +112,21 @@ TEST(BlandAltman, MonteCarloRecoversBiasAndLimits) {
     lower_covered += r.lower_limit_ci.Contains(bias - z * sd);
     upper_covered += r.upper_limit_ci.Contains(bias + z * sd);
     outside += static_cast<int>(r.outside_limits.size());
+    outliers += static_cast<int>(r.outliers.size());
   }
   const double cb = double(bias_covered) / trials, cl = double(lower_covered) / trials,
                cu = double(upper_covered) / trials;
   std::printf("coverage over %d trials of n = %d: bias %.3f, lower limit %.3f, upper limit %.3f; "
-              "points outside the limits %.3f\n",
-              trials, n, cb, cl, cu, double(outside) / (trials * n));
+              "points outside the limits %.3f; false outliers %.4f\n",
+              trials, n, cb, cl, cu, double(outside) / (trials * n), double(outliers) / (trials * n));
   // Binomial SD of a 95 % coverage over 4000 trials: 0.0034. The exact t
   // interval of the bias is exact; the limits' interval is Bland & Altman's
   // large-sample approximation (slightly off at n = 12).
   EXPECT_NEAR(cb, 0.95, 0.012);
   EXPECT_NEAR(cl, 0.95, 0.025);
   EXPECT_NEAR(cu, 0.95, 0.025);
+  // The leave-one-out prediction interval is exact for normal data: 1 in 1000.
+  EXPECT_NEAR(double(outliers) / (trials * n), 0.001, 0.0006);
 }
 
 }  // namespace

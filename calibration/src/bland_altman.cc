@@ -14,12 +14,6 @@
 namespace odocal::calibration {
 namespace {
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 BlandAltmanResult Invalid(const std::string& why) {
   BlandAltmanResult r;
   r.status = BlandAltmanResult::Status::kInvalidInput;
@@ -34,8 +28,8 @@ bool BlandAltmanOptions::IsValid(std::string* why) const {
     if (why) *why = "confidence must be in (0.5, 1)";
     return false;
   }
-  if (!(outlier_modified_z > 0.0)) {
-    if (why) *why = "outlier_modified_z must be positive";
+  if (!(outlier_confidence > 0.5 && outlier_confidence < 1.0)) {
+    if (why) *why = "outlier_confidence must be in (0.5, 1)";
     return false;
   }
   return true;
@@ -87,16 +81,23 @@ BlandAltmanResult BlandAltman(const std::vector<double>& test, const std::vector
   r.lower_limit_ci = {r.lower_limit - r.t * se_limit, r.lower_limit + r.t * se_limit};
   r.upper_limit_ci = {r.upper_limit - r.t * se_limit, r.upper_limit + r.t * se_limit};
 
-  const double median = Median(r.differences);
-  std::vector<double> deviations;
-  for (double d : r.differences) deviations.push_back(std::abs(d - median));
-  const double mad = Median(deviations);
+  const double t_out = boost::math::quantile(
+      boost::math::students_t_distribution<double>(r.n - 2), 0.5 * (1.0 + options.outlier_confidence));
+  double sum = 0.0, sum_sq = 0.0;
+  for (double d : r.differences) {
+    sum += d - r.bias;
+    sum_sq += (d - r.bias) * (d - r.bias);
+  }
   for (int i = 0; i < r.n; ++i) {
     const double d = r.differences[i];
-    // MAD 0 (most differences identical): any different value stands out.
-    const bool outlier = mad > 0.0 ? 0.6745 * std::abs(d - median) / mad > options.outlier_modified_z
-                                   : std::abs(d - median) > 0.0 && r.sd > 0.0;
-    if (outlier) r.outliers.push_back(i);
+    // Mean and SD of the others, from the sums about the full mean.
+    const double e = d - r.bias;
+    const double mean_others = r.bias + (sum - e) / (r.n - 1);
+    const double ss_others = sum_sq - e * e - (r.n - 1) * std::pow(mean_others - r.bias, 2);
+    const double sd_others = std::sqrt(std::max(0.0, ss_others) / (r.n - 2));
+    const double bound = t_out * sd_others * std::sqrt(1.0 + 1.0 / (r.n - 1));
+    if (std::abs(d - mean_others) > bound && std::abs(d - mean_others) > 1e-12 * (1.0 + std::abs(d)))
+      r.outliers.push_back(i);
     if (d < r.lower_limit || d > r.upper_limit) r.outside_limits.push_back(i);
   }
   r.status = BlandAltmanResult::Status::kOk;

@@ -13,10 +13,12 @@
 //   CI of the bias       d̄ ± t_{n-1} s / √n
 //   CI of each limit     limit ± t_{n-1} s √(1/n + z² / (2 (n - 1)))
 //
-// Outliers are flagged robustly (modified z-score of Iglewicz & Hoaglin,
-// 0.6745 |d_i - median| / MAD above 3.5), so that one wild tape reading does
-// not hide itself by inflating s. Points outside the limits are listed too
-// (about 1 in 20 is expected there by construction).
+// Outliers: a difference outside the prediction interval of the others
+// (leave-one-out, so that one wild tape reading does not hide itself by
+// inflating s): |d_i - mean_{-i}| > t_{n-2, (1+c)/2} s_{-i} sqrt(1 + 1/(n-1)),
+// c = outlier_confidence (0.999: one false flag in a thousand normal
+// readings). Points outside the limits of agreement are listed too (about 1 in
+// 20 is expected there by construction).
 //
 // Pure function of the numbers: no I/O.
 #ifndef ODOCAL_CALIBRATION_BLAND_ALTMAN_H_
@@ -30,7 +32,7 @@ namespace odocal::calibration {
 
 struct BlandAltmanOptions {
   double confidence = 0.95;           // of the limits and of every interval
-  double outlier_modified_z = 3.5;    // Iglewicz & Hoaglin's recommended cut
+  double outlier_confidence = 0.999;  // of the leave-one-out prediction interval
 
   bool IsValid(std::string* why) const;
 };
@@ -59,7 +61,7 @@ struct BlandAltmanResult {
   Interval bias_ci;
   Interval lower_limit_ci;
   Interval upper_limit_ci;
-  std::vector<int> outliers;        // indices, robust modified z-score above the cut
+  std::vector<int> outliers;        // indices outside the others' prediction interval
   std::vector<int> outside_limits;  // indices outside [lower_limit, upper_limit]
 
   bool ok() const { return status == Status::kOk; }

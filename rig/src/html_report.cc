@@ -293,6 +293,10 @@ std::string ReportHtml(const json& report, const std::string& title) {
   for (const char* k : {"session", "scenario", "manual", "measurement"})
     if (report.contains(k) && report[k].is_string())
       os << "<div class='note'>" << k << ": " << Escape(report[k].get<std::string>()) << "</div>\n";
+  if (report.contains("sessions") && report["sessions"].is_array())
+    for (const json& s : report["sessions"])
+      if (s.contains("session") && s["session"].is_string())
+        os << "<div class='note'>session: " << Escape(s["session"].get<std::string>()) << "</div>\n";
 
   if (report.contains("verdict")) {
     const json& v = report["verdict"];

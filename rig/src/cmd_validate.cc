@@ -180,6 +180,8 @@ void RegisterValidateCommand(CLI::App& app) {
     }
     std::vector<std::string> sentences;
     double position_bound_mm = 0.0;
+    double position_worst_mm = 0.0;  // the limits' far confidence bounds
+    int position_n = 0;
     bool position_ok = true;
     for (const Axis& a : axes) {
       if (a.key == "theta" && a.manual.empty()) continue;
@@ -220,7 +222,12 @@ void RegisterValidateCommand(CLI::App& app) {
                                 {"means", r.means},
                                 {"differences", r.differences}});
       sentences.push_back(AxisSentence(a.label, a.unit, r, args->confidence));
-      if (a.key != "theta") position_bound_mm = std::max(position_bound_mm, r.error_bound());
+      if (a.key != "theta") {
+        position_bound_mm = std::max(position_bound_mm, r.error_bound());
+        position_worst_mm = std::max({position_worst_mm, std::abs(r.lower_limit_ci.lower),
+                                      std::abs(r.upper_limit_ci.upper)});
+        position_n = r.n;
+      }
     }
     if (!position_ok || report["axes"].empty())
       Fail(name, kExitFailure,
@@ -235,9 +242,14 @@ void RegisterValidateCommand(CLI::App& app) {
             << static_cast<int>(std::lround(args->confidence * 100))
             << " %, bias included): good for UMBMark when E_max,syst is above ~" << Fmt(usable_above_mm, 0)
             << " mm, not for fine calibration below that (use the camera).";
+    if (position_n < 30)
+      verdict << " With " << position_n << " readings the limits themselves are uncertain: up to "
+              << Fmt(position_worst_mm, 1) << " mm at the far end of their confidence intervals"
+              << " (more readings narrow them).";
     report["verdict"] = {{"text", verdict.str()},
                          {"axes", sentences},
                          {"error_bound_mm", position_bound_mm},
+                         {"limits_worst_case_mm", position_worst_mm},
                          {"usable_above_emax_mm", usable_above_mm}};
     report["notes"] = notes;
     report["runs"] = nlohmann::json::array();

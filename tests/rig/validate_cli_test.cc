@@ -177,6 +177,16 @@ TEST(ValidateCli, BadCsvFailsWithOneClearLine) {
   }
 }
 
+TEST(ValidateCli, TooFewReadingsForStatisticsFail) {
+  const std::string dir = test_util::MakeTempDir("odocal_validate_few_");
+  std::ofstream(dir + "/manual.csv") << "run,x_mm,y_mm\nrun01_umbmark_cw,-9,-10\nrun02_umbmark_ccw,-8,9\n";
+  const auto r = RunCommand(Odocal("validate --manual " + dir + "/manual.csv " + Session() +
+                                   " --out " + dir + "/out"));
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("fewer than 3 readings"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out/report.json"));
+}
+
 TEST(ValidateCsv, ReadsOptionalThetaCommentsAndColumnOrder) {
   const std::string dir = test_util::MakeTempDir("odocal_manual_csv_");
   std::ofstream(dir + "/m.csv") << "# comment\ny_mm, run ,x_mm,theta_deg\n-2.5,a,1e1,\n3,b,-4,0.25\n";

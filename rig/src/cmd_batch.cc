@@ -15,6 +15,8 @@
 #include "odocal/calibration/umbmark.h"
 #include "odocal/rig/cli_util.h"
 #include "odocal/rig/commands.h"
+#include "odocal/rig/exports.h"
+#include "odocal/rig/html_report.h"
 #include "odocal/rig/measure.h"
 #include "odocal/rig/output.h"
 #include "odocal/rig/session.h"
@@ -220,6 +222,7 @@ void RegisterBatchCommand(CLI::App& app) {
     std::vector<std::string> sessions;
     std::string out;
     int threads = 0;
+    ExportRequests exports;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -227,8 +230,10 @@ void RegisterBatchCommand(CLI::App& app) {
   cmd->add_option("sessions", args->sessions, "Session files (session.yaml)")->required();
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
   cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
+  AddExportOption(cmd, &args->exports);
   cmd->callback([args]() {
     const std::string name = "batch";
+    if (auto e = CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
     const std::vector<Session> sessions = LoadSessionsOrFail(name, args->sessions);
     MeasureOptions options;
     options.threads = args->threads;
@@ -237,7 +242,10 @@ void RegisterBatchCommand(CLI::App& app) {
     if (!measured) Fail(name, kExitFailure, error);
     if (auto e = EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
 
-    nlohmann::json report = {{"sessions", nlohmann::json::array()}, {"runs", nlohmann::json::array()}};
+    nlohmann::json report = {{"command", "batch"},
+                             {"sessions", nlohmann::json::array()},
+                             {"runs", nlohmann::json::array()},
+                             {"trajectories", nlohmann::json::array()}};
     for (const SessionMeasurement& sm : *measured) {
       report["sessions"].push_back(
           {{"session", sm.session.path}, {"camera_plane", PlaneJson(sm)}, {"flags", sm.flags}});
@@ -245,6 +253,7 @@ void RegisterBatchCommand(CLI::App& app) {
         nlohmann::json j = RunJson(rm);
         j["session"] = sm.session.path;
         report["runs"].push_back(j);
+        report["trajectories"].push_back(TrajectoryJson(rm));
       }
     }
     const Estimates estimates = Estimate(*measured);
@@ -253,21 +262,25 @@ void RegisterBatchCommand(CLI::App& app) {
     const calibration::WheelParams& nominal = sessions.front().nominal;
     const bool any_estimate = estimates.umbmark_summary || estimates.cvra_ratio ||
                               estimates.cvra_scale || estimates.cvra_track;
+    std::optional<calibration::WheelParams> corrected;
     if (any_estimate) {
-      const calibration::WheelParams corrected = Corrected(nominal, estimates);
-      report["corrected"] = WheelParamsJson(corrected);
-      report["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+      corrected = Corrected(nominal, estimates);
+      report["corrected"] = WheelParamsJson(*corrected);
+      report["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
     }
     report["notes"] = estimates.notes;
     const int usable = CountUsable(*measured);
     report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
     if (auto e = WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
       Fail(name, kExitFailure, *e);
+    if (auto e = WriteReportHtml(report, "odocal batch", args->out + "/report.html"))
+      Fail(name, kExitFailure, *e);
+    if (auto e = WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
     PrintRuns(*measured);
     if (estimates.umbmark_summary) std::printf("\n%s\n", estimates.umbmark_summary->BriefReport().c_str());
     for (const std::string& note : estimates.notes) std::printf("note: %s\n", note.c_str());
-    std::printf("report: %s/report.json\n", args->out.c_str());
+    std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
     if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
   });
 }

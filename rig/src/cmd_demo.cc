@@ -16,6 +16,8 @@
 #include "odocal/calibration/umbmark.h"
 #include "odocal/rig/cli_util.h"
 #include "odocal/rig/commands.h"
+#include "odocal/rig/exports.h"
+#include "odocal/rig/html_report.h"
 #include "odocal/rig/output.h"
 #include "odocal/rig/scenario.h"
 #include "odocal/rig/simulation.h"
@@ -52,14 +54,17 @@ void RegisterDemoCommand(CLI::App& app) {
   struct Args {
     std::string scenario;
     std::string out;
+    ExportRequests exports;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "demo", "Calibrate a mis-calibrated virtual robot with UMBMark and show the improvement");
   cmd->add_option("--scenario", args->scenario, "Scenario file (YAML)")->required();
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
+  AddExportOption(cmd, &args->exports);
   cmd->callback([args]() {
     const std::string name = "demo";
+    if (auto e = CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
     std::string error;
     const std::optional<Scenario> scenario = LoadScenario(args->scenario, &error);
     if (!scenario) Fail(name, kExitBadInput, error);
@@ -84,6 +89,7 @@ void RegisterDemoCommand(CLI::App& app) {
     if (auto e = WriteSimulation(*scenario, before, args->out + "/round1")) Fail(name, kExitFailure, *e);
     if (auto e = WriteSimulation(again, after, args->out + "/round2")) Fail(name, kExitFailure, *e);
     const nlohmann::json report = {
+        {"command", "demo"},
         {"scenario", args->scenario},
         {"measurement", "simulator truth (ideal measurement)"},
         {"truth", {{"Ed", before.truth.Ed}, {"Eb", before.truth.Eb}, {"Es", before.truth.Es}}},
@@ -101,6 +107,9 @@ void RegisterDemoCommand(CLI::App& app) {
     };
     if (auto e = WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
       Fail(name, kExitFailure, *e);
+    if (auto e = WriteReportHtml(report, "odocal demo", args->out + "/report.html"))
+      Fail(name, kExitFailure, *e);
+    if (auto e = WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
     std::printf("odocal demo: %zu UMBMark squares of %.0f mm on a virtual robot\n",
                 input_before->cw.size() + input_before->ccw.size(), input_before->side_m * 1e3);
@@ -123,7 +132,7 @@ void RegisterDemoCommand(CLI::App& app) {
                 corrected.track_m * 1e3, scenario->robot.truth.track_m * 1e3);
     std::printf("  E_max,syst   %.2f mm before, %.2f mm after: %.0fx smaller\n",
                 estimate.emax_syst_m * 1e3, verify.emax_syst_m * 1e3, improvement);
-    std::printf("\nreport: %s/report.json\n", args->out.c_str());
+    std::printf("\nreport: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
   });
 }
 

@@ -7,6 +7,7 @@
 #include "odocal/calibration/umbmark.h"
 #include "odocal/rig/cli_util.h"
 #include "odocal/rig/commands.h"
+#include "odocal/rig/exports.h"
 #include "odocal/rig/output.h"
 
 namespace odocal::rig {
@@ -39,6 +40,7 @@ void RegisterUmbmarkCommand(CLI::App& app) {
     bool json = false;
     double left_mm = 0.0, right_mm = 0.0;
     int ticks_per_rev = 0;
+    ExportRequests exports;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -55,7 +57,9 @@ void RegisterUmbmarkCommand(CLI::App& app) {
   cmd->add_option("--right-diameter-mm", args->right_mm, "Nominal right wheel diameter");
   cmd->add_option("--ticks-per-rev", args->ticks_per_rev, "Encoder ticks per wheel revolution");
   cmd->add_flag("--json", args->json, "Print one JSON object");
+  AddExportOption(cmd, &args->exports);
   cmd->callback([args]() {
+    if (auto e = CheckExports(args->exports)) Fail("umbmark", kExitBadInput, *e);
     calibration::UmbmarkInput input;
     input.side_m = args->side_mm * 1e-3;
     input.track_m = args->track_mm * 1e-3;
@@ -72,6 +76,8 @@ void RegisterUmbmarkCommand(CLI::App& app) {
     if ((args->left_mm != 0.0 || args->right_mm != 0.0) && !have_wheels)
       Fail("umbmark", kExitBadInput,
            "--left-diameter-mm and --right-diameter-mm go together and must be positive");
+    std::optional<calibration::WheelParams> corrected_params;
+    calibration::WheelParams nominal_params;
     if (have_wheels) {
       calibration::WheelParams nominal;
       nominal.left_wheel_diameter_m = args->left_mm * 1e-3;
@@ -82,7 +88,14 @@ void RegisterUmbmarkCommand(CLI::App& app) {
           nominal, summary.coupled.Ed, summary.coupled.Eb);
       doc["corrected"] = WheelParamsJson(corrected);
       doc["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+      nominal_params = nominal;
+      corrected_params = corrected;
     }
+    if (!args->exports.raw.empty() && !have_wheels)
+      Fail("umbmark", kExitBadInput,
+           "--export needs the nominal wheels: --left-diameter-mm, --right-diameter-mm (and --ticks-per-rev)");
+    if (auto e = WriteExports(args->exports, nominal_params, corrected_params))
+      Fail("umbmark", kExitFailure, *e);
     if (args->json) {
       std::cout << doc.dump(2) << std::endl;
     } else {

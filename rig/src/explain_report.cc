@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "svg_plot.h"
+
 namespace odocal::rig {
 namespace {
 
@@ -85,38 +87,26 @@ nlohmann::json AliasJson(const calibration::AliasReport& a) {
 std::string ResidualSvg(const calibration::MeasuredSession& session,
                         const calibration::TrajectoryFitResult& fit, double y_max_mm,
                         const std::string& title) {
-  const double w = 900, h = 220, left = 50, bottom = 30, top = 20;
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(1);
-  os << "<svg xmlns='http://www.w3.org/2000/svg' width='" << w << "' height='" << h
-     << "' style='background:#fff;border:1px solid #ccc'>\n";
-  os << "<text x='" << left << "' y='14' font-size='13'>" << title << "</text>\n";
   const size_t n = fit.residuals.size();
-  auto X = [&](size_t i) { return left + (w - left - 10) * double(i) / std::max<size_t>(1, n - 1); };
-  auto Y = [&](double mm) { return h - bottom - (h - bottom - top) * std::min(mm, y_max_mm) / y_max_mm; };
-  for (int k = 0; k <= 4; ++k) {
-    const double v = y_max_mm * k / 4.0;
-    os << "<line x1='" << left << "' x2='" << w - 10 << "' y1='" << Y(v) << "' y2='" << Y(v)
-       << "' stroke='#eee'/><text x='4' y='" << Y(v) + 4 << "' font-size='10'>" << v
-       << " mm</text>\n";
-  }
+  svg::Plot plot(900, 240, {0.0, std::max<double>(1.0, double(n) - 1.0)}, {0.0, y_max_mm});
+  plot.Title(title);
+  plot.Axes("frame (runs side by side)", "|model − camera| [mm]");
   int last_run = -1;
   for (size_t i = 0; i < n; ++i) {
     const calibration::FrameResidual& r = fit.residuals[i];
     if (r.run != last_run) {
-      os << "<line x1='" << X(i) << "' x2='" << X(i) << "' y1='" << top << "' y2='" << h - bottom
-         << "' stroke='#999' stroke-dasharray='3,3'/><text x='" << X(i) + 2 << "' y='" << h - 8
-         << "' font-size='9'>" << session.runs[r.run].name << "</text>\n";
+      plot.Line(double(i), 0.0, double(i), y_max_mm, "#999", 1.0, "3,3");
+      // Alternate heights so that the names of short runs do not overlap.
+      plot.Text(double(i), y_max_mm, session.runs[r.run].name, "#333", 9, "start", 2,
+                r.run % 2 == 0 ? 10 : 21);
       last_run = r.run;
     }
     const char* colour = r.motion == calibration::MotionKind::kTurn       ? "#d62728"
                          : r.motion == calibration::MotionKind::kStraight ? "#1f77b4"
                                                                           : "#7f7f7f";
-    os << "<circle cx='" << X(i) << "' cy='" << Y(r.error_m.norm() * 1e3) << "' r='1' fill='"
-       << colour << "'/>";
+    plot.Circle(double(i), std::min(r.error_m.norm() * 1e3, y_max_mm), 1.0, colour);
   }
-  os << "\n</svg>\n";
-  return os.str();
+  return plot.Svg("residuals");
 }
 
 }  // namespace

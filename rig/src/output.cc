@@ -83,7 +83,15 @@ nlohmann::json UmbmarkJson(const calibration::UmbmarkInput& input,
                 {"Eb", {c.Eb - *c.t95 * *c.sigma_Eb, c.Eb + *c.t95 * *c.sigma_Eb}}};
   }
   const bool repeated = s.cw.n >= 2;
+  nlohmann::json runs = {{"cw", nlohmann::json::array()}, {"ccw", nlohmann::json::array()}};
+  for (const auto& [key, list] : {std::pair{"cw", &input.cw}, std::pair{"ccw", &input.ccw}})
+    for (const calibration::ReturnError& e : *list) {
+      nlohmann::json j = {{"x_mm", e.x_m * 1e3}, {"y_mm", e.y_m * 1e3}};
+      if (e.heading_rad) j["theta_deg"] = *e.heading_rad * kRadToDeg;
+      runs[key].push_back(j);
+    }
   return {
+      {"return_errors", runs},
       {"side_mm", input.side_m * 1e3},
       {"track_mm", input.track_m * 1e3},
       {"n_cw", s.cw.n},

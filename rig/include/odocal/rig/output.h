@@ -25,7 +25,8 @@ nlohmann::json ReturnErrorJson(const calibration::Pose2& error);
 nlohmann::json WheelParamsJson(const calibration::WheelParams& params);
 nlohmann::json Ros2Json(const calibration::Ros2Multipliers& m);
 
-// The document of `odocal umbmark --json` (and of report.json's `umbmark`).
+// The document of `odocal umbmark --json` (and of report.json's `umbmark`),
+// with the runs it used in `return_errors: {cw: [...], ccw: [...]}`.
 nlohmann::json UmbmarkJson(const calibration::UmbmarkInput& input,
                            const calibration::UmbmarkSummary& summary);
 // The same as a table people read.

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterRobotCommand(app);
   odocal::rig::RegisterRobotSimCommand(app);
   odocal::rig::RegisterExplainCommand(app);
+  odocal::rig::RegisterStationCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

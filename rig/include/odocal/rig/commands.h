@@ -18,6 +18,7 @@ void RegisterCalibrateCameraCommand(CLI::App& app);
 void RegisterRobotCommand(CLI::App& app);
 void RegisterRobotSimCommand(CLI::App& app);
 void RegisterExplainCommand(CLI::App& app);
+void RegisterStationCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

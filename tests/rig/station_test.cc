@@ -223,6 +223,37 @@ TEST(StationFailure, CameraLostAfterTheStart) {
   ExpectLeftAsItWas(*vs, r);
 }
 
+// A camera whose grabber stops delivering frames (unplugged) after `frames`.
+class UnpluggedAfter final : public FrameSource {
+ public:
+  UnpluggedAfter(FrameSource& inner, int frames) : inner_(inner), left_(frames) {}
+  std::optional<CameraFrame> Grab(std::string* error) override {
+    if (left_-- <= 0) {
+      *error = "no frame (unplugged)";
+      return std::nullopt;
+    }
+    return inner_.Grab(error);
+  }
+  std::string Describe() const override { return "unplugged " + inner_.Describe(); }
+
+ private:
+  FrameSource& inner_;
+  int left_;
+};
+
+TEST(StationFailure, CameraUnpluggedDuringARun) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
+  ASSERT_TRUE(vs);
+  const StationOptions options;
+  UnpluggedAfter unplugged(*vs->camera, options.rest_frames + 2);  // two frames into the run
+  vs->setup.camera = &unplugged;
+  const StationResult r = RunStation(vs->setup, options);
+  EXPECT_EQ(r.status, StationStatus::kCameraLost) << r.message;
+  EXPECT_NE(r.message.find("unplugged"), std::string::npos) << r.message;
+  EXPECT_NE(r.cleanup.find("robot stopped"), std::string::npos) << r.cleanup;
+  ExpectLeftAsItWas(*vs, r);
+}
+
 // A line on which the robot stops answering after `writes` writes (the
 // handshake, the parameter read, the telemetry rate and the run start).
 class SilentAfter final : public robot_link::Transport {
@@ -345,6 +376,30 @@ TEST(StationFailure, InterruptStopsTheRobotMidRun) {
   // Stopped well short of the 8 m square: it is near where it started.
   const double moved_m = (vs->backend->TruePose().translation() - vs->scenario.robot.start_pose.translation()).norm();
   EXPECT_LT(moved_m, 1.5);
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// Ctrl-C while a push is under way: the push runs to its end (staged, read
+// back, committed, verified), the station stops at the next step and, the new
+// set not being verified by runs, puts the initial one back.
+TEST(StationFailure, InterruptDuringAPushLetsItFinishThenRestores) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  std::atomic<bool> stop{false};
+  auto log = vs->setup.progress;
+  vs->setup.progress = [&, log](const std::string& line) {
+    log(line);
+    if (line.rfind("pushing", 0) == 0) stop = true;
+  };
+  vs->setup.stop_requested = &stop;
+  const StationResult r = RunStation(vs->setup, StationOptions{});
+  EXPECT_EQ(r.status, StationStatus::kInterrupted) << r.message;
+  ASSERT_EQ(r.iterations.size(), 1u);
+  ASSERT_TRUE(r.iterations[0].pushed) << "the push was not cut short";
+  bool verified = false;
+  for (const std::string& line : vs->log) verified = verified || line.rfind("pushed and verified", 0) == 0;
+  EXPECT_TRUE(verified);
+  EXPECT_TRUE(r.restored);
   ExpectLeftAsItWas(*vs, r);
 }
 

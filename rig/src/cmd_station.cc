@@ -222,8 +222,9 @@ void RegisterStationCommand(CLI::App& app) {
       if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
       auto camera = SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
       if (!camera) Fail(name, kExitFailure, error);
-      Progress("virtual robot on " + (*host.value)->device_path() + ", time scale " +
-               std::to_string(args->time_scale));
+      char scale[64];
+      std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args->time_scale);
+      Progress("virtual robot on " + (*host.value)->device_path() + scale);
       setup.transport = port.value->get();
       setup.camera = camera.get();
       setup.intrinsics = s->camera->intrinsics;

@@ -423,6 +423,21 @@ TEST(StationCli, VirtualRobotWritesTheReport) {
   EXPECT_GT(report["improvement"].get<double>(), 10.0);
 }
 
+TEST(StationCli, CtrlCStopsTheRobotAndExits130) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_sigint_");
+  std::ofstream(dir + "/s.yaml") << ScenarioText(kMisCalibrated, -100, -1000, 2000, 1);
+  // SIGINT 2.5 s in, while the first 2 m square is driven (about 5 s at 5x).
+  const test_util::CommandResult r = test_util::RunCommand(
+      "timeout --preserve-status -s INT 2.5 " +
+      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --time-scale 5"));
+  EXPECT_EQ(r.exit_code, 130) << r.err;
+  EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("parameters as they were"), std::string::npos) << r.err;
+  std::ifstream in(dir + "/out/report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["status"], "interrupted");
+}
+
 TEST(StationCli, RealRobotConfigNamesTheMissingDeviceAndCamera) {
   const std::string dir = test_util::MakeTempDir("odocal_station_cfg_");
   CameraFile camera;

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterRobotSimCommand(app);
   odocal::rig::RegisterExplainCommand(app);
   odocal::rig::RegisterValidateCommand(app);
+  odocal::rig::RegisterStationCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -49,47 +49,13 @@ std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
   return records;
 }
 
-// Views for the plane estimate: each new one at least `separation` px from
-// the last kept, then evenly thinned to `max_views`.
 std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
                                           double separation_px, int max_views) {
-  std::vector<vision::TagCorners> views;
-  cv::Point2d last(-1e9, -1e9);
-  for (const RunMeasurement& run : runs) {
-    for (const vision::FrameObservation& f : run.track.frames) {
-      if (!f.corners_px) continue;
-      const auto& c = *f.corners_px;
-      const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
-      if (cv::norm(centre - last) < separation_px) continue;
-      last = centre;
-      views.push_back(c);
-    }
-  }
-  if (static_cast<int>(views.size()) <= max_views) return views;
-  std::vector<vision::TagCorners> thinned;
-  for (int i = 0; i < max_views; ++i)
-    thinned.push_back(views[static_cast<size_t>(i) * views.size() / max_views]);
-  return thinned;
-}
-
-// The frames of a rest, each refined exactly from its kept crop; nullopt
-// when fewer than half of them could be.
-std::optional<calibration::RestWindow> RemeasureRest(const calibration::RestWindow& rest,
-                                                     const RunMeasurement& rm,
-                                                     const vision::CameraModel& camera,
-                                                     const vision::TagSpec& tag) {
-  std::vector<calibration::PoseSample> samples;
-  int tried = 0;
-  for (const vision::FrameObservation& f : rm.track.frames) {
-    if (f.t_s < rest.t_begin_s - 1e-9 || f.t_s > rest.t_end_s + 1e-9 || !f.corners_px) continue;
-    ++tried;
-    const auto corners = vision::RefineObservationExactly(f, camera);
-    if (!corners) continue;
-    const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
-    if (pose.ok) samples.push_back({f.t_s, pose.T_world_robot, true});
-  }
-  if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
-  return calibration::SummarizeRest(samples);
+  std::vector<vision::TagCorners> candidates;
+  for (const RunMeasurement& run : runs)
+    for (const vision::FrameObservation& f : run.track.frames)
+      if (f.corners_px) candidates.push_back(*f.corners_px);
+  return PickPlaneViews(candidates, separation_px, max_views);
 }
 
 void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::CameraModel& camera,
@@ -117,7 +83,8 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
   if (options.exact_rest_refinement) {
     for (std::optional<calibration::RestWindow>* rest : {&m.start_rest, &m.end_rest}) {
       if (!*rest) continue;
-      if (auto exact = RemeasureRest(**rest, *rm, camera, tag)) {
+      if (auto exact = MeasureRestExactly(rm->track.frames, (*rest)->t_begin_s, (*rest)->t_end_s,
+                                          camera, tag)) {
         **rest = *exact;
       } else {
         m.flags.push_back("exact_refinement_failed");
@@ -151,6 +118,40 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
 }
 
 }  // namespace
+
+std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
+                                               double separation_px, int max_views) {
+  std::vector<vision::TagCorners> views;
+  cv::Point2d last(-1e9, -1e9);
+  for (const vision::TagCorners& c : candidates) {
+    const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+    if (cv::norm(centre - last) < separation_px) continue;
+    last = centre;
+    views.push_back(c);
+  }
+  if (static_cast<int>(views.size()) <= max_views) return views;
+  std::vector<vision::TagCorners> thinned;
+  for (int i = 0; i < max_views; ++i)
+    thinned.push_back(views[static_cast<size_t>(i) * views.size() / max_views]);
+  return thinned;
+}
+
+std::optional<calibration::RestWindow> MeasureRestExactly(
+    const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
+    const vision::CameraModel& camera, const vision::TagSpec& tag) {
+  std::vector<calibration::PoseSample> samples;
+  int tried = 0;
+  for (const vision::FrameObservation& f : frames) {
+    if (f.t_s < t_begin_s - 1e-9 || f.t_s > t_end_s + 1e-9 || !f.corners_px) continue;
+    ++tried;
+    const auto corners = vision::RefineObservationExactly(f, camera);
+    if (!corners) continue;
+    const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
+    if (pose.ok) samples.push_back({f.t_s, pose.T_world_robot, true});
+  }
+  if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
+  return calibration::SummarizeRest(samples);
+}
 
 bool IsFatalFlag(const std::string& flag) {
   for (const char* fatal : {"video_unreadable", "tag_never_seen", "wrong_tag_id", "duplicate_tag_id",

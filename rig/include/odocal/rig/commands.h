@@ -19,6 +19,7 @@ void RegisterRobotCommand(CLI::App& app);
 void RegisterRobotSimCommand(CLI::App& app);
 void RegisterExplainCommand(CLI::App& app);
 void RegisterValidateCommand(CLI::App& app);
+void RegisterStationCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

@@ -74,6 +74,19 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error);
 
+// Pieces of the measurement shared with the live station (station.h):
+// Views for the plane estimate from candidate corners in time order: each new
+// one at least `separation_px` from the last kept, then evenly thinned to
+// `max_views`.
+std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
+                                               double separation_px, int max_views);
+// The frames of a rest (those with t_begin_s <= t_s <= t_end_s), each refined
+// exactly from its kept crop and measured on the camera's plane, averaged;
+// nullopt when fewer than half of them could be.
+std::optional<calibration::RestWindow> MeasureRestExactly(
+    const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
+    const vision::CameraModel& camera, const vision::TagSpec& tag);
+
 // One run's JSON entry of report.json: procedure, direction, video,
 // return_error {x_mm, y_mm, theta_deg} (null when fatal), sigma, flags, frames.
 nlohmann::json RunJson(const RunMeasurement& run);

@@ -10,6 +10,7 @@
 #define ODOCAL_VISION_VIDEO_TRACK_H_
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,6 +55,38 @@ struct FrameObservation {
   // pixel crop_origin.
   cv::Mat crop;
   cv::Point crop_origin;
+};
+
+// The per-frame half of TrackTagInVideo, for frames that arrive one at a time
+// (a live camera, the station): window tracking, a full-frame search only to
+// (re)acquire, the periodic duplicate-id check, refinement and the kept crop,
+// exactly as the video path does them.
+class TagObserver {
+ public:
+  // nullptr with `*error` set when the options or the detector are invalid.
+  static std::unique_ptr<TagObserver> Create(const TagSpec& tag, const Intrinsics& intrinsics,
+                                             const VideoTrackOptions& options, std::string* error);
+  ~TagObserver();
+  TagObserver(const TagObserver&) = delete;
+  TagObserver& operator=(const TagObserver&) = delete;
+
+  // Observes the next frame (CV_8UC1) taken at t_s; frames are numbered in
+  // the order they are observed.
+  FrameObservation Observe(const cv::Mat& grey, double t_s);
+  // Forget the track (the next frame is searched in full).
+  void Reset();
+
+ private:
+  TagObserver(const TagSpec& tag, const Intrinsics& intrinsics, const VideoTrackOptions& options,
+              std::unique_ptr<TagDetector> detector);
+  TagSpec tag_;
+  VideoTrackOptions options_;
+  std::unique_ptr<TagDetector> detector_;
+  TagTracker tracker_;
+  CameraModel camera_;
+  int index_ = 0;
+  int lost_for_ = 0;
+  bool lost_ = true;
 };
 
 // The exact refinement (RefineTagCornersByEdgeModel) of a frame's corners

@@ -23,6 +23,7 @@
 
 #include "odocal/rig/camera_io.h"
 #include "odocal/rig/cli_util.h"
+#include "odocal/rig/html_report.h"
 #include "odocal/rig/commands.h"
 #include "odocal/rig/output.h"
 #include "odocal/rig/scenario.h"
@@ -143,6 +144,7 @@ void Finish(const StationSetup& setup, const StationOptions& options, const std:
   for (auto it = extra.begin(); it != extra.end(); ++it) report[it.key()] = it.value();
   std::optional<std::string> write_error = EnsureDirectory(out);
   if (!write_error) write_error = WriteFileAtomically(out + "/report.json", report.dump(2) + "\n");
+  if (!write_error) write_error = WriteReportHtml(report, "odocal station", out + "/report.html");
   if (!result.ok()) {
     Fail("station", ExitCode(result.status),
          result.message + (result.cleanup.empty() ? "" : " (" + result.cleanup + ")"));
@@ -153,7 +155,7 @@ void Finish(const StationSetup& setup, const StationOptions& options, const std:
   std::fprintf(stderr, "station: E_max,syst %.3f mm -> %.3f mm in %zu rounds (%.0fx), %.1f s\n",
                first.estimate.emax_syst_m * 1e3, last.estimate.emax_syst_m * 1e3, result.iterations.size(),
                result.improvement.value_or(1.0), result.wall_s);
-  std::printf("report: %s/report.json\n", out.c_str());
+  std::printf("report: %s/report.json and report.html\n", out.c_str());
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 
 #include "odocal/rig/camera_io.h"
 #include "odocal/rig/cli_util.h"
+#include "odocal/rig/exports.h"
 #include "odocal/rig/html_report.h"
 #include "odocal/rig/commands.h"
 #include "odocal/rig/output.h"
@@ -137,8 +138,17 @@ std::optional<StationConfig> LoadStationConfig(const std::string& path, std::str
 void Progress(const std::string& line) { std::cerr << "station: " << line << std::endl; }
 
 // Runs the loop, writes the report, prints the outcome; exits non-zero on failure.
+calibration::WheelParams ToWheelParams(const robot_link::ParamSet& p) {
+  calibration::WheelParams w;
+  w.left_wheel_diameter_m = p.left_wheel_diameter_mm * 1e-3;
+  w.right_wheel_diameter_m = p.right_wheel_diameter_mm * 1e-3;
+  w.track_m = p.track_mm * 1e-3;
+  w.ticks_per_rev = static_cast<int>(p.ticks_per_rev);
+  return w;
+}
+
 void Finish(const StationSetup& setup, const StationOptions& options, const std::string& out,
-            nlohmann::json extra) {
+            nlohmann::json extra, const ExportRequests& exports) {
   const StationResult result = RunStation(setup, options);
   nlohmann::json report = StationReportJson(result);
   for (auto it = extra.begin(); it != extra.end(); ++it) report[it.key()] = it.value();
@@ -150,6 +160,12 @@ void Finish(const StationSetup& setup, const StationOptions& options, const std:
          result.message + (result.cleanup.empty() ? "" : " (" + result.cleanup + ")"));
   }
   if (write_error) Fail("station", kExitFailure, *write_error);
+  // Exports: the robot's set at the start is the nominal, the read-back set the corrected.
+  if (result.params_initial && result.params_final) {
+    if (auto e = WriteExports(exports, ToWheelParams(*result.params_initial),
+                              ToWheelParams(*result.params_final)))
+      Fail("station", kExitFailure, *e);
+  }
   const StationIteration& first = result.iterations.front();
   const StationIteration& last = result.iterations.back();
   std::fprintf(stderr, "station: E_max,syst %.3f mm -> %.3f mm in %zu rounds (%.0fx), %.1f s\n",
@@ -168,6 +184,7 @@ void RegisterStationCommand(CLI::App& app) {
     int max_rounds = 3;
     double time_scale = 20.0;
     int rest_frames = 12;
+    ExportRequests exports;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -186,7 +203,9 @@ void RegisterStationCommand(CLI::App& app) {
   cmd->footer(
       "Exit codes: 0 calibrated, 2 bad input, 3 robot link (not answering, line cut), 4 tag not found "
       "or camera lost, 5 run not completed, 7 push refused, 1 estimate failed, 130 interrupted.");
+  AddExportOption(cmd, &args->exports);
   cmd->callback([args, rounds]() {
+    if (auto e = CheckExports(args->exports)) Fail("station", kExitBadInput, *e);
     const std::string name = "station";
     if (args->scenario.empty() == args->config.empty())
       Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
@@ -242,7 +261,8 @@ void RegisterStationCommand(CLI::App& app) {
                         (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
       Finish(setup, options, args->out,
              {{"scenario", args->scenario},
-              {"truth", {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}}}});
+              {"truth", {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}}}},
+             args->exports);
       return;
     }
 
@@ -269,7 +289,7 @@ void RegisterStationCommand(CLI::App& app) {
     setup.intrinsics = camera_file->intrinsics;
     setup.mount_guess = c->mount_guess;
     setup.tag = c->tag;
-    Finish(setup, options, args->out, {{"config", args->config}});
+    Finish(setup, options, args->out, {{"config", args->config}}, args->exports);
   });
 }
 

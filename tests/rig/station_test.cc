@@ -411,9 +411,18 @@ TEST(StationCli, VirtualRobotWritesTheReport) {
   const std::string dir = test_util::MakeTempDir("odocal_station_cli_");
   std::ofstream(dir + "/s.yaml") << ScenarioText(kMisCalibrated, -100, -1000, 500, 1);
   const test_util::CommandResult r = test_util::RunCommand(
-      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --max-rounds 2 --time-scale 50"));
+      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --max-rounds 2 --time-scale 50" +
+             " --export firmware " + dir + "/firmware.yaml --export ros2 " + dir + "/ros2.yaml"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("station: round 2"), std::string::npos) << "progress on stderr";
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/report.html"));
+  // The exports carry the set read back from the robot.
+  std::ifstream fw(dir + "/firmware.yaml");
+  const std::string firmware((std::istreambuf_iterator<char>(fw)), std::istreambuf_iterator<char>());
+  EXPECT_NE(firmware.find("track_mm: 30"), std::string::npos) << firmware;
+  std::ifstream ros(dir + "/ros2.yaml");
+  const std::string ros2((std::istreambuf_iterator<char>(ros)), std::istreambuf_iterator<char>());
+  EXPECT_NE(ros2.find("wheel_separation_multiplier: 1.0"), std::string::npos) << ros2;
   std::ifstream in(dir + "/out/report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   ASSERT_EQ(report["iterations"].size(), 2u);

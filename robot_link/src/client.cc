@@ -40,18 +40,6 @@ uint8_t WireProcedure(calibration::Procedure p) {
   return 0;
 }
 
-Bytes ParamBody(size_t index, const ParamValue& value) {
-  const ParamInfo& info = ParamTable()[index];
-  ByteWriter w;
-  w.Str8(std::string(info.name)).U8(static_cast<uint8_t>(info.type));
-  if (info.type == ParamType::kF64) {
-    w.F64(std::get<double>(value));
-  } else {
-    w.U32(std::get<uint32_t>(value));
-  }
-  return w.Take();
-}
-
 bool ValueMatchesType(size_t index, const ParamValue& value) {
   return (ParamTable()[index].type == ParamType::kF64) == std::holds_alternative<double>(value);
 }

@@ -111,4 +111,16 @@ std::ostream& operator<<(std::ostream& os, const ParamSet& set) {
   return os << "}";
 }
 
+Bytes ParamBody(size_t index, const ParamValue& value) {
+  const ParamInfo& info = ParamTable()[index];
+  ByteWriter w;
+  w.Str8(std::string(info.name)).U8(static_cast<uint8_t>(info.type));
+  if (info.type == ParamType::kF64) {
+    w.F64(std::get<double>(value));
+  } else {
+    w.U32(std::get<uint32_t>(value));
+  }
+  return w.Take();
+}
+
 }  // namespace odocal::robot_link

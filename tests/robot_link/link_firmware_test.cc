@@ -116,14 +116,8 @@ TEST_F(LinkFirmwareTest, CommitRefusesIncompleteStageAndWrongChecksum) {
 
   uint16_t seq = 4;
   for (size_t i = 0; i < ParamTable().size(); ++i) {
-    ByteWriter w;
-    w.Str8(std::string(ParamTable()[i].name)).U8(static_cast<uint8_t>(ParamTable()[i].type));
-    if (i < 3) {
-      w.F64(std::get<double>(next.Get(i)));
-    } else {
-      w.U32(next.ticks_per_rev);
-    }
-    ASSERT_EQ(RawExchange(link_, Request(OLF_MSG_STAGE_PUT, seq++, w.Take()))->type, OLF_MSG_ACK);
+    ASSERT_EQ(RawExchange(link_, Request(OLF_MSG_STAGE_PUT, seq++, ParamBody(i, next.Get(i))))->type,
+              OLF_MSG_ACK);
   }
   r = RawExchange(link_,
                   Request(OLF_MSG_COMMIT, seq++, ByteWriter().U32(next.Checksum() ^ 1u).Take()));
@@ -147,14 +141,7 @@ TEST_F(LinkFirmwareTest, RepeatedSequenceNumberIsAnsweredFromCacheNotReExecuted)
   const ParamSet b{71.0, 71.0, 301.0, 1024};
   uint16_t seq = 8;
   for (size_t i = 0; i < ParamTable().size(); ++i) {
-    ByteWriter w;
-    w.Str8(std::string(ParamTable()[i].name)).U8(static_cast<uint8_t>(ParamTable()[i].type));
-    if (i < 3) {
-      w.F64(std::get<double>(b.Get(i)));
-    } else {
-      w.U32(b.ticks_per_rev);
-    }
-    ASSERT_TRUE(RawExchange(link_, Request(OLF_MSG_STAGE_PUT, seq++, w.Take())));
+    ASSERT_TRUE(RawExchange(link_, Request(OLF_MSG_STAGE_PUT, seq++, ParamBody(i, b.Get(i)))));
   }
   const Frame commit = Request(OLF_MSG_COMMIT, seq, ByteWriter().U32(b.Checksum()).Take());
   const uint32_t commits_before = link_.robot().ctx().counters.commits;

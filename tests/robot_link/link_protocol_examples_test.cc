@@ -118,14 +118,7 @@ TEST_F(LinkProtocolExamples, WireFramesOfAPushAndARun) {
   const ParamSet next{72.125, 71.875, 268.25, 4000};
   uint16_t seq = 3;
   for (size_t i = 0; i < ParamTable().size(); ++i) {
-    ByteWriter w;
-    w.Str8(std::string(ParamTable()[i].name)).U8(static_cast<uint8_t>(ParamTable()[i].type));
-    if (i < 3) {
-      w.F64(std::get<double>(next.Get(i)));
-    } else {
-      w.U32(next.ticks_per_rev);
-    }
-    const Bytes reply = Exchange(testing::Request(OLF_MSG_STAGE_PUT, seq++, w.Take()));
+    const Bytes reply = Exchange(testing::Request(OLF_MSG_STAGE_PUT, seq++, ParamBody(i, next.Get(i))));
     if (i == 2) Show("reply STAGE_PUT", reply);
   }
   Show("reply PARAMS_READ staged", Exchange(testing::Request(OLF_MSG_PARAMS_READ, seq++, {1})));

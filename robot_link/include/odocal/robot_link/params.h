@@ -29,6 +29,10 @@ struct ParamInfo {
 // The host's copy of the firmware table, in wire order. Hello compares its
 // checksum with the robot's, so a robot with another table is refused.
 const std::array<ParamInfo, 4>& ParamTable();
+
+// The body of a PARAM_SET or STAGE_PUT request for table entry `index`:
+// name (str8), type (u8), value (f64 or u32, little-endian).
+Bytes ParamBody(size_t index, const ParamValue& value);
 std::optional<size_t> FindParam(std::string_view name);
 uint32_t ParamTableCrc();
 

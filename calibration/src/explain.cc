@@ -48,6 +48,10 @@ std::vector<ParameterEstimate> ParamsOf(const TrajectoryFitResult& fit, Effect e
 
 bool ExplainOptions::IsValid(std::string* why) const {
   if (!fit.IsValid(why)) return false;
+  if (!(min_explained_m >= 0.0)) {
+    if (why) *why = "min_explained_m must not be negative";
+    return false;
+  }
   if (!(min_score >= 0.0)) {
     if (why) *why = "min_score must not be negative";
     return false;
@@ -192,8 +196,9 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       if (f.ok()) {
         trial.score = BicScore(current, f);
         trial.gap_m = f.gap_m;
+        trial.explained_m = std::sqrt(std::max(0.0, current.gap_m * current.gap_m - f.gap_m * f.gap_m));
         trial.wald = f.Wald(e);
-        const int k = static_cast<int>(EffectParamIndices(e).size());
+        const int k = static_cast<int>(EffectTestedIndices(e).size());
         trial.wald_threshold = boost::math::quantile(
             boost::math::complement(boost::math::chi_squared(k), options.wald_alpha));
       }
@@ -203,7 +208,8 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     double best_score = -INFINITY;
     Effect best_effect = Effect::kTagOffset;
     for (const CandidateTrial& t : trials)
-      if (t.fitted && t.wald > t.wald_threshold && t.score > best_score) {
+      if (t.fitted && t.wald > t.wald_threshold && t.explained_m >= options.min_explained_m &&
+          t.score > best_score) {
         best_score = t.score;
         best_effect = t.effect;
       }

@@ -42,9 +42,7 @@ struct ModelConstants {
   double left_m_per_tick = 0.0;
   double right_m_per_tick = 0.0;
   double track_m = 0.0;
-  bool has_camera = false;
-  Eigen::Vector2d camera_centre_m = Eigen::Vector2d::Zero();
-  double camera_height_m = 1.0;
+  std::optional<FloorCamera> camera;
 };
 
 // encoder_backlash: the ticks of step `d` that moved the wheel.
@@ -140,13 +138,11 @@ void PredictFrame(const RunData& run, const ModelConstants& c, const std::vector
   const T ch = cos(*ph), sh = sin(*ph);
   *px += ch * tx - sh * ty;
   *py += sh * tx + ch * ty;
-  // lens_distortion: radial warp about the optical axis.
-  if (c.has_camera) {
-    const T dx = *px - c.camera_centre_m.x(), dy = *py - c.camera_centre_m.y();
-    const T scale = 1.0 + fx[EffectParams::kK1] * (dx * dx + dy * dy) /
-                              (c.camera_height_m * c.camera_height_m);
-    *px = c.camera_centre_m.x() + dx * scale;
-    *py = c.camera_centre_m.y() + dy * scale;
+  // lens_distortion: where the pipeline measures the tag through a lens whose k1 is off.
+  if (c.camera) {
+    const T x = *px, y = *py;
+    SeenThroughLens(*c.camera, x, y, fx[EffectParams::kK1], fx[EffectParams::kTiltX],
+                    fx[EffectParams::kTiltY], px, py);
   }
 }
 
@@ -240,11 +236,17 @@ std::vector<int> EffectParamIndices(Effect effect) {
     case Effect::kTagOffset: return {EffectParams::kTagX, EffectParams::kTagY};
     case Effect::kCameraLatency: return {EffectParams::kLatency};
     case Effect::kTurnSlip: return {EffectParams::kSlip};
-    case Effect::kLensDistortion: return {EffectParams::kK1};
+    case Effect::kLensDistortion:
+      return {EffectParams::kK1, EffectParams::kTiltX, EffectParams::kTiltY};
     case Effect::kEncoderBacklash: return {EffectParams::kBacklash};
     case Effect::kCarpetDrift: return {EffectParams::kDriftA, EffectParams::kDriftB};
   }
   return {};
+}
+
+std::vector<int> EffectTestedIndices(Effect effect) {
+  if (effect == Effect::kLensDistortion) return {EffectParams::kK1};
+  return EffectParamIndices(effect);
 }
 
 std::vector<std::string> EffectParamNames(Effect effect) {
@@ -252,7 +254,7 @@ std::vector<std::string> EffectParamNames(Effect effect) {
     case Effect::kTagOffset: return {"x_m", "y_m"};
     case Effect::kCameraLatency: return {"latency_s"};
     case Effect::kTurnSlip: return {"fraction_at_1rad_s"};
-    case Effect::kLensDistortion: return {"k1"};
+    case Effect::kLensDistortion: return {"k1", "camera_tilt_x_rad", "camera_tilt_y_rad"};
     case Effect::kEncoderBacklash: return {"ticks"};
     case Effect::kCarpetDrift: return {"rate_cos_grain", "rate_sin_grain"};
   }
@@ -312,7 +314,7 @@ const ParameterEstimate* TrajectoryFitResult::Find(std::string_view name) const 
 }
 
 double TrajectoryFitResult::Wald(Effect effect) const {
-  const std::vector<int> idx = EffectParamIndices(effect);
+  const std::vector<int> idx = EffectTestedIndices(effect);
   const int k = static_cast<int>(idx.size());
   Eigen::VectorXd theta(k);
   Eigen::MatrixXd sigma(k, k);
@@ -363,8 +365,8 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   }
   const bool lens_on = std::find(options.effects.begin(), options.effects.end(),
                                  Effect::kLensDistortion) != options.effects.end();
-  if (lens_on && !session.camera) {
-    result.message = "lens_distortion needs the camera's floor geometry";
+  if (lens_on && (!session.camera || !session.camera->IsValid())) {
+    result.message = "lens_distortion needs the camera's geometry over the tag plane (session.camera)";
     return result;
   }
 
@@ -372,11 +374,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   constants.left_m_per_tick = session.believed.LeftMetresPerTick();
   constants.right_m_per_tick = session.believed.RightMetresPerTick();
   constants.track_m = session.believed.track_m;
-  if (session.camera) {
-    constants.has_camera = true;
-    constants.camera_centre_m = session.camera->centre_m;
-    constants.camera_height_m = session.camera->height_m;
-  }
+  constants.camera = session.camera;
 
   // Extract the runs; shaft directions carry over from run to run.
   const size_t n_runs = session.runs.size();
@@ -667,6 +665,23 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       row0 += static_cast<int>(rd.frame_t.size()) * m;
     }
   }
+  // The camera's length scale: a common factor (1 + e) on every measured
+  // position moves the estimate by pinv * (z / sigma) e.
+  if (session.camera_scale_sigma > 0.0) {
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_rows);
+    int row0 = 0;
+    for (const RunData& rd : runs) {
+      const int m = rd.residuals_per_frame;
+      for (size_t j = 0; j < rd.frame_t.size(); ++j) {
+        const double g = rd.sqrt_w[j] / rd.sigma_p[j];
+        b[row0 + m * j] = rd.zx[j] * g;
+        b[row0 + m * j + 1] = rd.zy[j] * g;
+      }
+      row0 += static_cast<int>(rd.frame_t.size()) * m;
+    }
+    const Eigen::VectorXd v = pinv * b;
+    cov += session.camera_scale_sigma * session.camera_scale_sigma * v * v.transpose();
+  }
   // The effect block's covariance (for significance tests of candidates).
   result.effect_covariance.setZero();
   {
@@ -722,6 +737,15 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   g.setZero();
   g[2] = 1.0;
   estimate("Eb", base[2], g);
+  // The turn gain Eb / Es (what UMBMark measures; free of the camera's scale).
+  {
+    const double es = (base[0] * dl + base[1] * dr) / (dl + dr);
+    g.setZero();
+    g[0] = -base[2] / (es * es) * dl / (dl + dr);
+    g[1] = -base[2] / (es * es) * dr / (dl + dr);
+    g[2] = 1.0 / es;
+    estimate("turn_gain", base[2] / es, g);
+  }
   // A ratio whose uncertainty spans more than its plausible range is not
   // determined by these data, whatever the rank test says (a nearly flat
   // direction just above the tolerance).
@@ -788,6 +812,14 @@ AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
       cols.push_back(kBase + idx);
       names.push_back(std::string(ToString(e)));
     }
+  // The candidate's nuisance parameters come with it: the question is whether
+  // its tested ones can be told from everything else that would be fitted.
+  const std::vector<int> idx = EffectTestedIndices(candidate);
+  for (int i : EffectParamIndices(candidate))
+    if (std::find(idx.begin(), idx.end(), i) == idx.end()) {
+      cols.push_back(kBase + i);
+      names.push_back(std::string(ToString(candidate)) + " (its nuisance)");
+    }
   const int n_model = static_cast<int>(cols.size());
   for (int c = kBase + kFx; c < J.cols(); ++c) {
     cols.push_back(c);
@@ -798,7 +830,6 @@ AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
     const double n = J.col(cols[c]).norm();
     A.col(c) = n > 0.0 ? Eigen::VectorXd(J.col(cols[c]) / n) : Eigen::VectorXd(J.col(cols[c]));
   }
-  const std::vector<int> idx = EffectParamIndices(candidate);
   Eigen::MatrixXd C(J.rows(), idx.size());
   for (size_t k = 0; k < idx.size(); ++k) {
     const double n = J.col(kBase + idx[k]).norm();

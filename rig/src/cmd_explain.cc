@@ -30,24 +30,28 @@ namespace odocal::rig {
 namespace {
 
 // A session file measured by the camera pipeline, with the camera geometry
-// the lens candidate needs: the tag-plane point on the optical axis and the
-// camera's height above that plane, from the session's estimated plane.
+// the lens candidate needs: the camera's pose over the tag plane (as the
+// pipeline estimated it from the videos) and its calibrated lens.
+// `k1_correction` is added to the calibrated k1 (the camera refit after a
+// lens error was found).
 std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::string& path,
+                                                                    double k1_correction,
                                                                     std::string* error) {
-  const std::optional<Session> session = LoadSession(path, error);
+  std::optional<Session> session = LoadSession(path, error);
   if (!session) return std::nullopt;
+  session->intrinsics.distortion[0] += k1_correction;
   const auto measured = MeasureSessions({*session}, MeasureOptions{}, TerminalProgressBar("measuring"), error);
   if (!measured) return std::nullopt;
   const SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession out = sm.ToMeasuredSession();
   const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session->camera_mount_guess;
   const vision::CameraModel camera(session->intrinsics, mount);
-  const auto axis = camera.UnprojectToWorldPlane(
-      Eigen::Vector2d(session->intrinsics.cx, session->intrinsics.cy), session->tag.height_m());
-  if (axis) {
-    out.camera = calibration::FloorCamera{Eigen::Vector2d(axis->x(), axis->y()),
-                                          (mount.height_mm - session->tag.height_mm) * 1e-3};
-  }
+  calibration::FloorCamera floor;
+  floor.centre_m = camera.T_world_camera().translation() -
+                   Eigen::Vector3d(0.0, 0.0, session->tag.height_m());
+  floor.R_camera_world = camera.T_camera_world().rotation();
+  floor.distortion = session->intrinsics.distortion;
+  if (floor.IsValid()) out.camera = floor;
   // Only runs with telemetry inform the trajectory fit.
   int with_telemetry = 0;
   for (const auto& run : out.runs) with_telemetry += run.telemetry.empty() ? 0 : 1;
@@ -103,8 +107,8 @@ void RegisterExplainCommand(CLI::App& app) {
     const auto centre = ParseNumberList(args->camera_centre_mm);
     if (!centre || centre->size() != 2)
       Fail("explain", kExitBadInput, "--camera-centre-mm: expected X,Y in millimetres");
-    camera.camera.centre_m = {(*centre)[0] * 1e-3, (*centre)[1] * 1e-3};
-    camera.camera.height_m = args->camera_height_mm * 1e-3;
+    camera.camera = calibration::FloorCamera::Overhead(
+        Eigen::Vector2d((*centre)[0] * 1e-3, (*centre)[1] * 1e-3), args->camera_height_mm * 1e-3);
     std::string error;
     if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
     std::optional<calibration::MeasuredSession> session;
@@ -119,20 +123,36 @@ void RegisterExplainCommand(CLI::App& app) {
                {"fps", args->fps},
                {"seed", args->seed}};
     } else {
-      session = MeasureSessionForExplain(args->session, &error);
+      session = MeasureSessionForExplain(args->session, 0.0, &error);
       if (!session) Fail("explain", kExitBadInput, error);
       input = {{"session", args->session}, {"camera", "camera pipeline (videos measured)"}};
     }
     const calibration::ExplainResult result = calibration::Explain(*session);
     if (!result.ok()) Fail("explain", kExitFailure, result.message);
-    if (auto e = EnsureDirectory(args->out)) Fail("explain", kExitFailure, *e);
+    std::fputs(result.BriefReport().c_str(), stdout);
     nlohmann::json j = ExplainJson(*session, result);
     j["input"] = input;
+    // A lens error found in videos is a camera-model error: correct k1,
+    // measure the videos again (the plane estimate absorbed part of the
+    // error, chiefly the camera height, i.e. every distance) and explain again.
+    const std::vector<std::string> added = result.EffectsAdded();
+    if (!std::filesystem::is_directory(args->session) &&
+        std::find(added.begin(), added.end(), "lens_distortion") != added.end()) {
+      const double dk1 = result.final_fit.effects.k1_delta();
+      std::printf("camera refit: k1 %+.5f, measuring the videos again\n", dk1);
+      const auto remeasured = MeasureSessionForExplain(args->session, dk1, &error);
+      if (!remeasured) Fail("explain", kExitFailure, "camera refit: " + error);
+      const calibration::ExplainResult refit = calibration::Explain(*remeasured);
+      if (!refit.ok()) Fail("explain", kExitFailure, "camera refit: " + refit.message);
+      j["camera_refit"] = CameraRefitJson(dk1, *remeasured, refit);
+      std::printf("camera refit (k1 corrected by %+.5f):\n", dk1);
+      std::fputs(refit.BriefReport().c_str(), stdout);
+    }
+    if (auto e = EnsureDirectory(args->out)) Fail("explain", kExitFailure, *e);
     if (auto e = WriteFileAtomically(args->out + "/explain.json", j.dump(2) + "\n"))
       Fail("explain", kExitFailure, *e);
     if (auto e = WriteFileAtomically(args->out + "/explain.html", ExplainHtml(*session, result)))
       Fail("explain", kExitFailure, *e);
-    std::fputs(result.BriefReport().c_str(), stdout);
     std::printf("wrote %s/explain.json and explain.html\n", args->out.c_str());
   });
 }

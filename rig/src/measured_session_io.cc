@@ -84,7 +84,7 @@ bool StandInCameraOptions::IsValid(std::string* why) const {
   if (!(sigma_position_m > 0.0)) return fail("camera position sigma must be positive");
   if (!(sigma_heading_rad > 0.0)) return fail("camera heading sigma must be positive");
   if (home_radius_m && !(*home_radius_m > 0.0)) return fail("home radius must be positive");
-  if (!(camera.height_m > 0.0)) return fail("camera height must be positive");
+  if (!camera.IsValid()) return fail("camera must be above the tag plane, looking down at it");
   return true;
 }
 
@@ -122,10 +122,8 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
       // What the camera sees: the tag (wherever it really is on the robot)...
       Eigen::Vector2d p = truth * Eigen::Vector2d(options.tag_x_m, options.tag_y_m);
       // ...through a lens whose k1 is off by k1_delta.
-      const Eigen::Vector2d d = p - options.camera.centre_m;
-      p = options.camera.centre_m +
-          d * (1.0 + options.k1_delta * d.squaredNorm() /
-                         (options.camera.height_m * options.camera.height_m));
+      calibration::SeenThroughLens(options.camera, p.x(), p.y(), options.k1_delta, 0.0, 0.0, &p.x(),
+                                   &p.y());
       const double nx = normal(rng), ny = normal(rng), nh = normal(rng);
       f.T_world_robot = Pose2::FromXYHeading(p.x() + options.sigma_position_m * nx,
                                              p.y() + options.sigma_position_m * ny,

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/calibration/floor_camera.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
@@ -56,19 +57,15 @@ struct MeasuredRun {
   std::vector<std::string> flags;
 };
 
-// Where the camera looks at the floor, as its calibration says: the floor
-// point under the optical axis (measurement frame) and the height of the
-// centre of projection above the tag plane. What a lens model needs to map a
-// floor position to a normalised image radius (r = |p - centre| / height).
-struct FloorCamera {
-  Eigen::Vector2d centre_m = Eigen::Vector2d::Zero();
-  double height_m = 0.0;
-};
-
 struct MeasuredSession {
   WheelParams believed;  // the parameters the robot's firmware used
-  // The camera's geometry when known (lens effects need it).
+  // The camera's geometry over the tag plane, when known (the lens candidate needs it).
   std::optional<FloorCamera> camera;
+  // Relative 1-sigma of the camera's length scale: every distance it
+  // measures is (1 + e) times the truth, e common to the session (the tag's
+  // printed size, the camera height estimated from the tag's apparent
+  // size). Ed and the turn gain Eb/Es do not feel it; Es and Eb do, 1:1.
+  double camera_scale_sigma = 0.0;
   std::vector<MeasuredRun> runs;
 };
 

@@ -21,9 +21,10 @@
 //   tag_offset       measured position = p + R(heading) (x, y)_tag
 //   camera_latency   a frame stamped s shows the robot at telemetry time s + latency
 //   turn_slip        in-place turns achieve (1 - f |omega|) of the wheel rotation
-//   lens_distortion  measured = c + (p - c)(1 + dk1 |p - c|^2 / h^2): the
-//                    first-order radial warp on the floor left by a k1 error
-//                    dk1 (image radius = floor radius / camera height)
+//   lens_distortion  the tag seen through a lens whose k1 is off by dk1, in
+//                    the camera's geometry over the plane (floor_camera.h),
+//                    with the camera tilt the plane estimate absorbed as a
+//                    nuisance (tilt_x, tilt_y)
 //   encoder_backlash after a wheel's ticks reverse, `ticks` counts pass without motion
 //   carpet_drift     while not turning in place, lateral drift to the left of
 //                    rate cos(heading - grain) per metre forward; fitted as the
@@ -42,6 +43,8 @@
 // poses, and through the pseudo-inverse of J the estimate (a sandwich term,
 // pinv(J) J_w Q J_w^T pinv(J)^T, with Q from wheel_sigma_m_per_sqrt_m).
 // Without it, intervals of Ed and Eb cover the truth far less than 95 %.
+// (3) the camera's length scale (MeasuredSession::camera_scale_sigma), a
+// common factor on every measured position: pinv (z / sigma) per unit.
 // Identifiability: the singular values of the column-normalised
 // Jacobian; a combination whose singular value is below
 // `rank_tolerance` of the largest is reported, not estimated.
@@ -77,7 +80,7 @@ std::string_view ToString(Effect effect);
 // effect's values are held at zero.
 struct EffectParams {
   enum Index {
-    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kSize
+    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY, kSize
   };
   std::array<double, kSize> values{};
 
@@ -93,6 +96,9 @@ struct EffectParams {
 
 // The indices of an effect's parameters in EffectParams.
 std::vector<int> EffectParamIndices(Effect effect);
+// Those that name it (tested against zero, checked for aliasing): all but
+// the lens candidate's camera-tilt nuisance.
+std::vector<int> EffectTestedIndices(Effect effect);
 // Their names as reports spell them ("x_mm", ...), one per index.
 std::vector<std::string> EffectParamNames(Effect effect);
 
@@ -164,13 +170,14 @@ struct TrajectoryFitResult {
   std::vector<Pose2> start_poses;  // per run; identity for runs left out
   std::vector<bool> run_used;
 
-  // Ed, Es, Eb, then the effects' parameters in the order of options.effects.
+  // Ed, Es, Eb, turn_gain (Eb / Es), then the effects' parameters in the
+  // order of options.effects.
   std::vector<ParameterEstimate> parameters;
   // Covariance of the effect block (EffectParams order; zero where disabled).
   Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize> effect_covariance =
       Eigen::Matrix<double, EffectParams::kSize, EffectParams::kSize>::Zero();
-  // Wald statistic of an enabled effect's parameters against zero (chi-square
-  // with as many degrees of freedom as it has parameters).
+  // Wald statistic of an enabled effect's tested parameters against zero
+  // (chi-square with as many degrees of freedom as EffectTestedIndices).
   double Wald(Effect effect) const;
   const ParameterEstimate* Find(std::string_view name) const;
 

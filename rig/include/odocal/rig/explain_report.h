@@ -17,6 +17,10 @@ namespace odocal::rig {
 
 nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
                            const calibration::ExplainResult& result);
+// The second pass after a lens error was found in videos: the videos
+// measured again with k1 corrected by `k1_correction`, and explained again.
+nlohmann::json CameraRefitJson(double k1_correction, const calibration::MeasuredSession& session,
+                               const calibration::ExplainResult& result);
 std::string ExplainHtml(const calibration::MeasuredSession& session,
                         const calibration::ExplainResult& result);
 

@@ -29,6 +29,9 @@ struct MeasureOptions {
   // Views used for the plane estimate: distinct positions, evenly spread.
   int max_plane_views = 300;
   double min_view_separation_px = 8.0;
+  // Refine the plane's views with the exact edge model (the camera's height,
+  // hence every measured distance, depends on the tag's apparent size).
+  bool exact_plane_refinement = true;
   calibration::RestOptions rest;
   // Refine the frames of each start and end rest with the exact edge model
   // before averaging them.
@@ -36,6 +39,12 @@ struct MeasureOptions {
   // Floors on a return error's sigma: what the spread of rest frames cannot
   // see (compression artefacts shared by the frames of a rest, detector
   // bias), measured on rendered truth at CRF 12 (docs/vision.md).
+  // The camera's length scale beyond the plane estimate's own sigma: the
+  // tag's apparent size, hence the camera height and every distance, came
+  // out 3.0e-4 small on the rendered 720p explain plan (a 30 px tag) with
+  // the exact refinement, 8.3e-4 without. Add the tag's print tolerance for
+  // a real tag.
+  double systematic_scale_sigma = 4e-4;
   double systematic_sigma_position_m = 0.01e-3;
   double systematic_sigma_heading_rad = 0.005 * M_PI / 180.0;
   // A start (end) rest must begin (end) within this fraction of the run's
@@ -59,9 +68,17 @@ struct SessionMeasurement {
   Session session;
   vision::CameraPlaneResult plane;
   bool plane_estimated = false;
+  // Relative 1-sigma of every measured distance (the plane's height sigma
+  // and MeasureOptions::systematic_scale_sigma).
+  double camera_scale_sigma = 0.0;
   std::vector<RunMeasurement> runs;
   std::vector<std::string> flags;  // session-wide
 
+  // The session as estimators see it. Each valid frame states the noise of
+  // one frame's pose: the scatter of the per-frame poses about their rest
+  // means, pooled over every rest of the session (frames in motion are
+  // blurred and scatter more; the trajectory fit scales its covariance by
+  // the reduced chi-square when they do). Zero when no rest was seen.
   calibration::MeasuredSession ToMeasuredSession() const;
 };
 

@@ -40,14 +40,15 @@ struct StandInCameraOptions {
   std::optional<double> home_radius_m;
   Eigen::Vector2d home_centre_m = Eigen::Vector2d::Zero();
   // Where the camera looks (the lens model needs it).
-  calibration::FloorCamera camera{Eigen::Vector2d(1.0, 0.0), 2.5};
+  calibration::FloorCamera camera =
+      calibration::FloorCamera::Overhead(Eigen::Vector2d(1.0, 0.0), 2.5);
   // Camera-side effects of the stand-in, for tests of the explain workflow
   // (the CLI never sets them: in the station a scenario's camera-side effects
   // are rendered into the video by the integrator's pipeline).
   double tag_x_m = 0.0;  // tag centre in the robot frame; measured as if at the axle
   double tag_y_m = 0.0;
   double latency_s = 0.0;  // a frame captured at telemetry time t is stamped t - latency
-  double k1_delta = 0.0;   // first-order radial floor warp about camera.centre_m
+  double k1_delta = 0.0;   // the lens's true k1 minus camera.distortion[0]
 
   bool IsValid(std::string* why) const;
 };

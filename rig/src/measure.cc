@@ -49,18 +49,33 @@ std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
   return records;
 }
 
+// Whether the tag and its quiet zone (one cell of 10 beyond the black
+// square's 8: an eighth of its side) lie `margin_px` inside the image.
+bool AwayFromBorder(const vision::CameraModel& camera, const vision::TagCorners& c,
+                    double margin_px) {
+  const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+  for (const cv::Point2d& p : c) {
+    // The quiet zone's corner: 1/8 of the side beyond the black corner, i.e.
+    // 1.25 times as far from the centre.
+    const cv::Point2d q = centre + (p - centre) * 1.25;
+    if (!camera.InImage(Eigen::Vector2d(q.x, q.y), margin_px)) return false;
+  }
+  return true;
+}
+
 // The views for the plane estimate. With `exact`, each picked view is
 // refined by the exact edge model from its kept crop (the per-frame corners
 // make a 30 px tag look 0.025 px too large: the camera's height came out
 // 1.5 mm low at 1.85 m, 15 sigma, and every distance 8e-4 long).
 std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
                                           double separation_px, int max_views,
-                                          const vision::CameraModel* exact) {
+                                          const vision::CameraModel& lens, double margin_px,
+                                          bool exact) {
   std::vector<vision::TagCorners> candidates;
   std::vector<const vision::FrameObservation*> frames;
   for (const RunMeasurement& run : runs)
     for (const vision::FrameObservation& f : run.track.frames)
-      if (f.corners_px) {
+      if (f.corners_px && AwayFromBorder(lens, *f.corners_px, margin_px)) {
         candidates.push_back(*f.corners_px);
         frames.push_back(&f);
       }
@@ -71,7 +86,7 @@ std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& run
   for (vision::TagCorners& view : views) {
     while (k < candidates.size() && candidates[k] != view) ++k;
     if (k == candidates.size()) break;
-    if (auto refined = vision::RefineObservationExactly(*frames[k], *exact)) view = *refined;
+    if (auto refined = vision::RefineObservationExactly(*frames[k], lens)) view = *refined;
   }
   return views;
 }
@@ -283,8 +298,8 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
   for (SessionMeasurement& sm : out) {
     const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
     const std::vector<vision::TagCorners> views =
-        PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views,
-                  options.exact_plane_refinement ? &lens_only : nullptr);
+        PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
+                  options.border_margin_px, options.exact_plane_refinement);
     vision::CameraMount mount = sm.session.camera_mount_guess;
     if (static_cast<int>(views.size()) >= options.plane.min_views) {
       sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
@@ -324,7 +339,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       for (const vision::FrameObservation& f : rm.track.frames) {
         calibration::CameraRecord c;
         c.t_s = f.t_s;
-        if (f.corners_px) {
+        if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {
           const vision::PlanarPoseResult pose =
               vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
           c.valid = pose.ok;

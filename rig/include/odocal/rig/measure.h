@@ -29,6 +29,10 @@ struct MeasureOptions {
   // Views used for the plane estimate: distinct positions, evenly spread.
   int max_plane_views = 300;
   double min_view_separation_px = 8.0;
+  // A frame whose tag (with its white quiet zone, one cell wide) comes within
+  // this many pixels of the image border is not measured: half-visible tags
+  // at the border gave poses 2 mm off.
+  double border_margin_px = 2.0;
   // Refine the plane's views with the exact edge model (the camera's height,
   // hence every measured distance, depends on the tag's apparent size).
   bool exact_plane_refinement = true;

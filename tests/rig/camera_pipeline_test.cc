@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 using test_util::CommandResult;
 using test_util::RunCommand;
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);

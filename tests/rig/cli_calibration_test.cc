@@ -15,7 +15,7 @@ namespace {
 using test_util::CommandResult;
 using test_util::RunCommand;
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);

@@ -28,7 +28,7 @@ namespace {
 using test_util::CommandResult;
 using test_util::RunCommand;
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 
 // The plan that makes every effect identifiable: squares both ways
 // (straights in four headings: drift; across the field of view: lens),

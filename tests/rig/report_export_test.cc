@@ -17,7 +17,7 @@ namespace {
 
 using test_util::RunCommand;
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);

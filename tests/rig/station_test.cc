@@ -405,7 +405,7 @@ TEST(StationFailure, InterruptDuringAPushLetsItFinishThenRestores) {
 
 // ---- The command line --------------------------------------------------------
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 
 TEST(StationCli, VirtualRobotWritesTheReport) {
   const std::string dir = test_util::MakeTempDir("odocal_station_cli_");

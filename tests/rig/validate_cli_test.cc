@@ -20,7 +20,7 @@ namespace {
 
 using test_util::RunCommand;
 
-std::string Odocal(const std::string& args) { return test_util::OdocalBinary() + " " + args; }
+using test_util::Odocal;
 std::string Session() { return test_util::SourceDir() + "/sample_data/session/session.yaml"; }
 
 nlohmann::json ReadJson(const std::string& path) {

@@ -28,6 +28,7 @@ std::string ReadAll(const std::filesystem::path& path) {
 }  // namespace
 
 std::string OdocalBinary() { return EnvOr("ODOCAL_BINARY", "build/odocal"); }
+std::string Odocal(const std::string& args) { return OdocalBinary() + " " + args; }
 std::string SourceDir() { return EnvOr("ODOCAL_SOURCE_DIR", "."); }
 
 std::string MakeTempDir(const std::string& prefix) {

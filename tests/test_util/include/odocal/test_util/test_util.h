@@ -27,6 +27,8 @@ MATCHER_P3(IsNearPose, expected, tol_mm, tol_deg,
 
 // The odocal binary under test ($ODOCAL_BINARY, set by odocal_test()).
 std::string OdocalBinary();
+// A command line running it with `args`.
+std::string Odocal(const std::string& args);
 // The source tree ($ODOCAL_SOURCE_DIR).
 std::string SourceDir();
 // A fresh empty directory under the system temp dir.

@@ -210,15 +210,15 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
         if (c.valid && c.t_s >= rest->t_begin_s && c.t_s <= rest->t_end_s)
           poses.push_back(c.T_world_robot);
       if (poses.size() < 3) continue;
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (const auto& p : poses) mean += Eigen::Vector3d(p.x(), p.y(), 0.0);
+      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+      for (const auto& p : poses) mean += Eigen::Vector2d(p.x(), p.y());
       mean /= static_cast<double>(poses.size());
       const double h0 = poses.front().heading();
       double mean_h = 0.0;
       for (const auto& p : poses) mean_h += calibration::WrapAngle(p.heading() - h0);
       mean_h /= static_cast<double>(poses.size());
       for (const auto& p : poses) {
-        sum_p += (Eigen::Vector2d(p.x(), p.y()) - mean.head<2>()).squaredNorm() / 2.0;
+        sum_p += (Eigen::Vector2d(p.x(), p.y()) - mean).squaredNorm() / 2.0;
         sum_h += std::pow(calibration::WrapAngle(p.heading() - h0) - mean_h, 2);
       }
       dof += static_cast<int>(poses.size()) - 1;

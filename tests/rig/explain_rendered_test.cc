@@ -148,13 +148,12 @@ double ErrorOf(const Outcome& o, const nlohmann::json& fit, const std::string& k
   return std::abs(fit["parameters"][key]["value"].get<double>() - o.truth[truth_key].get<double>());
 }
 
-void ExpectCovers(const Outcome& o, const nlohmann::json& fit, const std::string& key,
-                  double truth, const std::string& label) {
+void ExpectCovers(const nlohmann::json& fit, const std::string& key, double truth,
+                  const std::string& label) {
   const nlohmann::json& p = fit["parameters"][key];
   ASSERT_TRUE(p["interval95"].is_array()) << label << " " << key << " not identifiable";
   EXPECT_LE(p["interval95"][0].get<double>(), truth) << label << " " << key << " " << p.dump();
   EXPECT_GE(p["interval95"][1].get<double>(), truth) << label << " " << key << " " << p.dump();
-  (void)o;
 }
 
 TEST_F(ExplainRendered, NothingHiddenNothingNamed) {
@@ -164,9 +163,9 @@ TEST_F(ExplainRendered, NothingHiddenNothingNamed) {
   EXPECT_NEAR(o.explain["gap_after_mm"].get<double>(), o.explain["gap_before_mm"].get<double>(), 1e-9);
   // The base model is the right model here: its intervals hold the truth.
   const nlohmann::json& fit = o.explain["final"];
-  ExpectCovers(o, fit, "Ed", o.truth["Ed"].get<double>(), "none");
-  ExpectCovers(o, fit, "Eb", o.truth["Eb"].get<double>(), "none");
-  ExpectCovers(o, fit, "turn_gain", o.truth["Eb"].get<double>() / o.truth["Es"].get<double>(),
+  ExpectCovers(fit, "Ed", o.truth["Ed"].get<double>(), "none");
+  ExpectCovers(fit, "Eb", o.truth["Eb"].get<double>(), "none");
+  ExpectCovers(fit, "turn_gain", o.truth["Eb"].get<double>() / o.truth["Es"].get<double>(),
                "none");
   std::printf("[figure] rendered, nothing hidden: gap %.3f mm (the plan's floor), nothing named\n",
               FloorMm());
@@ -219,7 +218,7 @@ TEST_F(ExplainRendered, EachHiddenEffectIsNamedRecoveredAndClosesTheGap) {
     EXPECT_LE(eb_final, std::max(eb_base, 2.0 * sigma_eb)) << "Eb";
     if (ed_base > 3.0 * sigma_ed) EXPECT_LT(ed_final, ed_base) << "Ed: base biased, final not closer";
     if (eb_base > 3.0 * sigma_eb) EXPECT_LT(eb_final, eb_base) << "Eb: base biased, final not closer";
-    ExpectCovers(o, final_fit, "Ed", o.truth["Ed"].get<double>(), c.name);
+    ExpectCovers(final_fit, "Ed", o.truth["Ed"].get<double>(), c.name);
     std::printf("[figure] rendered %s: gap %.3f -> %.3f mm (floor %.3f); |Ed - truth| %.2e -> "
                 "%.2e; |Eb - truth| %.2e -> %.2e\n",
                 c.name.c_str(), before, after, FloorMm(), ed_base, ed_final, eb_base, eb_final);
@@ -236,8 +235,8 @@ TEST_F(ExplainRendered, LensErrorIsCorrectedInTheCameraAndMeasuredAgain) {
   EXPECT_NEAR(refit["k1_correction"].get<double>(), 0.01, 0.002);
   EXPECT_TRUE(refit["effects_added"].empty()) << refit["effects_added"].dump();
   EXPECT_LE(refit["gap_after_mm"].get<double>(), 1.5 * FloorMm());
-  ExpectCovers(o, refit["final"], "Ed", o.truth["Ed"].get<double>(), "refit");
-  ExpectCovers(o, refit["final"], "Eb", o.truth["Eb"].get<double>(), "refit");
+  ExpectCovers(refit["final"], "Ed", o.truth["Ed"].get<double>(), "refit");
+  ExpectCovers(refit["final"], "Eb", o.truth["Eb"].get<double>(), "refit");
   const double eb_first = ErrorOf(o, o.explain["final"], "Eb", "Eb");
   const double eb_refit = ErrorOf(o, refit["final"], "Eb", "Eb");
   EXPECT_LT(eb_refit, eb_first);

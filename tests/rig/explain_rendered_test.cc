@@ -216,8 +216,12 @@ TEST_F(ExplainRendered, EachHiddenEffectIsNamedRecoveredAndClosesTheGap) {
     // differ by less than a sigma).
     EXPECT_LE(ed_final, std::max(ed_base, 2.0 * sigma_ed)) << "Ed";
     EXPECT_LE(eb_final, std::max(eb_base, 2.0 * sigma_eb)) << "Eb";
-    if (ed_base > 3.0 * sigma_ed) EXPECT_LT(ed_final, ed_base) << "Ed: base biased, final not closer";
-    if (eb_base > 3.0 * sigma_eb) EXPECT_LT(eb_final, eb_base) << "Eb: base biased, final not closer";
+    if (ed_base > 3.0 * sigma_ed) {
+      EXPECT_LT(ed_final, ed_base) << "Ed: base biased, final not closer";
+    }
+    if (eb_base > 3.0 * sigma_eb) {
+      EXPECT_LT(eb_final, eb_base) << "Eb: base biased, final not closer";
+    }
     ExpectCovers(final_fit, "Ed", o.truth["Ed"].get<double>(), c.name);
     std::printf("[figure] rendered %s: gap %.3f -> %.3f mm (floor %.3f); |Ed - truth| %.2e -> "
                 "%.2e; |Eb - truth| %.2e -> %.2e\n",

@@ -24,7 +24,8 @@ bool WheelParams::IsValid(std::string* why) const {
   if (!std::isfinite(right_wheel_diameter_m) || right_wheel_diameter_m <= 0.0)
     return fail("right_wheel_diameter_mm must be a positive number");
   if (!std::isfinite(track_m) || track_m <= 0.0) return fail("track_mm must be a positive number");
-  if (ticks_per_rev <= 0) return fail("ticks_per_rev must be a positive integer");
+  if (!std::isfinite(ticks_per_rev) || ticks_per_rev <= 0.0)
+    return fail("ticks_per_rev must be a positive number");
   return true;
 }
 

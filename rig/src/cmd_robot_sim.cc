@@ -5,6 +5,7 @@
 // to `odocal robot ... --port` (or to a station), then serves until
 // interrupted. Parameters persist to --storage the way firmware persists to
 // flash (two slots: write the new record, then switch).
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -51,6 +52,9 @@ void RegisterRobotSimCommand(CLI::App& app) {
     options.storage_path = args->storage;
     options.time_scale = args->time_scale;
     const calibration::WheelParams& n = scenario->robot.nominal;
+    if (std::abs(n.ticks_per_rev - std::round(n.ticks_per_rev)) > 1e-9)
+      Fail(name, kExitBadInput,
+           "robot.nominal.ticks_per_rev: the robot link carries whole ticks per revolution");
     options.robot.defaults = robot_link::ParamSet{n.left_wheel_diameter_m * 1e3,
                                                   n.right_wheel_diameter_m * 1e3, n.track_m * 1e3,
                                                   static_cast<uint32_t>(n.ticks_per_rev)};

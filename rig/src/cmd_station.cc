@@ -15,6 +15,7 @@
 //   plan:   {side_mm: 2000, runs_per_direction: 3}
 //   max_rounds: 3
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -143,7 +144,7 @@ calibration::WheelParams ToWheelParams(const robot_link::ParamSet& p) {
   w.left_wheel_diameter_m = p.left_wheel_diameter_mm * 1e-3;
   w.right_wheel_diameter_m = p.right_wheel_diameter_mm * 1e-3;
   w.track_m = p.track_mm * 1e-3;
-  w.ticks_per_rev = static_cast<int>(p.ticks_per_rev);
+  w.ticks_per_rev = p.ticks_per_rev;
   return w;
 }
 
@@ -234,6 +235,9 @@ void RegisterStationCommand(CLI::App& app) {
       robot_link::FirmwareHostOptions host_options;
       host_options.time_scale = args->time_scale;
       const calibration::WheelParams& n = s->robot.nominal;
+      if (std::abs(n.ticks_per_rev - std::round(n.ticks_per_rev)) > 1e-9)
+        Fail(name, kExitBadInput,
+             "robot.nominal.ticks_per_rev: the robot link carries whole ticks per revolution");
       host_options.robot.defaults = robot_link::ParamSet{n.left_wheel_diameter_m * 1e3,
                                                          n.right_wheel_diameter_m * 1e3, n.track_m * 1e3,
                                                          static_cast<uint32_t>(n.ticks_per_rev)};

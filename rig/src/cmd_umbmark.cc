@@ -39,7 +39,7 @@ void RegisterUmbmarkCommand(CLI::App& app) {
     std::vector<std::string> cw, ccw;
     bool json = false;
     double left_mm = 0.0, right_mm = 0.0;
-    int ticks_per_rev = 0;
+    double ticks_per_rev = 0.0;
     ExportRequests exports;
   };
   auto args = std::make_shared<Args>();

@@ -48,7 +48,7 @@ std::string Ros2ExportYaml(const calibration::WheelParams& nominal,
 std::string FirmwareExportYaml(const calibration::WheelParams& c) {
   const std::string left = Number(c.left_wheel_diameter_m * 1e3),
                     right = Number(c.right_wheel_diameter_m * 1e3), track = Number(c.track_m * 1e3),
-                    ticks = std::to_string(c.ticks_per_rev);
+                    ticks = Number(c.ticks_per_rev);
   return "# odocal: corrected parameters in the robot link's names (mm)\n"
          "# push: odocal robot push --port DEVICE left_wheel_diameter_mm=" + left +
          " right_wheel_diameter_mm=" + right + " track_mm=" + track + " ticks_per_rev=" + ticks +

@@ -196,7 +196,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
     believed.left_wheel_diameter_m = nominal.at("left_wheel_diameter_mm").get<double>() * 1e-3;
     believed.right_wheel_diameter_m = nominal.at("right_wheel_diameter_mm").get<double>() * 1e-3;
     believed.track_m = nominal.at("track_mm").get<double>() * 1e-3;
-    believed.ticks_per_rev = nominal.at("ticks_per_rev").get<int>();
+    believed.ticks_per_rev = nominal.at("ticks_per_rev").get<double>();
     for (const nlohmann::json& j : doc.at("runs")) {
       SimulatedRunRecord run;
       run.name = j.at("name").get<std::string>();

@@ -61,11 +61,18 @@ nlohmann::json ReturnErrorJson(const calibration::Pose2& error) {
           {"theta_deg", error.heading() * kRadToDeg}};
 }
 
+nlohmann::json TicksPerRevJson(double ticks_per_rev) {
+  const double whole = std::round(ticks_per_rev);
+  if (std::abs(ticks_per_rev - whole) < 1e-9 && std::abs(whole) < 9e15)
+    return static_cast<long long>(whole);
+  return ticks_per_rev;
+}
+
 nlohmann::json WheelParamsJson(const calibration::WheelParams& p) {
   return {{"left_wheel_diameter_mm", p.left_wheel_diameter_m * 1e3},
           {"right_wheel_diameter_mm", p.right_wheel_diameter_m * 1e3},
           {"track_mm", p.track_m * 1e3},
-          {"ticks_per_rev", p.ticks_per_rev}};
+          {"ticks_per_rev", TicksPerRevJson(p.ticks_per_rev)}};
 }
 
 nlohmann::json Ros2Json(const calibration::Ros2Multipliers& m) {

@@ -97,7 +97,7 @@ bool Bool(const YAML::Node& node, const std::string& key_path) {
 }
 
 calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& path,
-                                     bool ticks_required, int default_ticks) {
+                                     bool ticks_required, double default_ticks) {
   CheckKeys(node, path,
             {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"});
   calibration::WheelParams p;
@@ -109,10 +109,10 @@ calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& 
                Join(path, "right_wheel_diameter_mm")) * 1e-3;
   p.track_m = Positive(RequiredNumber(node, path, "track_mm"), node, Join(path, "track_mm")) * 1e-3;
   if (node["ticks_per_rev"]) {
-    const long long ticks = Integer(node["ticks_per_rev"], Join(path, "ticks_per_rev"));
-    if (ticks <= 0 || ticks > (1LL << 30))
-      Fail(node["ticks_per_rev"], Join(path, "ticks_per_rev"), "must be a positive integer");
-    p.ticks_per_rev = static_cast<int>(ticks);
+    const double ticks = Number(node["ticks_per_rev"], Join(path, "ticks_per_rev"));
+    if (!(ticks > 0.0) || ticks > double(1LL << 30))
+      Fail(node["ticks_per_rev"], Join(path, "ticks_per_rev"), "must be a positive number");
+    p.ticks_per_rev = ticks;
   } else if (ticks_required) {
     Fail(node, Join(path, "ticks_per_rev"), "missing (required)");
   } else {

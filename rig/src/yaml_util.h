@@ -42,7 +42,7 @@ bool Bool(const YAML::Node& node, const std::string& key_path);
 
 // {left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, ticks_per_rev}
 calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& path,
-                                     bool ticks_required, int default_ticks);
+                                     bool ticks_required, double default_ticks);
 // One run of a plan; `extra_keys` are allowed besides the procedure's own.
 calibration::RunSpec ParseRun(const YAML::Node& node, const std::string& path,
                               const std::set<std::string>& extra_keys = {});

@@ -75,7 +75,7 @@ void SimMotionBackend::SetParams(const robot_link::ParamSet& params) {
   p.left_wheel_diameter_m = params.left_wheel_diameter_mm * 1e-3;
   p.right_wheel_diameter_m = params.right_wheel_diameter_mm * 1e-3;
   p.track_m = params.track_mm * 1e-3;
-  p.ticks_per_rev = static_cast<int>(params.ticks_per_rev);
+  p.ticks_per_rev = params.ticks_per_rev;
   std::lock_guard<std::mutex> lock(mutex_);
   robot_.SetBelievedParams(p);
 }

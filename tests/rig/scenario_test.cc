@@ -42,8 +42,8 @@ TEST(Scenario, LoadsTheIssuesKeys) {
   ASSERT_TRUE(s) << error;
   EXPECT_EQ(s->seed, 7u);
   EXPECT_NEAR(s->robot.nominal.track_m, 0.300, 1e-12);
-  EXPECT_EQ(s->robot.nominal.ticks_per_rev, 2048);
-  EXPECT_EQ(s->robot.truth.ticks_per_rev, 2048) << "defaults to the nominal encoder";
+  EXPECT_DOUBLE_EQ(s->robot.nominal.ticks_per_rev, 2048.0);
+  EXPECT_DOUBLE_EQ(s->robot.truth.ticks_per_rev, 2048.0) << "defaults to the nominal encoder";
   EXPECT_NEAR(s->robot.truth.left_wheel_diameter_m, 0.06995, 1e-12);
   EXPECT_NEAR(s->robot.limits.turn_rate_rad_s, M_PI / 3.0, 1e-12);
   ASSERT_EQ(s->runs.size(), 5u);
@@ -99,7 +99,7 @@ INSTANTIATE_TEST_SUITE_P(
                 "  - {procedure: spin, turns: 3, direction: cw}\n"
                 "  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}\n",
                 "  []\n", "runs: expected a non-empty list"},
-        BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive integer"},
+        BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive number"},
         BadCase{"left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
     [](const ::testing::TestParamInfo<BadCase>& info) { return "case" + std::to_string(info.index); });
 

@@ -26,7 +26,9 @@ struct WheelParams {
   double left_wheel_diameter_m = 0.0;
   double right_wheel_diameter_m = 0.0;
   double track_m = 0.0;
-  int ticks_per_rev = 0;
+  // Encoder counts per wheel revolution; not always whole (64 counts per motor
+  // turn through a 43.7:1 gear is 2796.8).
+  double ticks_per_rev = 0.0;
 
   // Wheel travel per encoder tick.
   double LeftMetresPerTick() const;

@@ -23,6 +23,9 @@ nlohmann::json PoseJson(const calibration::Pose2& pose);
 nlohmann::json ReturnErrorJson(const calibration::Pose2& error);
 // {left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, ticks_per_rev}
 nlohmann::json WheelParamsJson(const calibration::WheelParams& params);
+// Ticks per revolution as JSON: an integer when whole (as the robot link
+// carries it), a number otherwise.
+nlohmann::json TicksPerRevJson(double ticks_per_rev);
 nlohmann::json Ros2Json(const calibration::Ros2Multipliers& m);
 
 // The document of `odocal umbmark --json` (and of report.json's `umbmark`),

@@ -14,6 +14,14 @@ WheelParams ApplyUmbmarkCorrection(const WheelParams& params, double Ed, double 
   return corrected;
 }
 
+WheelParams ApplyWheelScales(const WheelParams& params, const WheelScales& scales) {
+  WheelParams corrected = params;
+  corrected.left_wheel_diameter_m *= scales.r_left;
+  corrected.right_wheel_diameter_m *= scales.r_right;
+  corrected.track_m *= scales.Eb;
+  return corrected;
+}
+
 Ros2Multipliers Ros2MultipliersFrom(const WheelParams& nominal, const WheelParams& corrected) {
   Ros2Multipliers m;
   m.wheel_separation_multiplier = corrected.track_m / nominal.track_m;

@@ -12,6 +12,7 @@
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/cvra.h"
 #include "odocal/calibration/statistics.h"
+#include "odocal/calibration/trajectory_fit.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/rig/cli_util.h"
 #include "odocal/rig/commands.h"
@@ -171,6 +172,70 @@ calibration::WheelParams Corrected(const calibration::WheelParams& nominal, cons
   return calibration::ApplyCvra(nominal, e.cvra_ratio, e.cvra_scale, e.cvra_track);
 }
 
+// The full-trajectory least squares (trajectory_fit.h, base model: both
+// wheels' travel per tick and the track) over every run with telemetry and
+// measured poses. Unlike UMBMark it uses every frame and measures the
+// distance scale Es as well, which a pose source with true lengths (motion
+// capture, a camera with a length reference) supports. Sessions recorded
+// with different believed parameters are not pooled.
+std::optional<calibration::TrajectoryFitResult> FitTrajectories(
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes) {
+  calibration::MeasuredSession pooled;
+  bool first = true;
+  for (const SessionMeasurement& sm : sessions) {
+    calibration::MeasuredSession ms = sm.ToMeasuredSession();
+    if (first) {
+      pooled.believed = ms.believed;
+      pooled.camera_scale_sigma = ms.camera_scale_sigma;
+      first = false;
+    } else if (std::abs(ms.believed.left_wheel_diameter_m - pooled.believed.left_wheel_diameter_m) > 1e-12 ||
+               std::abs(ms.believed.right_wheel_diameter_m - pooled.believed.right_wheel_diameter_m) > 1e-12 ||
+               std::abs(ms.believed.track_m - pooled.believed.track_m) > 1e-12 ||
+               std::abs(ms.believed.ticks_per_rev - pooled.believed.ticks_per_rev) > 1e-9) {
+      notes->push_back("trajectory_fit: " + sm.session.path +
+                       " was recorded with other believed parameters; fitted without it");
+      continue;
+    }
+    pooled.camera_scale_sigma = std::max(pooled.camera_scale_sigma, ms.camera_scale_sigma);
+    for (calibration::MeasuredRun& run : ms.runs)
+      if (!run.telemetry.empty()) pooled.runs.push_back(std::move(run));
+  }
+  if (pooled.runs.empty()) return std::nullopt;  // no telemetry: nothing to fit
+  calibration::TrajectoryFitResult fit = calibration::FitTrajectory(pooled);
+  if (!fit.ok()) {
+    notes->push_back("trajectory_fit: " + fit.message);
+    return std::nullopt;
+  }
+  return fit;
+}
+
+nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
+                                 const calibration::TrajectoryFitResult& fit) {
+  nlohmann::json j = {{"method", "full-trajectory least squares (base model)"},
+                      {"frames", fit.n_frames},
+                      {"gap_mm", fit.gap_m * 1e3},
+                      {"noise_floor_mm", fit.noise_floor_m * 1e3},
+                      {"unidentifiable", fit.unidentifiable}};
+  int runs_used = 0;
+  for (bool used : fit.run_used) runs_used += used ? 1 : 0;
+  j["runs_used"] = runs_used;
+  bool all_identifiable = true;
+  for (const char* key : {"Ed", "Es", "Eb", "turn_gain"}) {
+    const calibration::ParameterEstimate* p = fit.Find(key);
+    if (!p) continue;
+    if (!p->identifiable) all_identifiable = false;
+    j[key] = {{"value", p->value},
+              {"sigma", p->identifiable ? nlohmann::json(p->sigma) : nlohmann::json(nullptr)},
+              {"identifiable", p->identifiable}};
+  }
+  if (all_identifiable) {
+    const calibration::WheelParams corrected = calibration::ApplyWheelScales(nominal, fit.scales);
+    j["corrected"] = WheelParamsJson(corrected);
+    j["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+  }
+  return j;
+}
+
 std::vector<Session> LoadSessionsOrFail(const std::string& command,
                                         const std::vector<std::string>& paths) {
   std::vector<Session> sessions;
@@ -223,6 +288,7 @@ void RegisterBatchCommand(CLI::App& app) {
     std::string out;
     int threads = 0;
     ExportRequests exports;
+    std::string estimator = "umbmark";
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -231,6 +297,11 @@ void RegisterBatchCommand(CLI::App& app) {
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
   cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
   AddExportOption(cmd, &args->exports);
+  cmd->add_option("--estimator", args->estimator,
+                  "What --export writes: umbmark (UMBMark and CVRA from the return errors; the "
+                  "distance scale only from straights) or trajectory (the full-trajectory fit: "
+                  "every frame, distance scale included; for pose sources with true lengths)")
+      ->check(CLI::IsMember({"umbmark", "trajectory"}));
   cmd->callback([args]() {
     const std::string name = "batch";
     if (auto e = CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
@@ -268,7 +339,20 @@ void RegisterBatchCommand(CLI::App& app) {
       report["corrected"] = WheelParamsJson(*corrected);
       report["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
     }
-    report["notes"] = estimates.notes;
+    std::vector<std::string> notes = estimates.notes;
+    const std::optional<calibration::TrajectoryFitResult> fit = FitTrajectories(*measured, &notes);
+    if (fit) report["trajectory_fit"] = TrajectoryFitJson(nominal, *fit);
+    if (args->estimator == "trajectory") {
+      if (!fit || !report["trajectory_fit"].contains("corrected"))
+        Fail(name, kExitFailure,
+             "--estimator trajectory: no trajectory fit with Ed, Es and Eb determined (the runs "
+             "need telemetry and measured poses; see report notes)");
+      corrected = calibration::ApplyWheelScales(nominal, fit->scales);
+      report["corrected"] = WheelParamsJson(*corrected);
+      report["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
+    }
+    if (corrected) report["corrected_from"] = args->estimator;
+    report["notes"] = notes;
     const int usable = CountUsable(*measured);
     report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
     if (auto e = WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
@@ -279,7 +363,8 @@ void RegisterBatchCommand(CLI::App& app) {
 
     PrintRuns(*measured);
     if (estimates.umbmark_summary) std::printf("\n%s\n", estimates.umbmark_summary->BriefReport().c_str());
-    for (const std::string& note : estimates.notes) std::printf("note: %s\n", note.c_str());
+    if (fit) std::printf("\n%s", fit->BriefReport().c_str());
+    for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
     std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
     if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
   });

@@ -17,6 +17,12 @@ namespace odocal::calibration {
 
 WheelParams ApplyUmbmarkCorrection(const WheelParams& params, double Ed, double Eb);
 
+// The parameters of a robot whose true wheel travel per tick is r_left and
+// r_right times what `params` believe and whose track is Eb times: a
+// trajectory fit's scales (trajectory_fit.h), which, unlike UMBMark, include
+// the distance scale Es when the pose source measures true lengths.
+WheelParams ApplyWheelScales(const WheelParams& params, const WheelScales& scales);
+
 // ROS 2 diff_drive_controller multipliers that turn `nominal` into `corrected`.
 struct Ros2Multipliers {
   double wheel_separation_multiplier = 1.0;

@@ -57,6 +57,17 @@ nlohmann::json CombineCvra(const std::string& key, const std::vector<double>& va
           {"runs", names}};
 }
 
+// The robot's own belief of where the run ended, in its start frame, from the
+// odometry it reported (identity without telemetry, or when it reported
+// none). A real robot's controller stops within a tolerance of the planned
+// end (the OptiOdom robot: ~5 mm and 1-2 deg short of closing its squares);
+// the estimators compare the truth with this belief, not with the plan
+// (UMBMark's epsilon = x_abs - x_calc).
+calibration::Pose2 OdometryEnd(const calibration::MeasuredRun& m) {
+  if (m.telemetry.size() < 2) return calibration::Pose2::Identity();
+  return m.telemetry.front().odometry.inverse() * m.telemetry.back().odometry;
+}
+
 struct Estimates {
   nlohmann::json umbmark;  // null when no UMBMark
   nlohmann::json cvra = nlohmann::json::object();
@@ -77,6 +88,10 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
       const calibration::MeasuredRun& m = rm.measured;
       if (!Usable(m)) continue;
       const calibration::Pose2& p = m.return_error->pose;
+      const calibration::Pose2 odometry = OdometryEnd(m);
+      // true - odometry in the start frame.
+      const double ex = p.x() - odometry.x(), ey = p.y() - odometry.y();
+      const double eh = calibration::WrapAngle(p.heading() - odometry.heading());
       const calibration::RunSpec& spec = m.spec;
       switch (spec.procedure) {
         case calibration::Procedure::kUmbmark: {
@@ -85,7 +100,7 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
             e.notes.push_back(m.name + ": square of another side, not pooled");
             break;
           }
-          calibration::ReturnError err{p.x(), p.y(), p.heading()};
+          calibration::ReturnError err{ex, ey, eh};
           (spec.direction == calibration::Direction::kCw ? input.cw : input.ccw).push_back(err);
           break;
         }
@@ -96,7 +111,7 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
           }
           const double travel = 2.0 * spec.distance_m * spec.repeats;
           const calibration::CvraResult r =
-              calibration::WheelRatioFromCamera(travel, p.heading(), nominal.track_m);
+              calibration::WheelRatioFromCamera(travel, eh, nominal.track_m);
           if (r.ok()) {
             ratios.push_back(r.value);
             ratio_runs.push_back(m.name);
@@ -105,7 +120,8 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
         }
         case calibration::Procedure::kStraight: {
           const calibration::CvraResult r =
-              calibration::ScaleFromStraight(spec.distance_m, p.x(), p.y(), p.heading());
+              calibration::ScaleFromStraight(m.telemetry.size() < 2 ? spec.distance_m : odometry.x(),
+                                             p.x(), p.y(), p.heading());
           if (r.ok()) {
             scales.push_back(r.value);
             scale_runs.push_back(m.name);
@@ -113,9 +129,11 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
           break;
         }
         case calibration::Procedure::kSpin: {
-          const double believed =
+          const double planned =
               (spec.direction == calibration::Direction::kCcw ? 1.0 : -1.0) * 2.0 * M_PI * spec.turns;
-          const calibration::CvraResult r = calibration::TrackFromCamera(believed, p.heading());
+          // What odometry turned: the plan, corrected by where it stopped.
+          const double believed = planned + calibration::WrapAngle(odometry.heading() - planned);
+          const calibration::CvraResult r = calibration::TrackFromCamera(believed, eh);
           if (r.ok()) {
             tracks.push_back(r.value);
             track_runs.push_back(m.name);

@@ -1,0 +1,280 @@
+#!/usr/bin/env python3
+"""odocal on a real robot: the figures of docs/realdata.md, one command each.
+
+    python3 bench/realdata/realdata.py conventions   # UMBMark vs the authors' published numbers
+    python3 bench/realdata/realdata.py beliefs       # one robot, several believed parameter sets
+    python3 bench/realdata/realdata.py heldout       # calibrate on squares + Ivanjko, check on circles
+    python3 bench/realdata/realdata.py explain       # what explain finds, with cross-validation
+    python3 bench/realdata/realdata.py all
+
+Options: --data DIR (default ../shared/realdata/optiodom), --odocal BIN (default build/odocal),
+--out DIR (default out/realdata). Every number comes from the odocal CLI (import, batch, explain,
+check); this script only runs it and tabulates its JSON. Standard library only.
+"""
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PUBLISHED = os.path.join(HERE, "published")
+
+
+def run(args, quiet=True):
+    r = subprocess.run(args, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.stderr.write(" ".join(args) + "\n" + r.stdout[-2000:] + r.stderr[-2000:])
+        raise SystemExit(f"failed: {args[1]} (exit {r.returncode})")
+    if not quiet:
+        sys.stdout.write(r.stdout)
+    return r.stdout
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def read_firmware(path):
+    d = {}
+    with open(path) as f:
+        for line in f:
+            line = line.split("#")[0].strip()
+            if ":" in line:
+                k, v = line.split(":", 1)
+                d[k.strip()] = float(v)
+    return d
+
+
+class Bench:
+    def __init__(self, a):
+        self.odocal = os.path.abspath(a.odocal)
+        self.data = os.path.abspath(a.data)
+        self.out = os.path.abspath(a.out)
+        self.sessions = os.path.join(self.out, "sessions")
+        os.makedirs(self.out, exist_ok=True)
+        if not os.path.isdir(self.sessions):
+            run([self.odocal, "import", "optiodom", self.data, "--out", self.sessions])
+
+    def sets(self, category):
+        d = os.path.join(self.sessions, category)
+        return sorted(s for s in os.listdir(d) if os.path.isfile(os.path.join(d, s, "session.yaml")))
+
+    def session(self, category, name):
+        return os.path.join(self.sessions, category, name, "session.yaml")
+
+    def nominal(self, category, name):
+        return load(self.batch(category, name))["trajectory_fit"]  # ensures the batch ran
+
+    def batch(self, category, name, extra=(), tag=""):
+        out = os.path.join(self.out, "batch", f"{category}_{name}{tag}")
+        report = os.path.join(out, "report.json")
+        if not os.path.exists(report) or extra:
+            run([self.odocal, "batch", self.session(category, name), "--out", out, *extra])
+        return report
+
+    # --- conventions -----------------------------------------------------------------
+    def conventions(self):
+        print("\n## UMBMark on the motion-capture rests vs the authors' UMBmark\n")
+        print("| set | believed b, D [mm] | authors b, D_R, D_L [mm] | odocal first order (x) | "
+              "odocal coupled | Δ track (first order, coupled) | Δ diameters max |")
+        print("|---|---|---|---|---|---|---|")
+        for name in self.sets("square"):
+            rep = load(self.batch("square", name))
+            u = rep["umbmark"]
+            nominal_b = u["track_mm"]
+            pub = read_firmware(os.path.join(PUBLISHED, f"umbmark_square_{name}.yaml"))
+            sess = load_session_nominal(self.session("square", name))
+            d = sess["left_wheel_diameter_mm"]
+            fo = u["first_order_x"]
+            b_fo = nominal_b * fo["Eb"]
+            dr_fo, dl_fo = d * fo["c_right"], d * fo["c_left"]
+            co = u["estimate"]
+            b_co = nominal_b * co["Eb"]
+            dr_co, dl_co = d * co["c_right"], d * co["c_left"]
+            rel = lambda a, b: 100.0 * (a - b) / b
+            dd = max(abs(rel(dr_fo, pub["right_wheel_diameter_mm"])), abs(rel(dl_fo, pub["left_wheel_diameter_mm"])),
+                     abs(rel(dr_co, pub["right_wheel_diameter_mm"])), abs(rel(dl_co, pub["left_wheel_diameter_mm"])))
+            print(f"| {name} | {nominal_b:.0f}, {d:.0f} | {pub['track_mm']:.3f}, {pub['right_wheel_diameter_mm']:.3f}, "
+                  f"{pub['left_wheel_diameter_mm']:.3f} | {b_fo:.3f}, {dr_fo:.3f}, {dl_fo:.3f} | "
+                  f"{b_co:.3f}, {dr_co:.3f}, {dl_co:.3f} | {rel(b_fo, pub['track_mm']):+.3f} %, "
+                  f"{rel(b_co, pub['track_mm']):+.3f} % | {dd:.4f} % |")
+
+    # --- beliefs ---------------------------------------------------------------------
+    def beliefs(self):
+        print("\n## One robot, several beliefs: physical parameters from each set\n")
+        print("| set | believed b, D [mm] | trajectory fit: track, D_R, D_L [mm] | UMBMark: track, D_R, D_L [mm] |")
+        print("|---|---|---|---|")
+        rows = {"trajectory": [], "umbmark": []}
+        for cat in ("square", "ivanjko"):
+            for name in self.sets(cat):
+                rep = load(self.batch(cat, name))
+                sess = load_session_nominal(self.session(cat, name))
+                tf = rep.get("trajectory_fit", {}).get("corrected")
+                um = rep.get("corrected") if "umbmark" in rep else None
+                cells = []
+                for key, p in (("trajectory", tf), ("umbmark", um)):
+                    if p:
+                        rows[key].append((p["track_mm"], p["right_wheel_diameter_mm"], p["left_wheel_diameter_mm"]))
+                        cells.append(f"{p['track_mm']:.3f}, {p['right_wheel_diameter_mm']:.3f}, {p['left_wheel_diameter_mm']:.3f}")
+                    else:
+                        cells.append("—")
+                print(f"| {cat}/{name} | {sess['track_mm']:.0f}, {sess['left_wheel_diameter_mm']:.0f} | {cells[0]} | {cells[1]} |")
+        print("\nSpread over the sets (max − min; sample standard deviation):\n")
+        for key, values in rows.items():
+            if len(values) < 2:
+                continue
+            parts = []
+            for i, label in enumerate(("track", "D_R", "D_L")):
+                col = [v[i] for v in values]
+                parts.append(f"{label} {max(col) - min(col):.3f} mm (sd {statistics.stdev(col):.3f})")
+            print(f"- {key} ({len(values)} sets): " + ", ".join(parts))
+
+    # --- held-out --------------------------------------------------------------------
+    def train(self, label, members):
+        """Calibrates on the runs of `members` [(category, set)] (same beliefs): UMBMark, trajectory
+        fit and explain, each written as a parameter file for check."""
+        out = os.path.join(self.out, "train", label)
+        os.makedirs(out, exist_ok=True)
+        merged = os.path.join(out, "session.yaml")
+        merge_sessions([self.session(c, n) for c, n in members], merged)
+        files = {}
+        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch"),
+             "--export", "firmware", os.path.join(out, "umbmark.yaml")])
+        if "umbmark" in load(os.path.join(out, "batch", "report.json")):
+            files["odocal UMBMark"] = os.path.join(out, "umbmark.yaml")
+        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch_traj"), "--estimator",
+             "trajectory", "--export", "firmware", os.path.join(out, "trajectory.yaml")])
+        files["odocal trajectory fit"] = os.path.join(out, "trajectory.yaml")
+        run([self.odocal, "explain", merged, "--out", os.path.join(out, "explain")])
+        files["odocal explain"] = os.path.join(out, "explain", "explain.json")
+        return files
+
+    def heldout(self):
+        print("\n## Held-out prediction: calibrate on squares and Ivanjko paths, check on the circles\n")
+        by_belief = {}
+        for cat in ("square", "ivanjko"):
+            for name in self.sets(cat):
+                s = load_session_nominal(self.session(cat, name))
+                key = (s["track_mm"], s["left_wheel_diameter_mm"], s["right_wheel_diameter_mm"])
+                by_belief.setdefault(key, []).append((cat, name))
+        candidates = {}
+        for key, members in sorted(by_belief.items()):
+            if not any(c == "square" for c, _ in members) or not any(c == "ivanjko" for c, _ in members):
+                continue
+            label = f"b{key[0]:g}_d{key[1]:g}"
+            for method, path in self.train(label, members).items():
+                candidates[f"{method} ({label}: {len(members)} sets)"] = path
+        for f in sorted(os.listdir(PUBLISHED)):
+            candidates["published " + f[:-5]] = os.path.join(PUBLISHED, f)
+        circles = self.sets("circular")
+        results = {name: [] for name in ["nominal", *candidates]}
+        for circ in circles:
+            args = [self.odocal, "check", self.session("circular", circ), "--out",
+                    os.path.join(self.out, "check", circ)]
+            names = {}
+            for i, (name, path) in enumerate(candidates.items()):
+                args += ["--params", f"set{i}={path}"]
+                names[f"set{i}"] = name
+            run(args)
+            chk = load(os.path.join(self.out, "check", circ, "check.json"))
+            for r in chk["runs"]:
+                for res in r["results"]:
+                    if res.get("ok"):
+                        results[names.get(res["set"], res["set"])].append(
+                            (res["final_position_error_mm"], abs(res["final_heading_error_deg"]), res["rms_error_mm"]))
+        print(f"{sum(len(v) for v in results.values()) // max(1, len(results))} circle runs in {len(circles)} sets, "
+              "none used in any calibration below (except the authors' own circular fit, in-sample).\n")
+        print("| parameter set | final error max [mm] | mean [mm] | heading max [deg] | RMS trajectory mean [mm] |")
+        print("|---|---|---|---|---|")
+        for name, v in sorted(results.items(), key=lambda kv: statistics.mean(x[0] for x in kv[1]) if kv[1] else 1e9):
+            if not v:
+                continue
+            print(f"| {name} | {max(x[0] for x in v):.1f} | {statistics.mean(x[0] for x in v):.1f} | "
+                  f"{max(x[1] for x in v):.2f} | {statistics.mean(x[2] for x in v):.1f} |")
+
+    # --- explain ---------------------------------------------------------------------
+    def explain(self):
+        print("\n## What explain finds on this robot\n")
+        print("| set | gap before → after [mm] | named (cross-validated held-out RMS before → after) | unexplained |")
+        print("|---|---|---|---|")
+        for cat in ("square", "ivanjko", "circular"):
+            for name in self.sets(cat):
+                out = os.path.join(self.out, "explain", f"{cat}_{name}")
+                if not os.path.exists(os.path.join(out, "explain.json")):
+                    run([self.odocal, "explain", self.session(cat, name), "--out", out])
+                e = load(os.path.join(out, "explain.json"))
+                named = []
+                for step in e.get("steps", []):
+                    cv = step.get("cross_validation") or {}
+                    if cv.get("heldout_rms_before_mm") is not None:
+                        named.append(f"{step['effect']} ({cv['heldout_rms_before_mm']:.2f} → {cv['heldout_rms_after_mm']:.2f})")
+                    else:
+                        named.append(step["effect"])
+                unexplained = []
+                for u in e.get("unexplained", []) or []:
+                    unexplained.append(f"{u.get('where', '?')} {u.get('motion', '')} {u.get('size_mm', 0):.1f} mm")
+                print(f"| {cat}/{name} | {e['gap_before_mm']:.2f} → {e['gap_after_mm']:.2f} | "
+                      f"{', '.join(named) or '—'} | {'; '.join(unexplained[:3]) or '—'} |")
+
+
+def load_session_nominal(path):
+    """robot.nominal of a session.yaml written by odocal import (a one-line flow mapping)."""
+    with open(path) as f:
+        for line in f:
+            s = line.strip()
+            if s.startswith("nominal:"):
+                body = s[s.index("{") + 1:s.rindex("}")]
+                return {k.strip(): float(v) for k, v in (p.split(":") for p in body.split(","))}
+    raise SystemExit(f"{path}: no robot.nominal")
+
+
+def merge_sessions(paths, out_path):
+    """One session of the runs of several pose-log sessions recorded with the same beliefs
+    (paths made relative to the new file; run names prefixed by their set)."""
+    header, runs, nominal = None, [], None
+    out_dir = os.path.dirname(os.path.abspath(out_path))
+    for p in paths:
+        base = os.path.dirname(os.path.abspath(p))
+        set_name = os.path.basename(base)
+        with open(p) as f:
+            lines = f.read().splitlines()
+        n = next(l for l in lines if l.strip().startswith("nominal:"))
+        if nominal is None:
+            nominal = n
+            header = [l for l in lines if not l.startswith("  - ")]
+        elif n.strip() != nominal.strip():
+            raise SystemExit(f"{p}: other believed parameters than {paths[0]}; not merged")
+        for l in lines:
+            if l.startswith("  - "):
+                for key in ("poses: ", "telemetry: "):
+                    i = l.find(key)
+                    if i >= 0:
+                        j = i + len(key)
+                        k = min(x for x in (l.find(",", j), l.find("}", j)) if x >= 0)
+                        rel = os.path.relpath(os.path.join(base, l[j:k].strip()), out_dir)
+                        l = l[:j] + rel + l[k:]
+                l = l.replace("name: ", f"name: {set_name}_", 1)
+                runs.append(l)
+    with open(out_path, "w") as f:
+        f.write("\n".join(header) + "\n" + "\n".join(runs) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["conventions", "beliefs", "heldout", "explain", "all"])
+    root = os.path.dirname(os.path.dirname(HERE))
+    ap.add_argument("--data", default=os.path.join(root, "..", "shared", "realdata", "optiodom"))
+    ap.add_argument("--odocal", default=os.path.join(root, "build", "odocal"))
+    ap.add_argument("--out", default=os.path.join("out", "realdata"))
+    a = ap.parse_args()
+    b = Bench(a)
+    for what in (["conventions", "beliefs", "heldout", "explain"] if a.what == "all" else [a.what]):
+        getattr(b, what)()
+
+
+if __name__ == "__main__":
+    main()

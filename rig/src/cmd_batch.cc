@@ -34,6 +34,7 @@ bool Usable(const calibration::MeasuredRun& m) {
 }
 
 nlohmann::json PlaneJson(const SessionMeasurement& sm) {
+  if (!sm.session.has_camera) return nullptr;  // pose logs only: no camera to place
   if (!sm.plane_estimated) return {{"estimated", false}, {"message", sm.plane.message}};
   const vision::CameraPlaneResult& p = sm.plane;
   return {{"estimated", true},
@@ -121,6 +122,10 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
           }
           break;
         }
+        case calibration::Procedure::kRecorded:
+          // No plan, so no closed-form UMBMark/CVRA model: such runs serve
+          // the trajectory fit (explain) and the report only.
+          break;
       }
     }
   }
@@ -304,7 +309,7 @@ void RegisterMeasureCommand(CLI::App& app) {
     if (!fs::exists(args->video)) Fail(name, kExitBadInput, args->video + ": no such file");
     std::vector<SessionRun> runs;
     for (const SessionRun& run : session.runs) {
-      if (fs::equivalent(run.video, args->video)) runs.push_back(run);
+      if (!run.video.empty() && fs::equivalent(run.video, args->video)) runs.push_back(run);
     }
     if (runs.empty())
       Fail(name, kExitBadInput, args->video + " is not a run of " + args->session +

@@ -421,6 +421,7 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
   }
 
   double pose_turn_rad = 0.0;
+  const auto Body = [&](const calibration::CameraRecord& c) { return c.T_world_robot * T_robot_body; };
   // Units: path length and heading change, against the ticks'. Distances
   // accumulate only beyond a step of 10 mm (2 deg) so that frame noise does
   // not add up to a path of its own.
@@ -439,6 +440,9 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
   const Series ticks_heading = TicksHeading(m->telemetry, nominal);
   const double tick_turn = Variation(ticks_heading.v, kHeadingStep);
   Series pose_heading;  // unwrapped, valid frames
+  // The path of the tracked body as logged, before any lever arm is undone:
+  // it checks the file's unit (a body off the axle adds its lever arm's
+  // sweep in the turns, well inside the bounds).
   double pose_path = 0.0;
   {
     const calibration::CameraRecord* anchor = nullptr;
@@ -454,7 +458,7 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
       if (c.t_s < tel0 || c.t_s > tel1) continue;
       overlap_heading.push_back(unwrapped);
       if (!anchor) anchor = &c;
-      const double d = (c.T_world_robot.translation() - anchor->T_world_robot.translation()).norm();
+      const double d = (Body(c).translation() - Body(*anchor).translation()).norm();
       if (d > 0.010) {
         pose_path += d;
         anchor = &c;

@@ -137,7 +137,9 @@ void RegisterExplainCommand(CLI::App& app) {
     } else {
       session = MeasureSessionForExplain(args->session, 0.0, &error);
       if (!session) Fail("explain", kExitBadInput, error);
-      input = {{"session", args->session}, {"camera", "camera pipeline (videos measured)"}};
+      input = {{"session", args->session},
+               {"camera", session->camera ? "camera pipeline (videos measured)"
+                                          : "pose logs (tracker; no camera)"}};
     }
     const calibration::ExplainResult result = calibration::Explain(*session);
     if (!result.ok()) Fail("explain", kExitFailure, result.message);

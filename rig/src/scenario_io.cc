@@ -227,7 +227,8 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
 
 std::string RunName(int index, const calibration::RunSpec& spec) {
   char name[64];
-  const bool has_direction = spec.procedure != calibration::Procedure::kStraight;
+  const bool has_direction = spec.procedure != calibration::Procedure::kStraight &&
+                             spec.procedure != calibration::Procedure::kRecorded;
   std::snprintf(name, sizeof(name), "run%02d_%s%s%s", index + 1,
                 std::string(calibration::ToString(spec.procedure)).c_str(), has_direction ? "_" : "",
                 has_direction ? std::string(calibration::ToString(spec.direction)).c_str() : "");

@@ -66,7 +66,9 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
     out << YAML::Key << "timestamps" << YAML::Value << Relative(dir, run.timestamps);
   if (!run.telemetry.empty())
     out << YAML::Key << "telemetry" << YAML::Value << Relative(dir, run.telemetry);
-  if (run.start_s != 0.0) out << YAML::Key << "start_s" << YAML::Value << run.start_s;
+  // A pose log's span defaults to the whole log: say only what differs.
+  if (run.poses.empty() || run.start_s != 0.0)
+    out << YAML::Key << "start_s" << YAML::Value << run.start_s;
   if (std::isfinite(run.end_s)) out << YAML::Key << "end_s" << YAML::Value << run.end_s;
   out << YAML::EndMap;
 }

@@ -389,24 +389,47 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
   const double max_turn = std::max(options.jump_speed_factor * top_turn,
                                    2.0 * options.jump_speed_floor_m_s / nominal.track_m);
 
-  const PoseLogRow* last_good = nullptr;
-  for (const PoseLogRow& f : frames) {
+  // Jumps. Which side of a jump is the tracker's error? The longest stretch
+  // of mutually consistent frames is taken as the robot; from it, forwards
+  // and backwards, each frame must be reachable from the last good one. A
+  // swapped marker at the very first frame is then rejected, not the run.
+  const auto reachable = [&](const PoseLogRow& a, const PoseLogRow& b) {
+    const double dt = std::abs(b.t_s - a.t_s);
+    const double step = (b.T_world_body.translation() - a.T_world_body.translation()).norm();
+    const double turn = std::abs(calibration::WrapAngle(b.T_world_body.heading() - a.T_world_body.heading()));
+    return step <= max_speed * dt && turn <= max_turn * dt;
+  };
+  std::vector<size_t> candidates;  // frames the file says are valid
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (frames[i].valid) candidates.push_back(i);
+  std::vector<bool> good(frames.size(), false);
+  if (!candidates.empty()) {
+    size_t best_begin = 0, best_length = 0;
+    for (size_t k = 0; k < candidates.size();) {
+      size_t e = k + 1;
+      while (e < candidates.size() && reachable(frames[candidates[e - 1]], frames[candidates[e]])) ++e;
+      if (e - k > best_length) {
+        best_begin = k;
+        best_length = e - k;
+      }
+      k = e;
+    }
+    for (size_t k = best_begin; k < best_begin + best_length; ++k) good[candidates[k]] = true;
+    size_t last = candidates[best_begin + best_length - 1];
+    for (size_t k = best_begin + best_length; k < candidates.size(); ++k)
+      if (reachable(frames[last], frames[candidates[k]])) good[last = candidates[k]] = true;
+    last = candidates[best_begin];
+    for (size_t k = best_begin; k-- > 0;)
+      if (reachable(frames[last], frames[candidates[k]])) good[last = candidates[k]] = true;
+  }
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const PoseLogRow& f = frames[i];
     calibration::CameraRecord c;
     c.t_s = f.t_s;
-    c.valid = f.valid;
+    c.valid = good[i];
     if (f.nan) ++stats->nan_rows;
-    if (c.valid && last_good) {
-      const double dt = f.t_s - last_good->t_s;
-      const double step = (f.T_world_body.translation() - last_good->T_world_body.translation()).norm();
-      const double turn =
-          std::abs(calibration::WrapAngle(f.T_world_body.heading() - last_good->T_world_body.heading()));
-      if (step > max_speed * dt || turn > max_turn * dt) {
-        c.valid = false;
-        ++stats->jump_frames;
-      }
-    }
+    if (f.valid && !good[i]) ++stats->jump_frames;
     if (c.valid) {
-      last_good = &f;
       c.T_world_robot = f.T_world_body * T_body_robot;
       ++stats->valid;
     }

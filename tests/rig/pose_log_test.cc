@@ -403,6 +403,16 @@ TEST_F(PoseLogBadInput, TrackerJumpInvalidatesFramesAndFlags) {
   EXPECT_NEAR(report["runs"][0]["return_error"]["x_mm"].get<double>(), truth.x() * 1e3, 0.3);
 }
 
+TEST_F(PoseLogBadInput, TrackerJumpAtTheFirstFrameRejectsThatFrameNotTheRun) {
+  std::string dir;
+  const CommandResult r = Batch([](std::vector<Row>* rows) { (*rows)[0].y_mm += 500.0; }, &dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = ReadJson(dir + "/report/report.json");
+  EXPECT_THAT(report["runs"][0]["flags"].get<std::vector<std::string>>(), ::testing::Contains("tracker_jump:1"));
+  const Pose2 truth = TrueReturnError(result_->runs[0]);
+  EXPECT_NEAR(report["runs"][0]["return_error"]["y_mm"].get<double>(), truth.y() * 1e3, 0.3);
+}
+
 TEST_F(PoseLogBadInput, ClockOffsetIsEstimatedReportedAndFlagged) {
   std::string dir;
   const CommandResult r = Batch(
@@ -447,7 +457,7 @@ TEST(PoseLogScenario, ARecordedRunCannotBeSimulated) {
 // OptiOdom, the real data.
 
 std::string OptiOdomSquareSet() {
-  for (const std::string root : {test_util::SourceDir() + "/../shared/realdata/optiodom",
+  for (const std::string& root : {test_util::SourceDir() + "/../shared/realdata/optiodom",
                                  test_util::SourceDir() + "/../../shared/realdata/optiodom",
                                  std::string("/work/shared/realdata/optiodom")}) {
     const std::string set = root + "/diff/square/230620202042";

@@ -22,7 +22,8 @@
 //   - overlap in time with the telemetry: none is an error naming both files;
 //   - tracker jumps (a swapped marker): frames implying a speed above
 //     max(3 x the wheels' top speed, 2 m/s), or a turn rate likewise, are
-//     invalid, flag `tracker_jump:N`;
+//     invalid, flag `tracker_jump:N` (the longest consistent stretch is taken
+//     as the robot, and frames are checked from it forwards and backwards);
 //   - the clock offset between log and telemetry, by cross-correlating the
 //     heading rates; reported, flagged beyond two pose periods, never applied.
 //

@@ -244,7 +244,8 @@ void RegisterBatchCommand(CLI::App& app) {
     options.threads = args->threads;
     std::string error;
     const auto measured = MeasureSessions(sessions, options, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail(name, kExitFailure, error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
     if (auto e = EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
 
     nlohmann::json report = {{"command", "batch"},
@@ -317,7 +318,8 @@ void RegisterMeasureCommand(CLI::App& app) {
     session.runs = runs;
     std::string error;
     const auto measured = MeasureSessions({session}, MeasureOptions{}, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail(name, kExitFailure, error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
     if (args->json) {
       nlohmann::json j = {{"video", args->video}, {"camera_plane", PlaneJson(measured->front())},
                           {"runs", nlohmann::json::array()}};

@@ -301,7 +301,7 @@ TEST_F(PoseLogBadInput, MissingColumn) {
     while (std::getline(in, l)) out += l.substr(0, l.rfind(',')) + "\n";  // drop heading_deg
     return out;
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:1"));
   EXPECT_THAT(r.err, HasSubstr("missing column heading_deg"));
 }
@@ -310,14 +310,14 @@ TEST_F(PoseLogBadInput, ExtraColumn) {
   const CommandResult r = BatchWithText([](std::string t) {
     return ReplaceLine(t, 1, "t_s,x_mm,y_mm,heading_deg,z_mm");
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:1:5"));
   EXPECT_THAT(r.err, HasSubstr("unexpected column 'z_mm'"));
 }
 
 TEST_F(PoseLogBadInput, ExtraFieldInARow) {
   const CommandResult r = BatchWithText([](std::string t) { return ReplaceLine(t, 7, Line(t, 7) + ",3"); });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:7: expected 4 fields"));
 }
 
@@ -327,7 +327,7 @@ TEST_F(PoseLogBadInput, NotANumber) {
     const size_t a = l.find(','), b = l.find(',', a + 1), c = l.find(',', b + 1);
     return ReplaceLine(t, 5, l.substr(0, b + 1) + "12.5mm" + l.substr(c));
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:5:3: column y_mm: not a number: '12.5mm'"));
 }
 
@@ -336,14 +336,14 @@ TEST_F(PoseLogBadInput, OutOfOrderTimestamps) {
     const std::string a = Line(t, 10), b = Line(t, 11);
     return ReplaceLine(ReplaceLine(t, 10, b), 11, a);
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:11:1: t_s"));
   EXPECT_THAT(r.err, HasSubstr("is before line 10"));
 }
 
 TEST_F(PoseLogBadInput, DuplicateTimestamps) {
   const CommandResult r = BatchWithText([](std::string t) { return ReplaceLine(t, 21, Line(t, 20)); });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv:21:1: t_s"));
   EXPECT_THAT(r.err, HasSubstr("duplicates line 20"));
 }
@@ -365,7 +365,7 @@ TEST_F(PoseLogBadInput, MetresWhereMillimetresAreExpected) {
       row.y_mm *= 1e-3;
     }
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv: columns x_mm,y_mm"));
   EXPECT_THAT(r.err, HasSubstr("metres where millimetres are expected"));
 }
@@ -374,7 +374,7 @@ TEST_F(PoseLogBadInput, RadiansWhereDegreesAreExpected) {
   const CommandResult r = Batch([](std::vector<Row>* rows) {
     for (Row& row : *rows) row.heading_deg /= kRadToDeg;
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv: column heading_deg"));
   EXPECT_THAT(r.err, HasSubstr("radians where degrees are expected"));
 }
@@ -383,7 +383,7 @@ TEST_F(PoseLogBadInput, NoOverlapWithTheTelemetry) {
   const CommandResult r = Batch([](std::vector<Row>* rows) {
     for (Row& row : *rows) row.t_s += 1000.0;
   });
-  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code, 2);  // bad input
   EXPECT_THAT(r.err, HasSubstr("run01.poses.csv and "));
   EXPECT_THAT(r.err, HasSubstr("run01.telemetry.csv: never overlap in time"));
 }

@@ -10,6 +10,7 @@ std::string_view ToString(Procedure procedure) {
     case Procedure::kStraight: return "straight";
     case Procedure::kSpin: return "spin";
     case Procedure::kOutAndBack: return "out_and_back";
+    case Procedure::kRecorded: return "recorded";
   }
   return "?";
 }
@@ -24,7 +25,7 @@ std::string_view ToString(Reference reference) {
 
 std::optional<Procedure> ParseProcedure(std::string_view name) {
   for (Procedure p : {Procedure::kUmbmark, Procedure::kStraight, Procedure::kSpin,
-                      Procedure::kOutAndBack}) {
+                      Procedure::kOutAndBack, Procedure::kRecorded}) {
     if (ToString(p) == name) return p;
   }
   return std::nullopt;
@@ -94,6 +95,8 @@ bool RunSpec::IsValid(std::string* why) const {
       if (!positive(distance_m)) return fail("distance_mm must be a positive number");
       if (repeats <= 0) return fail("repeats must be a positive integer");
       break;
+    case Procedure::kRecorded:
+      break;  // no size: the ticks say where it went
   }
   if (reference == Reference::kWall && procedure != Procedure::kOutAndBack &&
       procedure != Procedure::kSpin) {
@@ -136,6 +139,8 @@ std::vector<Primitive> PlanPrimitives(const RunSpec& spec) {
         plan.push_back(Primitive::Straight(spec.distance_m));
         plan.push_back(Primitive::Turn(-sign * M_PI));
       }
+      break;
+    case Procedure::kRecorded:
       break;
   }
   return plan;

@@ -35,6 +35,7 @@ bool Usable(const calibration::MeasuredRun& m) {
 }
 
 nlohmann::json PlaneJson(const SessionMeasurement& sm) {
+  if (!sm.session.has_camera) return nullptr;  // pose logs only: no camera to place
   if (!sm.plane_estimated) return {{"estimated", false}, {"message", sm.plane.message}};
   const vision::CameraPlaneResult& p = sm.plane;
   return {{"estimated", true},
@@ -140,6 +141,10 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
           }
           break;
         }
+        case calibration::Procedure::kRecorded:
+          // No plan, so no closed-form UMBMark/CVRA model: such runs serve
+          // the trajectory fit (explain) and the report only.
+          break;
       }
     }
   }
@@ -328,7 +333,8 @@ void RegisterBatchCommand(CLI::App& app) {
     options.threads = args->threads;
     std::string error;
     const auto measured = MeasureSessions(sessions, options, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail(name, kExitFailure, error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
     if (auto e = EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
 
     nlohmann::json report = {{"command", "batch"},
@@ -407,7 +413,7 @@ void RegisterMeasureCommand(CLI::App& app) {
     if (!fs::exists(args->video)) Fail(name, kExitBadInput, args->video + ": no such file");
     std::vector<SessionRun> runs;
     for (const SessionRun& run : session.runs) {
-      if (fs::equivalent(run.video, args->video)) runs.push_back(run);
+      if (!run.video.empty() && fs::equivalent(run.video, args->video)) runs.push_back(run);
     }
     if (runs.empty())
       Fail(name, kExitBadInput, args->video + " is not a run of " + args->session +
@@ -415,7 +421,8 @@ void RegisterMeasureCommand(CLI::App& app) {
     session.runs = runs;
     std::string error;
     const auto measured = MeasureSessions({session}, MeasureOptions{}, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail(name, kExitFailure, error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
     if (args->json) {
       nlohmann::json j = {{"video", args->video}, {"camera_plane", PlaneJson(measured->front())},
                           {"runs", nlohmann::json::array()}};

@@ -29,6 +29,10 @@
 namespace odocal::rig {
 namespace {
 
+std::optional<calibration::MeasuredSession> WithTelemetryOrFail(const std::string& path,
+                                                               calibration::MeasuredSession out,
+                                                               std::string* error);
+
 // A session file measured by the camera pipeline, with the camera geometry
 // the lens candidate needs: the camera's pose over the tag plane (as the
 // pipeline estimated it from the videos) and its calibrated lens.
@@ -39,11 +43,13 @@ std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::
                                                                     std::string* error) {
   std::optional<Session> session = LoadSession(path, error);
   if (!session) return std::nullopt;
-  session->intrinsics.distortion[0] += k1_correction;
+  if (session->has_camera) session->intrinsics.distortion[0] += k1_correction;
   const auto measured = MeasureSessions({*session}, MeasureOptions{}, TerminalProgressBar("measuring"), error);
   if (!measured) return std::nullopt;
   const SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession out = sm.ToMeasuredSession();
+  // A session of pose logs has no camera: no lens candidate to weigh.
+  if (!session->has_camera) return WithTelemetryOrFail(path, std::move(out), error);
   const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session->camera_mount_guess;
   const vision::CameraModel camera(session->intrinsics, mount);
   calibration::FloorCamera floor;
@@ -52,7 +58,13 @@ std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::
   floor.R_camera_world = camera.T_camera_world().rotation();
   floor.distortion = session->intrinsics.distortion;
   if (floor.IsValid()) out.camera = floor;
-  // Only runs with telemetry inform the trajectory fit.
+  return WithTelemetryOrFail(path, std::move(out), error);
+}
+
+// Only runs with telemetry inform the trajectory fit.
+std::optional<calibration::MeasuredSession> WithTelemetryOrFail(const std::string& path,
+                                                               calibration::MeasuredSession out,
+                                                               std::string* error) {
   int with_telemetry = 0;
   for (const auto& run : out.runs) with_telemetry += run.telemetry.empty() ? 0 : 1;
   if (with_telemetry == 0) {
@@ -125,7 +137,9 @@ void RegisterExplainCommand(CLI::App& app) {
     } else {
       session = MeasureSessionForExplain(args->session, 0.0, &error);
       if (!session) Fail("explain", kExitBadInput, error);
-      input = {{"session", args->session}, {"camera", "camera pipeline (videos measured)"}};
+      input = {{"session", args->session},
+               {"camera", session->camera ? "camera pipeline (videos measured)"
+                                          : "pose logs (tracker; no camera)"}};
     }
     const calibration::ExplainResult result = calibration::Explain(*session);
     if (!result.ok()) Fail("explain", kExitFailure, result.message);

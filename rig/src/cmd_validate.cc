@@ -117,7 +117,8 @@ void RegisterValidateCommand(CLI::App& app) {
     options.threads = args->threads;
     const auto measured =
         MeasureSessions({*session}, options, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail(name, kExitFailure, error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
     const SessionMeasurement& sm = measured->front();
 
     std::vector<Pair> pairs;

@@ -173,7 +173,7 @@ std::string TrajectoryPlot(const json& trajectories) {
   if (x0 > x1) return "";
   const double pad = 0.08 * std::max(x1 - x0, y1 - y0) + 10;
   svg::Plot plot(720, 460, {x0 - pad, x1 + pad}, {y0 - pad, y1 + pad}, true, false, 180);
-  plot.Title("Trajectories the camera saw (measurement frame)");
+  plot.Title("Trajectories measured (camera or tracker frame)");
   plot.Axes("x [mm]", "y [mm]");
   const char* palette[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"};
   std::vector<std::vector<std::string>> legend;
@@ -335,7 +335,7 @@ std::string ReportHtml(const json& report, const std::string& title) {
   if (report.contains("trajectories") && report["trajectories"].is_array())
     os << "<h2>Trajectories</h2>\n" << TrajectoryPlot(report["trajectories"]);
   if (report.contains("runs") && report["runs"].is_array() && !report["runs"].empty())
-    os << "<h2>Runs (camera)</h2>\n<p class='note'>Return error &plusmn; &sigma;, in the run's start "
+    os << "<h2>Runs (camera or pose log)</h2>\n<p class='note'>Return error &plusmn; &sigma;, in the run's start "
           "frame.</p>\n" << RunsTable(report["runs"]);
   if (report.contains("cvra") && report["cvra"].is_object()) {
     os << "<h2>CVRA</h2>\n";

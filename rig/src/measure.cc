@@ -17,36 +17,17 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
+// The telemetry reader shared with pose-log runs (pose_log.h); for a video
+// run a bad file is a flag, not an error.
 std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
+                                                        const calibration::WheelParams& nominal,
                                                         std::vector<std::string>* flags) {
-  std::vector<calibration::TelemetryRecord> records;
-  if (path.empty()) return records;
-  std::ifstream in(path);
-  if (!in) {
-    flags->push_back("telemetry_unreadable");
-    return records;
-  }
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::istringstream fields(line);
-    std::string f[7];
-    for (auto& field : f) std::getline(fields, field, ',');
-    try {
-      calibration::TelemetryRecord r;
-      r.t_s = std::stod(f[0]);
-      r.left_ticks = std::stoll(f[1]);
-      r.right_ticks = std::stoll(f[2]);
-      r.odometry = calibration::Pose2::FromXYHeading(std::stod(f[3]) * 1e-3, std::stod(f[4]) * 1e-3,
-                                                     std::stod(f[5]) / kRadToDeg);
-      records.push_back(r);
-    } catch (const std::exception&) {
-      flags->push_back("telemetry_malformed");
-      records.clear();
-      return records;
-    }
-  }
-  return records;
+  if (path.empty()) return {};
+  std::string error;
+  auto records = ReadTelemetryCsv(path, nominal, &error);
+  if (records) return *records;
+  flags->push_back((std::ifstream(path) ? "telemetry_malformed: " : "telemetry_unreadable: ") + error);
+  return {};
 }
 
 // Whether the tag and its quiet zone (one cell of 10 beyond the black
@@ -202,7 +183,9 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   // One frame's noise, from the frames at rest about their window's mean.
   double sum_p = 0.0, sum_h = 0.0;
   int dof = 0;
-  for (const calibration::MeasuredRun& run : s.runs) {
+  for (size_t i = 0; i < s.runs.size(); ++i) {
+    if (runs[i].pose_log) continue;  // the tracker's noise is its own
+    const calibration::MeasuredRun& run = s.runs[i];
     for (const auto& rest : {run.start_rest, run.end_rest}) {
       if (!rest) continue;
       std::vector<calibration::Pose2> poses;
@@ -226,9 +209,9 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   }
   if (dof > 0) {
     const double sigma_p = std::sqrt(sum_p / dof), sigma_h = std::sqrt(sum_h / dof);
-    for (calibration::MeasuredRun& run : s.runs)
-      for (calibration::CameraRecord& c : run.camera)
-        if (c.valid) {
+    for (size_t i = 0; i < s.runs.size(); ++i)
+      for (calibration::CameraRecord& c : s.runs[i].camera)
+        if (c.valid && !runs[i].pose_log) {
           c.sigma_position_m = sigma_p;
           c.sigma_heading_rad = sigma_h;
         }
@@ -240,7 +223,8 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error) {
   std::string why;
-  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why)) {
+  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
+      !options.pose_log.IsValid(&why)) {
     if (error) *error = "measure options: " + why;
     return std::nullopt;
   }
@@ -256,9 +240,10 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     out[s].session = sessions[s];
     out[s].runs.resize(sessions[s].runs.size());
     for (size_t r = 0; r < sessions[s].runs.size(); ++r) {
-      jobs.push_back({s, r});
       const SessionRun& run = sessions[s].runs[r];
       out[s].runs[r].run = run;
+      if (!run.poses.empty()) continue;  // no video to decode
+      jobs.push_back({s, r});
       if (std::isfinite(run.end_s)) expected_frames += static_cast<long>((run.end_s - run.start_s) * 30.0) + 1;
     }
   }
@@ -296,6 +281,22 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
 
   // Phase 2, per session: the plane, the poses, the rests.
   for (SessionMeasurement& sm : out) {
+    // Pose-log runs first: a bad log is an error, not a flag.
+    std::vector<calibration::MeasuredRun*> pose_runs;
+    bool any_video = false;
+    for (RunMeasurement& rm : sm.runs) {
+      if (rm.run.poses.empty()) {
+        any_video = true;
+        continue;
+      }
+      rm.pose_log.emplace();
+      if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log,
+                             &rm.measured, &*rm.pose_log, error))
+        return std::nullopt;
+      pose_runs.push_back(&rm.measured);
+    }
+    if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
+    if (!any_video) continue;
     const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
     const std::vector<vision::TagCorners> views =
         PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
@@ -316,10 +317,11 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
                    options.systematic_scale_sigma);
     const vision::CameraModel camera(sm.session.intrinsics, mount);
     for (RunMeasurement& rm : sm.runs) {
+      if (rm.pose_log) continue;
       calibration::MeasuredRun& m = rm.measured;
       m.name = rm.run.name;
       m.spec = rm.run.spec;
-      m.telemetry = ReadTelemetry(rm.run.telemetry, &m.flags);
+      m.telemetry = ReadTelemetry(rm.run.telemetry, sm.session.nominal, &m.flags);
       if (!rm.track.ok) {
         m.flags.push_back("video_unreadable: " + rm.track.message);
         continue;
@@ -358,8 +360,14 @@ nlohmann::json RunJson(const RunMeasurement& rm) {
   const calibration::MeasuredRun& m = rm.measured;
   nlohmann::json j = {{"name", m.name},
                       {"procedure", calibration::ToString(m.spec.procedure)},
-                      {"direction", calibration::ToString(m.spec.direction)},
-                      {"video", rm.run.video}};
+                      {"direction", calibration::ToString(m.spec.direction)}};
+  if (rm.pose_log) {
+    j["source"] = "poses";
+    j["poses"] = rm.run.poses;
+  } else {
+    j["source"] = "video";
+    j["video"] = rm.run.video;
+  }
   bool fatal = false;
   for (const std::string& f : m.flags) fatal = fatal || IsFatalFlag(f);
   if (m.return_error && !fatal) {
@@ -373,6 +381,17 @@ nlohmann::json RunJson(const RunMeasurement& rm) {
     j["sigma"] = nullptr;
   }
   j["flags"] = m.flags;
+  if (rm.pose_log) {
+    const PoseLogStats& p = *rm.pose_log;
+    j["frames"] = {{"logged", p.rows}, {"valid", p.valid}, {"nan", p.nan_rows},
+                   {"tracker_jump", p.jump_frames},
+                   {"start_rest", m.start_rest ? m.start_rest->n : 0},
+                   {"end_rest", m.end_rest ? m.end_rest->n : 0}};
+    j["pose_period_s"] = p.pose_period_s;
+    j["clock_offset_s"] = p.clock_offset_s ? nlohmann::json(*p.clock_offset_s) : nlohmann::json(nullptr);
+    j["unit_check"] = {{"path_ratio", p.path_ratio}, {"heading_ratio", p.heading_ratio}};
+    return j;
+  }
   int searched = 0;
   for (const auto& f : rm.track.frames) searched += f.searched ? 1 : 0;
   j["frames"] = {{"decoded", rm.track.frames.size()}, {"tag_found", rm.track.found},

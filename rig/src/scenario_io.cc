@@ -202,8 +202,14 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
     const YAML::Node runs = root["runs"];
     if (!runs) Fail(root, "runs", "missing (required)");
     if (!runs.IsSequence() || runs.size() == 0) Fail(runs, "runs", "expected a non-empty list of runs");
-    for (size_t i = 0; i < runs.size(); ++i)
-      s.runs.push_back(ParseRun(runs[i], "runs[" + std::to_string(i) + "]"));
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const std::string rp = "runs[" + std::to_string(i) + "]";
+      s.runs.push_back(ParseRun(runs[i], rp));
+      // A recorded run has no plan for the virtual robot to drive.
+      if (s.runs.back().procedure == calibration::Procedure::kRecorded)
+        Fail(runs[i]["procedure"], Join(rp, "procedure"),
+             "a scenario cannot simulate a recorded run (no plan to drive); use a planned procedure");
+    }
     if (const YAML::Node effects = root["effects"]) s.robot.effects = ParseEffects(effects);
     if (root["tag"].IsDefined() != root["camera"].IsDefined()) {
       Fail(root, root["tag"] ? "camera" : "tag",
@@ -221,7 +227,8 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
 
 std::string RunName(int index, const calibration::RunSpec& spec) {
   char name[64];
-  const bool has_direction = spec.procedure != calibration::Procedure::kStraight;
+  const bool has_direction = spec.procedure != calibration::Procedure::kStraight &&
+                             spec.procedure != calibration::Procedure::kRecorded;
   std::snprintf(name, sizeof(name), "run%02d_%s%s%s", index + 1,
                 std::string(calibration::ToString(spec.procedure)).c_str(), has_direction ? "_" : "",
                 has_direction ? std::string(calibration::ToString(spec.direction)).c_str() : "");

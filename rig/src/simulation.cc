@@ -65,6 +65,7 @@ nlohmann::json RunSpecJson(const calibration::RunSpec& spec) {
       j["repeats"] = spec.repeats;
       j["reference"] = calibration::ToString(spec.reference);
       break;
+    case calibration::Procedure::kRecorded: break;  // refused by the scenario parser
   }
   return j;
 }

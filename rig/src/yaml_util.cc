@@ -132,7 +132,7 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
   const auto procedure = calibration::ParseProcedure(name);
   if (!procedure) {
     Fail(node["procedure"], Join(path, "procedure"),
-         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back)");
+         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back, recorded)");
   }
   RunSpec spec;
   spec.procedure = *procedure;
@@ -146,6 +146,7 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
     case calibration::Procedure::kOutAndBack:
       takes.insert({"distance_mm", "repeats", "direction", "reference"});
       break;
+    case calibration::Procedure::kRecorded: break;  // no plan: nothing to size
   }
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();

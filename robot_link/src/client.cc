@@ -36,6 +36,7 @@ uint8_t WireProcedure(calibration::Procedure p) {
     case calibration::Procedure::kStraight: return OLF_PROC_STRAIGHT;
     case calibration::Procedure::kSpin: return OLF_PROC_SPIN;
     case calibration::Procedure::kOutAndBack: return OLF_PROC_OUT_AND_BACK;
+    case calibration::Procedure::kRecorded: return 0;  // not drivable: the firmware refuses 0
   }
   return 0;
 }
@@ -118,6 +119,7 @@ RunCommand RunCommand::FromRunSpec(const calibration::RunSpec& spec) {
       c.amount_mm = spec.distance_m * 1e3;
       c.count = static_cast<uint32_t>(spec.repeats);
       break;
+    case calibration::Procedure::kRecorded: break;
   }
   return c;
 }

@@ -34,6 +34,7 @@ calibration::RunSpec ToRunSpec(const RunCommand& c) {
     case calibration::Procedure::kSpin: return RunSpec::Spin(static_cast<int>(c.count), c.direction);
     case calibration::Procedure::kOutAndBack:
       return RunSpec::OutAndBack(c.amount_mm * 1e-3, static_cast<int>(c.count), c.direction);
+    case calibration::Procedure::kRecorded: break;  // never decoded from the wire
   }
   return RunSpec{};
 }

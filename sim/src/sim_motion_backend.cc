@@ -14,6 +14,7 @@ calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
       spec.distance_m = command.amount_mm * 1e-3;
       spec.repeats = static_cast<int>(command.count);
       break;
+    case calibration::Procedure::kRecorded: break;  // nothing to drive: an empty plan
   }
   return spec;
 }

@@ -9,6 +9,8 @@
 //   spin          `turns` full turns in place; ccw positive.
 //   out_and_back  CVRA wheel-ratio path, `repeats` times: forward d,
 //                 turn +180 deg, forward d, turn -180 deg (ccw; cw mirrors).
+//   recorded      any path, driven by whoever drove it (a pose log's run):
+//                 no plan is assumed, the recorded ticks drive the model.
 //
 // The closed-form prediction below is the model every estimator fits; the
 // virtual robot (odocal::sim) integrates the same plan in time, with encoder
@@ -28,7 +30,7 @@
 
 namespace odocal::calibration {
 
-enum class Procedure { kUmbmark, kStraight, kSpin, kOutAndBack };
+enum class Procedure { kUmbmark, kStraight, kSpin, kOutAndBack, kRecorded };
 enum class Direction { kCw, kCcw };
 // How the end of a run is referenced: by the camera (free floor) or by
 // pushing the robot flush against a wall that restores its start heading.
@@ -74,6 +76,7 @@ struct Primitive {
   double RightTravel(double believed_track_m) const;
 };
 
+// Empty for kRecorded: its path is whatever the ticks say.
 std::vector<Primitive> PlanPrimitives(const RunSpec& spec);
 
 // The robot's believed end pose after the plan (what odometry aims for).

@@ -17,6 +17,7 @@
 
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
+#include "odocal/rig/pose_log.h"
 #include "odocal/rig/session.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/video_track.h"
@@ -57,6 +58,8 @@ struct MeasureOptions {
   // Gaps longer than this while the robot moves are flagged.
   double flag_gap_s = 0.5;
   int threads = 0;  // 0: one per core
+  // Runs measured from a pose log instead of a video (pose_log.h).
+  PoseLogOptions pose_log;
 };
 
 // Flags that leave a run without a return error.
@@ -64,7 +67,8 @@ bool IsFatalFlag(const std::string& flag);
 
 struct RunMeasurement {
   SessionRun run;
-  vision::VideoTrack track;
+  vision::VideoTrack track;  // video runs
+  std::optional<PoseLogStats> pose_log;  // pose-log runs
   calibration::MeasuredRun measured;
 };
 
@@ -83,14 +87,17 @@ struct SessionMeasurement {
   // means, pooled over every rest of the session (frames in motion are
   // blurred and scatter more; the trajectory fit scales its covariance by
   // the reduced chi-square when they do). Zero when no rest was seen.
+  // Pose-log runs keep the sigma their own rests gave (pose_log.h).
   calibration::MeasuredSession ToMeasuredSession() const;
 };
 
 // Progress: called with (frames done, frames expected) from worker threads.
 using ProgressFn = std::function<void(long, long)>;
 
-// Measures every session's runs (videos in parallel across cores). Fails
-// (nullopt + error) only for options; bad videos become flags.
+// Measures every session's runs (videos in parallel across cores; pose logs
+// by pose_log.h). Fails (nullopt + error) for options and for a malformed
+// pose log or its telemetry (the error names the file); bad videos become
+// flags.
 std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error);
@@ -108,8 +115,9 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag);
 
-// One run's JSON entry of report.json: procedure, direction, video,
-// return_error {x_mm, y_mm, theta_deg} (null when fatal), sigma, flags, frames.
+// One run's JSON entry of report.json: procedure, direction, source
+// ("video" or "poses") and its file, return_error {x_mm, y_mm, theta_deg}
+// (null when fatal), sigma, flags, frames; pose runs add clock_offset_s.
 nlohmann::json RunJson(const RunMeasurement& run);
 
 // A progress bar on stderr when it is a terminal, nothing otherwise.

@@ -182,6 +182,13 @@ double RelativePose::sigma_x_m() const { return std::sqrt(covariance(0, 0)); }
 double RelativePose::sigma_y_m() const { return std::sqrt(covariance(1, 1)); }
 double RelativePose::sigma_heading_rad() const { return std::sqrt(covariance(2, 2)); }
 
+RelativePose TrueMinusOdometry(const RelativePose& truth, const Pose2& odometry) {
+  RelativePose r = truth;
+  r.pose = Pose2::FromXYHeading(truth.pose.x() - odometry.x(), truth.pose.y() - odometry.y(),
+                                WrapAngle(truth.pose.heading() - odometry.heading()));
+  return r;
+}
+
 RelativePose Between(const RestWindow& start, const RestWindow& end) {
   RelativePose r;
   r.pose = start.mean.inverse() * end.mean;

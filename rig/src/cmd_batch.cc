@@ -61,9 +61,10 @@ nlohmann::json CombineCvra(const std::string& key, const std::vector<double>& va
 // The robot's own belief of where the run ended, in its start frame, from the
 // odometry it reported (identity without telemetry, or when it reported
 // none). A real robot's controller stops within a tolerance of the planned
-// end (the OptiOdom robot: ~5 mm and 1-2 deg short of closing its squares);
-// the estimators compare the truth with this belief, not with the plan
-// (UMBMark's epsilon = x_abs - x_calc).
+// end (the OptiOdom robot: ~5 mm and 1-2 deg short of closing its squares),
+// so a return error is true - this belief, not true - plan (UMBMark's
+// epsilon = x_abs - x_calc); the CVRA estimators need the true displacement
+// itself, the return error plus this belief.
 calibration::Pose2 OdometryEnd(const calibration::MeasuredRun& m) {
   if (m.telemetry.size() < 2) return calibration::Pose2::Identity();
   return m.telemetry.front().odometry.inverse() * m.telemetry.back().odometry;
@@ -88,11 +89,12 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
     for (const RunMeasurement& rm : sm.runs) {
       const calibration::MeasuredRun& m = rm.measured;
       if (!Usable(m)) continue;
-      const calibration::Pose2& p = m.return_error->pose;
+      // true - odometry in the start frame, and the true displacement.
+      const calibration::Pose2& error = m.return_error->pose;
+      const double ex = error.x(), ey = error.y(), eh = error.heading();
       const calibration::Pose2 odometry = OdometryEnd(m);
-      // true - odometry in the start frame.
-      const double ex = p.x() - odometry.x(), ey = p.y() - odometry.y();
-      const double eh = calibration::WrapAngle(p.heading() - odometry.heading());
+      const calibration::Pose2 p = calibration::Pose2::FromXYHeading(
+          ex + odometry.x(), ey + odometry.y(), calibration::WrapAngle(eh + odometry.heading()));
       const calibration::RunSpec& spec = m.spec;
       switch (spec.procedure) {
         case calibration::Procedure::kUmbmark: {

@@ -127,7 +127,12 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
     r.covariance(0, 0) += sp * sp;
     r.covariance(1, 1) += sp * sp;
     r.covariance(2, 2) += sh * sh;
-    m.return_error = r;
+    // true - odometry: the odometry's relative pose over the run (it does not
+    // change during the rests, whatever the offset of the clocks).
+    const calibration::Pose2 odometry =
+        m.telemetry.size() < 2 ? calibration::Pose2::Identity()
+                               : m.telemetry.front().odometry.inverse() * m.telemetry.back().odometry;
+    m.return_error = calibration::TrueMinusOdometry(r, odometry);
   }
 }
 

@@ -557,9 +557,30 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
       if (s.t_s >= a - 1e-9 && s.t_s <= b + 1e-9) still.push_back(s);
     return calibration::SummarizeRest(still);
   };
+  // A rest is where the wheels were still, too. A turn in place barely moves
+  // a tracked body near the axle, and a pose-only rest finder took the last
+  // second of the OptiOdom squares' final turn for their end rest (return
+  // errors 20 mm off). The ticks say exactly when the wheels moved: clip each
+  // rest to the still-wheel span, with two pose periods of margin for the
+  // clocks' offset.
+  const double margin = 2.0 * stats->pose_period_s +
+                        (stats->clock_offset_s ? std::abs(*stats->clock_offset_s) : 0.0);
+  if (first_move < tel.size()) {
+    const double still_until = tel[first_move - 1].t_s - margin;
+    const double still_from = tel[last_move].t_s + margin;
+    if (m->start_rest && m->start_rest->t_end_s > still_until) {
+      m->start_rest = m->start_rest->t_begin_s < still_until
+                          ? window(m->start_rest->t_begin_s, still_until)
+                          : std::nullopt;
+    }
+    if (m->end_rest && m->end_rest->t_begin_s < still_from) {
+      m->end_rest = m->end_rest->t_end_s > still_from ? window(still_from, m->end_rest->t_end_s)
+                                                      : std::nullopt;
+    }
+  }
   if (!m->start_rest) {
     std::optional<calibration::RestWindow> w;
-    if (first_move < tel.size()) w = window(-1e300, tel[first_move - 1].t_s);
+    if (first_move < tel.size()) w = window(-1e300, tel[first_move - 1].t_s - margin);
     if (w) {
       m->start_rest = w;
       m->flags.push_back("start_rest_from_still_wheels");
@@ -574,7 +595,7 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
   }
   if (!m->end_rest) {
     std::optional<calibration::RestWindow> w;
-    if (last_move > 0) w = window(tel[last_move].t_s, 1e300);
+    if (last_move > 0) w = window(tel[last_move].t_s + margin, 1e300);
     if (w) {
       m->end_rest = w;
       m->flags.push_back("end_rest_from_still_wheels");
@@ -652,9 +673,7 @@ void FinishPoseLogRuns(const PoseLogOptions& options, std::vector<calibration::M
     };
     const Pose2 odo = odometry_at(run->start_rest->t_end_s).inverse() *
                       odometry_at(run->end_rest->t_begin_s);
-    r.pose = Pose2::FromXYHeading(r.pose.x() - odo.x(), r.pose.y() - odo.y(),
-                                  calibration::WrapAngle(r.pose.heading() - odo.heading()));
-    run->return_error = r;
+    run->return_error = calibration::TrueMinusOdometry(r, odo);
   }
 }
 

@@ -89,6 +89,14 @@ struct RelativePose {
 
 RelativePose Between(const RestWindow& start, const RestWindow& end);
 
+// A return error: the true relative pose of a run minus the odometry's own
+// relative pose over it, componentwise in the start frame (true - odometry,
+// UMBMark's x_abs - x_calc; docs/conventions.md). For a plan that closes the
+// odometry's end is the start to within a tick on the simulator, but a real
+// controller stops short (the OptiOdom robot: ~5 mm and 1-2 deg). The
+// odometry is taken as exact: the covariance is the truth's.
+RelativePose TrueMinusOdometry(const RelativePose& truth, const Pose2& odometry);
+
 }  // namespace odocal::calibration
 
 #endif  // ODOCAL_CALIBRATION_REST_H_

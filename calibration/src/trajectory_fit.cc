@@ -190,6 +190,37 @@ MotionKind StepKind(std::int64_t dl, std::int64_t dr) {
   return MotionKind::kStraight;
 }
 
+// The telemetry part of a run: its times, each step's tick deltas and
+// motion. The shafts' last directions (encoder_backlash) come in and go out
+// through `left_direction` and `right_direction`.
+RunData ExtractTelemetry(const MeasuredRun& mr, int index, int* left_direction,
+                         int* right_direction) {
+  RunData rd;
+  rd.run = index;
+  rd.left_direction0 = *left_direction;
+  rd.right_direction0 = *right_direction;
+  for (size_t k = 0; k < mr.telemetry.size(); ++k) {
+    rd.t.push_back(mr.telemetry[k].t_s);
+    const std::int64_t dl = k == 0 ? 0 : mr.telemetry[k].left_ticks - mr.telemetry[k - 1].left_ticks;
+    const std::int64_t dr = k == 0 ? 0 : mr.telemetry[k].right_ticks - mr.telemetry[k - 1].right_ticks;
+    rd.dl.push_back(dl);
+    rd.dr.push_back(dr);
+    rd.kind.push_back(StepKind(dl, dr));
+    if (dl != 0) *left_direction = dl > 0 ? 1 : -1;
+    if (dr != 0) *right_direction = dr > 0 ? 1 : -1;
+  }
+  return rd;
+}
+
+ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera) {
+  ModelConstants c;
+  c.left_m_per_tick = believed.LeftMetresPerTick();
+  c.right_m_per_tick = believed.RightMetresPerTick();
+  c.track_m = believed.track_m;
+  c.camera = camera;
+  return c;
+}
+
 std::string Fixed(double v, int precision) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(precision) << v;
@@ -370,11 +401,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     return result;
   }
 
-  ModelConstants constants;
-  constants.left_m_per_tick = session.believed.LeftMetresPerTick();
-  constants.right_m_per_tick = session.believed.RightMetresPerTick();
-  constants.track_m = session.believed.track_m;
-  constants.camera = session.camera;
+  const ModelConstants constants = ConstantsOf(session.believed, session.camera);
 
   // Extract the runs; shaft directions carry over from run to run.
   const size_t n_runs = session.runs.size();
@@ -384,22 +411,8 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   int left_direction = 1, right_direction = 1;
   for (size_t i = 0; i < n_runs; ++i) {
     const MeasuredRun& mr = session.runs[i];
-    RunData rd;
-    rd.run = static_cast<int>(i);
-    rd.left_direction0 = left_direction;
-    rd.right_direction0 = right_direction;
+    RunData rd = ExtractTelemetry(mr, static_cast<int>(i), &left_direction, &right_direction);
     rd.residuals_per_frame = options.use_heading ? 3 : 2;
-    for (size_t k = 0; k < mr.telemetry.size(); ++k) {
-      rd.t.push_back(mr.telemetry[k].t_s);
-      const std::int64_t dl = k == 0 ? 0 : mr.telemetry[k].left_ticks - mr.telemetry[k - 1].left_ticks;
-      const std::int64_t dr =
-          k == 0 ? 0 : mr.telemetry[k].right_ticks - mr.telemetry[k - 1].right_ticks;
-      rd.dl.push_back(dl);
-      rd.dr.push_back(dr);
-      rd.kind.push_back(StepKind(dl, dr));
-      if (dl != 0) left_direction = dl > 0 ? 1 : -1;
-      if (dr != 0) right_direction = dr > 0 ? 1 : -1;
-    }
     if (rd.t.size() < 2) continue;
     for (const CameraRecord& f : mr.camera) {
       if (!f.valid) continue;
@@ -795,6 +808,32 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                      " parameter combination(s) not identifiable from these data";
   }
   return result;
+}
+
+std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParams& believed,
+                                        const WheelScales& scales, const EffectParams& effects,
+                                        const std::optional<FloorCamera>& camera,
+                                        const Pose2& start, const std::vector<double>& stamps_s,
+                                        int left_direction0, int right_direction0) {
+  const RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
+  if (rd.t.size() < 2) return {};
+  const ModelConstants constants = ConstantsOf(believed, camera);
+  const double base[kBase] = {scales.r_left, scales.r_right, scales.Eb};
+  const double start_xyh[3] = {start.x(), start.y(), start.heading()};
+  std::vector<double> xs, ys, hs;
+  DeadReckon(rd, constants, base, start_xyh, effects.values.data(), &xs, &ys, &hs);
+  std::vector<Pose2> poses;
+  poses.reserve(stamps_s.size());
+  for (double stamp : stamps_s) {
+    double px, py, ph;
+    PredictFrame(rd, constants, xs, ys, hs, effects.values.data(), stamp, &px, &py, &ph);
+    poses.push_back(Pose2::FromXYHeading(px, py, ph));
+  }
+  return poses;
+}
+
+void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction) {
+  ExtractTelemetry(run, 0, left_direction, right_direction);
 }
 
 AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,

@@ -214,6 +214,26 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                                   const TrajectoryFitOptions& options = {},
                                   const TrajectoryFitResult* warm_start = nullptr);
 
+// The model's prediction of what the pose source measures for one run: the
+// run's ticks dead-reckoned from `start` (the robot's pose at the run's first
+// telemetry sample, in the measurement frame) with the believed parameters
+// corrected by `scales`, the effects of `effects` (zero: none), seen through
+// `camera` when given (the lens candidate), at each camera stamp of
+// `stamps_s` (video clock). The same
+// model FitTrajectory fits. `left_direction0`/`right_direction0`: each wheel's
+// last direction of motion before the run (+1 forward, -1 backward), which
+// encoder_backlash needs; LastShaftDirections carries them over from an earlier
+// run. Empty when the run has fewer than 2 telemetry samples.
+std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParams& believed,
+                                        const WheelScales& scales, const EffectParams& effects,
+                                        const std::optional<FloorCamera>& camera,
+                                        const Pose2& start, const std::vector<double>& stamps_s,
+                                        int left_direction0 = 1, int right_direction0 = 1);
+
+// Each wheel's last direction of motion at the end of `run` (+1, -1), given
+// those before it (unchanged for a wheel that did not move).
+void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction);
+
 // How well the data tells a candidate effect apart from the parameters of
 // `fit` (its base and enabled effects).
 struct AliasReport {

@@ -44,14 +44,7 @@ std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::
   if (!measured) return std::nullopt;
   const SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession out = sm.ToMeasuredSession();
-  const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session->camera_mount_guess;
-  const vision::CameraModel camera(session->intrinsics, mount);
-  calibration::FloorCamera floor;
-  floor.centre_m = camera.T_world_camera().translation() -
-                   Eigen::Vector3d(0.0, 0.0, session->tag.height_m());
-  floor.R_camera_world = camera.T_camera_world().rotation();
-  floor.distortion = session->intrinsics.distortion;
-  if (floor.IsValid()) out.camera = floor;
+  out.camera = FloorCameraOf(sm);
   // Only runs with telemetry inform the trajectory fit.
   int with_telemetry = 0;
   for (const auto& run : out.runs) with_telemetry += run.telemetry.empty() ? 0 : 1;

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterExplainCommand(app);
   odocal::rig::RegisterValidateCommand(app);
   odocal::rig::RegisterStationCommand(app);
+  odocal::rig::RegisterCheckCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -20,6 +20,7 @@ void RegisterRobotSimCommand(CLI::App& app);
 void RegisterExplainCommand(CLI::App& app);
 void RegisterValidateCommand(CLI::App& app);
 void RegisterStationCommand(CLI::App& app);
+void RegisterCheckCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

@@ -3,8 +3,9 @@
 // `odocal batch --export firmware` corrected must replay the runs far better
 // than the nominal one, and the renderer's true set (written here as a
 // firmware file) at the session's noise level; the same correction as ROS 2
-// multipliers gives the same errors. Runs that cannot be replayed are listed
-// with their reason; bad input fails with one line naming the file.
+// multipliers gives the same errors, and explain's fit (explain.json) holds
+// too. Runs that cannot be replayed are listed with their reason; bad input
+// fails with one line naming the file.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -67,28 +68,33 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
   auto r = RunCommand(Odocal("batch " + Session() + " --out " + dir + "/batch --export firmware " +
                              dir + "/corrected.yaml --export ros2 " + dir + "/ros2.yaml"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // explain's whole-trajectory fit of the same session, read from its explain.json.
+  r = RunCommand(Odocal("explain " + Session() + " --out " + dir + "/explain"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ofstream(dir + "/truth.yaml") << TruthFirmwareYaml();
   r = RunCommand(Odocal("check " + Session() + " --params " + dir + "/corrected.yaml --params " +
-                        dir + "/ros2.yaml --params truth=" + dir + "/truth.yaml --out " + dir +
-                        "/check"));
+                        dir + "/ros2.yaml --params truth=" + dir + "/truth.yaml --params fit=" +
+                        dir + "/explain/explain.json --out " + dir + "/check"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::printf("%s", r.out.c_str());
   EXPECT_NE(r.out.find("nominal"), std::string::npos);
   EXPECT_NE(r.out.find("truth"), std::string::npos);
 
   const nlohmann::json j = ReadJson(dir + "/check/check.json");
-  ASSERT_EQ(j["sets"].size(), 4u);
+  ASSERT_EQ(j["sets"].size(), 5u);
   EXPECT_EQ(j["sets"][0]["name"], "nominal");
   EXPECT_EQ(j["sets"][1]["name"], "corrected");
   EXPECT_EQ(j["sets"][1]["kind"], "firmware");
   EXPECT_EQ(j["sets"][2]["kind"], "ros2");
+  EXPECT_EQ(j["sets"][4]["kind"], "explain");
   EXPECT_TRUE(j["not_replayed"].empty()) << j["not_replayed"].dump();
   ASSERT_EQ(j["runs"].size(), 2u);
   for (const nlohmann::json& run : j["runs"]) {
     const std::string name = run["name"];
     const nlohmann::json &nominal = Result(run, "nominal"), &corrected = Result(run, "corrected"),
-                         &ros2 = Result(run, "ros2"), &truth = Result(run, "truth");
-    for (const nlohmann::json* res : {&nominal, &corrected, &ros2, &truth})
+                         &ros2 = Result(run, "ros2"), &truth = Result(run, "truth"),
+                         &fit = Result(run, "fit");
+    for (const nlohmann::json* res : {&nominal, &corrected, &ros2, &truth, &fit})
       ASSERT_TRUE((*res)["ok"].get<bool>()) << name << ": " << res->dump();
     const double e_nominal = nominal["final_position_error_mm"];
     const double e_corrected = corrected["final_position_error_mm"];
@@ -108,6 +114,7 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
     // The same correction written as ROS 2 multipliers replays the same
     // (the files carry 9 significant digits).
     EXPECT_NEAR(ros2["final_position_error_mm"].get<double>(), e_corrected, 1e-3) << name;
+    EXPECT_LT(fit["final_position_error_mm"].get<double>(), e_nominal / 10.0) << name;
     // Truth at the session's noise level: the camera measures return errors
     // within ~0.02 mm, and the wheels' own noise (0.05 mm/sqrt(m), which no
     // parameter set predicts) walks the heading by ~0.3 mrad over a 2.1 m
@@ -140,7 +147,7 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
   EXPECT_EQ(svgs, 3u);
   EXPECT_EQ(page.find("src="), std::string::npos) << "self-contained";
   EXPECT_EQ(page.find("<script"), std::string::npos);
-  for (const char* set : {"nominal", "corrected", "ros2", "truth"})
+  for (const char* set : {"nominal", "corrected", "ros2", "truth", "fit"})
     EXPECT_NE(page.find(set), std::string::npos) << set;
 }
 

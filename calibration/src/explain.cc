@@ -9,6 +9,8 @@
 
 #include <boost/math/distributions/chi_squared.hpp>
 
+#include "odocal/calibration/pose2.h"
+
 namespace odocal::calibration {
 namespace {
 
@@ -194,6 +196,12 @@ bool ExplainOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!replay.IsValid(why)) return false;
+  if (!(unexplained_alpha > 0.0 && unexplained_alpha < 1.0) || !(unexplained_segment_ratio >= 1.0) ||
+      !(unexplained_local_ratio >= 1.0) || unexplained_min_frames < 1 ||
+      unexplained_max_reported < 1) {
+    if (why) *why = "unexplained options: alpha in (0, 1), ratios >= 1, counts >= 1";
+    return false;
+  }
   return true;
 }
 
@@ -277,6 +285,15 @@ std::string ExplainResult::BriefReport() const {
     }
     os << "; to tell: " << a.distinguishing_runs << "\n";
   }
+  const UnexplainedReport& u = unexplained;
+  os << "remainder: gap " << Fixed(u.gap_m * 1e3, 3) << " mm against " << Fixed(u.expected_gap_m * 1e3, 3)
+     << " mm expected from the camera and wheel noise (wheels " << Fixed(u.wheel_noise_gap_m * 1e3, 3)
+     << " mm); F " << Fixed(u.ratio, 2) << " vs " << Fixed(u.threshold, 2) << " ("
+     << (u.significant ? "significant" : "not significant") << ")\n";
+  for (const UnexplainedSegment& w : u.where)
+    os << "! unexplained: " << w.run << " " << Fixed(w.t_from_s, 2) << "-" << Fixed(w.t_to_s, 2)
+       << " s, " << w.motion << ", " << Fixed(w.size_m * 1e3, 3) << " mm RMS over " << w.frames
+       << " frames\n";
   os << "final: gap " << Fixed(gap_after_m() * 1e3, 3) << " mm\n" << final_fit.BriefReport();
   return os.str();
 }
@@ -405,8 +422,100 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     }
     if (a.aliased) result.aliased.push_back(a);
   }
+  result.unexplained = FindUnexplained(session, current, options);
   result.status = ExplainResult::Status::kOk;
   return result;
+}
+
+UnexplainedReport FindUnexplained(const MeasuredSession& session, const TrajectoryFitResult& fit,
+                                  const ExplainOptions& options) {
+  UnexplainedReport u;
+  u.gap_m = fit.gap_m;
+  u.expected_gap_m = fit.expected_gap_m();
+  u.wheel_noise_gap_m = fit.wheel_noise_gap_m;
+  if (fit.residuals.empty() || !(u.expected_gap_m > 0.0)) return u;
+  const double expected_sq = u.expected_gap_m * u.expected_gap_m;
+  u.excess_m = std::sqrt(std::max(0.0, u.gap_m * u.gap_m - expected_sq));
+  u.ratio = u.gap_m * u.gap_m / expected_sq;
+  const double rho = fit.lag1_autocorrelation;
+  auto effective = [rho](double n) { return std::max(1.0, n * (1.0 - rho) / (1.0 + rho)); };
+  // The mean square of 2 n_eff standard normal components, over the variance.
+  auto threshold = [](double n_eff, double alpha) {
+    const double dof = 2.0 * n_eff;
+    return boost::math::quantile(boost::math::complement(boost::math::chi_squared(dof), alpha)) /
+           dof;
+  };
+  u.n_eff = effective(static_cast<double>(fit.residuals.size()));
+  u.threshold = threshold(u.n_eff, options.unexplained_alpha);
+  u.significant = u.ratio > u.threshold && u.excess_m >= options.min_explained_m;
+
+  // Segments: contiguous frames of one motion in one run.
+  struct Segment {
+    UnexplainedSegment s;
+    double sum_sq = 0.0;
+    double turned_rad = 0.0;
+    double last_heading = 0.0;
+    MotionKind kind = MotionKind::kRest;
+  };
+  std::vector<Segment> segments;
+  for (const FrameResidual& r : fit.residuals) {
+    if (segments.empty() || segments.back().s.run_index != r.run ||
+        segments.back().kind != r.motion) {
+      Segment g;
+      g.s.run_index = r.run;
+      g.s.run = session.runs[r.run].name;
+      g.s.t_from_s = r.t_s;
+      g.kind = r.motion;
+      g.last_heading = r.measured_heading_rad;
+      segments.push_back(g);
+    }
+    Segment& g = segments.back();
+    g.s.t_to_s = r.t_s;
+    g.s.frames++;
+    g.sum_sq += r.error_m.squaredNorm();
+    g.turned_rad += WrapAngle(r.measured_heading_rad - g.last_heading);
+    g.last_heading = r.measured_heading_rad;
+  }
+  struct Flagged {
+    double contribution;
+    UnexplainedSegment s;
+  };
+  std::vector<Flagged> flagged, candidates;
+  const double n_segments = static_cast<double>(segments.size());
+  for (Segment& g : segments) {
+    if (g.s.frames < options.unexplained_min_frames) continue;
+    const double ms = g.sum_sq / g.s.frames;
+    g.s.size_m = std::sqrt(ms);
+    g.s.motion = std::string(ToString(g.kind));
+    if (g.kind == MotionKind::kStraight && std::abs(g.turned_rad) > 15.0 * M_PI / 180.0)
+      g.s.motion = "curve";
+    const double excess = std::sqrt(std::max(0.0, ms - expected_sq));
+    const Flagged f{g.s.frames * (ms - expected_sq), g.s};
+    if (excess < options.min_explained_m) continue;
+    const double local = std::max(
+        options.unexplained_local_ratio * options.unexplained_local_ratio,
+        threshold(effective(g.s.frames), options.unexplained_alpha / n_segments));
+    if (ms / expected_sq > local ||
+        (u.significant && ms > options.unexplained_segment_ratio *
+                                   options.unexplained_segment_ratio * expected_sq))
+      flagged.push_back(f);
+    else if (u.significant)
+      candidates.push_back(f);
+  }
+  // Significant as a whole but spread thin: the segments that carry most of it.
+  if (flagged.empty() && u.significant) {
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
+    candidates.resize(std::min<size_t>(candidates.size(), 3));
+    flagged = candidates;
+  }
+  std::sort(flagged.begin(), flagged.end(),
+            [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
+  for (const Flagged& f : flagged) {
+    if (static_cast<int>(u.where.size()) >= options.unexplained_max_reported) break;
+    u.where.push_back(f.s);
+  }
+  return u;
 }
 
 CrossValidation CrossValidateCandidate(const MeasuredSession& session,

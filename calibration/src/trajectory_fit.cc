@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <memory>
 #include <numeric>
+#include <random>
 #include <ostream>
 #include <sstream>
 
@@ -330,6 +331,7 @@ bool TrajectoryFitOptions::IsValid(std::string* why) const {
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0))
     return fail("rank_tolerance must be in (0, 1)");
   if (min_frames_per_run < 2) return fail("min_frames_per_run must be at least 2");
+  if (wheel_noise_draws < 0) return fail("wheel_noise_draws must not be negative");
   if (!(base_prior_sigma >= 0.0)) return fail("base_prior_sigma must not be negative");
   if (!(max_ratio_sigma > 0.0)) return fail("max_ratio_sigma must be positive");
   for (size_t i = 0; i < effects.size(); ++i)
@@ -568,6 +570,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       fr.measured_m = {rd.zx[j], rd.zy[j]};
       fr.error_m = {px - rd.zx[j], py - rd.zy[j]};
       fr.heading_error_rad = WrapAngle(ph - rd.zh[j]);
+      fr.measured_heading_rad = rd.zh[j];
       fr.weight = rd.sqrt_w[j] * rd.sqrt_w[j];
       sum_sq_gap += fr.error_m.squaredNorm();
       sum_sq_noise += 2.0 * rd.sigma_p[j] * rd.sigma_p[j];
@@ -677,6 +680,67 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       }
       row0 += static_cast<int>(rd.frame_t.size()) * m;
     }
+  }
+  // What the wheel noise alone leaves of the gap once the fit has absorbed
+  // what it can (start poses, scales): seeded Monte Carlo of the same random
+  // walk, linearised: a travel error at step k moves every later frame
+  // rigidly (translation along the heading, rotation about the pose at k);
+  // the fit removes its projection on J. Explain's `unexplained` needs it:
+  // with a precise camera the wheel noise, not the camera, sets the floor.
+  if (options.wheel_sigma_m_per_sqrt_m > 0.0 && options.wheel_noise_draws > 0) {
+    std::mt19937 rng(20261123);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
+    const double true_track = base[2] * constants.track_m;
+    double sum_sq = 0.0;
+    for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
+      Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);
+      int row0 = 0;
+      for (size_t r = 0; r < runs.size(); ++r) {
+        const RunData& rd = runs[r];
+        const int m = rd.residuals_per_frame;
+        std::vector<double> xs, ys, hs;
+        DeadReckon(rd, constants, base.data(), starts[r].data(), fx.values.data(), &xs, &ys, &hs);
+        // Displacement of a later point p: c + theta * (-p.y, p.x).
+        double cx = 0.0, cy = 0.0, theta = 0.0;
+        size_t j = 0;
+        auto assign_until = [&](double t) {
+          for (; j < rd.frame_t.size() && rd.frame_t[j] + fx.latency_s() < t; ++j) {
+            const double g = rd.sqrt_w[j] / rd.sigma_p[j];
+            delta[row0 + m * j] = (cx - theta * rd.zy[j]) * g;
+            delta[row0 + m * j + 1] = (cy + theta * rd.zx[j]) * g;
+            if (m == 3) delta[row0 + m * j + 2] = theta * rd.sqrt_w[j] / rd.sigma_h[j];
+          }
+        };
+        for (size_t k = 1; k < rd.t.size(); ++k) {
+          assign_until(rd.t[k]);
+          const double left = std::abs(rd.dl[k] * constants.left_m_per_tick * base[0]);
+          const double right = std::abs(rd.dr[k] * constants.right_m_per_tick * base[1]);
+          if (left == 0.0 && right == 0.0) continue;
+          const double el = sigma_w * std::sqrt(left) * normal(rng);
+          const double er = sigma_w * std::sqrt(right) * normal(rng);
+          const double ds = 0.5 * (el + er), dtheta = (er - el) / true_track;
+          cx += ds * std::cos(hs[k]) + dtheta * ys[k];
+          cy += ds * std::sin(hs[k]) - dtheta * xs[k];
+          theta += dtheta;
+        }
+        assign_until(INFINITY);
+        row0 += static_cast<int>(rd.frame_t.size()) * m;
+      }
+      const Eigen::VectorXd left_over = delta - J * (pinv * delta);
+      row0 = 0;
+      for (const RunData& rd : runs) {
+        const int m = rd.residuals_per_frame;
+        for (size_t j = 0; j < rd.frame_t.size(); ++j) {
+          const double g = rd.sqrt_w[j] / rd.sigma_p[j];
+          sum_sq += (left_over[row0 + m * j] * left_over[row0 + m * j] +
+                     left_over[row0 + m * j + 1] * left_over[row0 + m * j + 1]) /
+                    (g * g);
+        }
+        row0 += static_cast<int>(rd.frame_t.size()) * m;
+      }
+    }
+    result.wheel_noise_gap_m = std::sqrt(sum_sq / (options.wheel_noise_draws * result.n_frames));
   }
   // The camera's length scale: a common factor (1 + e) on every measured
   // position moves the estimate by pinv * (z / sigma) e.

@@ -111,6 +111,34 @@ nlohmann::json TrialJson(const calibration::CandidateTrial& t) {
   return j;
 }
 
+nlohmann::json UnexplainedJson(const calibration::UnexplainedReport& u) {
+  nlohmann::json where = nlohmann::json::array();
+  for (const calibration::UnexplainedSegment& w : u.where)
+    where.push_back({{"where", w.run},
+                     {"when", {{"t_from_s", w.t_from_s}, {"t_to_s", w.t_to_s}}},
+                     {"motion", w.motion},
+                     {"size_mm", w.size_m * 1e3},
+                     {"frames", w.frames}});
+  return where;
+}
+
+nlohmann::json RemainderJson(const calibration::UnexplainedReport& u) {
+  return {{"gap_mm", u.gap_m * 1e3},
+          {"expected_gap_mm", u.expected_gap_m * 1e3},
+          {"wheel_noise_gap_mm", u.wheel_noise_gap_m * 1e3},
+          {"excess_mm", u.excess_m * 1e3},
+          {"F", u.ratio},
+          {"F_threshold", u.threshold},
+          {"n_eff", u.n_eff},
+          {"significant", u.significant},
+          {"statistic",
+           "F = gap^2 / expected_gap^2 (camera noise and wheel noise after the fit) against "
+           "chi2_{2 N_eff}(0.999) / (2 N_eff); significant if above it and the excess "
+           "sqrt(gap^2 - expected^2) >= 0.05 mm; then segments with RMS >= 2x the expected gap "
+           "are listed; a lone segment with RMS >= 3x, chi-square significant at 0.001 / "
+           "segments, is listed in any case"}};
+}
+
 // One SVG plot of |position error| per frame over the session's frames, runs
 // side by side, coloured by motion.
 std::string ResidualSvg(const calibration::MeasuredSession& session,
@@ -180,6 +208,8 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
        "out up to 8 runs, else 5 folds by run)"},
       {"not_kept", rejected},
       {"cannot_tell", aliased},
+      {"unexplained", UnexplainedJson(result.unexplained)},
+      {"remainder", RemainderJson(result.unexplained)},
       {"base", FitJson(result.base)},
       {"final", FitJson(result.final_fit)},
       {"residuals_before", SummaryJson(result.base_residuals)},
@@ -232,6 +262,22 @@ std::string ExplainHtml(const calibration::MeasuredSession& session,
   }
   if (result.steps.empty()) os << "<tr><td colspan='5'>nothing significant</td></tr>\n";
   os << "</table>\n";
+  const calibration::UnexplainedReport& u = result.unexplained;
+  os << "<h2>Unexplained</h2><p>Remainder: gap " << u.gap_m * 1e3 << " mm against "
+     << u.expected_gap_m * 1e3 << " mm that camera and wheel noise leave (F " << u.ratio
+     << ", threshold " << u.threshold << ": " << (u.significant ? "significant" : "not significant")
+     << ").</p>\n";
+  if (u.any()) {
+    os << "<p>No candidate explains these; look there:</p><table><tr><th>run</th><th>from [s]"
+          "</th><th>to [s]</th><th>motion</th><th>RMS [mm]</th><th>frames</th></tr>\n";
+    for (const auto& w : u.where)
+      os << "<tr><td>" << w.run << "</td><td>" << w.t_from_s << "</td><td>" << w.t_to_s
+         << "</td><td>" << w.motion << "</td><td>" << w.size_m * 1e3 << "</td><td>" << w.frames
+         << "</td></tr>\n";
+    os << "</table>\n";
+  } else {
+    os << "<p>Nothing structured remains.</p>\n";
+  }
   os << "<p>Colours: <span style='color:#1f77b4'>straight</span>, "
         "<span style='color:#d62728'>turn</span>, <span style='color:#7f7f7f'>rest</span>. "
         "Same vertical scale in both plots.</p>\n";

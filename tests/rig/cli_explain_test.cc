@@ -51,6 +51,9 @@ TEST(CliExplain, NamesTheHiddenEffectsAndWritesTheReports) {
   EXPECT_NEAR(j["steps"][0]["params"]["grain_deg"].get<double>(), 30.0, 3.0);
   EXPECT_NEAR(j["steps"][1]["params"]["fraction_at_1rad_s"].get<double>(), 0.03, 0.002);
   EXPECT_LT(j["gap_after_mm"].get<double>(), j["gap_before_mm"].get<double>() / 3.0);
+  // Both named: nothing structured remains.
+  EXPECT_EQ(j["unexplained"], nlohmann::json::array());
+  EXPECT_FALSE(j["remainder"]["significant"].get<bool>());
   // The truth it never read: Ed = 70.06 / 69.95, Eb = 303 / 300, within 3
   // of their own sigmas (this seed draws Eb at about 2 sigma).
   const auto& p = j["final"]["parameters"];

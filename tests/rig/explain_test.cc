@@ -83,6 +83,7 @@ TEST_P(EachEffect, IsNamedRecoveredAndClosesTheGap) {
               hidden.name.c_str(), cv.heldout_rms_before_m * 1e3, cv.heldout_rms_after_m * 1e3,
               cv.method.c_str(), cv.folds);
   EXPECT_TRUE(cv.improved);
+  EXPECT_FALSE(r.unexplained.any()) << "once named, nothing is left";
   const double floor = r.final_fit.noise_floor_m;
   std::printf("[figure] %-16s gap %.3f mm -> %.3f mm (noise floor %.3f mm)\n", hidden.name.c_str(),
               r.gap_before_m() * 1e3, r.gap_after_m() * 1e3, floor * 1e3);
@@ -115,6 +116,8 @@ TEST(Explain, NoEffectHiddenNamesNothing) {
     ASSERT_TRUE(r.ok()) << r.message;
     EXPECT_TRUE(r.EffectsAdded().empty()) << r.BriefReport();
     EXPECT_LE(r.gap_before_m(), 1.05 * r.base.noise_floor_m);
+    EXPECT_FALSE(r.unexplained.any()) << r.BriefReport();
+    EXPECT_FALSE(r.unexplained.significant);
     std::printf("[figure] none (seed %lu): gap %.3f mm, noise floor %.3f mm, best rejected score",
                 static_cast<unsigned long>(seed), r.gap_before_m() * 1e3,
                 r.base.noise_floor_m * 1e3);
@@ -235,6 +238,11 @@ TEST(CrossValidation, APeculiarityOfOneRunIsNotNamed) {
   ASSERT_TRUE(trial->cross_validation.has_value()) << "drift must pass the fit's gates";
   EXPECT_FALSE(trial->cross_validation->improved);
   for (const std::string& e : r.EffectsAdded()) EXPECT_NE(e, "carpet_drift");
+  // ...and it is reported where it is: the cw square's straights.
+  ASSERT_TRUE(r.unexplained.any());
+  EXPECT_TRUE(r.unexplained.significant);
+  for (const calibration::UnexplainedSegment& w : r.unexplained.where)
+    EXPECT_EQ(w.run, s.session.runs[0].name) << w.motion << " " << w.t_from_s;
 }
 
 }  // namespace

@@ -45,6 +45,23 @@
 //    the three gates decide, and explain.json says so. If the best candidate
 //    fails, the next one that passed the gates is tried.
 //
+// 5. Unexplained: what remains after the last step is tested against what
+//    the model's own noise leaves (the camera's stated noise and the wheel
+//    noise, after the fit absorbs what it can: TrajectoryFitResult::
+//    expected_gap_m). Statistic: F = gap^2 / expected_gap^2, against the
+//    chi-square quantile chi2_{2 N_eff}(1 - alpha) / (2 N_eff), N_eff the
+//    frames discounted for lag-one autocorrelation as in the BIC. The
+//    remainder is significant when F exceeds it and the excess,
+//    sqrt(gap^2 - expected_gap^2), is at least min_explained_m (the size
+//    worth naming an effect for). Then the segments (contiguous frames of
+//    one motion in one run) whose RMS is at least twice the expected gap
+//    are reported with run, time span, motion and size — where to look —
+//    instead of being forced onto the nearest candidate. A single segment
+//    far above the others is reported even when the whole is not
+//    significant: its RMS at least 3 times the expected gap, its own
+//    chi-square significant at alpha / (number of segments), its excess at
+//    least min_explained_m.
+//
 // Pure function of recorded data; I/O lives in rig/ (odocal explain).
 #ifndef ODOCAL_CALIBRATION_EXPLAIN_H_
 #define ODOCAL_CALIBRATION_EXPLAIN_H_
@@ -77,6 +94,12 @@ struct ExplainOptions {
   double cv_min_relative_gain = 0.10;
   double cv_min_gain_m = 0.01e-3;
   ReplayOptions replay;
+  // Unexplained remainder (step 5 above).
+  double unexplained_alpha = 1e-3;
+  double unexplained_segment_ratio = 2.0;  // when the whole is significant
+  double unexplained_local_ratio = 3.0;    // a single segment alone
+  int unexplained_min_frames = 5;          // shorter segments are not reported
+  int unexplained_max_reported = 8;
 
   bool IsValid(std::string* why) const;
 };
@@ -140,6 +163,35 @@ struct ExplainStep {
   std::vector<CandidateTrial> trials;  // every candidate of this round
 };
 
+// A structured remainder no candidate explains, and where it is.
+struct UnexplainedSegment {
+  std::string run;
+  int run_index = 0;
+  double t_from_s = 0.0;  // camera stamps of its first and last frame
+  double t_to_s = 0.0;
+  std::string motion;  // "straight", "turn", "rest" or "curve" (a straight-kind
+                       // segment whose measured heading turns by more than 15 deg)
+  int frames = 0;
+  double size_m = 0.0;  // RMS |model - camera| over its frames
+};
+
+struct UnexplainedReport {
+  double gap_m = 0.0;
+  double expected_gap_m = 0.0;     // camera noise and wheel noise after the fit
+  double wheel_noise_gap_m = 0.0;  // its wheel part
+  double excess_m = 0.0;           // sqrt(gap^2 - expected^2), 0 if below
+  double ratio = 0.0;              // F = gap^2 / expected^2
+  double threshold = 0.0;          // chi2_{2 N_eff}(1 - alpha) / (2 N_eff)
+  double n_eff = 0.0;
+  bool significant = false;  // the whole remainder
+  std::vector<UnexplainedSegment> where;
+  bool any() const { return !where.empty(); }
+};
+
+// Step 5 on a fit: the remainder and where it is.
+UnexplainedReport FindUnexplained(const MeasuredSession& session, const TrajectoryFitResult& fit,
+                                  const ExplainOptions& options = {});
+
 struct ExplainResult {
   enum class Status { kOk, kInvalidInput, kNoConvergence };
   Status status = Status::kInvalidInput;
@@ -154,6 +206,8 @@ struct ExplainResult {
   std::vector<CandidateTrial> rejected;
   // Candidates the final data cannot tell from the fitted model.
   std::vector<AliasReport> aliased;
+  // What remains that no candidate explains.
+  UnexplainedReport unexplained;
 
   double gap_before_m() const { return base.gap_m; }
   double gap_after_m() const { return final_fit.gap_m; }

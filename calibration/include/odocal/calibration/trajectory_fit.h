@@ -54,6 +54,7 @@
 #define ODOCAL_CALIBRATION_TRAJECTORY_FIT_H_
 
 #include <array>
+#include <cmath>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -132,6 +133,8 @@ struct TrajectoryFitOptions {
   // Runs with fewer valid camera frames than this are left out (their start
   // pose cannot be determined).
   int min_frames_per_run = 10;
+  // Monte Carlo draws of the wheel noise for wheel_noise_gap_m (0: not computed).
+  int wheel_noise_draws = 16;
 
   bool IsValid(std::string* why) const;
 };
@@ -147,6 +150,7 @@ struct FrameResidual {
   Eigen::Vector2d measured_m = Eigen::Vector2d::Zero();
   Eigen::Vector2d error_m = Eigen::Vector2d::Zero();  // model - measured
   double heading_error_rad = 0.0;
+  double measured_heading_rad = 0.0;
   double weight = 1.0;  // robust (IRLS) weight
 };
 
@@ -188,6 +192,13 @@ struct TrajectoryFitResult {
   double gap_m = 0.0;
   // The gap the stated frame noise alone would leave.
   double noise_floor_m = 0.0;
+  // The gap the wheel noise (options.wheel_sigma_m_per_sqrt_m) alone is
+  // expected to leave after the fit (seeded Monte Carlo, linearised).
+  double wheel_noise_gap_m = 0.0;
+  // The gap the model's noise (camera and wheels) explains by itself.
+  double expected_gap_m() const {
+    return std::sqrt(noise_floor_m * noise_floor_m + wheel_noise_gap_m * wheel_noise_gap_m);
+  }
   // Sum of robust-weighted squared whitened residuals.
   double weighted_sse = 0.0;
   // Lag-one autocorrelation of the whitened residuals within runs (for the

@@ -82,13 +82,16 @@ void DeadReckon(const RunData& run, const ModelConstants& c, const T* base, cons
   for (size_t k = 1; k < n; ++k) {
     const std::int64_t dl = run.dl[k], dr = run.dr[k];
     if (dl != 0 || dr != 0) {
+      const double dt = std::max(run.t[k] - run.t[k - 1], 1e-6);
       T left = MovingTicks(dl, &left_direction, &left_dead, fx[EffectParams::kBacklash]) *
                c.left_m_per_tick * base[0];
       T right = MovingTicks(dr, &right_direction, &right_dead, fx[EffectParams::kBacklash]) *
                 c.right_m_per_tick * base[1];
+      // speed_slip: each wheel loses k |v| of its travel, v its speed over the step.
+      left *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(left) / dt;
+      right *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(right) / dt;
       const T ds = (left + right) / 2.0;
       if (run.kind[k] == MotionKind::kTurn) {
-        const double dt = std::max(run.t[k] - run.t[k - 1], 1e-6);
         const T dtheta = (right - left) / track;
         const T achieved = dtheta * (1.0 - fx[EffectParams::kSlip] * abs(dtheta) / dt);
         left = ds - achieved * track / 2.0;
@@ -139,6 +142,8 @@ void PredictFrame(const RunData& run, const ModelConstants& c, const std::vector
   const T ch = cos(*ph), sh = sin(*ph);
   *px += ch * tx - sh * ty;
   *py += sh * tx + ch * ty;
+  // tracker_yaw: the tracked body's heading is off the robot's by a constant.
+  *ph += fx[EffectParams::kTrackerYaw];
   // lens_distortion: where the pipeline measures the tag through a lens whose k1 is off.
   if (c.camera) {
     const T x = *px, y = *py;
@@ -245,6 +250,8 @@ std::string_view ToString(Effect effect) {
     case Effect::kLensDistortion: return "lens_distortion";
     case Effect::kEncoderBacklash: return "encoder_backlash";
     case Effect::kCarpetDrift: return "carpet_drift";
+    case Effect::kTrackerYaw: return "tracker_yaw";
+    case Effect::kSpeedSlip: return "speed_slip";
   }
   return "?";
 }
@@ -272,6 +279,8 @@ std::vector<int> EffectParamIndices(Effect effect) {
       return {EffectParams::kK1, EffectParams::kTiltX, EffectParams::kTiltY};
     case Effect::kEncoderBacklash: return {EffectParams::kBacklash};
     case Effect::kCarpetDrift: return {EffectParams::kDriftA, EffectParams::kDriftB};
+    case Effect::kTrackerYaw: return {EffectParams::kTrackerYaw};
+    case Effect::kSpeedSlip: return {EffectParams::kSpeedSlip};
   }
   return {};
 }
@@ -289,6 +298,8 @@ std::vector<std::string> EffectParamNames(Effect effect) {
     case Effect::kLensDistortion: return {"k1", "camera_tilt_x_rad", "camera_tilt_y_rad"};
     case Effect::kEncoderBacklash: return {"ticks"};
     case Effect::kCarpetDrift: return {"rate_cos_grain", "rate_sin_grain"};
+    case Effect::kTrackerYaw: return {"yaw_rad"};
+    case Effect::kSpeedSlip: return {"fraction_at_1m_s"};
   }
   return {};
 }
@@ -313,6 +324,12 @@ std::string DistinguishingRuns(Effect effect) {
     case Effect::kCarpetDrift:
       return "straights in several headings seen by the camera (e.g. cw and ccw squares, or "
              "straights at 0, 90, 180 deg): drift along one heading is a wheel-ratio error";
+    case Effect::kTrackerYaw:
+      return "straights seen by the pose source with their measured headings (the direction of "
+             "travel against the heading the tracker reports)";
+    case Effect::kSpeedSlip:
+      return "straights at two different speeds (e.g. out-and-backs at 100 and 400 mm/s): slip at "
+             "one speed is a scale error, and in spins a turn slip";
   }
   return "";
 }

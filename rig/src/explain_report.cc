@@ -23,6 +23,7 @@ std::pair<std::string, double> EdgeName(const std::string& name) {
   if (name == "rate_m_per_m") return {"rate_mm_per_m", 1e3};
   if (name == "camera_tilt_x_rad") return {"camera_tilt_x_deg", kRadToDeg};
   if (name == "camera_tilt_y_rad") return {"camera_tilt_y_deg", kRadToDeg};
+  if (name == "yaw_rad") return {"deg", kRadToDeg};
   return {name, 1.0};
 }
 

@@ -29,6 +29,11 @@
 //   carpet_drift     while not turning in place, lateral drift to the left of
 //                    rate cos(heading - grain) per metre forward; fitted as the
 //                    linear pair (a, b) = rate (cos grain, sin grain)
+//   tracker_yaw      the tracked body's (tag's) heading is off the robot's by a
+//                    constant: measured heading = heading + yaw (the position
+//                    part of a rotated body offset is tag_offset's)
+//   speed_slip       each wheel's ground travel = tick travel (1 - k |v_wheel|),
+//                    v_wheel that wheel's speed over the telemetry step (m/s)
 //
 // Robust loss: Huber on each frame's whitened error, by iteratively
 // reweighted least squares (the frames of a run share one dead-reckoned
@@ -71,17 +76,19 @@ namespace odocal::calibration {
 
 // The candidate effects, named as scenario files name them.
 enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
-                    kCarpetDrift };
-inline constexpr std::array<Effect, 6> kAllEffects = {
+                    kCarpetDrift, kTrackerYaw, kSpeedSlip };
+inline constexpr std::array<Effect, 8> kAllEffects = {
     Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
-    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift};
+    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift,
+    Effect::kTrackerYaw,     Effect::kSpeedSlip};
 std::string_view ToString(Effect effect);
 
 // The effect parameter block. Indices into `values` are fixed; a disabled
 // effect's values are held at zero.
 struct EffectParams {
   enum Index {
-    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY, kSize
+    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY,
+    kTrackerYaw, kSpeedSlip, kSize
   };
   std::array<double, kSize> values{};
 
@@ -91,6 +98,8 @@ struct EffectParams {
   double slip_fraction_at_1rad_s() const { return values[kSlip]; }
   double k1_delta() const { return values[kK1]; }
   double backlash_ticks() const { return values[kBacklash]; }
+  double tracker_yaw_rad() const { return values[kTrackerYaw]; }
+  double speed_slip_at_1m_s() const { return values[kSpeedSlip]; }
   double drift_rate_m_per_m() const;
   double drift_grain_rad() const;
 };

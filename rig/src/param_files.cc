@@ -198,7 +198,9 @@ std::optional<ParamSet> ReadParamSet(const ParamSpec& spec, const calibration::W
     try {
       root = YAML::Load(text);
     } catch (const YAML::Exception& e) {
-      return fail(std::to_string(e.mark.line + 1) + ": not valid YAML or JSON: " + e.msg);
+      if (error)
+        *error = path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML or JSON: " + e.msg;
+      return std::nullopt;
     }
     const char* kKnown =
         "expected a firmware export (left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, "
@@ -219,7 +221,8 @@ std::optional<ParamSet> ReadParamSet(const ParamSpec& spec, const calibration::W
       if (error) *error = path + ":" + e.what();
       return std::nullopt;
     } catch (const YAML::Exception& e) {
-      return fail(std::to_string(e.mark.line + 1) + ": " + e.msg);
+      if (error) *error = path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg;
+      return std::nullopt;
     }
   }
   // Every kind ends as scales: one check that they are physical.

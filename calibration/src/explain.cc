@@ -4,9 +4,12 @@
 #include <cmath>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <boost/math/distributions/chi_squared.hpp>
+
+#include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
 namespace {
@@ -44,6 +47,122 @@ std::vector<ParameterEstimate> ParamsOf(const TrajectoryFitResult& fit, Effect e
   return out;
 }
 
+// The folds of a cross-validation by run over the runs `fit` used: each run
+// alone (leave one out), or run j of them in fold j mod k.
+std::vector<std::vector<int>> Folds(const TrajectoryFitResult& fit, const ExplainOptions& options,
+                                    std::string* method) {
+  std::vector<int> used;
+  for (size_t i = 0; i < fit.run_used.size(); ++i)
+    if (fit.run_used[i]) used.push_back(static_cast<int>(i));
+  std::vector<std::vector<int>> folds;
+  if (used.size() < 2) {
+    *method = "none";
+    return folds;
+  }
+  if (static_cast<int>(used.size()) <= options.max_leave_one_out_runs) {
+    *method = "leave_one_run_out";
+    for (int i : used) folds.push_back({i});
+  } else {
+    *method = "k_fold";
+    folds.resize(options.k_folds);
+    for (size_t j = 0; j < used.size(); ++j) folds[j % options.k_folds].push_back(used[j]);
+  }
+  return folds;
+}
+
+// The model without the candidate, fitted on each fold's training runs
+// (shared by the candidates of one round).
+struct FoldFits {
+  std::vector<std::vector<int>> folds;
+  std::string method;
+  std::vector<MeasuredSession> training;
+  std::vector<TrajectoryFitResult> without;
+  // Each run's wheel directions before it (encoder_backlash), from the whole session.
+  std::vector<std::pair<int, int>> directions;
+};
+
+FoldFits PrepareFolds(const MeasuredSession& session, const TrajectoryFitResult& current,
+                      const ExplainOptions& options) {
+  FoldFits f;
+  f.folds = Folds(current, options, &f.method);
+  int left = 1, right = 1;
+  for (const MeasuredRun& run : session.runs) {
+    f.directions.push_back({left, right});
+    LastShaftDirections(run, &left, &right);
+  }
+  TrajectoryFitOptions o = options.fit;
+  o.effects = current.options.effects;
+  for (const std::vector<int>& fold : f.folds) {
+    MeasuredSession train = session;
+    train.runs.clear();
+    for (size_t i = 0; i < session.runs.size(); ++i)
+      if (std::find(fold.begin(), fold.end(), static_cast<int>(i)) == fold.end())
+        train.runs.push_back(session.runs[i]);
+    f.without.push_back(FitTrajectory(train, o));
+    f.training.push_back(std::move(train));
+  }
+  return f;
+}
+
+CrossValidation CrossValidate(const MeasuredSession& session, const TrajectoryFitResult& current,
+                              Effect candidate, const ExplainOptions& options, FoldFits* folds) {
+  CrossValidation cv;
+  cv.method = folds->method;
+  if (!cv.possible()) {
+    cv.note = "one run: cross-validation by run is not possible; the other gates decide";
+    return cv;
+  }
+  cv.folds = static_cast<int>(folds->folds.size());
+  TrajectoryFitOptions o = options.fit;
+  o.effects = current.options.effects;
+  o.effects.push_back(candidate);
+  double sum_before = 0.0, sum_after = 0.0;
+  int failed_fits = 0, failed_replays = 0;
+  for (size_t k = 0; k < folds->folds.size(); ++k) {
+    const TrajectoryFitResult& without = folds->without[k];
+    if (!without.ok()) {
+      ++failed_fits;
+      continue;
+    }
+    const TrajectoryFitResult with = FitTrajectory(folds->training[k], o, &without);
+    if (!with.ok()) {
+      ++failed_fits;
+      continue;
+    }
+    for (int i : folds->folds[k]) {
+      ReplayOptions ro = options.replay;
+      ro.left_direction0 = folds->directions[i].first;
+      ro.right_direction0 = folds->directions[i].second;
+      const RunReplay a = ReplayRun(session.runs[i], session.believed,
+                                    {without.scales, without.effects}, session.camera, ro);
+      const RunReplay b = ReplayRun(session.runs[i], session.believed, {with.scales, with.effects},
+                                    session.camera, ro);
+      if (!a.ok || !b.ok) {
+        ++failed_replays;
+        continue;
+      }
+      sum_before += a.rms_position_error_m * a.rms_position_error_m;
+      sum_after += b.rms_position_error_m * b.rms_position_error_m;
+      ++cv.heldout_runs;
+    }
+  }
+  if (failed_fits > 0)
+    cv.note += std::to_string(failed_fits) + " fold fit(s) failed and were left out; ";
+  if (failed_replays > 0)
+    cv.note += std::to_string(failed_replays) + " held-out run(s) could not be replayed; ";
+  if (cv.heldout_runs == 0) {
+    cv.method = "none";
+    cv.note += "no held-out run could be replayed: the other gates decide";
+    return cv;
+  }
+  cv.heldout_rms_before_m = std::sqrt(sum_before / cv.heldout_runs);
+  cv.heldout_rms_after_m = std::sqrt(sum_after / cv.heldout_runs);
+  const double gain = cv.heldout_rms_before_m - cv.heldout_rms_after_m;
+  cv.improved = gain > options.cv_min_relative_gain * cv.heldout_rms_before_m &&
+                gain > options.cv_min_gain_m;
+  return cv;
+}
+
 }  // namespace
 
 bool ExplainOptions::IsValid(std::string* why) const {
@@ -66,6 +185,21 @@ bool ExplainOptions::IsValid(std::string* why) const {
   }
   if (!(alias_tolerance > 0.0 && alias_tolerance < 1.0)) {
     if (why) *why = "alias_tolerance must be in (0, 1)";
+    return false;
+  }
+  if (max_leave_one_out_runs < 2 || k_folds < 2) {
+    if (why) *why = "max_leave_one_out_runs and k_folds must be at least 2";
+    return false;
+  }
+  if (!(cv_min_relative_gain >= 0.0 && cv_min_relative_gain < 1.0) || !(cv_min_gain_m >= 0.0)) {
+    if (why) *why = "cv_min_relative_gain must be in [0, 1) and cv_min_gain_m not negative";
+    return false;
+  }
+  if (!replay.IsValid(why)) return false;
+  if (!(unexplained_alpha > 0.0 && unexplained_alpha < 1.0) || !(unexplained_segment_ratio >= 1.0) ||
+      !(unexplained_local_ratio >= 1.0) || unexplained_min_frames < 1 ||
+      unexplained_max_reported < 1) {
+    if (why) *why = "unexplained options: alpha in (0, 1), ratios >= 1, counts >= 1";
     return false;
   }
   return true;
@@ -124,8 +258,21 @@ std::string ExplainResult::BriefReport() const {
     for (const ParameterEstimate& p : s.params)
       os << " " << p.name << " " << std::setprecision(5) << p.value << " +/- "
          << std::setprecision(2) << 1.959963985 * p.sigma;
+    const CrossValidation& cv = s.cross_validation;
+    if (cv.possible())
+      os << "; held-out RMS " << Fixed(cv.heldout_rms_before_m * 1e3, 3) << " -> "
+         << Fixed(cv.heldout_rms_after_m * 1e3, 3) << " mm (" << cv.method << ", " << cv.folds
+         << " folds)";
+    else
+      os << "; " << cv.note;
     os << "\n";
   }
+  for (const CandidateTrial& t : rejected)
+    if (t.cross_validation && t.cross_validation->possible())
+      os << "- " << ToString(t.effect) << ": passed the fit's gates (score " << Fixed(t.score, 1)
+         << ") but does not predict held-out runs better: RMS "
+         << Fixed(t.cross_validation->heldout_rms_before_m * 1e3, 3) << " -> "
+         << Fixed(t.cross_validation->heldout_rms_after_m * 1e3, 3) << " mm\n";
   if (steps.empty()) os << "no effect explains a significant part of the gap\n";
   for (const AliasReport& a : aliased) {
     os << "? " << ToString(a.effect) << ": "
@@ -138,6 +285,15 @@ std::string ExplainResult::BriefReport() const {
     }
     os << "; to tell: " << a.distinguishing_runs << "\n";
   }
+  const UnexplainedReport& u = unexplained;
+  os << "remainder: gap " << Fixed(u.gap_m * 1e3, 3) << " mm against " << Fixed(u.expected_gap_m * 1e3, 3)
+     << " mm expected from the camera and wheel noise (wheels " << Fixed(u.wheel_noise_gap_m * 1e3, 3)
+     << " mm); F " << Fixed(u.ratio, 2) << " vs " << Fixed(u.threshold, 2) << " ("
+     << (u.significant ? "significant" : "not significant") << ")\n";
+  for (const UnexplainedSegment& w : u.where)
+    os << "! unexplained: " << w.run << " " << Fixed(w.t_from_s, 2) << "-" << Fixed(w.t_to_s, 2)
+       << " s, " << w.motion << ", " << Fixed(w.size_m * 1e3, 3) << " mm RMS over " << w.frames
+       << " frames\n";
   os << "final: gap " << Fixed(gap_after_m() * 1e3, 3) << " mm\n" << final_fit.BriefReport();
   return os.str();
 }
@@ -170,6 +326,8 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     const TrajectoryFitResult* best = nullptr;
     std::vector<TrajectoryFitResult> fits;
     fits.reserve(candidates.size());
+    double best_score = -INFINITY;
+    Effect best_effect = Effect::kTagOffset;
     for (Effect e : candidates) {
       if (Contains(current.options.effects, e)) continue;
       CandidateTrial trial;
@@ -204,18 +362,36 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       }
       trials.push_back(trial);
     }
-    // Pick the best-scoring fitted candidate.
-    double best_score = -INFINITY;
-    Effect best_effect = Effect::kTagOffset;
-    for (const CandidateTrial& t : trials)
+    // The candidates that pass the three gates, best score first; the first
+    // that also predicts held-out runs better is named.
+    std::vector<size_t> passing;
+    for (size_t i = 0; i < trials.size(); ++i) {
+      const CandidateTrial& t = trials[i];
       if (t.fitted && t.wald > t.wald_threshold && t.explained_m >= options.min_explained_m &&
-          t.score > best_score) {
-        best_score = t.score;
-        best_effect = t.effect;
+          t.score >= options.min_score)
+        passing.push_back(i);
+    }
+    std::sort(passing.begin(), passing.end(),
+              [&](size_t a, size_t b) { return trials[a].score > trials[b].score; });
+    std::optional<FoldFits> folds;
+    CrossValidation chosen_cv;
+    for (size_t i : passing) {
+      CandidateTrial& t = trials[i];
+      if (options.cross_validate) {
+        if (!folds) folds = PrepareFolds(session, current, options);
+        t.cross_validation = CrossValidate(session, current, t.effect, options, &*folds);
+        if (t.cross_validation->possible() && !t.cross_validation->improved) continue;
+        chosen_cv = *t.cross_validation;
+      } else {
+        chosen_cv.note = "cross-validation turned off";
       }
-    for (const TrajectoryFitResult& f : fits)
-      if (f.ok() && f.options.effects.back() == best_effect) best = &f;
-    if (!best || best_score < options.min_score) {
+      for (const TrajectoryFitResult& f : fits)
+        if (f.ok() && f.options.effects.back() == t.effect) best = &f;
+      best_effect = t.effect;
+      best_score = t.score;
+      break;
+    }
+    if (!best) {
       result.rejected = trials;
       break;
     }
@@ -223,6 +399,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     step.effect = best_effect;
     step.score = best_score;
     step.gap_after_m = best->gap_m;
+    step.cross_validation = chosen_cv;
     step.trials = trials;
     current = *best;
     step.params = ParamsOf(current, best_effect);
@@ -245,8 +422,107 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     }
     if (a.aliased) result.aliased.push_back(a);
   }
+  result.unexplained = FindUnexplained(session, current, options);
   result.status = ExplainResult::Status::kOk;
   return result;
+}
+
+UnexplainedReport FindUnexplained(const MeasuredSession& session, const TrajectoryFitResult& fit,
+                                  const ExplainOptions& options) {
+  UnexplainedReport u;
+  u.gap_m = fit.gap_m;
+  u.expected_gap_m = fit.expected_gap_m();
+  u.wheel_noise_gap_m = fit.wheel_noise_gap_m;
+  if (fit.residuals.empty() || !(u.expected_gap_m > 0.0)) return u;
+  const double expected_sq = u.expected_gap_m * u.expected_gap_m;
+  u.excess_m = std::sqrt(std::max(0.0, u.gap_m * u.gap_m - expected_sq));
+  u.ratio = u.gap_m * u.gap_m / expected_sq;
+  const double rho = fit.lag1_autocorrelation;
+  auto effective = [rho](double n) { return std::max(1.0, n * (1.0 - rho) / (1.0 + rho)); };
+  // The mean square of 2 n_eff standard normal components, over the variance.
+  auto threshold = [](double n_eff, double alpha) {
+    const double dof = 2.0 * n_eff;
+    return boost::math::quantile(boost::math::complement(boost::math::chi_squared(dof), alpha)) /
+           dof;
+  };
+  u.n_eff = effective(static_cast<double>(fit.residuals.size()));
+  u.threshold = threshold(u.n_eff, options.unexplained_alpha);
+  u.significant = u.ratio > u.threshold && u.excess_m >= options.min_explained_m;
+
+  // Segments: contiguous frames of one motion in one run.
+  struct Segment {
+    UnexplainedSegment s;
+    double sum_sq = 0.0;
+    double turned_rad = 0.0;
+    double last_heading = 0.0;
+    MotionKind kind = MotionKind::kRest;
+  };
+  std::vector<Segment> segments;
+  for (const FrameResidual& r : fit.residuals) {
+    if (segments.empty() || segments.back().s.run_index != r.run ||
+        segments.back().kind != r.motion) {
+      Segment g;
+      g.s.run_index = r.run;
+      g.s.run = session.runs[r.run].name;
+      g.s.t_from_s = r.t_s;
+      g.kind = r.motion;
+      g.last_heading = r.measured_heading_rad;
+      segments.push_back(g);
+    }
+    Segment& g = segments.back();
+    g.s.t_to_s = r.t_s;
+    g.s.frames++;
+    g.sum_sq += r.error_m.squaredNorm();
+    g.turned_rad += WrapAngle(r.measured_heading_rad - g.last_heading);
+    g.last_heading = r.measured_heading_rad;
+  }
+  struct Flagged {
+    double contribution;
+    UnexplainedSegment s;
+  };
+  std::vector<Flagged> flagged, candidates;
+  const double n_segments = static_cast<double>(segments.size());
+  for (Segment& g : segments) {
+    if (g.s.frames < options.unexplained_min_frames) continue;
+    const double ms = g.sum_sq / g.s.frames;
+    g.s.size_m = std::sqrt(ms);
+    g.s.motion = std::string(ToString(g.kind));
+    if (g.kind == MotionKind::kStraight && std::abs(g.turned_rad) > 15.0 * M_PI / 180.0)
+      g.s.motion = "curve";
+    const double excess = std::sqrt(std::max(0.0, ms - expected_sq));
+    const Flagged f{g.s.frames * (ms - expected_sq), g.s};
+    if (excess < options.min_explained_m) continue;
+    const double local = std::max(
+        options.unexplained_local_ratio * options.unexplained_local_ratio,
+        threshold(effective(g.s.frames), options.unexplained_alpha / n_segments));
+    if (ms / expected_sq > local ||
+        (u.significant && ms > options.unexplained_segment_ratio *
+                                   options.unexplained_segment_ratio * expected_sq))
+      flagged.push_back(f);
+    else if (u.significant)
+      candidates.push_back(f);
+  }
+  // Significant as a whole but spread thin: the segments that carry most of it.
+  if (flagged.empty() && u.significant) {
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
+    candidates.resize(std::min<size_t>(candidates.size(), 3));
+    flagged = candidates;
+  }
+  std::sort(flagged.begin(), flagged.end(),
+            [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
+  for (const Flagged& f : flagged) {
+    if (static_cast<int>(u.where.size()) >= options.unexplained_max_reported) break;
+    u.where.push_back(f.s);
+  }
+  return u;
+}
+
+CrossValidation CrossValidateCandidate(const MeasuredSession& session,
+                                       const TrajectoryFitResult& current, Effect candidate,
+                                       const ExplainOptions& options) {
+  FoldFits folds = PrepareFolds(session, current, options);
+  return CrossValidate(session, current, candidate, options, &folds);
 }
 
 }  // namespace odocal::calibration

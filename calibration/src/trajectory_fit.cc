@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <memory>
 #include <numeric>
+#include <random>
 #include <ostream>
 #include <sstream>
 
@@ -81,13 +82,16 @@ void DeadReckon(const RunData& run, const ModelConstants& c, const T* base, cons
   for (size_t k = 1; k < n; ++k) {
     const std::int64_t dl = run.dl[k], dr = run.dr[k];
     if (dl != 0 || dr != 0) {
+      const double dt = std::max(run.t[k] - run.t[k - 1], 1e-6);
       T left = MovingTicks(dl, &left_direction, &left_dead, fx[EffectParams::kBacklash]) *
                c.left_m_per_tick * base[0];
       T right = MovingTicks(dr, &right_direction, &right_dead, fx[EffectParams::kBacklash]) *
                 c.right_m_per_tick * base[1];
+      // speed_slip: each wheel loses k |v| of its travel, v its speed over the step.
+      left *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(left) / dt;
+      right *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(right) / dt;
       const T ds = (left + right) / 2.0;
       if (run.kind[k] == MotionKind::kTurn) {
-        const double dt = std::max(run.t[k] - run.t[k - 1], 1e-6);
         const T dtheta = (right - left) / track;
         const T achieved = dtheta * (1.0 - fx[EffectParams::kSlip] * abs(dtheta) / dt);
         left = ds - achieved * track / 2.0;
@@ -138,6 +142,8 @@ void PredictFrame(const RunData& run, const ModelConstants& c, const std::vector
   const T ch = cos(*ph), sh = sin(*ph);
   *px += ch * tx - sh * ty;
   *py += sh * tx + ch * ty;
+  // tracker_yaw: the tracked body's heading is off the robot's by a constant.
+  *ph += fx[EffectParams::kTrackerYaw];
   // lens_distortion: where the pipeline measures the tag through a lens whose k1 is off.
   if (c.camera) {
     const T x = *px, y = *py;
@@ -190,6 +196,37 @@ MotionKind StepKind(std::int64_t dl, std::int64_t dr) {
   return MotionKind::kStraight;
 }
 
+// The telemetry part of a run: its times, each step's tick deltas and
+// motion. The shafts' last directions (encoder_backlash) come in and go out
+// through `left_direction` and `right_direction`.
+RunData ExtractTelemetry(const MeasuredRun& mr, int index, int* left_direction,
+                         int* right_direction) {
+  RunData rd;
+  rd.run = index;
+  rd.left_direction0 = *left_direction;
+  rd.right_direction0 = *right_direction;
+  for (size_t k = 0; k < mr.telemetry.size(); ++k) {
+    rd.t.push_back(mr.telemetry[k].t_s);
+    const std::int64_t dl = k == 0 ? 0 : mr.telemetry[k].left_ticks - mr.telemetry[k - 1].left_ticks;
+    const std::int64_t dr = k == 0 ? 0 : mr.telemetry[k].right_ticks - mr.telemetry[k - 1].right_ticks;
+    rd.dl.push_back(dl);
+    rd.dr.push_back(dr);
+    rd.kind.push_back(StepKind(dl, dr));
+    if (dl != 0) *left_direction = dl > 0 ? 1 : -1;
+    if (dr != 0) *right_direction = dr > 0 ? 1 : -1;
+  }
+  return rd;
+}
+
+ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera) {
+  ModelConstants c;
+  c.left_m_per_tick = believed.LeftMetresPerTick();
+  c.right_m_per_tick = believed.RightMetresPerTick();
+  c.track_m = believed.track_m;
+  c.camera = camera;
+  return c;
+}
+
 std::string Fixed(double v, int precision) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(precision) << v;
@@ -213,6 +250,8 @@ std::string_view ToString(Effect effect) {
     case Effect::kLensDistortion: return "lens_distortion";
     case Effect::kEncoderBacklash: return "encoder_backlash";
     case Effect::kCarpetDrift: return "carpet_drift";
+    case Effect::kTrackerYaw: return "tracker_yaw";
+    case Effect::kSpeedSlip: return "speed_slip";
   }
   return "?";
 }
@@ -240,6 +279,8 @@ std::vector<int> EffectParamIndices(Effect effect) {
       return {EffectParams::kK1, EffectParams::kTiltX, EffectParams::kTiltY};
     case Effect::kEncoderBacklash: return {EffectParams::kBacklash};
     case Effect::kCarpetDrift: return {EffectParams::kDriftA, EffectParams::kDriftB};
+    case Effect::kTrackerYaw: return {EffectParams::kTrackerYaw};
+    case Effect::kSpeedSlip: return {EffectParams::kSpeedSlip};
   }
   return {};
 }
@@ -257,6 +298,8 @@ std::vector<std::string> EffectParamNames(Effect effect) {
     case Effect::kLensDistortion: return {"k1", "camera_tilt_x_rad", "camera_tilt_y_rad"};
     case Effect::kEncoderBacklash: return {"ticks"};
     case Effect::kCarpetDrift: return {"rate_cos_grain", "rate_sin_grain"};
+    case Effect::kTrackerYaw: return {"yaw_rad"};
+    case Effect::kSpeedSlip: return {"fraction_at_1m_s"};
   }
   return {};
 }
@@ -281,6 +324,12 @@ std::string DistinguishingRuns(Effect effect) {
     case Effect::kCarpetDrift:
       return "straights in several headings seen by the camera (e.g. cw and ccw squares, or "
              "straights at 0, 90, 180 deg): drift along one heading is a wheel-ratio error";
+    case Effect::kTrackerYaw:
+      return "straights seen by the pose source with their measured headings (the direction of "
+             "travel against the heading the tracker reports)";
+    case Effect::kSpeedSlip:
+      return "straights at two different speeds (e.g. out-and-backs at 100 and 400 mm/s): slip at "
+             "one speed is a scale error, and in spins a turn slip";
   }
   return "";
 }
@@ -299,6 +348,7 @@ bool TrajectoryFitOptions::IsValid(std::string* why) const {
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0))
     return fail("rank_tolerance must be in (0, 1)");
   if (min_frames_per_run < 2) return fail("min_frames_per_run must be at least 2");
+  if (wheel_noise_draws < 0) return fail("wheel_noise_draws must not be negative");
   if (!(base_prior_sigma >= 0.0)) return fail("base_prior_sigma must not be negative");
   if (!(max_ratio_sigma > 0.0)) return fail("max_ratio_sigma must be positive");
   for (size_t i = 0; i < effects.size(); ++i)
@@ -370,11 +420,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     return result;
   }
 
-  ModelConstants constants;
-  constants.left_m_per_tick = session.believed.LeftMetresPerTick();
-  constants.right_m_per_tick = session.believed.RightMetresPerTick();
-  constants.track_m = session.believed.track_m;
-  constants.camera = session.camera;
+  const ModelConstants constants = ConstantsOf(session.believed, session.camera);
 
   // Extract the runs; shaft directions carry over from run to run.
   const size_t n_runs = session.runs.size();
@@ -384,22 +430,8 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   int left_direction = 1, right_direction = 1;
   for (size_t i = 0; i < n_runs; ++i) {
     const MeasuredRun& mr = session.runs[i];
-    RunData rd;
-    rd.run = static_cast<int>(i);
-    rd.left_direction0 = left_direction;
-    rd.right_direction0 = right_direction;
+    RunData rd = ExtractTelemetry(mr, static_cast<int>(i), &left_direction, &right_direction);
     rd.residuals_per_frame = options.use_heading ? 3 : 2;
-    for (size_t k = 0; k < mr.telemetry.size(); ++k) {
-      rd.t.push_back(mr.telemetry[k].t_s);
-      const std::int64_t dl = k == 0 ? 0 : mr.telemetry[k].left_ticks - mr.telemetry[k - 1].left_ticks;
-      const std::int64_t dr =
-          k == 0 ? 0 : mr.telemetry[k].right_ticks - mr.telemetry[k - 1].right_ticks;
-      rd.dl.push_back(dl);
-      rd.dr.push_back(dr);
-      rd.kind.push_back(StepKind(dl, dr));
-      if (dl != 0) left_direction = dl > 0 ? 1 : -1;
-      if (dr != 0) right_direction = dr > 0 ? 1 : -1;
-    }
     if (rd.t.size() < 2) continue;
     for (const CameraRecord& f : mr.camera) {
       if (!f.valid) continue;
@@ -555,6 +587,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       fr.measured_m = {rd.zx[j], rd.zy[j]};
       fr.error_m = {px - rd.zx[j], py - rd.zy[j]};
       fr.heading_error_rad = WrapAngle(ph - rd.zh[j]);
+      fr.measured_heading_rad = rd.zh[j];
       fr.weight = rd.sqrt_w[j] * rd.sqrt_w[j];
       sum_sq_gap += fr.error_m.squaredNorm();
       sum_sq_noise += 2.0 * rd.sigma_p[j] * rd.sigma_p[j];
@@ -664,6 +697,67 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
       }
       row0 += static_cast<int>(rd.frame_t.size()) * m;
     }
+  }
+  // What the wheel noise alone leaves of the gap once the fit has absorbed
+  // what it can (start poses, scales): seeded Monte Carlo of the same random
+  // walk, linearised: a travel error at step k moves every later frame
+  // rigidly (translation along the heading, rotation about the pose at k);
+  // the fit removes its projection on J. Explain's `unexplained` needs it:
+  // with a precise camera the wheel noise, not the camera, sets the floor.
+  if (options.wheel_sigma_m_per_sqrt_m > 0.0 && options.wheel_noise_draws > 0) {
+    std::mt19937 rng(20261123);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
+    const double true_track = base[2] * constants.track_m;
+    double sum_sq = 0.0;
+    for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
+      Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);
+      int row0 = 0;
+      for (size_t r = 0; r < runs.size(); ++r) {
+        const RunData& rd = runs[r];
+        const int m = rd.residuals_per_frame;
+        std::vector<double> xs, ys, hs;
+        DeadReckon(rd, constants, base.data(), starts[r].data(), fx.values.data(), &xs, &ys, &hs);
+        // Displacement of a later point p: c + theta * (-p.y, p.x).
+        double cx = 0.0, cy = 0.0, theta = 0.0;
+        size_t j = 0;
+        auto assign_until = [&](double t) {
+          for (; j < rd.frame_t.size() && rd.frame_t[j] + fx.latency_s() < t; ++j) {
+            const double g = rd.sqrt_w[j] / rd.sigma_p[j];
+            delta[row0 + m * j] = (cx - theta * rd.zy[j]) * g;
+            delta[row0 + m * j + 1] = (cy + theta * rd.zx[j]) * g;
+            if (m == 3) delta[row0 + m * j + 2] = theta * rd.sqrt_w[j] / rd.sigma_h[j];
+          }
+        };
+        for (size_t k = 1; k < rd.t.size(); ++k) {
+          assign_until(rd.t[k]);
+          const double left = std::abs(rd.dl[k] * constants.left_m_per_tick * base[0]);
+          const double right = std::abs(rd.dr[k] * constants.right_m_per_tick * base[1]);
+          if (left == 0.0 && right == 0.0) continue;
+          const double el = sigma_w * std::sqrt(left) * normal(rng);
+          const double er = sigma_w * std::sqrt(right) * normal(rng);
+          const double ds = 0.5 * (el + er), dtheta = (er - el) / true_track;
+          cx += ds * std::cos(hs[k]) + dtheta * ys[k];
+          cy += ds * std::sin(hs[k]) - dtheta * xs[k];
+          theta += dtheta;
+        }
+        assign_until(INFINITY);
+        row0 += static_cast<int>(rd.frame_t.size()) * m;
+      }
+      const Eigen::VectorXd left_over = delta - J * (pinv * delta);
+      row0 = 0;
+      for (const RunData& rd : runs) {
+        const int m = rd.residuals_per_frame;
+        for (size_t j = 0; j < rd.frame_t.size(); ++j) {
+          const double g = rd.sqrt_w[j] / rd.sigma_p[j];
+          sum_sq += (left_over[row0 + m * j] * left_over[row0 + m * j] +
+                     left_over[row0 + m * j + 1] * left_over[row0 + m * j + 1]) /
+                    (g * g);
+        }
+        row0 += static_cast<int>(rd.frame_t.size()) * m;
+      }
+    }
+    result.wheel_noise_gap_m = std::sqrt(sum_sq / (options.wheel_noise_draws * result.n_frames));
   }
   // The camera's length scale: a common factor (1 + e) on every measured
   // position moves the estimate by pinv * (z / sigma) e.
@@ -795,6 +889,32 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                      " parameter combination(s) not identifiable from these data";
   }
   return result;
+}
+
+std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParams& believed,
+                                        const WheelScales& scales, const EffectParams& effects,
+                                        const std::optional<FloorCamera>& camera,
+                                        const Pose2& start, const std::vector<double>& stamps_s,
+                                        int left_direction0, int right_direction0) {
+  const RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
+  if (rd.t.size() < 2) return {};
+  const ModelConstants constants = ConstantsOf(believed, camera);
+  const double base[kBase] = {scales.r_left, scales.r_right, scales.Eb};
+  const double start_xyh[3] = {start.x(), start.y(), start.heading()};
+  std::vector<double> xs, ys, hs;
+  DeadReckon(rd, constants, base, start_xyh, effects.values.data(), &xs, &ys, &hs);
+  std::vector<Pose2> poses;
+  poses.reserve(stamps_s.size());
+  for (double stamp : stamps_s) {
+    double px, py, ph;
+    PredictFrame(rd, constants, xs, ys, hs, effects.values.data(), stamp, &px, &py, &ph);
+    poses.push_back(Pose2::FromXYHeading(px, py, ph));
+  }
+  return poses;
+}
+
+void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction) {
+  ExtractTelemetry(run, 0, left_direction, right_direction);
 }
 
 AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,

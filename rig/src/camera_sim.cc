@@ -28,6 +28,7 @@ std::optional<std::string> RecordOne(const Scenario& scenario, const sim::RunRec
     true_tag.offset_x_mm = effects.tag_offset->x_m * 1e3;
     true_tag.offset_y_mm = effects.tag_offset->y_m * 1e3;
   }
+  if (effects.tracker_yaw) true_tag.yaw_deg += effects.tracker_yaw->yaw_rad * kRadToDeg;
   vision::Intrinsics true_lens = cam.intrinsics;
   if (effects.lens_distortion) true_lens.distortion[0] += effects.lens_distortion->k1_delta;
   const double latency_s = effects.camera_latency ? effects.camera_latency->latency_s : 0.0;

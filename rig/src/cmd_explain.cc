@@ -49,15 +49,7 @@ std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::
   const SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession out = sm.ToMeasuredSession();
   // A session of pose logs has no camera: no lens candidate to weigh.
-  if (!session->has_camera) return WithTelemetryOrFail(path, std::move(out), error);
-  const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session->camera_mount_guess;
-  const vision::CameraModel camera(session->intrinsics, mount);
-  calibration::FloorCamera floor;
-  floor.centre_m = camera.T_world_camera().translation() -
-                   Eigen::Vector3d(0.0, 0.0, session->tag.height_m());
-  floor.R_camera_world = camera.T_camera_world().rotation();
-  floor.distortion = session->intrinsics.distortion;
-  if (floor.IsValid()) out.camera = floor;
+  if (session->has_camera) out.camera = FloorCameraOf(sm);
   return WithTelemetryOrFail(path, std::move(out), error);
 }
 

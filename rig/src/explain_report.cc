@@ -23,6 +23,7 @@ std::pair<std::string, double> EdgeName(const std::string& name) {
   if (name == "rate_m_per_m") return {"rate_mm_per_m", 1e3};
   if (name == "camera_tilt_x_rad") return {"camera_tilt_x_deg", kRadToDeg};
   if (name == "camera_tilt_y_rad") return {"camera_tilt_y_deg", kRadToDeg};
+  if (name == "yaw_rad") return {"deg", kRadToDeg};
   return {name, 1.0};
 }
 
@@ -84,6 +85,61 @@ nlohmann::json AliasJson(const calibration::AliasReport& a) {
           {"distinguishing_runs", a.distinguishing_runs}};
 }
 
+nlohmann::json CrossValidationJson(const calibration::CrossValidation& cv) {
+  nlohmann::json j = {{"method", cv.method}, {"folds", cv.folds}, {"heldout_runs", cv.heldout_runs}};
+  if (cv.possible()) {
+    j["heldout_rms_before_mm"] = cv.heldout_rms_before_m * 1e3;
+    j["heldout_rms_after_mm"] = cv.heldout_rms_after_m * 1e3;
+    j["improved"] = cv.improved;
+  } else {
+    j["heldout_rms_before_mm"] = nullptr;
+    j["heldout_rms_after_mm"] = nullptr;
+  }
+  if (!cv.note.empty()) j["note"] = cv.note;
+  return j;
+}
+
+nlohmann::json TrialJson(const calibration::CandidateTrial& t) {
+  nlohmann::json j = {{"effect", calibration::ToString(t.effect)},
+                      {"fitted", t.fitted},
+                      {"score", t.score},
+                      {"wald", t.wald},
+                      {"wald_threshold", t.wald_threshold},
+                      {"explained_mm", t.explained_m * 1e3},
+                      {"separation", t.alias.separation},
+                      {"gap_mm", t.gap_m * 1e3}};
+  if (t.cross_validation) j["cross_validation"] = CrossValidationJson(*t.cross_validation);
+  return j;
+}
+
+nlohmann::json UnexplainedJson(const calibration::UnexplainedReport& u) {
+  nlohmann::json where = nlohmann::json::array();
+  for (const calibration::UnexplainedSegment& w : u.where)
+    where.push_back({{"where", w.run},
+                     {"when", {{"t_from_s", w.t_from_s}, {"t_to_s", w.t_to_s}}},
+                     {"motion", w.motion},
+                     {"size_mm", w.size_m * 1e3},
+                     {"frames", w.frames}});
+  return where;
+}
+
+nlohmann::json RemainderJson(const calibration::UnexplainedReport& u) {
+  return {{"gap_mm", u.gap_m * 1e3},
+          {"expected_gap_mm", u.expected_gap_m * 1e3},
+          {"wheel_noise_gap_mm", u.wheel_noise_gap_m * 1e3},
+          {"excess_mm", u.excess_m * 1e3},
+          {"F", u.ratio},
+          {"F_threshold", u.threshold},
+          {"n_eff", u.n_eff},
+          {"significant", u.significant},
+          {"statistic",
+           "F = gap^2 / expected_gap^2 (camera noise and wheel noise after the fit) against "
+           "chi2_{2 N_eff}(0.999) / (2 N_eff); significant if above it and the excess "
+           "sqrt(gap^2 - expected^2) >= 0.05 mm; then segments with RMS >= 2x the expected gap "
+           "are listed; a lone segment with RMS >= 3x, chi-square significant at 0.001 / "
+           "segments, is listed in any case"}};
+}
+
 // One SVG plot of |position error| per frame over the session's frames, runs
 // side by side, coloured by motion.
 std::string ResidualSvg(const calibration::MeasuredSession& session,
@@ -119,31 +175,23 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
   nlohmann::json steps = nlohmann::json::array();
   for (const calibration::ExplainStep& s : result.steps) {
     nlohmann::json trials = nlohmann::json::array();
-    for (const calibration::CandidateTrial& t : s.trials)
-      trials.push_back({{"effect", calibration::ToString(t.effect)},
-                        {"fitted", t.fitted},
-                        {"score", t.score},
-                        {"wald", t.wald},
-                        {"wald_threshold", t.wald_threshold},
-                        {"explained_mm", t.explained_m * 1e3},
-                        {"separation", t.alias.separation},
-                        {"gap_mm", t.gap_m * 1e3}});
+    for (const calibration::CandidateTrial& t : s.trials) trials.push_back(TrialJson(t));
     steps.push_back({{"effect", calibration::ToString(s.effect)},
                      {"params", ParamsJson(s.params, false)},
                      {"interval95", ParamsJson(s.params, true)},
                      {"gap_after_mm", s.gap_after_m * 1e3},
                      {"score", s.score},
+                     {"cross_validation", CrossValidationJson(s.cross_validation)},
                      {"candidates", trials}});
   }
   nlohmann::json rejected = nlohmann::json::array();
   for (const calibration::CandidateTrial& t : result.rejected)
-    if (t.fitted)
-      rejected.push_back({{"effect", calibration::ToString(t.effect)},
-                          {"score", t.score},
-                          {"wald", t.wald},
-                          {"wald_threshold", t.wald_threshold},
-                          {"explained_mm", t.explained_m * 1e3},
-                          {"gap_mm", t.gap_m * 1e3}});
+    if (t.fitted) {
+      nlohmann::json j = TrialJson(t);
+      j.erase("fitted");
+      j.erase("separation");
+      rejected.push_back(j);
+    }
   nlohmann::json aliased = nlohmann::json::array();
   for (const calibration::AliasReport& a : result.aliased) aliased.push_back(AliasJson(a));
   return {
@@ -155,9 +203,14 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
       {"criterion",
        "BIC drop N_eff ln(SSE_before/SSE_after) - k ln(N_eff) above 10, and a Wald test of the "
        "effect's parameters against zero (wheel noise included) above its chi-square 0.999 "
-       "quantile, and it explains at least 0.05 mm RMS of the gap"},
+       "quantile, and it explains at least 0.05 mm RMS of the gap, and (when the session has "
+       "more than one run) it predicts held-out runs better: the RMS over held-out runs of "
+       "their replays' RMS position error falls by more than 10 % and 0.01 mm (leave one run "
+       "out up to 8 runs, else 5 folds by run)"},
       {"not_kept", rejected},
       {"cannot_tell", aliased},
+      {"unexplained", UnexplainedJson(result.unexplained)},
+      {"remainder", RemainderJson(result.unexplained)},
       {"base", FitJson(result.base)},
       {"final", FitJson(result.final_fit)},
       {"residuals_before", SummaryJson(result.base_residuals)},
@@ -195,14 +248,37 @@ std::string ExplainHtml(const calibration::MeasuredSession& session,
      << " mm</b> with the base model, <b>" << result.gap_after_m() * 1e3
      << " mm</b> after; noise floor " << result.final_fit.noise_floor_m * 1e3 << " mm.</p>\n";
   os << "<h2>Steps</h2><table><tr><th>effect</th><th>parameters</th><th>gap after [mm]</th>"
-        "<th>score (BIC drop)</th></tr>\n";
+        "<th>score (BIC drop)</th><th>held-out RMS before &rarr; after [mm]</th></tr>\n";
   for (const auto& s : result.steps) {
     os << "<tr><td>" << calibration::ToString(s.effect) << "</td><td>";
     for (const auto& p : s.params) os << p.name << " " << p.value << " &plusmn; " << 1.96 * p.sigma << "; ";
-    os << "</td><td>" << s.gap_after_m * 1e3 << "</td><td>" << s.score << "</td></tr>\n";
+    os << "</td><td>" << s.gap_after_m * 1e3 << "</td><td>" << s.score << "</td><td>";
+    if (s.cross_validation.possible())
+      os << s.cross_validation.heldout_rms_before_m * 1e3 << " &rarr; "
+         << s.cross_validation.heldout_rms_after_m * 1e3 << " (" << s.cross_validation.method
+         << ", " << s.cross_validation.folds << " folds)";
+    else
+      os << s.cross_validation.note;
+    os << "</td></tr>\n";
   }
-  if (result.steps.empty()) os << "<tr><td colspan='4'>nothing significant</td></tr>\n";
+  if (result.steps.empty()) os << "<tr><td colspan='5'>nothing significant</td></tr>\n";
   os << "</table>\n";
+  const calibration::UnexplainedReport& u = result.unexplained;
+  os << "<h2>Unexplained</h2><p>Remainder: gap " << u.gap_m * 1e3 << " mm against "
+     << u.expected_gap_m * 1e3 << " mm that camera and wheel noise leave (F " << u.ratio
+     << ", threshold " << u.threshold << ": " << (u.significant ? "significant" : "not significant")
+     << ").</p>\n";
+  if (u.any()) {
+    os << "<p>No candidate explains these; look there:</p><table><tr><th>run</th><th>from [s]"
+          "</th><th>to [s]</th><th>motion</th><th>RMS [mm]</th><th>frames</th></tr>\n";
+    for (const auto& w : u.where)
+      os << "<tr><td>" << w.run << "</td><td>" << w.t_from_s << "</td><td>" << w.t_to_s
+         << "</td><td>" << w.motion << "</td><td>" << w.size_m * 1e3 << "</td><td>" << w.frames
+         << "</td></tr>\n";
+    os << "</table>\n";
+  } else {
+    os << "<p>Nothing structured remains.</p>\n";
+  }
   os << "<p>Colours: <span style='color:#1f77b4'>straight</span>, "
         "<span style='color:#d62728'>turn</span>, <span style='color:#7f7f7f'>rest</span>. "
         "Same vertical scale in both plots.</p>\n";

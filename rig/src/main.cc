@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   odocal::rig::RegisterValidateCommand(app);
   odocal::rig::RegisterStationCommand(app);
   odocal::rig::RegisterImportCommand(app);
+  odocal::rig::RegisterCheckCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

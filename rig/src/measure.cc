@@ -180,6 +180,20 @@ bool IsFatalFlag(const std::string& flag) {
   return false;
 }
 
+std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& sm) {
+  const Session& session = sm.session;
+  if (!session.has_camera) return std::nullopt;  // pose logs alone
+  const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session.camera_mount_guess;
+  const vision::CameraModel camera(session.intrinsics, mount);
+  calibration::FloorCamera floor;
+  floor.centre_m = camera.T_world_camera().translation() -
+                   Eigen::Vector3d(0.0, 0.0, session.tag.height_m());
+  floor.R_camera_world = camera.T_camera_world().rotation();
+  floor.distortion = session.intrinsics.distortion;
+  if (!floor.IsValid()) return std::nullopt;
+  return floor;
+}
+
 calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   calibration::MeasuredSession s;
   s.believed = session.nominal;

@@ -127,7 +127,8 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
       const double nx = normal(rng), ny = normal(rng), nh = normal(rng);
       f.T_world_robot = Pose2::FromXYHeading(p.x() + options.sigma_position_m * nx,
                                              p.y() + options.sigma_position_m * ny,
-                                             truth.heading() + options.sigma_heading_rad * nh);
+                                             truth.heading() + options.tracker_yaw_rad +
+                                                 options.sigma_heading_rad * nh);
       mr.camera.push_back(f);
       samples.push_back({f.t_s, f.T_world_robot, f.valid});
     }

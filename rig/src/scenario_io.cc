@@ -161,11 +161,33 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       twice(out.carpet_drift.has_value());
       out.carpet_drift = sim::CarpetDriftEffect{RequiredNumber(e, path, "grain_deg") * kDegToRad,
                                                 RequiredNumber(e, path, "rate_mm_per_m") * 1e-3};
+    } else if (name == "tracker_yaw") {
+      CheckKeys(e, path, {"name", "deg"});
+      twice(out.tracker_yaw.has_value());
+      const double deg = RequiredNumber(e, path, "deg");
+      if (std::abs(deg) >= 45.0) Fail(e["deg"], Join(path, "deg"), "must be within (-45, 45)");
+      out.tracker_yaw = sim::TrackerYawEffect{deg * kDegToRad};
+    } else if (name == "speed_slip") {
+      CheckKeys(e, path, {"name", "fraction_at_1m_s"});
+      twice(out.speed_slip.has_value());
+      const double k = RequiredNumber(e, path, "fraction_at_1m_s");
+      if (k < 0.0 || k >= 0.5) Fail(e["fraction_at_1m_s"], Join(path, "fraction_at_1m_s"), "must be in [0, 0.5)");
+      out.speed_slip = sim::SpeedSlipEffect{k};
+    } else if (name == "eccentric_wheel") {
+      CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
+      twice(out.eccentric_wheel.has_value());
+      if (!e["wheel"]) Fail(e, Join(path, "wheel"), "missing (required: left or right)");
+      const std::string wheel = String(e["wheel"], Join(path, "wheel"));
+      if (wheel != "left" && wheel != "right") Fail(e["wheel"], Join(path, "wheel"), "must be left or right");
+      const double a = RequiredNumber(e, path, "amplitude");
+      if (a < 0.0 || a >= 0.2) Fail(e["amplitude"], Join(path, "amplitude"), "must be in [0, 0.2)");
+      out.eccentric_wheel = sim::EccentricWheelEffect{
+          wheel == "left", a, OptionalNumber(e, path, "phase_deg", 0.0) * kDegToRad};
     } else {
       Fail(e["name"], Join(path, "name"),
            "unknown effect '" + name +
                "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
-               "encoder_backlash, carpet_drift)");
+               "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, eccentric_wheel)");
     }
   }
   return out;

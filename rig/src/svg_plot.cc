@@ -158,6 +158,14 @@ void Plot::HBand(double y1, double y2, const std::string& fill, double opacity) 
            "'/>\n";
 }
 
+void Plot::Rect(double x1, double y1, double x2, double y2, const std::string& fill,
+                const std::string& tooltip) {
+  const double l = std::min(X(x1), X(x2)), r = std::max(X(x1), X(x2));
+  const double t = std::min(Y(y1), Y(y2)), b = std::max(Y(y1), Y(y2));
+  body_ += "<rect x='" + F(l) + "' y='" + F(t) + "' width='" + F(r - l) + "' height='" +
+           F(b - t) + "' fill='" + fill + "'>" + Tip(tooltip) + "</rect>\n";
+}
+
 void Plot::Polyline(const std::vector<std::pair<double, double>>& points, const std::string& stroke,
                     double width) {
   if (points.empty()) return;

@@ -44,6 +44,9 @@ class Plot {
   void Line(double x1, double y1, double x2, double y2, const std::string& stroke,
             double width = 1.0, const std::string& dash = "");
   void HBand(double y1, double y2, const std::string& fill, double opacity);
+  // A filled rectangle between data corners (x1, y1) and (x2, y2): a bar.
+  void Rect(double x1, double y1, double x2, double y2, const std::string& fill,
+            const std::string& tooltip = "");
   void Polyline(const std::vector<std::pair<double, double>>& points, const std::string& stroke,
                 double width = 1.5);
   // A circle of radius `r` in data units (equal-aspect plots).

@@ -10,6 +10,9 @@ std::vector<std::string> Effects::Names() const {
   if (lens_distortion) names.push_back("lens_distortion");
   if (encoder_backlash) names.push_back("encoder_backlash");
   if (carpet_drift) names.push_back("carpet_drift");
+  if (tracker_yaw) names.push_back("tracker_yaw");
+  if (speed_slip) names.push_back("speed_slip");
+  if (eccentric_wheel) names.push_back("eccentric_wheel");
   return names;
 }
 

@@ -233,6 +233,21 @@ bool VirtualRobot::Step() {
                          true_left_per_tick;
       double true_right = GroundTicks(right_ticks, &right_direction_, &right_dead_ticks_) *
                           true_right_per_tick;
+      if (config_.effects.eccentric_wheel) {
+        // eccentric_wheel: the rolling radius at the wheel's angle mid-step
+        // (the shaft angle; backlash is ignored here).
+        const EccentricWheelEffect& e = *config_.effects.eccentric_wheel;
+        const double shaft = e.left ? left_shaft_ticks_ + 0.5 * left_ticks
+                                    : right_shaft_ticks_ + 0.5 * right_ticks;
+        const double phi = 2.0 * M_PI * shaft / config_.truth.ticks_per_rev;
+        (e.left ? true_left : true_right) *= 1.0 + e.amplitude * std::sin(phi + e.phase_rad);
+      }
+      if (config_.effects.speed_slip) {
+        // speed_slip: each wheel loses k |v| of its travel.
+        const double k = config_.effects.speed_slip->fraction_at_1m_s;
+        true_left *= 1.0 - k * std::abs(true_left) / dt;
+        true_right *= 1.0 - k * std::abs(true_right) / dt;
+      }
       const double sigma = config_.noise.wheel_sigma_m_per_sqrt_m;
       if (sigma > 0.0) {
         true_left += sigma * std::sqrt(std::abs(true_left)) * normal_(rng_);

@@ -36,14 +36,24 @@ TEST(CliExplain, NamesTheHiddenEffectsAndWritesTheReports) {
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["effects_added"], nlohmann::json({"carpet_drift", "turn_slip"}));
   ASSERT_EQ(j["steps"].size(), 2u);
-  for (const auto& step : j["steps"])
-    for (const char* key : {"effect", "params", "gap_after_mm", "score"})
+  for (const auto& step : j["steps"]) {
+    for (const char* key : {"effect", "params", "gap_after_mm", "score", "cross_validation"})
       EXPECT_TRUE(step.contains(key)) << key;
+    // Each named effect predicts the runs it was not fitted on better.
+    const auto& cv = step["cross_validation"];
+    EXPECT_EQ(cv["method"], "leave_one_run_out");
+    EXPECT_EQ(cv["folds"], 5);
+    EXPECT_LT(cv["heldout_rms_after_mm"].get<double>(),
+              0.9 * cv["heldout_rms_before_mm"].get<double>());
+  }
   // Parameters keyed as the scenario keys them, in its units.
   EXPECT_NEAR(j["steps"][0]["params"]["rate_mm_per_m"].get<double>(), 10.0, 0.5);
   EXPECT_NEAR(j["steps"][0]["params"]["grain_deg"].get<double>(), 30.0, 3.0);
   EXPECT_NEAR(j["steps"][1]["params"]["fraction_at_1rad_s"].get<double>(), 0.03, 0.002);
   EXPECT_LT(j["gap_after_mm"].get<double>(), j["gap_before_mm"].get<double>() / 3.0);
+  // Both named: nothing structured remains.
+  EXPECT_EQ(j["unexplained"], nlohmann::json::array());
+  EXPECT_FALSE(j["remainder"]["significant"].get<bool>());
   // The truth it never read: Ed = 70.06 / 69.95, Eb = 303 / 300, within 3
   // of their own sigmas (this seed draws Eb at about 2 sigma).
   const auto& p = j["final"]["parameters"];

@@ -112,12 +112,20 @@ TEST(Scenario, LoadsEveryEffect) {
                "  - {name: turn_slip, fraction_at_1rad_s: 0.02}\n"
                "  - {name: lens_distortion, k1: 0.01}\n"
                "  - {name: encoder_backlash, ticks: 3}\n"
-               "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n");
+               "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n"
+               "  - {name: tracker_yaw, deg: -1.5}\n"
+               "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
+               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n");
   std::string error;
   const auto s = LoadScenario(WriteTemp(text), &error);
   ASSERT_TRUE(s) << error;
   const sim::Effects& e = s->robot.effects;
-  EXPECT_EQ(e.Names().size(), 6u);
+  EXPECT_EQ(e.Names().size(), 9u);
+  EXPECT_NEAR(e.tracker_yaw->yaw_rad, -1.5 * M_PI / 180, 1e-12);
+  EXPECT_NEAR(e.speed_slip->fraction_at_1m_s, 0.03, 1e-12);
+  EXPECT_FALSE(e.eccentric_wheel->left);
+  EXPECT_NEAR(e.eccentric_wheel->amplitude, 0.02, 1e-12);
+  EXPECT_NEAR(e.eccentric_wheel->phase_rad, M_PI / 2, 1e-12);
   EXPECT_NEAR(e.tag_offset->x_m, 0.020, 1e-12);
   EXPECT_NEAR(e.camera_latency->latency_s, 0.040, 1e-12);
   EXPECT_NEAR(e.turn_slip->fraction_at_1rad_s, 0.02, 1e-12);

@@ -118,5 +118,59 @@ TEST(CarpetDrift, NoneDuringInPlaceTurns) {
   EXPECT_NEAR(end.translation().norm(), 0.0, 1e-5);
 }
 
+// A straight at constant speed v travels (1 - k v) of its planned length;
+// twice as fast, twice the loss.
+TEST(SpeedSlip, AStraightAtConstantSpeedLosesKVOfItsLength) {
+  const double k = 0.04, L = 2.0;
+  for (double v : {0.1, 0.2, 0.4}) {
+    RobotConfig c = ConstantRateRobot();
+    c.effects.speed_slip = SpeedSlipEffect{k};
+    VirtualRobot robot(c);
+    RunSpec spec = RunSpec::Straight(L);
+    spec.speed_m_s = v;
+    const Pose2 end = robot.Execute(spec).TrueEndInStartFrame();
+    EXPECT_NEAR(end.x(), L * (1.0 - k * v), 1e-4) << "v " << v;
+    EXPECT_NEAR(end.heading(), 0.0, 1e-6);
+  }
+}
+
+// A spin at omega: each wheel at omega b / 2 turns (1 - k omega b / 2) of the plan.
+TEST(SpeedSlip, ASpinLosesKTimesItsWheelSpeed) {
+  const double k = 0.04, omega = 2.0;
+  RobotConfig c = ConstantRateRobot();
+  c.effects.speed_slip = SpeedSlipEffect{k};
+  VirtualRobot robot(c);
+  RunSpec spec = RunSpec::Spin(1, Direction::kCcw);
+  spec.turn_rate_rad_s = omega;
+  const Pose2 end = robot.Execute(spec).TrueEndInStartFrame();
+  const double wheel_speed = omega * c.truth.track_m / 2.0;
+  EXPECT_NEAR(end.heading(), WrapAngle(2.0 * M_PI * (1.0 - k * wheel_speed)), 2e-4);
+}
+
+// The rolling radius r (1 + a sin(phi)) averages out over whole wheel turns:
+// a straight of n whole turns of the left wheel ends where it would without
+// it; half a turn from phi = 0 rolls r (pi + 2 a) instead of r pi.
+TEST(EccentricWheel, WholeTurnsAverageOutHalfATurnRollsTwoAMore) {
+  const double a = 0.03;
+  RobotConfig c = ConstantRateRobot();
+  c.noise.random_encoder_phase = false;
+  const double circumference = M_PI * c.truth.left_wheel_diameter_m;
+  auto straight_end = [&](double length, bool eccentric) {
+    RobotConfig cc = c;
+    if (eccentric) cc.effects.eccentric_wheel = EccentricWheelEffect{true, a, 0.0};
+    VirtualRobot robot(cc);
+    return robot.Execute(RunSpec::Straight(length)).TrueEndInStartFrame();
+  };
+  const Pose2 whole = straight_end(3.0 * circumference, true);
+  const Pose2 plain = straight_end(3.0 * circumference, false);
+  EXPECT_NEAR(WrapAngle(whole.heading() - plain.heading()), 0.0, 2e-4 * a / 0.03);
+  const Pose2 half = straight_end(0.5 * circumference, true);
+  const Pose2 half_plain = straight_end(0.5 * circumference, false);
+  // The left wheel rolls 2 a r further: the robot turns right by that over the track.
+  const double extra = 2.0 * a * c.truth.left_wheel_diameter_m / 2.0;
+  EXPECT_NEAR(WrapAngle(half_plain.heading() - half.heading()), extra / c.truth.track_m,
+              0.05 * extra / c.truth.track_m);
+}
+
 }  // namespace
 }  // namespace odocal::sim

@@ -17,6 +17,7 @@
 #ifndef ODOCAL_CALIBRATION_REPLAY_H_
 #define ODOCAL_CALIBRATION_REPLAY_H_
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,6 +44,13 @@ struct ReplayOptions {
   // At most this many still frames before the first motion anchor the start
   // (the last ones, closest to the motion).
   int max_anchor_frames = 200;
+  // Stand-ins for a frame whose stated sigma is zero (as in the fit).
+  double default_position_sigma_m = 1e-3;
+  double default_heading_sigma_rad = 0.2 * M_PI / 180.0;
+  // Each wheel's last direction of motion before the run (+1, -1), for
+  // encoder_backlash; a session's earlier runs set it (LastShaftDirections).
+  int left_direction0 = 1;
+  int right_direction0 = 1;
 
   bool IsValid(std::string* why) const;
 };

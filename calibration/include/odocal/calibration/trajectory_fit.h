@@ -29,6 +29,11 @@
 //   carpet_drift     while not turning in place, lateral drift to the left of
 //                    rate cos(heading - grain) per metre forward; fitted as the
 //                    linear pair (a, b) = rate (cos grain, sin grain)
+//   tracker_yaw      the tracked body's (tag's) heading is off the robot's by a
+//                    constant: measured heading = heading + yaw (the position
+//                    part of a rotated body offset is tag_offset's)
+//   speed_slip       each wheel's ground travel = tick travel (1 - k |v_wheel|),
+//                    v_wheel that wheel's speed over the telemetry step (m/s)
 //
 // Robust loss: Huber on each frame's whitened error, by iteratively
 // reweighted least squares (the frames of a run share one dead-reckoned
@@ -54,6 +59,7 @@
 #define ODOCAL_CALIBRATION_TRAJECTORY_FIT_H_
 
 #include <array>
+#include <cmath>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -70,17 +76,19 @@ namespace odocal::calibration {
 
 // The candidate effects, named as scenario files name them.
 enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
-                    kCarpetDrift };
-inline constexpr std::array<Effect, 6> kAllEffects = {
+                    kCarpetDrift, kTrackerYaw, kSpeedSlip };
+inline constexpr std::array<Effect, 8> kAllEffects = {
     Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
-    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift};
+    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift,
+    Effect::kTrackerYaw,     Effect::kSpeedSlip};
 std::string_view ToString(Effect effect);
 
 // The effect parameter block. Indices into `values` are fixed; a disabled
 // effect's values are held at zero.
 struct EffectParams {
   enum Index {
-    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY, kSize
+    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY,
+    kTrackerYaw, kSpeedSlip, kSize
   };
   std::array<double, kSize> values{};
 
@@ -90,6 +98,8 @@ struct EffectParams {
   double slip_fraction_at_1rad_s() const { return values[kSlip]; }
   double k1_delta() const { return values[kK1]; }
   double backlash_ticks() const { return values[kBacklash]; }
+  double tracker_yaw_rad() const { return values[kTrackerYaw]; }
+  double speed_slip_at_1m_s() const { return values[kSpeedSlip]; }
   double drift_rate_m_per_m() const;
   double drift_grain_rad() const;
 };
@@ -132,6 +142,8 @@ struct TrajectoryFitOptions {
   // Runs with fewer valid camera frames than this are left out (their start
   // pose cannot be determined).
   int min_frames_per_run = 10;
+  // Monte Carlo draws of the wheel noise for wheel_noise_gap_m (0: not computed).
+  int wheel_noise_draws = 16;
 
   bool IsValid(std::string* why) const;
 };
@@ -147,6 +159,7 @@ struct FrameResidual {
   Eigen::Vector2d measured_m = Eigen::Vector2d::Zero();
   Eigen::Vector2d error_m = Eigen::Vector2d::Zero();  // model - measured
   double heading_error_rad = 0.0;
+  double measured_heading_rad = 0.0;
   double weight = 1.0;  // robust (IRLS) weight
 };
 
@@ -188,6 +201,13 @@ struct TrajectoryFitResult {
   double gap_m = 0.0;
   // The gap the stated frame noise alone would leave.
   double noise_floor_m = 0.0;
+  // The gap the wheel noise (options.wheel_sigma_m_per_sqrt_m) alone is
+  // expected to leave after the fit (seeded Monte Carlo, linearised).
+  double wheel_noise_gap_m = 0.0;
+  // The gap the model's noise (camera and wheels) explains by itself.
+  double expected_gap_m() const {
+    return std::sqrt(noise_floor_m * noise_floor_m + wheel_noise_gap_m * wheel_noise_gap_m);
+  }
   // Sum of robust-weighted squared whitened residuals.
   double weighted_sse = 0.0;
   // Lag-one autocorrelation of the whitened residuals within runs (for the
@@ -213,6 +233,26 @@ struct TrajectoryFitResult {
 TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                                   const TrajectoryFitOptions& options = {},
                                   const TrajectoryFitResult* warm_start = nullptr);
+
+// The model's prediction of what the pose source measures for one run: the
+// run's ticks dead-reckoned from `start` (the robot's pose at the run's first
+// telemetry sample, in the measurement frame) with the believed parameters
+// corrected by `scales`, the effects of `effects` (zero: none), seen through
+// `camera` when given (the lens candidate), at each camera stamp of
+// `stamps_s` (video clock). The same
+// model FitTrajectory fits. `left_direction0`/`right_direction0`: each wheel's
+// last direction of motion before the run (+1 forward, -1 backward), which
+// encoder_backlash needs; LastShaftDirections carries them over from an earlier
+// run. Empty when the run has fewer than 2 telemetry samples.
+std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParams& believed,
+                                        const WheelScales& scales, const EffectParams& effects,
+                                        const std::optional<FloorCamera>& camera,
+                                        const Pose2& start, const std::vector<double>& stamps_s,
+                                        int left_direction0 = 1, int right_direction0 = 1);
+
+// Each wheel's last direction of motion at the end of `run` (+1, -1), given
+// those before it (unchanged for a wheel that did not move).
+void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction);
 
 // How well the data tells a candidate effect apart from the parameters of
 // `fit` (its base and enabled effects).

@@ -21,6 +21,7 @@ void RegisterExplainCommand(CLI::App& app);
 void RegisterValidateCommand(CLI::App& app);
 void RegisterStationCommand(CLI::App& app);
 void RegisterImportCommand(CLI::App& app);
+void RegisterCheckCommand(CLI::App& app);
 
 }  // namespace odocal::rig
 

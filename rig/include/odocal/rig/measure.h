@@ -91,6 +91,13 @@ struct SessionMeasurement {
   calibration::MeasuredSession ToMeasuredSession() const;
 };
 
+// The camera's geometry over the tag plane, as the lens candidate of the
+// trajectory model needs it (calibration/floor_camera.h): the camera pose the
+// plane estimate found in the videos (the session's mount guess without one)
+// and the session's calibrated lens. nullopt when that is not a camera looking
+// down at the plane. Shared by explain and check, so both model the same lens.
+std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& measurement);
+
 // Progress: called with (frames done, frames expected) from worker threads.
 using ProgressFn = std::function<void(long, long)>;
 

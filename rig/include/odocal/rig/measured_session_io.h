@@ -49,6 +49,7 @@ struct StandInCameraOptions {
   double tag_y_m = 0.0;
   double latency_s = 0.0;  // a frame captured at telemetry time t is stamped t - latency
   double k1_delta = 0.0;   // the lens's true k1 minus camera.distortion[0]
+  double tracker_yaw_rad = 0.0;  // the tag turned on the robot: heading measured + yaw
 
   bool IsValid(std::string* why) const;
 };

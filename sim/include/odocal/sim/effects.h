@@ -53,6 +53,30 @@ struct CarpetDriftEffect {
   double rate_m_per_m = 0.0;
 };
 
+// {name: tracker_yaw, deg}: the tracked body (the tag) is mounted turned by
+// this angle on the robot: the pose source reports the robot's heading plus
+// it (and, converting to the robot with the operator's body offset, that
+// offset turned by it). Camera-side: the stand-in camera and the renderer.
+struct TrackerYawEffect {
+  double yaw_rad = 0.0;
+};
+
+// {name: speed_slip, fraction_at_1m_s}: each wheel's ground travel is its
+// rolled travel times (1 - k |v_wheel| / (1 m/s)): slip that grows with speed.
+struct SpeedSlipEffect {
+  double fraction_at_1m_s = 0.0;
+};
+
+// {name: eccentric_wheel, wheel, amplitude, phase_deg}: one wheel's rolling
+// radius varies with its angle phi as r (1 + amplitude sin(phi + phase)).
+// Simulator only — not a candidate of explain's model library, so that
+// explain must report it as unexplained rather than name a candidate.
+struct EccentricWheelEffect {
+  bool left = true;  // which wheel
+  double amplitude = 0.0;
+  double phase_rad = 0.0;
+};
+
 struct Effects {
   std::optional<TagOffsetEffect> tag_offset;
   std::optional<CameraLatencyEffect> camera_latency;
@@ -60,6 +84,9 @@ struct Effects {
   std::optional<LensDistortionEffect> lens_distortion;
   std::optional<EncoderBacklashEffect> encoder_backlash;
   std::optional<CarpetDriftEffect> carpet_drift;
+  std::optional<TrackerYawEffect> tracker_yaw;
+  std::optional<SpeedSlipEffect> speed_slip;
+  std::optional<EccentricWheelEffect> eccentric_wheel;
 
   // The names of the effects that are on, in the order above.
   std::vector<std::string> Names() const;

@@ -1,0 +1,182 @@
+#include "odocal/calibration/replay.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include <Eigen/Dense>
+
+namespace odocal::calibration {
+namespace {
+
+struct Frame {
+  double t_s = 0.0;
+  Pose2 z;
+  double sigma_p = 0.0;
+  double sigma_h = 0.0;
+};
+
+// The start pose whose prediction best matches the anchor frames (whitened
+// least squares by Gauss-Newton with a numeric Jacobian: 3 parameters, a few
+// hundred residuals; the model is smooth in the start pose).
+Pose2 AnchorStart(const MeasuredRun& run, const WheelParams& believed, const ReplayModel& model,
+                  const std::optional<FloorCamera>& camera, const ReplayOptions& options,
+                  const std::vector<Frame>& anchor) {
+  std::vector<double> stamps;
+  for (const Frame& f : anchor) stamps.push_back(f.t_s);
+  auto predict = [&](const Eigen::Vector3d& s) {
+    return PredictMeasuredPoses(run, believed, model.scales, model.effects, camera,
+                                Pose2::FromXYHeading(s[0], s[1], s[2]), stamps,
+                                options.left_direction0, options.right_direction0);
+  };
+  auto residuals = [&](const Eigen::Vector3d& s) {
+    const std::vector<Pose2> p = predict(s);
+    Eigen::VectorXd r(3 * anchor.size());
+    for (size_t j = 0; j < anchor.size(); ++j) {
+      r[3 * j] = (p[j].x() - anchor[j].z.x()) / anchor[j].sigma_p;
+      r[3 * j + 1] = (p[j].y() - anchor[j].z.y()) / anchor[j].sigma_p;
+      r[3 * j + 2] = WrapAngle(p[j].heading() - anchor[j].z.heading()) / anchor[j].sigma_h;
+    }
+    return r;
+  };
+  // Initial guess: the first anchor frame, with the motion the model predicts
+  // up to it (from an identity start) undone.
+  const std::vector<Pose2> relative = predict(Eigen::Vector3d::Zero());
+  const Pose2 guess = anchor.front().z * relative.front().inverse();
+  Eigen::Vector3d s(guess.x(), guess.y(), guess.heading());
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    const Eigen::VectorXd r = residuals(s);
+    Eigen::MatrixXd J(r.size(), 3);
+    for (int c = 0; c < 3; ++c) {
+      constexpr double kStep = 1e-6;  // metres, radians
+      Eigen::Vector3d plus = s, minus = s;
+      plus[c] += kStep;
+      minus[c] -= kStep;
+      J.col(c) = (residuals(plus) - residuals(minus)) / (2.0 * kStep);
+    }
+    const Eigen::Vector3d step = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
+    if (!step.allFinite()) break;
+    s += step;
+    if (step.head<2>().norm() < 1e-10 && std::abs(step[2]) < 1e-10) break;
+  }
+  return Pose2::FromXYHeading(s[0], s[1], s[2]);
+}
+
+// The mean of poses (heading: the circular mean).
+Pose2 MeanPose(const std::vector<Pose2>& poses) {
+  double x = 0.0, y = 0.0, c = 0.0, s = 0.0;
+  for (const Pose2& p : poses) {
+    x += p.x();
+    y += p.y();
+    c += std::cos(p.heading());
+    s += std::sin(p.heading());
+  }
+  const double n = static_cast<double>(poses.size());
+  return Pose2::FromXYHeading(x / n, y / n, std::atan2(s, c));
+}
+
+}  // namespace
+
+bool ReplayOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (anchor_frames < 1) return fail("anchor_frames must be at least 1");
+  if (max_anchor_frames < 1) return fail("max_anchor_frames must be at least 1");
+  if (!(default_position_sigma_m > 0.0)) return fail("default_position_sigma_m must be positive");
+  if (!(default_heading_sigma_rad > 0.0)) return fail("default_heading_sigma_rad must be positive");
+  if (std::abs(left_direction0) != 1 || std::abs(right_direction0) != 1)
+    return fail("shaft directions must be +1 or -1");
+  return true;
+}
+
+RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const ReplayModel& model,
+                    const std::optional<FloorCamera>& camera, const ReplayOptions& options) {
+  RunReplay out;
+  auto fail = [&](const std::string& why) {
+    out.ok = false;
+    out.message = run.name + ": " + why;
+    return out;
+  };
+  std::string why;
+  if (!options.IsValid(&why)) return fail("replay options: " + why);
+  if (!believed.IsValid(&why)) return fail("believed parameters: " + why);
+  if (run.telemetry.size() < 2) return fail("fewer than 2 telemetry samples");
+
+  // The wheels' first and last motion (telemetry clock), and the distance.
+  const double left_m_per_tick = believed.LeftMetresPerTick();
+  const double right_m_per_tick = believed.RightMetresPerTick();
+  std::optional<double> first_motion_s, last_motion_s;
+  for (size_t k = 1; k < run.telemetry.size(); ++k) {
+    const std::int64_t dl = run.telemetry[k].left_ticks - run.telemetry[k - 1].left_ticks;
+    const std::int64_t dr = run.telemetry[k].right_ticks - run.telemetry[k - 1].right_ticks;
+    if (dl == 0 && dr == 0) continue;
+    if (!first_motion_s) first_motion_s = run.telemetry[k - 1].t_s;
+    last_motion_s = run.telemetry[k].t_s;
+    // Wheel travel, so that a spin in place counts as distance too.
+    out.distance_m += 0.5 * (std::abs(static_cast<double>(dl)) * left_m_per_tick +
+                             std::abs(static_cast<double>(dr)) * right_m_per_tick);
+  }
+  if (!first_motion_s) return fail("the wheels never moved");
+
+  std::vector<Frame> frames;
+  for (const CameraRecord& f : run.camera) {
+    if (!f.valid) continue;
+    frames.push_back({f.t_s, f.T_world_robot,
+                      f.sigma_position_m > 0.0 ? f.sigma_position_m : options.default_position_sigma_m,
+                      f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
+                                                : options.default_heading_sigma_rad});
+  }
+  std::sort(frames.begin(), frames.end(),
+            [](const Frame& a, const Frame& b) { return a.t_s < b.t_s; });
+  // A frame stamped s shows the robot at telemetry time s + latency.
+  const double latency_s = model.effects.latency_s();
+  size_t n_still = 0;
+  while (n_still < frames.size() && frames[n_still].t_s + latency_s <= *first_motion_s) ++n_still;
+  size_t anchor_begin = 0, anchor_end = 0;  // [begin, end) of `frames`
+  if (n_still > 0) {
+    anchor_end = n_still;
+    anchor_begin = n_still - std::min<size_t>(n_still, options.max_anchor_frames);
+  } else {
+    anchor_end = std::min<size_t>(frames.size(), options.anchor_frames);
+    if (anchor_end < static_cast<size_t>(options.anchor_frames))
+      return fail("only " + std::to_string(frames.size()) + " valid frames, fewer than the " +
+                  std::to_string(options.anchor_frames) + " that anchor the start");
+  }
+  if (anchor_end >= frames.size()) return fail("no valid frame after the start's anchor");
+  const std::vector<Frame> anchor(frames.begin() + anchor_begin, frames.begin() + anchor_end);
+  out.start = AnchorStart(run, believed, model, camera, options, anchor);
+
+  std::vector<double> stamps;
+  for (size_t j = anchor_end; j < frames.size(); ++j) {
+    stamps.push_back(frames[j].t_s);
+    out.measured.push_back(frames[j].z);
+  }
+  out.t_s = stamps;
+  out.predicted = PredictMeasuredPoses(run, believed, model.scales, model.effects, camera,
+                                       out.start, stamps, options.left_direction0,
+                                       options.right_direction0);
+  double sum_sq = 0.0;
+  std::vector<Pose2> final_measured, final_predicted;
+  for (size_t j = 0; j < stamps.size(); ++j) {
+    sum_sq += (out.predicted[j].translation() - out.measured[j].translation()).squaredNorm();
+    if (stamps[j] + latency_s >= *last_motion_s) {
+      final_measured.push_back(out.measured[j]);
+      final_predicted.push_back(out.predicted[j]);
+    }
+  }
+  out.rms_position_error_m = std::sqrt(sum_sq / static_cast<double>(stamps.size()));
+  if (final_measured.empty()) {  // no end rest: the last valid frame
+    final_measured.push_back(out.measured.back());
+    final_predicted.push_back(out.predicted.back());
+  }
+  const Pose2 measured_end = MeanPose(final_measured);
+  const Pose2 predicted_end = MeanPose(final_predicted);
+  out.final_position_error_m = (predicted_end.translation() - measured_end.translation()).norm();
+  out.final_heading_error_rad = WrapAngle(predicted_end.heading() - measured_end.heading());
+  out.ok = true;
+  return out;
+}
+
+}  // namespace odocal::calibration

@@ -503,12 +503,14 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
     else if (u.significant)
       candidates.push_back(f);
   }
-  // Significant as a whole but spread thin: the segments that carry most of it.
-  if (flagged.empty() && u.significant) {
+  // Significant as a whole: also the segments that carry most of it (a
+  // remainder spread thin has no segment at twice the expected gap, and a
+  // short rest that carries an accumulated error may be the only one).
+  if (u.significant) {
     std::sort(candidates.begin(), candidates.end(),
               [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
     candidates.resize(std::min<size_t>(candidates.size(), 3));
-    flagged = candidates;
+    flagged.insert(flagged.end(), candidates.begin(), candidates.end());
   }
   std::sort(flagged.begin(), flagged.end(),
             [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });

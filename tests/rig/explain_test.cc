@@ -237,8 +237,9 @@ TEST(Unexplained, AnEccentricWheelIsNotMisnamed) {
     EXPECT_TRUE(r.EffectsAdded().empty());
     EXPECT_TRUE(r.unexplained.significant);
     ASSERT_TRUE(r.unexplained.any());
-    for (const calibration::UnexplainedSegment& w : r.unexplained.where)
-      EXPECT_NE(w.motion, "rest") << "the wheel acts while it rolls";
+    // Listed by contribution: first where the wheel rolls (a rest after
+    // motion may carry the error accumulated before it, but less of it).
+    EXPECT_NE(r.unexplained.where.front().motion, "rest");
     std::printf("[figure] eccentric wheel 3 %% (seed %lu): gap %.3f mm, expected %.3f mm, F %.2f "
                 "(threshold %.2f), %zu segments reported\n",
                 static_cast<unsigned long>(seed), r.unexplained.gap_m * 1e3,

@@ -59,9 +59,10 @@
 //    sqrt(gap^2 - expected_gap^2), is at least `unexplained_min_excess_m`
 //    (0.1 mm: on rendered video with nothing hidden the camera's noise in
 //    motion, larger than the rest scatter it states, left an excess of
-//    0.053 mm). Then the segments (contiguous frames of
-//    one motion in one run) whose RMS is at least twice the expected gap
-//    are reported with run, time span, motion and size — where to look —
+//    0.053 mm). Then the segments (contiguous frames of one motion in one
+//    run) whose RMS is at least twice the expected gap, and the 3 others
+//    that carry most of the excess (frames x excess mean square), are
+//    reported with run, time span, motion and size — where to look —
 //    instead of being forced onto the nearest candidate. A single segment
 //    far above the others is reported even when the whole is not
 //    significant: its RMS at least 3 times the expected gap, its own

@@ -196,7 +196,8 @@ bool ExplainOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!replay.IsValid(why)) return false;
-  if (!(unexplained_alpha > 0.0 && unexplained_alpha < 1.0) || !(unexplained_segment_ratio >= 1.0) ||
+  if (!(unexplained_alpha > 0.0 && unexplained_alpha < 1.0) || !(unexplained_min_excess_m >= 0.0) ||
+      !(unexplained_segment_ratio >= 1.0) ||
       !(unexplained_local_ratio >= 1.0) || unexplained_min_frames < 1 ||
       unexplained_max_reported < 1) {
     if (why) *why = "unexplained options: alpha in (0, 1), ratios >= 1, counts >= 1";
@@ -447,7 +448,7 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
   };
   u.n_eff = effective(static_cast<double>(fit.residuals.size()));
   u.threshold = threshold(u.n_eff, options.unexplained_alpha);
-  u.significant = u.ratio > u.threshold && u.excess_m >= options.min_explained_m;
+  u.significant = u.ratio > u.threshold && u.excess_m >= options.unexplained_min_excess_m;
 
   // Segments: contiguous frames of one motion in one run.
   struct Segment {
@@ -491,7 +492,7 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
       g.s.motion = "curve";
     const double excess = std::sqrt(std::max(0.0, ms - expected_sq));
     const Flagged f{g.s.frames * (ms - expected_sq), g.s};
-    if (excess < options.min_explained_m) continue;
+    if (excess < options.unexplained_min_excess_m) continue;
     const double local = std::max(
         options.unexplained_local_ratio * options.unexplained_local_ratio,
         threshold(effective(g.s.frames), options.unexplained_alpha / n_segments));
@@ -502,12 +503,14 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
     else if (u.significant)
       candidates.push_back(f);
   }
-  // Significant as a whole but spread thin: the segments that carry most of it.
-  if (flagged.empty() && u.significant) {
+  // Significant as a whole: also the segments that carry most of it (a
+  // remainder spread thin has no segment at twice the expected gap, and a
+  // short rest that carries an accumulated error may be the only one).
+  if (u.significant) {
     std::sort(candidates.begin(), candidates.end(),
               [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
     candidates.resize(std::min<size_t>(candidates.size(), 3));
-    flagged = candidates;
+    flagged.insert(flagged.end(), candidates.begin(), candidates.end());
   }
   std::sort(flagged.begin(), flagged.end(),
             [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });

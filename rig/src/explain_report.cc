@@ -135,7 +135,7 @@ nlohmann::json RemainderJson(const calibration::UnexplainedReport& u) {
           {"statistic",
            "F = gap^2 / expected_gap^2 (camera noise and wheel noise after the fit) against "
            "chi2_{2 N_eff}(0.999) / (2 N_eff); significant if above it and the excess "
-           "sqrt(gap^2 - expected^2) >= 0.05 mm; then segments with RMS >= 2x the expected gap "
+           "sqrt(gap^2 - expected^2) >= 0.1 mm; then segments with RMS >= 2x the expected gap "
            "are listed; a lone segment with RMS >= 3x, chi-square significant at 0.001 / "
            "segments, is listed in any case"}};
 }
@@ -205,7 +205,7 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
        "effect's parameters against zero (wheel noise included) above its chi-square 0.999 "
        "quantile, and it explains at least 0.05 mm RMS of the gap, and (when the session has "
        "more than one run) it predicts held-out runs better: the RMS over held-out runs of "
-       "their replays' RMS position error falls by more than 10 % and 0.01 mm (leave one run "
+       "their replays' RMS position error falls by more than 5 % and 0.01 mm (leave one run "
        "out up to 8 runs, else 5 folds by run)"},
       {"not_kept", rejected},
       {"cannot_tell", aliased},

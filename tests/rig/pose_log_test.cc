@@ -470,7 +470,9 @@ TEST(OptiOdomImport, SquareSetThenBatchMatchesTheAuthorsUmbmark) {
   const std::string set = OptiOdomSquareSet();
   if (set.empty()) GTEST_SKIP() << "OptiOdom data not found (shared/realdata/optiodom)";
   const std::string dir = test_util::MakeTempDir("odocal_optiodom_");
-  const CommandResult imported = RunCommand(Odocal("import optiodom " + set + " --out " + dir + "/s"));
+  // A relative --out: the session's paths must still be right.
+  const CommandResult imported =
+      RunCommand("cd " + dir + " && " + Odocal("import optiodom " + set + " --out s"));
   ASSERT_EQ(imported.exit_code, 0) << imported.err;
   std::ifstream yaml(dir + "/s/session.yaml");
   std::stringstream text;

@@ -461,7 +461,8 @@ std::string OptiOdomSquareSet() {
                                  test_util::SourceDir() + "/../../shared/realdata/optiodom",
                                  std::string("/work/shared/realdata/optiodom")}) {
     const std::string set = root + "/diff/square/230620202042";
-    if (std::filesystem::is_directory(set)) return set;
+    // Absolute: the import runs from another directory.
+    if (std::filesystem::is_directory(set)) return std::filesystem::absolute(set).lexically_normal();
   }
   return "";
 }

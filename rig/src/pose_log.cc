@@ -443,11 +443,7 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
     return true;
   }
 
-  double pose_turn_rad = 0.0;
-  const auto Body = [&](const calibration::CameraRecord& c) { return c.T_world_robot * T_robot_body; };
-  // Units: path length and heading change, against the ticks'. Distances
-  // accumulate only beyond a step of 10 mm (2 deg) so that frame noise does
-  // not add up to a path of its own.
+  // Units: path length and heading change, against the ticks'.
   double tick_path = 0.0;
   for (size_t i = 1; i < m->telemetry.size(); ++i) {
     const auto& a = m->telemetry[i - 1];
@@ -465,8 +461,10 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
   Series pose_heading;  // unwrapped, valid frames
   // The path of the tracked body as logged, before any lever arm is undone:
   // it checks the file's unit (a body off the axle adds its lever arm's
-  // sweep in the turns, well inside the bounds).
-  double pose_path = 0.0;
+  // sweep in the turns, well inside the bounds). It accumulates in steps of
+  // 10 mm so that frame noise does not add up to a path of its own.
+  const auto Body = [&](const calibration::CameraRecord& c) { return c.T_world_robot * T_robot_body; };
+  double pose_path = 0.0, pose_turn = 0.0;
   {
     const calibration::CameraRecord* anchor = nullptr;
     const calibration::CameraRecord* prev = nullptr;
@@ -487,9 +485,8 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
         anchor = &c;
       }
     }
-    pose_turn_rad = Variation(overlap_heading, kHeadingStep);
+    pose_turn = Variation(overlap_heading, kHeadingStep);
   }
-  const double pose_turn = pose_turn_rad;
   if (tick_path >= options.min_path_for_unit_check_m) {
     stats->path_ratio = pose_path / tick_path;
     if (stats->path_ratio < options.min_unit_ratio || stats->path_ratio > options.max_unit_ratio) {

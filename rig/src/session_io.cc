@@ -23,9 +23,10 @@ std::string Resolve(const fs::path& dir, const std::string& file) {
   return (p.is_absolute() ? p : dir / p).lexically_normal().string();
 }
 
+// `dir` is absolute; `file` may be relative to the working directory.
 std::string Relative(const fs::path& dir, const std::string& file) {
   if (file.empty()) return file;
-  return fs::path(file).lexically_relative(dir).string();
+  return fs::absolute(file).lexically_normal().lexically_relative(dir).string();
 }
 
 void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
@@ -77,7 +78,7 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
 
 std::optional<std::string> WriteSession(const Session& session, const std::string& path,
                                         const std::vector<std::string>& comment) {
-  const fs::path dir = fs::absolute(path).parent_path();
+  const fs::path dir = fs::absolute(path).lexically_normal().parent_path();
   if (session.has_camera) {
     CameraFile camera;
     camera.intrinsics = session.intrinsics;

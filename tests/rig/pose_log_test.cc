@@ -461,7 +461,8 @@ std::string OptiOdomSquareSet() {
                                  test_util::SourceDir() + "/../../shared/realdata/optiodom",
                                  std::string("/work/shared/realdata/optiodom")}) {
     const std::string set = root + "/diff/square/230620202042";
-    if (std::filesystem::is_directory(set)) return set;
+    // Absolute: the import runs from another directory.
+    if (std::filesystem::is_directory(set)) return std::filesystem::absolute(set).lexically_normal();
   }
   return "";
 }
@@ -470,7 +471,9 @@ TEST(OptiOdomImport, SquareSetThenBatchMatchesTheAuthorsUmbmark) {
   const std::string set = OptiOdomSquareSet();
   if (set.empty()) GTEST_SKIP() << "OptiOdom data not found (shared/realdata/optiodom)";
   const std::string dir = test_util::MakeTempDir("odocal_optiodom_");
-  const CommandResult imported = RunCommand(Odocal("import optiodom " + set + " --out " + dir + "/s"));
+  // A relative --out: the session's paths must still be right.
+  const CommandResult imported =
+      RunCommand("cd " + dir + " && " + Odocal("import optiodom " + set + " --out s"));
   ASSERT_EQ(imported.exit_code, 0) << imported.err;
   std::ifstream yaml(dir + "/s/session.yaml");
   std::stringstream text;

@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "odocal/calibration/corrections.h"
+#include "odocal/rig/output.h"
 #include "svg_plot.h"
 
 namespace odocal::rig {
@@ -213,6 +215,12 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
       {"remainder", RemainderJson(result.unexplained)},
       {"base", FitJson(result.base)},
       {"final", FitJson(result.final_fit)},
+      // The physical parameters the final fit stands for, and the beliefs they
+      // are relative to: another session of the same robot, recorded with
+      // other beliefs, can replay them (odocal check).
+      {"believed", WheelParamsJson(session.believed)},
+      {"corrected", WheelParamsJson(calibration::ApplyWheelScales(session.believed,
+                                                                  result.final_fit.scales))},
       {"residuals_before", SummaryJson(result.base_residuals)},
       {"residuals_after", SummaryJson(result.final_residuals)},
   };

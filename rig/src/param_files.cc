@@ -90,6 +90,28 @@ ParamSet FromExplain(const nlohmann::json& j, const calibration::WheelParams& be
   set.model.scales.r_left = es * (dl + dr) / (dl + ed * dr);
   set.model.scales.r_right = ed * set.model.scales.r_left;
   set.model.scales.Eb = eb;
+  // The fit's scales are relative to the beliefs of the session it was fitted
+  // on; when explain.json states them, re-express the physical robot relative
+  // to this session's (the same robot recorded with other beliefs).
+  if (j.contains("believed") && j["believed"].is_object()) {
+    const nlohmann::json& b = j["believed"];
+    auto mm = [&](const char* key) {
+      if (!b.contains(key) || !b[key].is_number() || !(b[key].get<double>() > 0.0))
+        throw KeyError(std::string("believed.") + key + ": expected a positive number");
+      return b[key].get<double>();
+    };
+    calibration::WheelParams fitted_on;
+    fitted_on.left_wheel_diameter_m = mm("left_wheel_diameter_mm") * 1e-3;
+    fitted_on.right_wheel_diameter_m = mm("right_wheel_diameter_mm") * 1e-3;
+    fitted_on.track_m = mm("track_mm") * 1e-3;
+    fitted_on.ticks_per_rev = mm("ticks_per_rev");
+    const double rl = es * (fitted_on.left_wheel_diameter_m + fitted_on.right_wheel_diameter_m) /
+                      (fitted_on.left_wheel_diameter_m + ed * fitted_on.right_wheel_diameter_m);
+    set.model.scales.r_left = rl * fitted_on.LeftMetresPerTick() / believed.LeftMetresPerTick();
+    set.model.scales.r_right =
+        ed * rl * fitted_on.RightMetresPerTick() / believed.RightMetresPerTick();
+    set.model.scales.Eb = eb * fitted_on.track_m / believed.track_m;
+  }
   if (!j.contains("effects_added")) throw KeyError("effects_added: missing (required)");
   if (!j["effects_added"].is_array()) throw KeyError("effects_added: expected a list of effects");
   for (const nlohmann::json& name : j["effects_added"]) {

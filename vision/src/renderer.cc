@@ -319,9 +319,20 @@ RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& traje
   // Rolling shutter: bands of rows, each exposed at its middle row's time, so
   // that the image moves at most motion_step_px between neighbouring bands.
   const double row_time = H > 1 ? rs / (H - 1) : 0.0;
-  const double rim_speed_px_s = e > 0.0 ? motion_px / e : 0.0;
+  // Image motion over the read-out, measured like the exposure's above.
+  double readout_px = 0.0;
+  const auto r0 = TrueCorners(trajectory(t_mid_s - 0.5 * rs));
+  const auto r1 = TrueCorners(trajectory(t_mid_s + 0.5 * rs));
+  if (r0 && r1) {
+    for (int k = 0; k < 4; ++k) readout_px = std::max(readout_px, cv::norm((*r0)[k] - (*r1)[k]));
+  }
+  const Pose2 ra = trajectory(t_mid_s - 0.5 * rs), rb = trajectory(t_mid_s + 0.5 * rs);
+  readout_px = std::max(readout_px, (std::hypot(rb.x() - ra.x(), rb.y() - ra.y()) +
+                                     std::abs(calibration::WrapAngle(rb.heading() - ra.heading())) *
+                                         impl_->options.body_radius_mm * 1e-3) *
+                                        px_per_m);
   const int bands = std::clamp(
-      static_cast<int>(std::ceil(rim_speed_px_s * rs / impl_->options.motion_step_px)) + 1, 1, 256);
+      static_cast<int>(std::ceil(readout_px / impl_->options.motion_step_px)) + 1, 1, 256);
   std::vector<std::pair<int, std::vector<Pose2>>> out;
   for (int b = 0; b < bands; ++b) {
     const int row_begin = b * H / bands, row_end = (b + 1) * H / bands;

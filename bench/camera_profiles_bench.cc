@@ -12,7 +12,9 @@
 //   camera_profiles_bench [frames=10] [places=12] [seed=1]
 //
 // Then the PSF sweep: the webcam preset with a Gaussian, a disk and a
-// disk+Gaussian PSF of equal width (per-axis sigma 0.8 px).
+// disk+Gaussian PSF of equal width (per-axis sigma 0.8 px), with its noise
+// and codec, and again without them (2 frames a rest), where what is left
+// is each estimator's bias.
 // Figures in docs/vision.md ("Images odocal did not design").
 #include <chrono>
 #include <cmath>
@@ -201,6 +203,19 @@ int main(int argc, char** argv) {
     ImageFormationOptions f = *ImageFormationPreset("webcam");
     f.psf = psf;
     RunPreset(ToString(psf.model), f, frames, places, seed, estimators);
+  }
+  // The same without noise and codec: what is left is the estimators' bias.
+  std::printf("\nPSF sweep without noise and codec (webcam optics and tone: gamma 2.2, Bayer, shading)\n\n");
+  std::printf("| PSF | estimator | pos mean mm | pos max mm | |heading| mean deg | max deg | bias x, y ± spread mm | bias heading ± spread deg | rests |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const PsfOptions& psf : {PsfOptions{PsfOptions::Model::kGaussian, 0.0, 0.8},
+                                PsfOptions{PsfOptions::Model::kDisk, 1.6, 0.0},
+                                PsfOptions{PsfOptions::Model::kDiskGaussian, 1.2, std::sqrt(0.64 - 0.36)}}) {
+    ImageFormationOptions f = *ImageFormationPreset("webcam");
+    f.psf = psf;
+    f.noise = SensorNoiseOptions{0.0, 1e9};
+    f.codec = CodecOptions{};
+    RunPreset(ToString(psf.model), f, 2, places, seed, estimators);
   }
   return 0;
 }

@@ -245,7 +245,6 @@ nlohmann::json RestQualityJson(const RestQuality& q) {
     return nlohmann::json{{"tag_side_px", m.side_px},
                           {"contrast_grey", m.contrast_grey},
                           {"blur_sigma_px", m.blur_sigma_px},
-                          {"tone_gamma", m.gamma},
                           {"saturated_fraction", m.saturated_fraction},
                           {"edge_residual_grey", m.rms_residual_grey}};
   };

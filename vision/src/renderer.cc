@@ -423,13 +423,24 @@ RenderedFrame Renderer::RenderBands(
   cv::Mat blurred;  // the outer window at image resolution, all bands composed
   for (size_t b = 0; b < bands.size() && inner.area() > 0; ++b) {
     const std::vector<Pose2>& poses = bands[b].second;
-    cv::Mat acc = cv::Mat::zeros(outer.height * scale, outer.width * scale, CV_32F);
+    // Rows [row_begin, row_end) of the image come from this band's exposure;
+    // the band is rendered over those rows and the blur's reach around them.
+    const int row_begin = std::max(bands[b].first, outer.y);
+    const int row_end = std::min(b + 1 < bands.size() ? bands[b + 1].first : H, outer.y + outer.height);
+    if (row_end <= row_begin) continue;
+    cv::Rect strip = outer;
+    if (bands.size() > 1) {
+      const int y0 = std::max(outer.y, row_begin - m.blur_margin);
+      const int y1 = std::min(outer.y + outer.height, row_end + m.blur_margin);
+      strip = cv::Rect(outer.x, y0, outer.width, y1 - y0);
+    }
+    cv::Mat acc = cv::Mat::zeros(strip.height * scale, strip.width * scale, CV_32F);
     const double weight = 1.0 / static_cast<double>(poses.size());
-    for (const auto& pose : poses) m.RenderPose(pose, outer, weight, jitter_seed, scale, &acc);
+    for (const auto& pose : poses) m.RenderPose(pose, strip, weight, jitter_seed, scale, &acc);
     cv::Mat blurred_fine, band_image;
     m.Blur(acc, &blurred_fine, scale);
     if (scale > 1) {
-      cv::resize(blurred_fine, band_image, outer.size(), 0, 0, cv::INTER_AREA);
+      cv::resize(blurred_fine, band_image, strip.size(), 0, 0, cv::INTER_AREA);
     } else {
       band_image = blurred_fine;
     }
@@ -437,13 +448,9 @@ RenderedFrame Renderer::RenderBands(
       blurred = band_image;
       break;
     }
-    // Rows [row_begin, row_end) of the image come from this band's exposure.
-    if (blurred.empty()) blurred = band_image.clone();
-    const int row_begin = std::max(bands[b].first, outer.y);
-    const int row_end = std::min(b + 1 < bands.size() ? bands[b + 1].first : H, outer.y + outer.height);
-    if (row_end > row_begin)
-      band_image.rowRange(row_begin - outer.y, row_end - outer.y)
-          .copyTo(blurred.rowRange(row_begin - outer.y, row_end - outer.y));
+    if (blurred.empty()) blurred = cv::Mat::zeros(outer.size(), CV_32F);
+    band_image.rowRange(row_begin - strip.y, row_end - strip.y)
+        .copyTo(blurred.rowRange(row_begin - outer.y, row_end - outer.y));
   }
   if (m.sensor_chain) {
     cv::Mat irradiance = m.bg_blur.clone();

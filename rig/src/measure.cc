@@ -317,7 +317,8 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error) {
   std::string why;
-  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why)) {
+  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
+      !options.quality_gate.IsValid(&why)) {
     if (error) *error = "measure options: " + why;
     return std::nullopt;
   }

@@ -24,6 +24,7 @@ std::optional<std::string> RecordOne(const Scenario& scenario, const sim::RunRec
   const sim::Effects& effects = scenario.robot.effects;
   // The world as it is, not as the operator's files say.
   vision::TagSpec true_tag = *scenario.tag;
+  true_tag.size_mm *= cam.tag_print_scale;  // as printed, not as stated
   if (effects.tag_offset) {
     true_tag.offset_x_mm = effects.tag_offset->x_m * 1e3;
     true_tag.offset_y_mm = effects.tag_offset->y_m * 1e3;

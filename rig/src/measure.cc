@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -97,12 +98,20 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
   if (options.exact_rest_refinement) {
     for (std::optional<calibration::RestWindow>* rest : {&m.start_rest, &m.end_rest}) {
       if (!*rest) continue;
+      const bool start = rest == &m.start_rest;
+      RestQuality quality;
+      RestQuality* q = options.model_free_rest_refinement ? &quality : nullptr;
       if (auto exact = MeasureRestExactly(rm->track.frames, (*rest)->t_begin_s, (*rest)->t_end_s,
-                                          camera, tag)) {
+                                          camera, tag, q, options.quality_gate)) {
         **rest = *exact;
+      } else if (q && !quality.flags.empty()) {
+        // The images cannot support the number: no value, say why.
+        for (const std::string& f : quality.flags)
+          m.flags.push_back("image_quality:" + std::string(start ? "start_rest:" : "end_rest:") + f);
       } else {
         m.flags.push_back("exact_refinement_failed");
       }
+      if (q) (start ? rm->start_quality : rm->end_quality) = std::move(quality);
     }
   }
   if (m.start_rest && m.start_rest->n < 10) m.flags.push_back("short_start_rest");
@@ -157,24 +166,92 @@ std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorn
 
 std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
-    const vision::CameraModel& camera, const vision::TagSpec& tag) {
+    const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
+    const vision::QualityGate& gate) {
   std::vector<calibration::PoseSample> samples;
   int tried = 0;
+  std::map<std::string, int> reasons;
   for (const vision::FrameObservation& f : frames) {
     if (f.t_s < t_begin_s - 1e-9 || f.t_s > t_end_s + 1e-9 || !f.corners_px) continue;
     ++tried;
-    const auto corners = vision::RefineObservationExactly(f, camera);
+    std::optional<vision::TagCorners> corners;
+    if (quality) {
+      if (f.crop.empty()) continue;
+      const vision::ModelFreeRefineResult r = vision::RefineTagCornersModelFree(
+          f.crop, *f.corners_px, &camera, vision::CornerRefineOptions{}, f.crop_origin);
+      FrameQuality fq;
+      fq.t_s = f.t_s;
+      fq.fitted = r.ok;
+      fq.quality = r.quality;
+      fq.flags = r.ok ? vision::QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
+      for (const std::string& reason : fq.flags) ++reasons[reason];
+      if (fq.flags.empty()) corners = r.corners_px;
+      quality->per_frame.push_back(std::move(fq));
+    } else {
+      corners = vision::RefineObservationExactly(f, camera);
+    }
     if (!corners) continue;
     const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
     if (pose.ok) samples.push_back({f.t_s, pose.T_world_robot, true});
+  }
+  if (quality) {
+    quality->frames = tried;
+    quality->usable = static_cast<int>(samples.size());
+    std::vector<vision::TagImageQuality> fitted;
+    for (const FrameQuality& fq : quality->per_frame)
+      if (fq.fitted) fitted.push_back(fq.quality);
+    if (!fitted.empty()) {
+      auto median = [&](auto member) {
+        std::vector<double> v;
+        for (const auto& q : fitted) v.push_back(q.*member);
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+      };
+      vision::TagImageQuality& m = quality->median;
+      m.side_px = median(&vision::TagImageQuality::side_px);
+      m.cell_px = median(&vision::TagImageQuality::cell_px);
+      m.contrast_grey = median(&vision::TagImageQuality::contrast_grey);
+      m.blur_sigma_px = median(&vision::TagImageQuality::blur_sigma_px);
+      m.gamma = median(&vision::TagImageQuality::gamma);
+      for (const auto& q : fitted) {
+        m.saturated_fraction = std::max(m.saturated_fraction, q.saturated_fraction);
+        m.rms_residual_grey = std::max(m.rms_residual_grey, q.rms_residual_grey);
+        m.relative_residual = std::max(m.relative_residual, q.relative_residual);
+      }
+    }
+    if (tried > 0 && 2 * quality->usable < tried)
+      for (const auto& [reason, count] : reasons) quality->flags.push_back(reason);
   }
   if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
   return calibration::SummarizeRest(samples);
 }
 
+nlohmann::json RestQualityJson(const RestQuality& q) {
+  auto entry = [](const vision::TagImageQuality& m) {
+    return nlohmann::json{{"tag_side_px", m.side_px},
+                          {"contrast_grey", m.contrast_grey},
+                          {"blur_sigma_px", m.blur_sigma_px},
+                          {"saturated_fraction", m.saturated_fraction},
+                          {"edge_residual_grey", m.rms_residual_grey}};
+  };
+  nlohmann::json frames = nlohmann::json::array();
+  for (const FrameQuality& f : q.per_frame) {
+    nlohmann::json j = f.fitted ? entry(f.quality) : nlohmann::json::object();
+    j["t_s"] = f.t_s;
+    j["flags"] = f.flags;
+    frames.push_back(j);
+  }
+  nlohmann::json j = entry(q.median);
+  j["frames"] = q.frames;
+  j["usable_frames"] = q.usable;
+  j["flags"] = q.flags;
+  j["per_frame"] = frames;
+  return j;
+}
+
 bool IsFatalFlag(const std::string& flag) {
   for (const char* fatal : {"video_unreadable", "tag_never_seen", "wrong_tag_id", "duplicate_tag_id",
-                            "no_start_rest", "no_end_rest"}) {
+                            "no_start_rest", "no_end_rest", "image_quality"}) {
     if (flag.rfind(fatal, 0) == 0) return true;
   }
   return false;
@@ -243,7 +320,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     std::string* error) {
   std::string why;
   if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
-      !options.pose_log.IsValid(&why)) {
+      !options.pose_log.IsValid(&why) || !options.quality_gate.IsValid(&why)) {
     if (error) *error = "measure options: " + why;
     return std::nullopt;
   }
@@ -417,6 +494,12 @@ nlohmann::json RunJson(const RunMeasurement& rm) {
                  {"searched", searched},
                  {"start_rest", m.start_rest ? m.start_rest->n : 0},
                  {"end_rest", m.end_rest ? m.end_rest->n : 0}};
+  // What the images were like at the rests (medians; each refined frame
+  // under per_frame): tag size, contrast, blur, tone, saturation.
+  if (rm.start_quality || rm.end_quality) {
+    j["quality"] = {{"start_rest", rm.start_quality ? RestQualityJson(*rm.start_quality) : nlohmann::json()},
+                    {"end_rest", rm.end_quality ? RestQualityJson(*rm.end_quality) : nlohmann::json()}};
+  }
   return j;
 }
 

@@ -68,7 +68,8 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   const std::string path = "camera";
   CheckKeys(node, path,
             {"width", "height", "fx", "fy", "cx", "cy", "distortion", "pose", "fps", "noise_sigma",
-             "blur_sigma_px", "exposure_ms", "crf"});
+             "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
+             "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag"});
   CameraScenario c;
   auto whole = [&](const char* key) {
     if (!node[key]) Fail(node, Join(path, key), "missing (required)");
@@ -116,6 +117,75 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
     if (crf < 0 || crf > 51) Fail(node["crf"], "camera.crf", "must be 0 to 51 (x264 CRF)");
     c.crf = static_cast<int>(crf);
   }
+  // Image formation of a real camera (issue 12, vision/image_formation.h):
+  // a named profile, then any part given here on top of it. Without any of
+  // these keys the renderer and the video are exactly as before.
+  vision::ImageFormationOptions& f = c.render.formation;
+  if (node["profile"]) {
+    const std::string name = String(node["profile"], "camera.profile");
+    const auto preset = vision::ImageFormationPreset(name);
+    if (!preset) Fail(node["profile"], "camera.profile", "unknown '" + name + "' (expected machine-vision, webcam or phone)");
+    f = *preset;
+  }
+  if (const YAML::Node psf = node["psf"]) {
+    CheckKeys(psf, "camera.psf", {"model", "radius_px", "sigma_px"});
+    vision::PsfOptions p;
+    const std::string model = psf["model"] ? String(psf["model"], "camera.psf.model") : "gaussian";
+    const auto parsed = vision::ParsePsfModel(model);
+    if (!parsed) Fail(psf["model"], "camera.psf.model", "unknown '" + model + "' (expected gaussian, disk or disk+gaussian)");
+    p.model = *parsed;
+    p.radius_px = OptionalNumber(psf, "camera.psf", "radius_px", 0.0);
+    p.sigma_px = OptionalNumber(psf, "camera.psf", "sigma_px", p.model == vision::PsfOptions::Model::kDisk ? 0.0 : 0.8);
+    std::string why;
+    if (!p.IsValid(&why)) Fail(psf, "camera.psf", why);
+    f.psf = p;
+  }
+  if (node["rolling_shutter_ms"]) f.rolling_shutter_s = Number(node["rolling_shutter_ms"], "camera.rolling_shutter_ms") * 1e-3;
+  if (const YAML::Node bayer = node["bayer"]) {
+    const std::string pattern = String(bayer, "camera.bayer");
+    if (pattern != "rggb" && pattern != "none") Fail(bayer, "camera.bayer", "expected rggb or none");
+    f.bayer = pattern == "rggb";
+  }
+  f.gamma = OptionalNumber(node, path, "gamma", f.gamma);
+  f.vignetting = OptionalNumber(node, path, "vignetting", f.vignetting);
+  f.light_gradient = OptionalNumber(node, path, "light_gradient", f.light_gradient);
+  f.gain = OptionalNumber(node, path, "gain", f.gain);
+  f.sharpen = OptionalNumber(node, path, "sharpen", f.sharpen);
+  if (const YAML::Node noise = node["noise"]) {
+    CheckKeys(noise, "camera.noise", {"read_e", "full_well_e"});
+    vision::SensorNoiseOptions n;
+    n.read_e = OptionalNumber(noise, "camera.noise", "read_e", n.read_e);
+    n.full_well_e = OptionalNumber(noise, "camera.noise", "full_well_e", n.full_well_e);
+    f.noise = n;
+  }
+  if (const YAML::Node codec = node["codec"]) {
+    CheckKeys(codec, "camera.codec", {"h264", "mjpeg"});
+    if (codec.size() != 1) Fail(codec, "camera.codec", "expected one of {h264: CRF} or {mjpeg: QUALITY}");
+    if (codec["h264"]) {
+      f.codec = {vision::CodecOptions::Kind::kH264, static_cast<int>(Integer(codec["h264"], "camera.codec.h264")), 80};
+    } else {
+      f.codec = {vision::CodecOptions::Kind::kMjpeg, 23, static_cast<int>(Integer(codec["mjpeg"], "camera.codec.mjpeg"))};
+    }
+  }
+  if (node["crf"] && (node["codec"] || node["profile"]))
+    Fail(node["crf"], "camera.crf", "give the codec once: crf, or codec/profile");
+  // The video file is H.264 either way: MJPEG is applied frame by frame in
+  // the renderer and then stored losslessly (CRF 0), so it is not coded twice.
+  if (f.codec.kind == vision::CodecOptions::Kind::kH264) c.crf = f.codec.crf;
+  if (f.codec.kind == vision::CodecOptions::Kind::kMjpeg) c.crf = 0;
+  if (const YAML::Node tag = node["tag"]) {
+    CheckKeys(tag, "camera.tag", {"print_scale", "black_level", "white_level"});
+    c.tag_print_scale = OptionalNumber(tag, "camera.tag", "print_scale", 1.0);
+    if (!(c.tag_print_scale > 0.5 && c.tag_print_scale < 2.0))
+      Fail(tag["print_scale"], "camera.tag.print_scale", "must be in (0.5, 2)");
+    // Reflectances, as fractions of the full-scale white (grey 255 at unit gain).
+    c.render.tag_black = 255.0 * OptionalNumber(tag, "camera.tag", "black_level", c.render.tag_black / 255.0);
+    c.render.tag_white = 255.0 * OptionalNumber(tag, "camera.tag", "white_level", c.render.tag_white / 255.0);
+    if (!(c.render.tag_black >= 0.0 && c.render.tag_black + 10.0 < c.render.tag_white))
+      Fail(tag, "camera.tag", "black_level must be >= 0 and well below white_level");
+  }
+  std::string formation_why;
+  if (!f.IsValid(&formation_why)) Fail(node, path, formation_why);
   return c;
 }
 

@@ -19,33 +19,13 @@
 #include "odocal/vision/corner_refine.h"
 
 #include "corner_geometry.h"
+#include "edge_functions.h"
 
 namespace odocal::vision {
 namespace {
 
-template <typename T>
-T Phi(const T& z) {
-  using std::erf;
-  return 0.5 * (1.0 + erf(z * M_SQRT1_2));
-}
-
-template <typename T>
-T SmallPhi(const T& z) {
-  using std::exp;
-  return exp(-0.5 * z * z) * (0.5 * M_2_SQRTPI * M_SQRT1_2);
-}
-
-// Second antiderivative of Phi.
-template <typename T>
-T H(const T& z) {
-  return 0.5 * ((z * z + 1.0) * Phi(z) + z * SmallPhi(z));
-}
-
-// First antiderivative of Phi.
-template <typename T>
-T G(const T& z) {
-  return z * Phi(z) + SmallPhi(z);
-}
+using internal::G;
+using internal::H;
 
 struct EdgePixels {
   std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted pixels

@@ -27,7 +27,7 @@ bool RenderOptions::IsValid(std::string* why) const {
   if (!(plate_margin_mm >= 0.0)) return fail("plate_margin_mm must be >= 0");
   if (edge_supersample < 1 || edge_supersample > 64) return fail("edge_supersample must be in [1, 64]");
   if (optical_oversample < 1 || optical_oversample > 4) return fail("optical_oversample must be in [1, 4]");
-  return true;
+  return formation.IsValid(why);
 }
 
 namespace {
@@ -89,6 +89,19 @@ struct Renderer::Impl {
   std::mt19937_64 offset_rng;
   int blur_margin = 0;
   int blur_ksize = 1;
+  cv::Mat illumination;  // CV_32F relative irradiance, with a sensor chain only
+  bool sensor_chain = false;
+
+  // The optics, by the PSF model when one is given, else the Gaussian.
+  void Blur(const cv::Mat& src, cv::Mat* dst, int scale) const {
+    if (options.formation.psf) {
+      ApplyPsf(src, dst, *options.formation.psf, scale);
+    } else if (options.blur_sigma_px > 0.0) {
+      internal::OpticalBlur(src, dst, options.blur_sigma_px * scale);
+    } else {
+      src.copyTo(*dst);
+    }
+  }
 
   int Classify(const Eigen::Vector2d& q_robot, const Pose2& T_tag_robot) const {
     const Eigen::Vector2d t = T_tag_robot * q_robot;
@@ -244,16 +257,23 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
       row[u] = static_cast<float>(value);
     }
   }
-  if (options.blur_sigma_px > 0.0) {
+  if (options.formation.psf) {
+    impl->blur_margin = PsfMarginPx(*options.formation.psf);
+  } else if (options.blur_sigma_px > 0.0) {
     impl->blur_margin = static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1;
     impl->blur_ksize = internal::BlurKernelSize(options.blur_sigma_px);
-    internal::OpticalBlur(impl->bg_sharp, &impl->bg_blur, options.blur_sigma_px);
-  } else {
-    impl->bg_blur = impl->bg_sharp.clone();
   }
+  impl->Blur(impl->bg_sharp, &impl->bg_blur, 1);
   impl->rng = cv::RNG(options.seed * 7919 + 17);
   impl->offset_rng.seed(options.seed * 104729 + 3);
-  if (options.noise_sigma > 0.0) {
+  impl->sensor_chain = options.formation.HasSensorChain();
+  if (impl->sensor_chain) {
+    // Unit deviates: the sensor chain scales them per pixel (shot noise).
+    impl->illumination = IlluminationField(options.formation, cv::Size(W, H));
+    impl->noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
+    cv::Mat pool(1, static_cast<int>(impl->noise_pool.size()), CV_32F, impl->noise_pool.data());
+    impl->rng.fill(pool, cv::RNG::NORMAL, 0.0, 1.0);
+  } else if (options.noise_sigma > 0.0) {
     impl->noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
     cv::Mat pool(1, static_cast<int>(impl->noise_pool.size()), CV_32F, impl->noise_pool.data());
     impl->rng.fill(pool, cv::RNG::NORMAL, 0.0, options.noise_sigma);
@@ -271,7 +291,7 @@ RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& traje
                                        double t_mid_s) {
   const double e = impl_->options.exposure_s;
   const Pose2 mid = trajectory(t_mid_s);
-  if (e <= 0.0) return RenderPoses({mid}, mid);
+  if (e <= 0.0 && impl_->options.formation.rolling_shutter_s <= 0.0) return RenderPoses({mid}, mid);
   // Image motion over the exposure, at the tag corners and the body's rim.
   double motion_px = 0.0;
   const auto c0 = TrueCorners(trajectory(t_mid_s - 0.5 * e));
@@ -288,14 +308,50 @@ RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& traje
   motion_px = std::max(motion_px, rim_m * px_per_m);
   const int n = std::clamp(static_cast<int>(std::ceil(motion_px / impl_->options.motion_step_px)) + 1,
                            1, impl_->options.max_motion_substeps);
-  std::vector<Pose2> poses;
-  for (int k = 0; k < n; ++k) poses.push_back(trajectory(t_mid_s - 0.5 * e + (k + 0.5) / n * e));
-  return RenderPoses(poses, mid);
+  const double rs = impl_->options.formation.rolling_shutter_s;
+  const int H = impl_->height;
+  auto exposure_at = [&](double t) {
+    std::vector<Pose2> poses;
+    for (int k = 0; k < n; ++k) poses.push_back(trajectory(t - 0.5 * e + (k + 0.5) / n * e));
+    return poses;
+  };
+  if (rs <= 0.0) return RenderBands({{0, exposure_at(t_mid_s)}}, mid);
+  // Rolling shutter: bands of rows, each exposed at its middle row's time, so
+  // that the image moves at most motion_step_px between neighbouring bands.
+  const double row_time = H > 1 ? rs / (H - 1) : 0.0;
+  // Image motion over the read-out, measured like the exposure's above.
+  double readout_px = 0.0;
+  const auto r0 = TrueCorners(trajectory(t_mid_s - 0.5 * rs));
+  const auto r1 = TrueCorners(trajectory(t_mid_s + 0.5 * rs));
+  if (r0 && r1) {
+    for (int k = 0; k < 4; ++k) readout_px = std::max(readout_px, cv::norm((*r0)[k] - (*r1)[k]));
+  }
+  const Pose2 ra = trajectory(t_mid_s - 0.5 * rs), rb = trajectory(t_mid_s + 0.5 * rs);
+  readout_px = std::max(readout_px, (std::hypot(rb.x() - ra.x(), rb.y() - ra.y()) +
+                                     std::abs(calibration::WrapAngle(rb.heading() - ra.heading())) *
+                                         impl_->options.body_radius_mm * 1e-3) *
+                                        px_per_m);
+  const int bands = std::clamp(
+      static_cast<int>(std::ceil(readout_px / impl_->options.motion_step_px)) + 1, 1, 256);
+  std::vector<std::pair<int, std::vector<Pose2>>> out;
+  for (int b = 0; b < bands; ++b) {
+    const int row_begin = b * H / bands, row_end = (b + 1) * H / bands;
+    const double t_row = t_mid_s + (0.5 * (row_begin + row_end - 1) - 0.5 * (H - 1)) * row_time;
+    out.emplace_back(row_begin, exposure_at(t_row));
+  }
+  return RenderBands(out, mid);
 }
 
 RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
                                     const Pose2& T_world_robot_truth) {
+  return RenderBands({{0, exposure_poses}}, T_world_robot_truth);
+}
+
+RenderedFrame Renderer::RenderBands(
+    const std::vector<std::pair<int, std::vector<Pose2>>>& bands,
+    const Pose2& T_world_robot_truth) {
   Impl& m = *impl_;
+  const std::vector<Pose2>& exposure_poses = bands.front().second;
   const int W = m.width, H = m.height;
   RenderedFrame frame;
   frame.T_world_robot = T_world_robot_truth;
@@ -314,11 +370,13 @@ RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
   // Window that changes: geometry box, then + blur margin (inner), + blur margin (outer).
   cv::Rect2d box;
   bool any = false;
-  for (const auto& pose : exposure_poses) {
-    const cv::Rect2d b = m.GeometryBox(pose);
-    if (b.width <= 0) continue;
-    box = any ? (box | b) : b;
-    any = true;
+  for (const auto& band : bands) {
+    for (const auto& pose : band.second) {
+      const cv::Rect2d b = m.GeometryBox(pose);
+      if (b.width <= 0) continue;
+      box = any ? (box | b) : b;
+      any = true;
+    }
   }
   const cv::Rect image_rect(0, 0, W, H);
   cv::Rect inner, outer;
@@ -336,17 +394,19 @@ RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
   // Whole frame: blurred floor + pooled noise.
   frame.image.create(H, W, CV_8U);
   const size_t offset = m.noise_pool.empty() ? 0 : m.offset_rng() % (1u << 16);
-  for (int v = 0; v < H; ++v) {
-    const float* bg = m.bg_blur.ptr<float>(v);
-    uint8_t* out = frame.image.ptr<uint8_t>(v);
-    if (m.noise_pool.empty()) {
-      for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u]);
-    } else {
-      const float* nz = m.noise_pool.data() + offset + static_cast<size_t>(v) * W;
-      for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u] + nz[u]);
+  if (!m.sensor_chain) {
+    for (int v = 0; v < H; ++v) {
+      const float* bg = m.bg_blur.ptr<float>(v);
+      uint8_t* out = frame.image.ptr<uint8_t>(v);
+      if (m.noise_pool.empty()) {
+        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u]);
+      } else {
+        const float* nz = m.noise_pool.data() + offset + static_cast<size_t>(v) * W;
+        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u] + nz[u]);
+      }
     }
+    if (inner.area() <= 0) return frame;
   }
-  if (inner.area() <= 0) return frame;
 
   // Redraw the window: geometry over the sharp floor, averaged over the
   // exposure, blurred, fresh noise, quantised.
@@ -357,22 +417,49 @@ RenderedFrame Renderer::RenderPoses(const std::vector<Pose2>& exposure_poses,
   // their pixels share one sub-pixel phase), a bias no measurement can undo.
   // At 2x the sampled Gaussian is close to the continuous one (<= 0.008 px).
   const int scale = m.options.optical_oversample;
-  cv::Mat acc = cv::Mat::zeros(outer.height * scale, outer.width * scale, CV_32F);
-  const double weight = 1.0 / static_cast<double>(exposure_poses.size());
   // One grid jitter per frame: the coverage errors of consecutive frames are
   // independent and average out over a rest.
   const std::uint64_t jitter_seed = m.offset_rng();
-  for (const auto& pose : exposure_poses) m.RenderPose(pose, outer, weight, jitter_seed, scale, &acc);
-  cv::Mat blurred_fine, blurred;
-  if (m.options.blur_sigma_px > 0.0) {
-    internal::OpticalBlur(acc, &blurred_fine, m.options.blur_sigma_px * scale);
-  } else {
-    blurred_fine = acc;
+  cv::Mat blurred;  // the outer window at image resolution, all bands composed
+  for (size_t b = 0; b < bands.size() && inner.area() > 0; ++b) {
+    const std::vector<Pose2>& poses = bands[b].second;
+    // Rows [row_begin, row_end) of the image come from this band's exposure;
+    // the band is rendered over those rows and the blur's reach around them.
+    const int row_begin = std::max(bands[b].first, outer.y);
+    const int row_end = std::min(b + 1 < bands.size() ? bands[b + 1].first : H, outer.y + outer.height);
+    if (row_end <= row_begin) continue;
+    cv::Rect strip = outer;
+    if (bands.size() > 1) {
+      const int y0 = std::max(outer.y, row_begin - m.blur_margin);
+      const int y1 = std::min(outer.y + outer.height, row_end + m.blur_margin);
+      strip = cv::Rect(outer.x, y0, outer.width, y1 - y0);
+    }
+    cv::Mat acc = cv::Mat::zeros(strip.height * scale, strip.width * scale, CV_32F);
+    const double weight = 1.0 / static_cast<double>(poses.size());
+    for (const auto& pose : poses) m.RenderPose(pose, strip, weight, jitter_seed, scale, &acc);
+    cv::Mat blurred_fine, band_image;
+    m.Blur(acc, &blurred_fine, scale);
+    if (scale > 1) {
+      cv::resize(blurred_fine, band_image, strip.size(), 0, 0, cv::INTER_AREA);
+    } else {
+      band_image = blurred_fine;
+    }
+    if (bands.size() == 1) {
+      blurred = band_image;
+      break;
+    }
+    if (blurred.empty()) blurred = cv::Mat::zeros(outer.size(), CV_32F);
+    band_image.rowRange(row_begin - strip.y, row_end - strip.y)
+        .copyTo(blurred.rowRange(row_begin - outer.y, row_end - outer.y));
   }
-  if (scale > 1) {
-    cv::resize(blurred_fine, blurred, outer.size(), 0, 0, cv::INTER_AREA);
-  } else {
-    blurred = blurred_fine;
+  if (m.sensor_chain) {
+    cv::Mat irradiance = m.bg_blur.clone();
+    if (inner.area() > 0)
+      blurred(cv::Rect(inner.x - outer.x, inner.y - outer.y, inner.width, inner.height))
+          .copyTo(irradiance(inner));
+    frame.image = SensorToGrey(irradiance, m.options.formation, m.options.noise_sigma, m.illumination,
+                               m.noise_pool, offset, inner, &m.rng);
+    return frame;
   }
   cv::Mat window = blurred(cv::Rect(inner.x - outer.x, inner.y - outer.y, inner.width, inner.height));
   cv::Mat noisy = window.clone();

@@ -19,6 +19,7 @@
 #include "odocal/calibration/rest.h"
 #include "odocal/rig/pose_log.h"
 #include "odocal/rig/session.h"
+#include "odocal/vision/edge_quality.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/video_track.h"
 
@@ -41,6 +42,15 @@ struct MeasureOptions {
   // Refine the frames of each start and end rest with the exact edge model
   // before averaging them.
   bool exact_rest_refinement = true;
+  // ... by the edge model that assumes neither the PSF nor a power-law tone
+  // curve (vision/edge_quality.h), which also reports each frame's image
+  // quality; false: the Gaussian edge model of the renderer (issue 3).
+  bool model_free_rest_refinement = true;
+  // When a rest frame's image cannot support the stated sigma (overexposed,
+  // low contrast, defocused, an edge that is not straight). A rest keeps its
+  // number only when at least half its frames pass; otherwise the run gets a
+  // fatal image_quality flag and no return error.
+  vision::QualityGate quality_gate;
   // Floors on a return error's sigma: what the spread of rest frames cannot
   // see (compression artefacts shared by the frames of a rest, detector
   // bias), measured on rendered truth at CRF 12 (docs/vision.md).
@@ -65,11 +75,28 @@ struct MeasureOptions {
 // Flags that leave a run without a return error.
 bool IsFatalFlag(const std::string& flag);
 
+// The image quality of one refined rest frame, and of a rest (issue 12):
+// what the user reads to judge the camera (report.json "quality").
+struct FrameQuality {
+  double t_s = 0.0;
+  bool fitted = false;  // false: the edges could not be fitted at all
+  vision::TagImageQuality quality;
+  std::vector<std::string> flags;  // QualityFlags; empty = usable
+};
+struct RestQuality {
+  int frames = 0, usable = 0;
+  // Medians over the fitted frames (saturation and residual: the worst).
+  vision::TagImageQuality median;
+  std::vector<std::string> flags;  // the reasons, when fewer than half are usable
+  std::vector<FrameQuality> per_frame;
+};
+
 struct RunMeasurement {
   SessionRun run;
   vision::VideoTrack track;  // video runs
   std::optional<PoseLogStats> pose_log;  // pose-log runs
   calibration::MeasuredRun measured;
+  std::optional<RestQuality> start_quality, end_quality;  // with model_free_rest_refinement
 };
 
 struct SessionMeasurement {
@@ -118,9 +145,15 @@ std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorn
 // The frames of a rest (those with t_begin_s <= t_s <= t_end_s), each refined
 // exactly from its kept crop and measured on the camera's plane, averaged;
 // nullopt when fewer than half of them could be.
+// With `quality`, the frames are refined by the PSF- and tone-free edge model
+// instead, frames failing `gate` are left out, and `quality` says how the
+// rest's images were (nullopt is then returned when fewer than half pass).
 std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
-    const vision::CameraModel& camera, const vision::TagSpec& tag);
+    const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality = nullptr,
+    const vision::QualityGate& gate = {});
+// The quality entry of report.json for one rest.
+nlohmann::json RestQualityJson(const RestQuality& quality);
 
 // One run's JSON entry of report.json: procedure, direction, source
 // ("video" or "poses") and its file, return_error {x_mm, y_mm, theta_deg}

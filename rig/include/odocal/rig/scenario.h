@@ -33,6 +33,10 @@ struct CameraScenario {
   // edges parallel to the pixel grid: the mean heading of a rest is off by
   // ~0.01 deg at CRF 12 and <= 0.003 deg at CRF 6 (docs/vision.md).
   int crf = 6;
+  // The tag as printed is tag_print_scale x the size the operator states
+  // (tag.size_mm): the renderer draws the printed one, the session file keeps
+  // the stated one (issue 12; `camera.tag.print_scale`).
+  double tag_print_scale = 1.0;
 };
 
 struct Scenario {

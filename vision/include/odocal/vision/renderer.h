@@ -33,12 +33,14 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "odocal/calibration/pose2.h"
 #include "odocal/vision/camera_model.h"
+#include "odocal/vision/image_formation.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::vision {
@@ -63,13 +65,19 @@ struct RenderOptions {
   // at that scale, then area-averaged), so that the optical blur is close to
   // a continuous one: see RenderPoses.
   int optical_oversample = 2;
+  // A real camera's image formation (image_formation.h): PSF model, rolling
+  // shutter, Bayer, tone curve, shading, Poisson-Gaussian noise, sharpening,
+  // MJPEG. Default: none of it (the renderer above, unchanged).
+  ImageFormationOptions formation;
 
   bool IsValid(std::string* why) const;
 };
 
 struct RenderedFrame {
   cv::Mat image;  // CV_8UC1, owned by this frame
-  // Truth at the middle of the exposure.
+  // Truth at the middle of the exposure. With a rolling shutter each row is
+  // exposed at its own time: the truth is then the pose at the frame's
+  // mid-exposure time, which is the middle row's (row (H - 1) / 2).
   calibration::Pose2 T_world_robot;
   calibration::Pose2 T_world_tag;
   // The black border's outer corners, detector order (TagCornersInTag), OpenCV
@@ -101,7 +109,10 @@ class Renderer {
   // A frame exposed from t_mid_s - exposure_s/2 to t_mid_s + exposure_s/2
   // while the robot follows `trajectory` (time in seconds -> T_world_robot);
   // enough sub-frame poses are averaged that consecutive ones move at most
-  // options.motion_step_px. Truth is the pose at t_mid_s.
+  // options.motion_step_px. Truth is the pose at t_mid_s. With a rolling
+  // shutter, row v is exposed around t_mid_s + (v / (H - 1) - 1/2) * read-out
+  // time; the moving window is rendered in bands of rows whose images move at
+  // most motion_step_px from one band to the next.
   RenderedFrame RenderExposure(const std::function<calibration::Pose2(double)>& trajectory,
                                double t_mid_s);
   // Lower level: average of the given sub-frame poses, truth `T_world_robot_truth`.
@@ -120,6 +131,10 @@ class Renderer {
   const cv::Mat& background() const;
 
  private:
+  // Rows from bands[i].first up to the next band's first row are exposed
+  // over bands[i].second (rolling shutter); one band = a global shutter.
+  RenderedFrame RenderBands(const std::vector<std::pair<int, std::vector<calibration::Pose2>>>& bands,
+                            const calibration::Pose2& T_world_robot_truth);
   struct Impl;
   explicit Renderer(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

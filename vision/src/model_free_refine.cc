@@ -1,0 +1,231 @@
+// Corner refinement free of the PSF's shape and of a power-law tone curve
+// (edge_quality.h explains the model and why).
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "odocal/vision/edge_quality.h"
+
+#include "corner_geometry.h"
+#include "edge_functions.h"
+
+namespace odocal::vision {
+
+bool QualityGate::IsValid(std::string* why) const {
+  if (!(min_contrast_grey >= 0.0) || !(max_blur_cells > 0.0) ||
+      !(max_saturated_fraction >= 0.0 && max_saturated_fraction <= 1.0) || !(max_relative_residual > 0.0)) {
+    if (why) *why = "quality gate out of range";
+    return false;
+  }
+  return true;
+}
+
+std::vector<std::string> QualityFlags(const TagImageQuality& q, const QualityGate& gate) {
+  std::vector<std::string> flags;
+  if (q.saturated_fraction > gate.max_saturated_fraction) flags.push_back("overexposed");
+  if (q.contrast_grey < gate.min_contrast_grey) flags.push_back("low_contrast");
+  if (q.blur_sigma_px > gate.max_blur_cells * q.cell_px) flags.push_back("defocused");
+  if (q.relative_residual > gate.max_relative_residual) flags.push_back("edge_not_straight");
+  return flags;
+}
+
+namespace {
+
+// Parameters per edge: theta (normal angle), c (offset along the normal), a
+// and b (linear-light dark level and contrast). Shared by the tag's four
+// edges: log s1, log s2, w, log gamma. Sharing matters: fitted per edge, the
+// tone exponent and the spread trade off against the edge's offset (a steeper
+// tone curve moves the half-level), and four independent trade-offs scatter
+// the tag's centre by ~0.05 px; shared, any error in them moves all four
+// edges alike, which changes the tag's apparent size only.
+constexpr int kEdgeParams = 4;
+constexpr int kSharedParams = 4;
+
+struct BandPixels {
+  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted pixels
+  std::vector<double> value;
+};
+
+class ModelFreeCost {
+ public:
+  explicit ModelFreeCost(const BandPixels* pixels) : pixels_(pixels) {}
+  template <typename T>
+  bool operator()(const T* const p, const T* const shared, T* residual) const {
+    using std::cos;
+    using std::exp;
+    using std::log;
+    using std::sin;
+    const T nx = cos(p[0]), ny = sin(p[0]);
+    const T s1 = exp(shared[0]), s2 = exp(shared[1]);
+    const T w = shared[2];
+    const T inv_gamma = exp(-shared[3]);
+    for (size_t i = 0; i < pixels_->value.size(); ++i) {
+      const cv::Point2d& q = pixels_->undistorted[i];
+      const T d = nx * q.x + ny * q.y - p[1];
+      const T spread = (1.0 - w) * internal::PixelEdgeFraction(d, nx, ny, s1) +
+                       w * internal::PixelEdgeFraction(d, nx, ny, s2);
+      T linear = p[2] + p[3] * spread;
+      // The tone curve is defined for positive light only; a fit straying
+      // below zero is pulled back by the residual, not by a NaN.
+      if (linear < T(1e-3)) linear = T(1e-3);
+      residual[i] = 255.0 * exp(inv_gamma * log(linear / 255.0)) - pixels_->value[i];
+    }
+    return true;
+  }
+
+ private:
+  const BandPixels* pixels_;
+};
+
+struct EdgeBand {
+  BandPixels pixels;
+  cv::Point2d normal_px;  // outwards, distorted pixels
+  double start[kEdgeParams] = {0, 0, 0, 0};
+  int saturated = 0;
+};
+
+// The band of pixels along one edge and a start for its parameters.
+std::optional<EdgeBand> PrepareEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
+                                    const cv::Point2d& b_px, const cv::Point2d& centre_px,
+                                    const CameraModel* camera, double half_width, double end_margin) {
+  const cv::Point2d ab = b_px - a_px;
+  const double len = cv::norm(ab);
+  const cv::Point2d dir = ab * (1.0 / len);
+  cv::Point2d normal(-dir.y, dir.x);
+  if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
+  const int x0 = std::max(origin.x, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
+  const int x1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
+  const int y0 = std::max(origin.y, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
+  const int y1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
+  std::vector<cv::Point2d> centres;
+  EdgeBand band;
+  band.normal_px = normal;
+  std::vector<double> dark_side, light_side;
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const cv::Point2d q(x, y);
+      const double t = (q - a_px).dot(dir) / len;
+      const double d = (q - a_px).dot(normal);
+      if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
+      centres.push_back(q);
+      const uint8_t v = grey.at<uint8_t>(y - origin.y, x - origin.x);
+      band.saturated += (v == 0 || v == 255) ? 1 : 0;
+      band.pixels.value.push_back(v);
+      // Plateau levels from the band's outer thirds (a robust start).
+      if (d < -half_width / 3) dark_side.push_back(v);
+      if (d > half_width / 3) light_side.push_back(v);
+    }
+  }
+  if (band.pixels.value.size() < 20 || dark_side.empty() || light_side.empty()) return std::nullopt;
+  band.pixels.undistorted = camera ? camera->UndistortPixels(centres) : centres;
+  std::vector<cv::Point2d> ends = {a_px, b_px};
+  if (camera) ends = camera->UndistortPixels(ends);
+  const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));
+  cv::Point2d u_normal(-u_dir.y, u_dir.x);
+  if (u_normal.dot(normal) < 0) u_normal = -u_normal;
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double dark = median(dark_side), light = median(light_side);
+  if (light - dark < 10.0) return std::nullopt;
+  band.start[0] = std::atan2(u_normal.y, u_normal.x);
+  band.start[1] = u_normal.dot(ends[0]);
+  band.start[2] = std::max(dark, 1.0);
+  band.start[3] = light - dark;
+  return band;
+}
+
+}  // namespace
+
+ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
+                                                const std::array<cv::Point2d, 4>& corners_px,
+                                                const CameraModel* camera,
+                                                const CornerRefineOptions& options,
+                                                const cv::Point& origin) {
+  ModelFreeRefineResult result;
+  result.corners_px = corners_px;
+  const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
+  if (!extent) return result;
+  std::array<EdgeBand, 4> bands;
+  for (int k = 0; k < 4; ++k) {
+    auto band = PrepareEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], extent->centre_px,
+                            camera, extent->half_width_px, options.end_margin);
+    if (!band) {
+      result.message = "edge " + std::to_string(k) + " has too few pixels or no contrast";
+      return result;
+    }
+    bands[k] = std::move(*band);
+  }
+  std::array<std::array<double, kEdgeParams>, 4> p;
+  double shared[kSharedParams] = {std::log(0.6), std::log(1.5), 0.3, 0.0};
+  ceres::Problem problem;
+  for (int k = 0; k < 4; ++k) {
+    std::copy(bands[k].start, bands[k].start + kEdgeParams, p[k].begin());
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ModelFreeCost, ceres::DYNAMIC, kEdgeParams, kSharedParams>(
+            new ModelFreeCost(&bands[k].pixels), static_cast<int>(bands[k].pixels.value.size())),
+        nullptr, p[k].data(), shared);
+  }
+  // Widths from a fifth of a pixel (a sharp lens still integrates over the
+  // pixel) to beyond any usable blur; the mixture weight allows an overshoot
+  // (w < 0) but not a second edge; gamma within any camera's tone curves.
+  for (int i : {0, 1}) {
+    problem.SetParameterLowerBound(shared, i, std::log(0.2));
+    problem.SetParameterUpperBound(shared, i, std::log(6.0));
+  }
+  problem.SetParameterLowerBound(shared, 2, -0.6);
+  problem.SetParameterUpperBound(shared, 2, 1.0);
+  problem.SetParameterLowerBound(shared, 3, std::log(0.3));
+  problem.SetParameterUpperBound(shared, 3, std::log(4.0));
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 50;
+  solver.function_tolerance = 1e-10;
+  solver.parameter_tolerance = 1e-10;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) {
+    result.message = "edge fit did not converge";
+    return result;
+  }
+  TagImageQuality& q = result.quality;
+  q.cell_px = extent->cell_px;
+  q.side_px = extent->cell_px * options.width_at_border;
+  q.gamma = std::exp(shared[3]);
+  const double s1 = std::exp(shared[0]), s2 = std::exp(shared[1]), w = shared[2];
+  q.blur_sigma_px = std::sqrt(std::max(0.0, (1.0 - w) * s1 * s1 + w * s2 * s2));
+  auto encode = [&](double x) { return 255.0 * std::pow(std::max(x, 1e-3) / 255.0, 1.0 / q.gamma); };
+  q.contrast_grey = 1e9;
+  int pixels = 0, saturated = 0;
+  std::array<internal::EdgeLine, 4> lines;
+  for (int k = 0; k < 4; ++k) {
+    if (!(p[k][3] > 1.0)) {
+      result.message = "edge " + std::to_string(k) + " fitted without contrast";
+      return result;
+    }
+    const cv::Point2d n(std::cos(p[k][0]), std::sin(p[k][0]));
+    lines[k] = internal::EdgeLine{n * p[k][1], cv::Point2d(-n.y, n.x)};
+    q.contrast_grey = std::min(q.contrast_grey, encode(p[k][2] + p[k][3]) - encode(p[k][2]));
+    // Each edge's own residual: an occluder spoils one edge, not the mean.
+    const size_t m = bands[k].pixels.value.size();
+    std::vector<double> r(m);
+    double* blocks[] = {p[k].data(), shared};
+    ceres::AutoDiffCostFunction<ModelFreeCost, ceres::DYNAMIC, kEdgeParams, kSharedParams> cost(
+        new ModelFreeCost(&bands[k].pixels), static_cast<int>(m));
+    cost.Evaluate(blocks, r.data(), nullptr);
+    double sq = 0.0;
+    for (double v : r) sq += v * v;
+    q.rms_residual_grey = std::max(q.rms_residual_grey, std::sqrt(sq / m));
+    pixels += static_cast<int>(m);
+    saturated += bands[k].saturated;
+  }
+  q.saturated_fraction = static_cast<double>(saturated) / std::max(1, pixels);
+  q.relative_residual = q.rms_residual_grey / std::max(1.0, q.contrast_grey);
+  internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
+  return result;
+}
+
+}  // namespace odocal::vision

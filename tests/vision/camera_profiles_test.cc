@@ -230,7 +230,9 @@ TEST(CameraProfiles, BadFramesAreFlaggedNotMeasured) {
     blurred.psf = PsfOptions{PsfOptions::Model::kDisk, 3.5, 0.0};
     const Measured m = Measure(MakeRenderer(blurred)->Render(pose).image, camera, tag);
     EXPECT_FALSE(m.ok);
-    if (!m.flags.empty()) EXPECT_EQ(m.why, "defocused");
+    if (!m.flags.empty()) {
+      EXPECT_EQ(m.why, "defocused");
+    }
   }
   {
     // A cable across one edge of the tag.

@@ -113,7 +113,8 @@ TEST(ParamFiles, Ros2FileWithOtherControllerParametersIsAccepted) {
 
 // An explain.json as odocal explain writes it, from a result whose final fit
 // holds these parameters (named as FitTrajectory names them).
-std::string ExplainJsonText(double ed, double es, double eb) {
+// `fitted_on` is the session's believed set (explain.json states it).
+std::string ExplainJsonText(double ed, double es, double eb, const WheelParams& fitted_on) {
   calibration::ExplainResult r;
   r.status = calibration::ExplainResult::Status::kOk;
   auto add = [&](const std::string& name, double value) {
@@ -138,7 +139,9 @@ std::string ExplainJsonText(double ed, double es, double eb) {
     s.effect = e;
     r.steps.push_back(s);
   }
-  return ExplainJson(calibration::MeasuredSession{}, r).dump(2);
+  calibration::MeasuredSession session;
+  session.believed = fitted_on;
+  return ExplainJson(session, r).dump(2);
 }
 
 TEST(ParamFiles, ExplainJsonGivesTheFinalFitsScalesAndEffects) {
@@ -149,7 +152,7 @@ TEST(ParamFiles, ExplainJsonGivesTheFinalFitsScalesAndEffects) {
   const double es = (rl * dl + rr * dr) / (dl + dr);
   std::string error;
   const auto set =
-      Read(Write("explain.json", ExplainJsonText(rr / rl, es, 1.012)), &error, believed);
+      Read(Write("explain.json", ExplainJsonText(rr / rl, es, 1.012, believed)), &error, believed);
   ASSERT_TRUE(set) << error;
   EXPECT_EQ(set->kind, ParamFileKind::kExplain);
   EXPECT_EQ(set->name, "explain");
@@ -162,6 +165,29 @@ TEST(ParamFiles, ExplainJsonGivesTheFinalFitsScalesAndEffects) {
   EXPECT_NEAR(fx.tag_x_m(), 0.030, 1e-12);
   EXPECT_NEAR(fx.tag_y_m(), -0.015, 1e-12);
   EXPECT_NEAR(fx.latency_s(), 0.0, 1e-15);  // not named: off
+}
+
+// The same robot recorded believing other parameters: the physical set the
+// fit stands for is re-expressed relative to this session's beliefs.
+TEST(ParamFiles, ExplainJsonFromOtherBeliefsGivesTheSamePhysicalRobot) {
+  WheelParams fitted_on = Nominal();
+  fitted_on.track_m *= 1.025;  // believed 2.5 % wider, wheels 1.2 % larger
+  fitted_on.left_wheel_diameter_m *= 1.012;
+  fitted_on.right_wheel_diameter_m *= 1.012;
+  const double rl = 0.990, rr = 0.992, eb = 0.98;
+  const double es = (rl * fitted_on.left_wheel_diameter_m + rr * fitted_on.right_wheel_diameter_m) /
+                    (fitted_on.left_wheel_diameter_m + fitted_on.right_wheel_diameter_m);
+  std::string error;
+  const WheelParams here = Nominal();
+  const auto set =
+      Read(Write("explain_other.json", ExplainJsonText(rr / rl, es, eb, fitted_on)), &error, here);
+  ASSERT_TRUE(set) << error;
+  // Physical travel per tick and track, whichever beliefs they are written against.
+  EXPECT_NEAR(here.LeftMetresPerTick() * set->model.scales.r_left,
+              fitted_on.LeftMetresPerTick() * rl, 1e-15);
+  EXPECT_NEAR(here.RightMetresPerTick() * set->model.scales.r_right,
+              fitted_on.RightMetresPerTick() * rr, 1e-15);
+  EXPECT_NEAR(here.track_m * set->model.scales.Eb, fitted_on.track_m * eb, 1e-12);
 }
 
 TEST(ParamFiles, NameEqualsFileNamesTheSet) {

@@ -115,12 +115,14 @@ TEST(Scenario, LoadsEveryEffect) {
                "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n"
                "  - {name: tracker_yaw, deg: -1.5}\n"
                "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
-               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n");
+               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n"
+               "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n");
   std::string error;
   const auto s = LoadScenario(WriteTemp(text), &error);
   ASSERT_TRUE(s) << error;
   const sim::Effects& e = s->robot.effects;
-  EXPECT_EQ(e.Names().size(), 9u);
+  EXPECT_EQ(e.Names().size(), 10u);
+  EXPECT_NEAR(e.arc_scale->fraction_at_1_per_m, 0.001, 1e-12);
   EXPECT_NEAR(e.tracker_yaw->yaw_rad, -1.5 * M_PI / 180, 1e-12);
   EXPECT_NEAR(e.speed_slip->fraction_at_1m_s, 0.03, 1e-12);
   EXPECT_FALSE(e.eccentric_wheel->left);
@@ -133,6 +135,26 @@ TEST(Scenario, LoadsEveryEffect) {
   EXPECT_NEAR(e.encoder_backlash->ticks, 3.0, 1e-12);
   EXPECT_NEAR(e.carpet_drift->grain_rad, M_PI / 2, 1e-12);
   EXPECT_NEAR(e.carpet_drift->rate_m_per_m, 0.002, 1e-12);
+}
+
+TEST(Scenario, LoadsACircle) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("  - {procedure: spin, turns: 3, direction: cw}"), 46,
+               "  - {procedure: circle, radius_mm: 320, turns: 2, direction: cw}");
+  std::string error;
+  const auto s = LoadScenario(WriteTemp(text), &error);
+  ASSERT_TRUE(s) << error;
+  const calibration::RunSpec* circle = nullptr;
+  for (const auto& r : s->runs)
+    if (r.procedure == calibration::Procedure::kCircle) circle = &r;
+  ASSERT_NE(circle, nullptr);
+  EXPECT_NEAR(circle->radius_m, 0.320, 1e-12);
+  EXPECT_EQ(circle->turns, 2);
+  EXPECT_EQ(circle->direction, calibration::Direction::kCw);
+  // A circle without its radius is named.
+  text.replace(text.find("radius_mm: 320, "), 16, "");
+  EXPECT_FALSE(LoadScenario(WriteTemp(text), &error));
+  EXPECT_NE(error.find("radius_mm"), std::string::npos) << error;
 }
 
 TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {

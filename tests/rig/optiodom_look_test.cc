@@ -199,5 +199,39 @@ TEST(OptiOdomLook, CirclesAgainstStraightsAndTurns) {
   if (e.unexplained.significant) EXPECT_TRUE(e.unexplained.any());
 }
 
+// arc_scale on the same two sets: its value, what it does to Es and the turn
+// gain, the replay of each set with and without it, and its cross-validation.
+TEST(OptiOdomLook, ArcScaleOnCirclesBesideStraightsAndTurns) {
+  const auto ivanjko = LoadSet("ivanjko/250620201618");
+  const auto circles = LoadSet("circular/250620202104");
+  if (!ivanjko || !circles) GTEST_SKIP() << "OptiOdom data not found under " << Root();
+  MeasuredSession both = *ivanjko;
+  both.runs.insert(both.runs.end(), circles->runs.begin(), circles->runs.end());
+  TrajectoryFitOptions o = FastOptions();
+  o.effects = {Effect::kCameraLatency};
+  const TrajectoryFitResult without = FitTrajectory(both, o);
+  ASSERT_TRUE(without.ok()) << without.message;
+  o.effects.push_back(Effect::kArcScale);
+  const TrajectoryFitResult with = FitTrajectory(both, o, &without);
+  ASSERT_TRUE(with.ok()) << with.message;
+  std::printf("latency + arc_scale:\n%s", with.BriefReport().c_str());
+  for (const char* name : {"Es", "Eb", "turn_gain"})
+    std::printf("[real] %s %.5f -> %.5f\n", name, without.Find(name)->value, with.Find(name)->value);
+  std::printf("[real] gap %.3f -> %.3f mm\n", without.gap_m * 1e3, with.gap_m * 1e3);
+  PrintReplays("latency on ivanjko", *ivanjko, {without.scales, without.effects});
+  PrintReplays("latency+arc on ivanjko", *ivanjko, {with.scales, with.effects});
+  PrintReplays("latency on circles", *circles, {without.scales, without.effects});
+  PrintReplays("latency+arc on circles", *circles, {with.scales, with.effects});
+  ExplainOptions options;
+  options.fit = FastOptions();
+  const CrossValidation cv = CrossValidateCandidate(both, without, Effect::kArcScale, options);
+  std::printf("[real] arc_scale cross-validation (%s, %d folds): %.3f -> %.3f mm\n",
+              cv.method.c_str(), cv.folds, cv.heldout_rms_before_m * 1e3,
+              cv.heldout_rms_after_m * 1e3);
+  const ParameterEstimate* c = with.Find("arc_scale.fraction_at_1_per_m");
+  ASSERT_NE(c, nullptr);
+  EXPECT_TRUE(std::isfinite(c->value));
+}
+
 }  // namespace
 }  // namespace odocal::calibration

@@ -205,6 +205,23 @@ TEST(OptiOdomLook, ArcScaleOnCirclesBesideStraightsAndTurns) {
   const auto ivanjko = LoadSet("ivanjko/250620201618");
   const auto circles = LoadSet("circular/250620202104");
   if (!ivanjko || !circles) GTEST_SKIP() << "OptiOdom data not found under " << Root();
+  // Where the candidate acts: the circles' moving steps, and on the Ivanjko
+  // paths (straights, turns in place) nothing but a curved start or stop.
+  for (const MeasuredSession* s : {&*ivanjko, &*circles}) {
+    int arc = 0, moving = 0;
+    double sum_kappa = 0.0;
+    for (const MeasuredRun& run : s->runs) {
+      for (size_t k = 1; k < run.telemetry.size(); ++k)
+        moving += run.telemetry[k].left_ticks != run.telemetry[k - 1].left_ticks ||
+                  run.telemetry[k].right_ticks != run.telemetry[k - 1].right_ticks;
+      for (double kappa : ArcCurvatures(run, s->believed)) {
+        arc += kappa != 0.0;
+        sum_kappa += std::abs(kappa);
+      }
+    }
+    std::printf("[real] %s: %d of %d moving steps on arcs, mean |kappa| %.3f /m\n",
+                s->runs.front().name.c_str(), arc, moving, arc ? sum_kappa / arc : 0.0);
+  }
   MeasuredSession both = *ivanjko;
   both.runs.insert(both.runs.end(), circles->runs.begin(), circles->runs.end());
   TrajectoryFitOptions o = FastOptions();

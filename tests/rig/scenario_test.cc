@@ -1,6 +1,7 @@
 // Scenario files: the keys load into the right typed values; every
 // malformed file is rejected with the file, the line and the key named.
 #include "odocal/rig/scenario.h"
+#include "odocal/rig/session.h"
 
 #include <cmath>
 #include <filesystem>
@@ -165,6 +166,36 @@ TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   EXPECT_NE(error.find("empty scenario file"), std::string::npos) << error;
   EXPECT_FALSE(LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
   EXPECT_NE(error.find("is a directory"), std::string::npos) << error;
+}
+
+// A session keeps a circle's size and direction through a write and a load.
+TEST(Session, ACircleRunRoundTrips) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_circle_");
+  std::ofstream(dir + "/run01.poses.csv") << "t_s,x_mm,y_mm,heading_deg\n0,0,0,0\n";
+  std::ofstream(dir + "/run01.telemetry.csv") << "t_s,left_ticks,right_ticks\n0,0,0\n";
+  Session session;
+  session.has_camera = false;
+  session.nominal.left_wheel_diameter_m = 0.084;
+  session.nominal.right_wheel_diameter_m = 0.084;
+  session.nominal.track_m = 0.2;
+  session.nominal.ticks_per_rev = 2796.8;
+  SessionRun run;
+  run.name = "circle_cw";
+  run.spec = calibration::RunSpec::Circle(0.32, 2, calibration::Direction::kCw);
+  run.poses = dir + "/run01.poses.csv";
+  run.telemetry = dir + "/run01.telemetry.csv";
+  run.end_s = 10.0;
+  session.runs.push_back(run);
+  ASSERT_FALSE(WriteSession(session, dir + "/session.yaml"));
+  std::string error;
+  const auto loaded = LoadSession(dir + "/session.yaml", &error);
+  ASSERT_TRUE(loaded) << error;
+  ASSERT_EQ(loaded->runs.size(), 1u);
+  const calibration::RunSpec& spec = loaded->runs[0].spec;
+  EXPECT_EQ(spec.procedure, calibration::Procedure::kCircle);
+  EXPECT_NEAR(spec.radius_m, 0.32, 1e-9);
+  EXPECT_EQ(spec.turns, 2);
+  EXPECT_EQ(spec.direction, calibration::Direction::kCw);
 }
 
 }  // namespace

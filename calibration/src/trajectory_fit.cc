@@ -243,7 +243,8 @@ void MarkArcs(const ModelConstants& c, RunData* rd) {
     const size_t from = k > static_cast<size_t>(kArcWindowSteps) ? k - kArcWindowSteps : 1;
     const size_t to = std::min(n - 1, k + kArcWindowSteps);
     for (size_t j = from; j <= to; ++j) {
-      if (!forward_like(j)) continue;
+      // Same way as step k: a direct reversal would cancel the travel.
+      if (!forward_like(j) || (rd->dl[j] > 0) != (rd->dl[k] > 0)) continue;
       left += rd->dl[j] * c.left_m_per_tick;
       right += rd->dr[j] * c.right_m_per_tick;
     }

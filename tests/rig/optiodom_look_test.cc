@@ -235,6 +235,21 @@ TEST(OptiOdomLook, ArcScaleOnCirclesBesideStraightsAndTurns) {
   for (const char* name : {"Es", "Eb", "turn_gain"})
     std::printf("[real] %s %.5f -> %.5f\n", name, without.Find(name)->value, with.Find(name)->value);
   std::printf("[real] gap %.3f -> %.3f mm\n", without.gap_m * 1e3, with.gap_m * 1e3);
+  // The fit's own heading residual (model - measured) through each circle, in
+  // fifths of the run: a turn-gain error is a slope, an anchoring one is not.
+  for (size_t i = ivanjko->runs.size(); i < both.runs.size(); ++i) {
+    std::vector<double> sum(5, 0.0), n(5, 0.0);
+    const double t0 = both.runs[i].telemetry.front().t_s, t1 = both.runs[i].telemetry.back().t_s;
+    for (const FrameResidual& r : with.residuals) {
+      if (r.run != static_cast<int>(i)) continue;
+      const int q = std::clamp(static_cast<int>(5.0 * (r.t_s - t0) / (t1 - t0)), 0, 4);
+      sum[q] += r.heading_error_rad * 180.0 / M_PI;
+      n[q] += 1.0;
+    }
+    std::printf("[real] fit heading residual %s:", both.runs[i].name.c_str());
+    for (int q = 0; q < 5; ++q) std::printf(" %+.3f", n[q] ? sum[q] / n[q] : 0.0);
+    std::printf(" deg\n");
+  }
   PrintReplays("latency on ivanjko", *ivanjko, {without.scales, without.effects});
   PrintReplays("latency+arc on ivanjko", *ivanjko, {with.scales, with.effects});
   PrintReplays("latency on circles", *circles, {without.scales, without.effects});

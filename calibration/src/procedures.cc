@@ -11,6 +11,7 @@ std::string_view ToString(Procedure procedure) {
     case Procedure::kSpin: return "spin";
     case Procedure::kOutAndBack: return "out_and_back";
     case Procedure::kRecorded: return "recorded";
+    case Procedure::kCircle: return "circle";
   }
   return "?";
 }
@@ -25,7 +26,7 @@ std::string_view ToString(Reference reference) {
 
 std::optional<Procedure> ParseProcedure(std::string_view name) {
   for (Procedure p : {Procedure::kUmbmark, Procedure::kStraight, Procedure::kSpin,
-                      Procedure::kOutAndBack, Procedure::kRecorded}) {
+                      Procedure::kOutAndBack, Procedure::kRecorded, Procedure::kCircle}) {
     if (ToString(p) == name) return p;
   }
   return std::nullopt;
@@ -75,6 +76,15 @@ RunSpec RunSpec::OutAndBack(double distance_m, int repeats, Direction direction)
   return s;
 }
 
+RunSpec RunSpec::Circle(double radius_m, int turns, Direction direction) {
+  RunSpec s;
+  s.procedure = Procedure::kCircle;
+  s.radius_m = radius_m;
+  s.turns = turns;
+  s.direction = direction;
+  return s;
+}
+
 bool RunSpec::IsValid(std::string* why) const {
   auto fail = [why](const std::string& message) {
     if (why) *why = message;
@@ -97,6 +107,10 @@ bool RunSpec::IsValid(std::string* why) const {
       break;
     case Procedure::kRecorded:
       break;  // no size: the ticks say where it went
+    case Procedure::kCircle:
+      if (!positive(radius_m)) return fail("radius_mm must be a positive number");
+      if (turns <= 0) return fail("turns must be a positive integer");
+      break;
   }
   if (reference == Reference::kWall && procedure != Procedure::kOutAndBack &&
       procedure != Procedure::kSpin) {
@@ -108,12 +122,16 @@ bool RunSpec::IsValid(std::string* why) const {
   return true;
 }
 
+// An arc (and a turn, radius 0) rolls the axle midpoint |angle| r forward and
+// the wheels b/2 either side of it: the inner wheel less, the outer more.
 double Primitive::LeftTravel(double believed_track_m) const {
-  return kind == Kind::kStraight ? amount : -amount * believed_track_m / 2.0;
+  if (kind == Kind::kStraight) return amount;
+  return ArcLength() - amount * believed_track_m / 2.0;
 }
 
 double Primitive::RightTravel(double believed_track_m) const {
-  return kind == Kind::kStraight ? amount : amount * believed_track_m / 2.0;
+  if (kind == Kind::kStraight) return amount;
+  return ArcLength() + amount * believed_track_m / 2.0;
 }
 
 std::vector<Primitive> PlanPrimitives(const RunSpec& spec) {
@@ -141,6 +159,9 @@ std::vector<Primitive> PlanPrimitives(const RunSpec& spec) {
       }
       break;
     case Procedure::kRecorded:
+      break;
+    case Procedure::kCircle:
+      plan.push_back(Primitive::Arc(sign * 2.0 * M_PI * spec.turns, spec.radius_m));
       break;
   }
   return plan;

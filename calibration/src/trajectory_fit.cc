@@ -32,6 +32,7 @@ struct RunData {
   std::vector<double> t;                   // telemetry times (robot clock)
   std::vector<std::int64_t> dl, dr;        // tick deltas of step k (t[k-1] -> t[k]), k >= 1
   std::vector<MotionKind> kind;            // of step k
+  std::vector<double> curvature;           // of step k on arcs (1/m), else 0 (arc_scale)
   int left_direction0 = 1, right_direction0 = 1;  // shaft directions before the run
   // Used camera frames.
   std::vector<double> frame_t, zx, zy, zh, sigma_p, sigma_h;
@@ -90,6 +91,12 @@ void DeadReckon(const RunData& run, const ModelConstants& c, const T* base, cons
       // speed_slip: each wheel loses k |v| of its travel, v its speed over the step.
       left *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(left) / dt;
       right *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(right) / dt;
+      // arc_scale: on an arc both wheels lose c |kappa| of their travel.
+      if (run.curvature[k] != 0.0) {
+        const T scale = 1.0 - fx[EffectParams::kArcScale] * std::abs(run.curvature[k]);
+        left *= scale;
+        right *= scale;
+      }
       const T ds = (left + right) / 2.0;
       if (run.kind[k] == MotionKind::kTurn) {
         const T dtheta = (right - left) / track;
@@ -218,6 +225,38 @@ RunData ExtractTelemetry(const MeasuredRun& mr, int index, int* left_direction,
   return rd;
 }
 
+// arc_scale's curvature of each step: the believed wheel travels summed over
+// the same-direction steps within kArcWindowSteps either side (one step's
+// ticks differ by a tick or two on a straight: ~0.2 /m at 50 Hz and 50 mm/s),
+// kappa = (right - left) / (track (right + left) / 2).
+void MarkArcs(const ModelConstants& c, RunData* rd) {
+  const size_t n = rd->t.size();
+  rd->curvature.assign(n, 0.0);
+  // Both wheels moving the same way: not at rest, not a turn in place, and
+  // not the first or last step of one (a single wheel still counting).
+  auto forward_like = [&](size_t k) {
+    return (rd->dl[k] > 0 && rd->dr[k] > 0) || (rd->dl[k] < 0 && rd->dr[k] < 0);
+  };
+  for (size_t k = 1; k < n; ++k) {
+    if (!forward_like(k)) continue;
+    double left = 0.0, right = 0.0;
+    const size_t from = k > static_cast<size_t>(kArcWindowSteps) ? k - kArcWindowSteps : 1;
+    const size_t to = std::min(n - 1, k + kArcWindowSteps);
+    for (size_t j = from; j <= to; ++j) {
+      // Same way as step k: a direct reversal would cancel the travel.
+      if (!forward_like(j) || (rd->dl[j] > 0) != (rd->dl[k] > 0)) continue;
+      left += rd->dl[j] * c.left_m_per_tick;
+      right += rd->dr[j] * c.right_m_per_tick;
+    }
+    const double ds = 0.5 * (left + right);
+    if (std::abs(ds) < 1e-9) continue;
+    // A backward arc turns the other way for the same wheel difference; the
+    // curvature's sign is only reported, the effect uses |kappa|.
+    const double kappa = (right - left) / (c.track_m * ds);
+    if (std::abs(kappa) >= kArcMinCurvature) rd->curvature[k] = kappa;
+  }
+}
+
 ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera) {
   ModelConstants c;
   c.left_m_per_tick = believed.LeftMetresPerTick();
@@ -252,6 +291,7 @@ std::string_view ToString(Effect effect) {
     case Effect::kCarpetDrift: return "carpet_drift";
     case Effect::kTrackerYaw: return "tracker_yaw";
     case Effect::kSpeedSlip: return "speed_slip";
+    case Effect::kArcScale: return "arc_scale";
   }
   return "?";
 }
@@ -281,6 +321,7 @@ std::vector<int> EffectParamIndices(Effect effect) {
     case Effect::kCarpetDrift: return {EffectParams::kDriftA, EffectParams::kDriftB};
     case Effect::kTrackerYaw: return {EffectParams::kTrackerYaw};
     case Effect::kSpeedSlip: return {EffectParams::kSpeedSlip};
+    case Effect::kArcScale: return {EffectParams::kArcScale};
   }
   return {};
 }
@@ -300,6 +341,7 @@ std::vector<std::string> EffectParamNames(Effect effect) {
     case Effect::kCarpetDrift: return {"rate_cos_grain", "rate_sin_grain"};
     case Effect::kTrackerYaw: return {"yaw_rad"};
     case Effect::kSpeedSlip: return {"fraction_at_1m_s"};
+    case Effect::kArcScale: return {"fraction_at_1_per_m"};
   }
   return {};
 }
@@ -330,6 +372,10 @@ std::string DistinguishingRuns(Effect effect) {
     case Effect::kSpeedSlip:
       return "straights at two different speeds (e.g. out-and-backs at 100 and 400 mm/s): slip at "
              "one speed is a scale error, and in spins a turn slip";
+    case Effect::kArcScale:
+      return "arcs (e.g. circles of radius 0.3-1 m) beside straights and turns in place: on arcs of "
+             "one curvature it is a scale of both wheels there, which only straights tell from Es "
+             "(and spins from Eb)";
   }
   return "";
 }
@@ -431,6 +477,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   for (size_t i = 0; i < n_runs; ++i) {
     const MeasuredRun& mr = session.runs[i];
     RunData rd = ExtractTelemetry(mr, static_cast<int>(i), &left_direction, &right_direction);
+    MarkArcs(constants, &rd);
     rd.residuals_per_frame = options.use_heading ? 3 : 2;
     if (rd.t.size() < 2) continue;
     for (const CameraRecord& f : mr.camera) {
@@ -896,9 +943,10 @@ std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParam
                                         const std::optional<FloorCamera>& camera,
                                         const Pose2& start, const std::vector<double>& stamps_s,
                                         int left_direction0, int right_direction0) {
-  const RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
+  RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
   if (rd.t.size() < 2) return {};
   const ModelConstants constants = ConstantsOf(believed, camera);
+  MarkArcs(constants, &rd);
   const double base[kBase] = {scales.r_left, scales.r_right, scales.Eb};
   const double start_xyh[3] = {start.x(), start.y(), start.heading()};
   std::vector<double> xs, ys, hs;
@@ -911,6 +959,13 @@ std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParam
     poses.push_back(Pose2::FromXYHeading(px, py, ph));
   }
   return poses;
+}
+
+std::vector<double> ArcCurvatures(const MeasuredRun& run, const WheelParams& believed) {
+  int left_direction = 1, right_direction = 1;
+  RunData rd = ExtractTelemetry(run, 0, &left_direction, &right_direction);
+  MarkArcs(ConstantsOf(believed, std::nullopt), &rd);
+  return rd.curvature;
 }
 
 void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction) {

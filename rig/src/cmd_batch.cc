@@ -144,7 +144,8 @@ Estimates Estimate(const std::vector<SessionMeasurement>& sessions) {
           break;
         }
         case calibration::Procedure::kRecorded:
-          // No plan, so no closed-form UMBMark/CVRA model: such runs serve
+        case calibration::Procedure::kCircle:
+          // No closed-form UMBMark/CVRA model of these paths: such runs serve
           // the trajectory fit (explain) and the report only.
           break;
       }

@@ -243,6 +243,14 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       const double k = RequiredNumber(e, path, "fraction_at_1m_s");
       if (k < 0.0 || k >= 0.5) Fail(e["fraction_at_1m_s"], Join(path, "fraction_at_1m_s"), "must be in [0, 0.5)");
       out.speed_slip = sim::SpeedSlipEffect{k};
+    } else if (name == "arc_scale") {
+      CheckKeys(e, path, {"name", "fraction_at_1_per_m"});
+      twice(out.arc_scale.has_value());
+      // Loss c |kappa|: below 0.1 on a circle of radius 0.1 m.
+      const double c = RequiredNumber(e, path, "fraction_at_1_per_m");
+      if (c < 0.0 || c >= 0.01)
+        Fail(e["fraction_at_1_per_m"], Join(path, "fraction_at_1_per_m"), "must be in [0, 0.01)");
+      out.arc_scale = sim::ArcScaleEffect{c};
     } else if (name == "eccentric_wheel") {
       CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
       twice(out.eccentric_wheel.has_value());
@@ -257,7 +265,7 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       Fail(e["name"], Join(path, "name"),
            "unknown effect '" + name +
                "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
-               "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, eccentric_wheel)");
+               "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, arc_scale, eccentric_wheel)");
     }
   }
   return out;

@@ -54,6 +54,11 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
       out << YAML::Key << "reference" << YAML::Value << std::string(calibration::ToString(spec.reference));
       break;
     case calibration::Procedure::kRecorded: break;
+    case calibration::Procedure::kCircle:
+      out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
+      out << YAML::Key << "radius_mm" << YAML::Value << spec.radius_m * 1e3;
+      out << YAML::Key << "turns" << YAML::Value << spec.turns;
+      break;
   }
   if (spec.speed_m_s) out << YAML::Key << "speed_mm_s" << YAML::Value << *spec.speed_m_s * 1e3;
   if (spec.turn_rate_rad_s)

@@ -66,6 +66,11 @@ nlohmann::json RunSpecJson(const calibration::RunSpec& spec) {
       j["reference"] = calibration::ToString(spec.reference);
       break;
     case calibration::Procedure::kRecorded: break;  // refused by the scenario parser
+    case calibration::Procedure::kCircle:
+      j["direction"] = calibration::ToString(spec.direction);
+      j["radius_mm"] = spec.radius_m * 1e3;
+      j["turns"] = spec.turns;
+      break;
   }
   return j;
 }

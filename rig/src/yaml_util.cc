@@ -124,7 +124,8 @@ calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& 
 RunSpec ParseRun(const YAML::Node& node, const std::string& path,
                  const std::set<std::string>& extra_keys) {
   std::set<std::string> allowed = {"procedure", "direction", "side_mm", "distance_mm", "turns",
-                                   "repeats", "reference", "speed_mm_s", "turn_rate_deg_s"};
+                                   "repeats", "reference", "speed_mm_s", "turn_rate_deg_s",
+                                   "radius_mm"};
   allowed.insert(extra_keys.begin(), extra_keys.end());
   CheckKeys(node, path, allowed);
   if (!node["procedure"]) Fail(node, Join(path, "procedure"), "missing (required)");
@@ -132,7 +133,8 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
   const auto procedure = calibration::ParseProcedure(name);
   if (!procedure) {
     Fail(node["procedure"], Join(path, "procedure"),
-         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back, recorded)");
+         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back, circle, "
+         "recorded)");
   }
   RunSpec spec;
   spec.procedure = *procedure;
@@ -147,6 +149,7 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
       takes.insert({"distance_mm", "repeats", "direction", "reference"});
       break;
     case calibration::Procedure::kRecorded: break;  // no plan: nothing to size
+    case calibration::Procedure::kCircle: takes.insert({"radius_mm", "turns", "direction"}); break;
   }
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();
@@ -169,8 +172,12 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
       spec.procedure == calibration::Procedure::kOutAndBack)
     spec.distance_m = Positive(RequiredNumber(node, path, "distance_mm"), node["distance_mm"],
                                Join(path, "distance_mm")) * 1e-3;
-  if (spec.procedure == calibration::Procedure::kSpin) {
-    if (!node["turns"]) Fail(node, Join(path, "turns"), "missing (required for spin)");
+  if (spec.procedure == calibration::Procedure::kCircle)
+    spec.radius_m = Positive(RequiredNumber(node, path, "radius_mm"), node["radius_mm"],
+                             Join(path, "radius_mm")) * 1e-3;
+  if (spec.procedure == calibration::Procedure::kSpin ||
+      spec.procedure == calibration::Procedure::kCircle) {
+    if (!node["turns"]) Fail(node, Join(path, "turns"), "missing (required for " + name + ")");
     const long long turns = Integer(node["turns"], Join(path, "turns"));
     if (turns <= 0 || turns > 1000) Fail(node["turns"], Join(path, "turns"), "must be 1 to 1000");
     spec.turns = static_cast<int>(turns);

@@ -37,6 +37,7 @@ uint8_t WireProcedure(calibration::Procedure p) {
     case calibration::Procedure::kSpin: return OLF_PROC_SPIN;
     case calibration::Procedure::kOutAndBack: return OLF_PROC_OUT_AND_BACK;
     case calibration::Procedure::kRecorded: return 0;  // not drivable: the firmware refuses 0
+    case calibration::Procedure::kCircle: return 0;    // simulator only: not on the wire yet
   }
   return 0;
 }
@@ -120,6 +121,7 @@ RunCommand RunCommand::FromRunSpec(const calibration::RunSpec& spec) {
       c.count = static_cast<uint32_t>(spec.repeats);
       break;
     case calibration::Procedure::kRecorded: break;
+    case calibration::Procedure::kCircle: break;  // refused by WireProcedure
   }
   return c;
 }

@@ -35,6 +35,7 @@ calibration::RunSpec ToRunSpec(const RunCommand& c) {
     case calibration::Procedure::kOutAndBack:
       return RunSpec::OutAndBack(c.amount_mm * 1e-3, static_cast<int>(c.count), c.direction);
     case calibration::Procedure::kRecorded: break;  // never decoded from the wire
+    case calibration::Procedure::kCircle: break;    // never decoded from the wire
   }
   return RunSpec{};
 }

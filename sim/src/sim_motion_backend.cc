@@ -15,6 +15,7 @@ calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
       spec.repeats = static_cast<int>(command.count);
       break;
     case calibration::Procedure::kRecorded: break;  // nothing to drive: an empty plan
+    case calibration::Procedure::kCircle: break;    // not on the wire (client refuses it)
   }
   return spec;
 }

@@ -96,7 +96,14 @@ VirtualRobot::Segment VirtualRobot::MakePrimitive(const Primitive& primitive,
   s.right_m = primitive.RightTravel(believed_.track_m);
   s.lead_total = std::abs(primitive.amount);
   s.is_turn = primitive.kind == Primitive::Kind::kTurn;
-  if (primitive.kind == Primitive::Kind::kStraight) {
+  if (primitive.kind == Primitive::Kind::kArc) {
+    // Led by the path length at the robot's speed: the firmware drives both
+    // wheels on one profile, scaled to their shares of the arc, and stops
+    // when its odometry has covered it.
+    s.lead_total = primitive.ArcLength();
+    s.curvature = 1.0 / primitive.radius_m;
+  }
+  if (primitive.kind != Primitive::Kind::kTurn) {
     s.lead_speed = spec.speed_m_s.value_or(config_.limits.speed_m_s);
     s.lead_accel = config_.limits.accel_m_s2;
   } else {
@@ -247,6 +254,12 @@ bool VirtualRobot::Step() {
         const double k = config_.effects.speed_slip->fraction_at_1m_s;
         true_left *= 1.0 - k * std::abs(true_left) / dt;
         true_right *= 1.0 - k * std::abs(true_right) / dt;
+      }
+      if (config_.effects.arc_scale && seg.curvature != 0.0) {
+        // arc_scale: on an arc both wheels lose c |kappa| of their travel.
+        const double scale = 1.0 - config_.effects.arc_scale->fraction_at_1_per_m * seg.curvature;
+        true_left *= scale;
+        true_right *= scale;
       }
       const double sigma = config_.noise.wheel_sigma_m_per_sqrt_m;
       if (sigma > 0.0) {

@@ -1,6 +1,7 @@
 // Scenario files: the issue's keys load into the right typed values; every
 // malformed file is rejected with the file, the line and the key named.
 #include "odocal/rig/scenario.h"
+#include "odocal/rig/session.h"
 
 #include <cmath>
 #include <filesystem>
@@ -115,12 +116,14 @@ TEST(Scenario, LoadsEveryEffect) {
                "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n"
                "  - {name: tracker_yaw, deg: -1.5}\n"
                "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
-               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n");
+               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n"
+               "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n");
   std::string error;
   const auto s = LoadScenario(WriteTemp(text), &error);
   ASSERT_TRUE(s) << error;
   const sim::Effects& e = s->robot.effects;
-  EXPECT_EQ(e.Names().size(), 9u);
+  EXPECT_EQ(e.Names().size(), 10u);
+  EXPECT_NEAR(e.arc_scale->fraction_at_1_per_m, 0.001, 1e-12);
   EXPECT_NEAR(e.tracker_yaw->yaw_rad, -1.5 * M_PI / 180, 1e-12);
   EXPECT_NEAR(e.speed_slip->fraction_at_1m_s, 0.03, 1e-12);
   EXPECT_FALSE(e.eccentric_wheel->left);
@@ -135,6 +138,26 @@ TEST(Scenario, LoadsEveryEffect) {
   EXPECT_NEAR(e.carpet_drift->rate_m_per_m, 0.002, 1e-12);
 }
 
+TEST(Scenario, LoadsACircle) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("  - {procedure: spin, turns: 3, direction: cw}"), 46,
+               "  - {procedure: circle, radius_mm: 320, turns: 2, direction: cw}");
+  std::string error;
+  const auto s = LoadScenario(WriteTemp(text), &error);
+  ASSERT_TRUE(s) << error;
+  const calibration::RunSpec* circle = nullptr;
+  for (const auto& r : s->runs)
+    if (r.procedure == calibration::Procedure::kCircle) circle = &r;
+  ASSERT_NE(circle, nullptr);
+  EXPECT_NEAR(circle->radius_m, 0.320, 1e-12);
+  EXPECT_EQ(circle->turns, 2);
+  EXPECT_EQ(circle->direction, calibration::Direction::kCw);
+  // A circle without its radius is named.
+  text.replace(text.find("radius_mm: 320, "), 16, "");
+  EXPECT_FALSE(LoadScenario(WriteTemp(text), &error));
+  EXPECT_NE(error.find("radius_mm"), std::string::npos) << error;
+}
+
 TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   std::string error;
   EXPECT_FALSE(LoadScenario("/nonexistent/s.yaml", &error));
@@ -143,6 +166,36 @@ TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   EXPECT_NE(error.find("empty scenario file"), std::string::npos) << error;
   EXPECT_FALSE(LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
   EXPECT_NE(error.find("is a directory"), std::string::npos) << error;
+}
+
+// A session keeps a circle's size and direction through a write and a load.
+TEST(Session, ACircleRunRoundTrips) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_circle_");
+  std::ofstream(dir + "/run01.poses.csv") << "t_s,x_mm,y_mm,heading_deg\n0,0,0,0\n";
+  std::ofstream(dir + "/run01.telemetry.csv") << "t_s,left_ticks,right_ticks\n0,0,0\n";
+  Session session;
+  session.has_camera = false;
+  session.nominal.left_wheel_diameter_m = 0.084;
+  session.nominal.right_wheel_diameter_m = 0.084;
+  session.nominal.track_m = 0.2;
+  session.nominal.ticks_per_rev = 2796.8;
+  SessionRun run;
+  run.name = "circle_cw";
+  run.spec = calibration::RunSpec::Circle(0.32, 2, calibration::Direction::kCw);
+  run.poses = dir + "/run01.poses.csv";
+  run.telemetry = dir + "/run01.telemetry.csv";
+  run.end_s = 10.0;
+  session.runs.push_back(run);
+  ASSERT_FALSE(WriteSession(session, dir + "/session.yaml"));
+  std::string error;
+  const auto loaded = LoadSession(dir + "/session.yaml", &error);
+  ASSERT_TRUE(loaded) << error;
+  ASSERT_EQ(loaded->runs.size(), 1u);
+  const calibration::RunSpec& spec = loaded->runs[0].spec;
+  EXPECT_EQ(spec.procedure, calibration::Procedure::kCircle);
+  EXPECT_NEAR(spec.radius_m, 0.32, 1e-9);
+  EXPECT_EQ(spec.turns, 2);
+  EXPECT_EQ(spec.direction, calibration::Direction::kCw);
 }
 
 }  // namespace

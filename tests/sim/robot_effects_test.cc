@@ -147,6 +147,32 @@ TEST(SpeedSlip, ASpinLosesKTimesItsWheelSpeed) {
   EXPECT_NEAR(end.heading(), WrapAngle(2.0 * M_PI * (1.0 - k * wheel_speed)), 2e-4);
 }
 
+// A circle of radius R: without effects the robot comes back to its start
+// (one arc primitive, both wheels forward); with arc_scale c each wheel rolls
+// (1 - c / R) of its share, so the circle is the same but the robot stops
+// short by 2 pi c / R of the turn.
+TEST(ArcScale, ACircleStopsShortByCOverROfTheTurn) {
+  const double R = 0.4, c = 0.002;
+  RobotConfig plain = ConstantRateRobot();
+  plain.noise.random_encoder_phase = false;
+  VirtualRobot robot(plain);
+  const Pose2 closed = robot.Execute(RunSpec::Circle(R, 1, Direction::kCcw)).TrueEndInStartFrame();
+  EXPECT_NEAR(closed.translation().norm(), 0.0, 2e-4);
+  EXPECT_NEAR(WrapAngle(closed.heading()), 0.0, 2e-4);
+  RobotConfig scaled = plain;
+  scaled.effects.arc_scale = ArcScaleEffect{c};
+  VirtualRobot robot2(scaled);
+  const Pose2 end = robot2.Execute(RunSpec::Circle(R, 1, Direction::kCcw)).TrueEndInStartFrame();
+  const double short_rad = 2.0 * M_PI * c / R;
+  EXPECT_NEAR(WrapAngle(end.heading()), -short_rad, 2e-4);
+  // On the circle: (R sin(-d), R (1 - cos(-d))) from the start.
+  EXPECT_NEAR(end.x(), -R * std::sin(short_rad), 2e-4);
+  EXPECT_NEAR(end.y(), R * (1.0 - std::cos(short_rad)), 2e-4);
+  // A straight is not an arc.
+  const Pose2 straight = robot2.Execute(RunSpec::Straight(1.0)).TrueEndInStartFrame();
+  EXPECT_NEAR(straight.x(), 1.0, 2e-4);
+}
+
 // The rolling radius r (1 + a sin(phi)) averages out over whole wheel turns:
 // a straight of n whole turns of the left wheel ends where it would without
 // it; half a turn from phi = 0 rolls r (pi + 2 a) instead of r pi.

@@ -9,6 +9,10 @@
 //   spin          `turns` full turns in place; ccw positive.
 //   out_and_back  CVRA wheel-ratio path, `repeats` times: forward d,
 //                 turn +180 deg, forward d, turn -180 deg (ccw; cw mirrors).
+//   circle        `turns` full circles of radius radius_m, both wheels
+//                 forward (ccw turns left); planned as one arc primitive.
+//                 For the curvature effects (explain's arc_scale): UMBMark
+//                 and CVRA have no model for it, batch leaves it out.
 //   recorded      any path, driven by whoever drove it (a pose log's run):
 //                 no plan is assumed, the recorded ticks drive the model.
 //
@@ -30,7 +34,7 @@
 
 namespace odocal::calibration {
 
-enum class Procedure { kUmbmark, kStraight, kSpin, kOutAndBack, kRecorded };
+enum class Procedure { kUmbmark, kStraight, kSpin, kOutAndBack, kRecorded, kCircle };
 enum class Direction { kCw, kCcw };
 // How the end of a run is referenced: by the camera (free floor) or by
 // pushing the robot flush against a wall that restores its start heading.
@@ -48,7 +52,8 @@ struct RunSpec {
   Direction direction = Direction::kCw;
   double side_m = 0.0;      // umbmark
   double distance_m = 0.0;  // straight, out_and_back
-  int turns = 0;            // spin
+  int turns = 0;            // spin, circle
+  double radius_m = 0.0;    // circle: of the axle midpoint's path
   int repeats = 1;          // out_and_back
   Reference reference = Reference::kCamera;
   // Per-run motion limits; unset means the robot's defaults.
@@ -59,24 +64,32 @@ struct RunSpec {
   static RunSpec Straight(double distance_m);
   static RunSpec Spin(int turns, Direction direction);
   static RunSpec OutAndBack(double distance_m, int repeats, Direction direction = Direction::kCcw);
+  static RunSpec Circle(double radius_m, int turns, Direction direction);
 
   // `why` names the offending key as a scenario file spells it.
   bool IsValid(std::string* why) const;
 };
 
 struct Primitive {
-  enum class Kind { kStraight, kTurn };
+  enum class Kind { kStraight, kTurn, kArc };
   Kind kind = Kind::kStraight;
-  double amount = 0.0;  // metres (straight) or radians, CCW positive (turn)
+  double amount = 0.0;  // metres (straight) or radians, CCW positive (turn, arc)
+  double radius_m = 0.0;  // arc: of the axle midpoint's path, forward
 
   static Primitive Straight(double distance_m) { return {Kind::kStraight, distance_m}; }
   static Primitive Turn(double angle_rad) { return {Kind::kTurn, angle_rad}; }
+  static Primitive Arc(double angle_rad, double radius_m) {
+    return {Kind::kArc, angle_rad, radius_m};
+  }
+  // The arc's path length (m); 0 for the others.
+  double ArcLength() const { return kind == Kind::kArc ? std::abs(amount) * radius_m : 0.0; }
   // Believed wheel travel for this primitive with the firmware's track.
   double LeftTravel(double believed_track_m) const;
   double RightTravel(double believed_track_m) const;
 };
 
 // Empty for kRecorded: its path is whatever the ticks say.
+// kCircle: one arc primitive of 2 pi turns.
 std::vector<Primitive> PlanPrimitives(const RunSpec& spec);
 
 // The robot's believed end pose after the plan (what odometry aims for).

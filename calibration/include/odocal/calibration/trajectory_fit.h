@@ -34,6 +34,11 @@
 //                    part of a rotated body offset is tag_offset's)
 //   speed_slip       each wheel's ground travel = tick travel (1 - k |v_wheel|),
 //                    v_wheel that wheel's speed over the telemetry step (m/s)
+//   arc_scale        on arcs (both wheels the same way, |curvature| >=
+//                    kArcMinCurvature), each wheel's ground travel = tick
+//                    travel (1 - c |kappa|), kappa the path curvature (1/m)
+//                    from the ticks over a few steps; 0 on straights, not
+//                    applied to in-place turns (turn_slip's)
 //
 // Robust loss: Huber on each frame's whitened error, by iteratively
 // reweighted least squares (the frames of a run share one dead-reckoned
@@ -76,11 +81,11 @@ namespace odocal::calibration {
 
 // The candidate effects, named as scenario files name them.
 enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
-                    kCarpetDrift, kTrackerYaw, kSpeedSlip };
-inline constexpr std::array<Effect, 8> kAllEffects = {
+                    kCarpetDrift, kTrackerYaw, kSpeedSlip, kArcScale };
+inline constexpr std::array<Effect, 9> kAllEffects = {
     Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
     Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift,
-    Effect::kTrackerYaw,     Effect::kSpeedSlip};
+    Effect::kTrackerYaw,     Effect::kSpeedSlip,       Effect::kArcScale};
 std::string_view ToString(Effect effect);
 
 // The effect parameter block. Indices into `values` are fixed; a disabled
@@ -88,7 +93,7 @@ std::string_view ToString(Effect effect);
 struct EffectParams {
   enum Index {
     kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY,
-    kTrackerYaw, kSpeedSlip, kSize
+    kTrackerYaw, kSpeedSlip, kArcScale, kSize
   };
   std::array<double, kSize> values{};
 
@@ -100,9 +105,24 @@ struct EffectParams {
   double backlash_ticks() const { return values[kBacklash]; }
   double tracker_yaw_rad() const { return values[kTrackerYaw]; }
   double speed_slip_at_1m_s() const { return values[kSpeedSlip]; }
+  double arc_scale_at_1_per_m() const { return values[kArcScale]; }
   double drift_rate_m_per_m() const;
   double drift_grain_rad() const;
 };
+
+// arc_scale acts on steps whose path curvature, from the ticks over
+// kArcWindowSteps steps either side, is at least this (1/m; a radius of 2 m):
+// a straight's steering corrections (a tick or two between the wheels) stay
+// below it, every arc a calibration drives is above it.
+inline constexpr double kArcMinCurvature = 0.5;
+inline constexpr int kArcWindowSteps = 5;
+
+// The path curvature (1/m, CCW positive) of each telemetry step of `run` as
+// arc_scale sees it: from the believed wheels and track over a window of
+// steps whose wheels both move the same way; 0 where below kArcMinCurvature,
+// at rest, in turns in place (wheels opposite ways) and on steps where one
+// wheel is still. Index k is the step t[k-1] -> t[k].
+std::vector<double> ArcCurvatures(const MeasuredRun& run, const WheelParams& believed);
 
 // The indices of an effect's parameters in EffectParams.
 std::vector<int> EffectParamIndices(Effect effect);

@@ -67,6 +67,15 @@ struct SpeedSlipEffect {
   double fraction_at_1m_s = 0.0;
 };
 
+// {name: arc_scale, fraction_at_1_per_m}: on an arc of curvature kappa (1/m)
+// each wheel's ground travel is its rolled travel times (1 - c |kappa|): the
+// tyres scrub on a curve (their contact patches must yaw as they roll, by
+// kappa per metre), and the scrub costs travel in proportion. Acts on arc
+// primitives only (a straight has kappa = 0; a turn in place is turn_slip's).
+struct ArcScaleEffect {
+  double fraction_at_1_per_m = 0.0;
+};
+
 // {name: eccentric_wheel, wheel, amplitude, phase_deg}: one wheel's rolling
 // radius varies with its angle phi as r (1 + amplitude sin(phi + phase)).
 // Simulator only — not a candidate of explain's model library, so that
@@ -86,6 +95,7 @@ struct Effects {
   std::optional<CarpetDriftEffect> carpet_drift;
   std::optional<TrackerYawEffect> tracker_yaw;
   std::optional<SpeedSlipEffect> speed_slip;
+  std::optional<ArcScaleEffect> arc_scale;
   std::optional<EccentricWheelEffect> eccentric_wheel;
 
   // The names of the effects that are on, in the order above.

@@ -128,7 +128,8 @@ class VirtualRobot {
     double lead_total = 0.0;  // |distance| or |angle| of the leading quantity
     double lead_speed = 0.0;
     double lead_accel = 0.0;
-    bool is_turn = false;  // an in-place turn (turn_slip acts), else a straight
+    bool is_turn = false;  // an in-place turn (turn_slip acts), else a straight or an arc
+    double curvature = 0.0;  // |1/radius| of an arc primitive (arc_scale), else 0
     double elapsed_s = 0.0;
     double done_fraction = 0.0;
     // kWallAlign: the true rotation to undo (rad).

@@ -23,6 +23,7 @@
 #ifndef ODOCAL_RIG_SESSION_H_
 #define ODOCAL_RIG_SESSION_H_
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,7 +43,7 @@ struct SessionRun {
   std::string timestamps;  // resolved path; empty: frame index / fps
   std::string telemetry;   // resolved path; empty when not recorded
   double start_s = 0.0;    // the run's span in video time
-  double end_s = 0.0;
+  double end_s = std::numeric_limits<double>::infinity();  // unset: to the end
 };
 
 // Where the tracked body of a pose log sits on the robot: T_robot_body.

@@ -53,19 +53,19 @@ std::vector<RunSpec> Circles() {
 // the real OptiOdom circles of 0.32 m lose 0.25 %).
 std::vector<HiddenEffect> HiddenEffects() {
   std::vector<HiddenEffect> list(9);
-  list[0] = {"tag_offset", {}, {{"x_m", 0.030}, {"y_m", -0.015}}};
+  list[0] = {"tag_offset", {}, {{"x_m", 0.030}, {"y_m", -0.015}}, {}};
   list[0].effects.tag_offset = sim::TagOffsetEffect{0.030, -0.015};
-  list[1] = {"camera_latency", {}, {{"latency_s", 0.080}}};
+  list[1] = {"camera_latency", {}, {{"latency_s", 0.080}}, {}};
   list[1].effects.camera_latency = sim::CameraLatencyEffect{0.080};
-  list[2] = {"turn_slip", {}, {{"fraction_at_1rad_s", 0.03}}};
+  list[2] = {"turn_slip", {}, {{"fraction_at_1rad_s", 0.03}}, {}};
   list[2].effects.turn_slip = sim::TurnSlipEffect{0.03};
-  list[3] = {"lens_distortion", {}, {{"k1", 0.01}}};
+  list[3] = {"lens_distortion", {}, {{"k1", 0.01}}, {}};
   list[3].effects.lens_distortion = sim::LensDistortionEffect{0.01};
-  list[4] = {"encoder_backlash", {}, {{"ticks", 12.0}}};
+  list[4] = {"encoder_backlash", {}, {{"ticks", 12.0}}, {}};
   list[4].effects.encoder_backlash = sim::EncoderBacklashEffect{12.0};
-  list[5] = {"carpet_drift", {}, {{"grain_rad", 30.0 * M_PI / 180.0}, {"rate_m_per_m", 0.010}}};
+  list[5] = {"carpet_drift", {}, {{"grain_rad", 30.0 * M_PI / 180.0}, {"rate_m_per_m", 0.010}}, {}};
   list[5].effects.carpet_drift = sim::CarpetDriftEffect{30.0 * M_PI / 180.0, 0.010};
-  list[6] = {"tracker_yaw", {}, {{"yaw_rad", 2.0 * M_PI / 180.0}}};
+  list[6] = {"tracker_yaw", {}, {{"yaw_rad", 2.0 * M_PI / 180.0}}, {}};
   list[6].effects.tracker_yaw = sim::TrackerYawEffect{2.0 * M_PI / 180.0};
   list[7] = {"speed_slip", {}, {{"fraction_at_1m_s", 0.04}}, SlowOutAndBack()};
   list[7].effects.speed_slip = sim::SpeedSlipEffect{0.04};

@@ -276,35 +276,14 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   s.believed = session.nominal;
   for (const RunMeasurement& r : runs) s.runs.push_back(r.measured);
   s.camera_scale_sigma = camera_scale_sigma;
-  // One frame's noise, from the frames at rest about their window's mean.
-  double sum_p = 0.0, sum_h = 0.0;
-  int dof = 0;
-  for (size_t i = 0; i < s.runs.size(); ++i) {
-    if (runs[i].pose_log) continue;  // the tracker's noise is its own
-    const calibration::MeasuredRun& run = s.runs[i];
-    for (const auto& rest : {run.start_rest, run.end_rest}) {
-      if (!rest) continue;
-      std::vector<calibration::Pose2> poses;
-      for (const calibration::CameraRecord& c : run.camera)
-        if (c.valid && c.t_s >= rest->t_begin_s && c.t_s <= rest->t_end_s)
-          poses.push_back(c.T_world_robot);
-      if (poses.size() < 3) continue;
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-      for (const auto& p : poses) mean += Eigen::Vector2d(p.x(), p.y());
-      mean /= static_cast<double>(poses.size());
-      const double h0 = poses.front().heading();
-      double mean_h = 0.0;
-      for (const auto& p : poses) mean_h += calibration::WrapAngle(p.heading() - h0);
-      mean_h /= static_cast<double>(poses.size());
-      for (const auto& p : poses) {
-        sum_p += (Eigen::Vector2d(p.x(), p.y()) - mean).squaredNorm() / 2.0;
-        sum_h += std::pow(calibration::WrapAngle(p.heading() - h0) - mean_h, 2);
-      }
-      dof += static_cast<int>(poses.size()) - 1;
-    }
-  }
-  if (dof > 0) {
-    const double sigma_p = std::sqrt(sum_p / dof), sigma_h = std::sqrt(sum_h / dof);
+  // One frame's noise, from the frames at rest about their window's mean
+  // (a pose log's tracker states its own noise: pose_log.h).
+  std::vector<const calibration::MeasuredRun*> video_runs;
+  for (size_t i = 0; i < s.runs.size(); ++i)
+    if (!runs[i].pose_log) video_runs.push_back(&s.runs[i]);
+  const calibration::RestScatter scatter = calibration::PooledRestScatter(video_runs);
+  if (scatter.dof > 0) {
+    const double sigma_p = scatter.sigma_position_m, sigma_h = scatter.sigma_heading_rad;
     for (size_t i = 0; i < s.runs.size(); ++i)
       for (calibration::CameraRecord& c : s.runs[i].camera)
         if (c.valid && !runs[i].pose_log) {

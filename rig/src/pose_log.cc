@@ -613,34 +613,13 @@ bool MeasurePoseLogRun(const SessionRun& run, const TrackerMount& tracker,
 void FinishPoseLogRuns(const PoseLogOptions& options, std::vector<calibration::MeasuredRun*> runs) {
   // One frame's noise, from the frames at rest about their window's mean,
   // pooled over every rest of the pose-log runs (the video path's rule).
-  double sum_p = 0.0, sum_h = 0.0;
-  int dof = 0;
-  for (const calibration::MeasuredRun* run : runs) {
-    for (const auto& rest : {run->start_rest, run->end_rest}) {
-      if (!rest) continue;
-      std::vector<Pose2> poses;
-      for (const calibration::CameraRecord& c : run->camera)
-        if (c.valid && c.t_s >= rest->t_begin_s && c.t_s <= rest->t_end_s) poses.push_back(c.T_world_robot);
-      if (poses.size() < 3) continue;
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-      for (const auto& p : poses) mean += p.translation();
-      mean /= static_cast<double>(poses.size());
-      const double h0 = poses.front().heading();
-      double mean_h = 0.0;
-      for (const auto& p : poses) mean_h += calibration::WrapAngle(p.heading() - h0);
-      mean_h /= static_cast<double>(poses.size());
-      for (const auto& p : poses) {
-        sum_p += (p.translation() - mean).squaredNorm() / 2.0;
-        sum_h += std::pow(calibration::WrapAngle(p.heading() - h0) - mean_h, 2);
-      }
-      dof += static_cast<int>(poses.size()) - 1;
-    }
-  }
-  const bool measured = dof >= 2;
+  const calibration::RestScatter scatter = calibration::PooledRestScatter(
+      std::vector<const calibration::MeasuredRun*>(runs.begin(), runs.end()));
+  const bool measured = scatter.dof >= 2;
   // A tracker that reports identical poses at rest has a resolution, not zero noise.
-  const double sigma_p = measured ? std::max(std::sqrt(sum_p / dof), 1e-6)
+  const double sigma_p = measured ? std::max(scatter.sigma_position_m, 1e-6)
                                   : options.default_sigma_position_m;
-  const double sigma_h = measured ? std::max(std::sqrt(sum_h / dof), 1e-6 * kDegToRad)
+  const double sigma_h = measured ? std::max(scatter.sigma_heading_rad, 1e-6 * kDegToRad)
                                   : options.default_sigma_heading_rad;
   for (calibration::MeasuredRun* run : runs) {
     if (!measured) run->flags.push_back("default_frame_sigma");

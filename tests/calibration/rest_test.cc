@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/test_util/test_util.h"
 
@@ -100,6 +101,51 @@ TEST(FindRests, GapsSplitRestsAndShortPausesAreNotRests) {
     moving.push_back({t, Pose2::FromXYHeading(x, 0.0, 0.0)});
   }
   EXPECT_TRUE(FindRests(moving).rests.empty());
+}
+
+}  // namespace
+}  // namespace odocal::calibration
+
+namespace odocal::calibration {
+namespace {
+
+// The pooled rest scatter recovers a known frame noise from many short
+// rests, and ignores the frames in motion, invalid frames and rests too short
+// to have a spread.
+TEST(PooledRestScatter, RecoversTheFrameNoiseFromTheRests) {
+  std::mt19937 rng(17);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double sigma_m = 0.2e-3, sigma_rad = 0.05 * M_PI / 180.0;
+  std::vector<MeasuredRun> runs(20);
+  for (size_t r = 0; r < runs.size(); ++r) {
+    MeasuredRun& run = runs[r];
+    const Pose2 start = Pose2::FromXYHeading(0.1 * r, -0.2, M_PI - 1e-4);  // noise wraps it
+    const Pose2 end = Pose2::FromXYHeading(1.0, 0.3 * r, -3.1);
+    for (int k = 0; k < 60; ++k) {
+      CameraRecord c;
+      c.t_s = 0.1 * k;
+      c.valid = k != 5;
+      const Pose2& truth = k < 20 ? start : k < 40 ? Pose2::FromXYHeading(5.0 * k, 0.0, 0.0) : end;
+      c.T_world_robot = Pose2::FromXYHeading(truth.x() + sigma_m * n(rng), truth.y() + sigma_m * n(rng),
+                                             truth.heading() + sigma_rad * n(rng));
+      if (!c.valid) c.T_world_robot = Pose2::FromXYHeading(99.0, 99.0, 0.0);  // ignored
+      run.camera.push_back(c);
+    }
+    run.start_rest = RestWindow{0.0, 1.95, 19, start, Eigen::Matrix3d::Zero()};
+    run.end_rest = RestWindow{4.0, 5.95, 20, end, Eigen::Matrix3d::Zero()};
+  }
+  MeasuredRun too_short;  // a rest of two frames says nothing of the spread
+  too_short.camera = {CameraRecord{0.0, true, Pose2::FromXYHeading(0, 0, 0), 0, 0},
+                      CameraRecord{0.1, true, Pose2::FromXYHeading(1.0, 0, 0), 0, 0}};
+  too_short.start_rest = RestWindow{0.0, 0.15, 2, Pose2::Identity(), Eigen::Matrix3d::Zero()};
+  std::vector<const MeasuredRun*> pointers = {&too_short};
+  for (const MeasuredRun& run : runs) pointers.push_back(&run);
+  const RestScatter s = PooledRestScatter(pointers);
+  EXPECT_EQ(s.dof, 20 * (18 + 19));
+  // 740 degrees of freedom: the sample sigma is within ~3 % (1 sigma) of the truth.
+  EXPECT_NEAR(s.sigma_position_m, sigma_m, 0.1 * sigma_m);
+  EXPECT_NEAR(s.sigma_heading_rad, sigma_rad, 0.1 * sigma_rad);
+  EXPECT_EQ(PooledRestScatter({}).dof, 0);
 }
 
 }  // namespace

@@ -69,6 +69,17 @@ struct MeasuredSession {
   std::vector<MeasuredRun> runs;
 };
 
+// One frame's pose noise, measured where the truth is constant: the scatter
+// of the valid frames of each run's start and end rest about that rest's
+// mean, pooled (rests of fewer than 3 valid frames are skipped). Position
+// per axis; heading about a circular reference.
+struct RestScatter {
+  double sigma_position_m = 0.0;
+  double sigma_heading_rad = 0.0;
+  int dof = 0;  // pooled degrees of freedom; 0: nothing measured
+};
+RestScatter PooledRestScatter(const std::vector<const MeasuredRun*>& runs);
+
 }  // namespace odocal::calibration
 
 #endif  // ODOCAL_CALIBRATION_MEASURED_SESSION_H_

@@ -61,4 +61,41 @@ void CornersFromEdges(const std::array<EdgeLine, 4>& lines, const CameraModel* c
   result->corners_px = refined;
 }
 
+EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
+                               const cv::Point2d& b_px, const cv::Point2d& centre_px,
+                               const CameraModel* camera, double half_width, double end_margin) {
+  EdgeBandSamples band;
+  const cv::Point2d ab = b_px - a_px;
+  const double len = cv::norm(ab);
+  const cv::Point2d dir = ab * (1.0 / len);
+  cv::Point2d normal(-dir.y, dir.x);
+  if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
+  band.normal_px = normal;
+  const int x0 = std::max(origin.x, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
+  const int x1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
+  const int y0 = std::max(origin.y, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
+  const int y1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
+  std::vector<cv::Point2d> centres;
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      const cv::Point2d q(x, y);
+      const double t = (q - a_px).dot(dir) / len;
+      const double d = (q - a_px).dot(normal);
+      if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
+      centres.push_back(q);
+      band.value.push_back(grey.at<uint8_t>(y - origin.y, x - origin.x));
+      band.offset_px.push_back(d);
+    }
+  }
+  band.undistorted = camera && !centres.empty() ? camera->UndistortPixels(centres) : centres;
+  std::vector<cv::Point2d> ends = {a_px, b_px};
+  if (camera) ends = camera->UndistortPixels(ends);
+  const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));
+  cv::Point2d u_normal(-u_dir.y, u_dir.x);
+  if (u_normal.dot(normal) < 0) u_normal = -u_normal;
+  band.start_angle = std::atan2(u_normal.y, u_normal.x);
+  band.start_offset = u_normal.dot(ends[0]);
+  return band;
+}
+
 }  // namespace odocal::vision::internal

@@ -8,6 +8,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -38,6 +39,25 @@ std::optional<TagExtent> CheckRefinementInput(const cv::Mat& grey,
 void CornersFromEdges(const std::array<EdgeLine, 4>& lines, const CameraModel* camera,
                       const std::array<cv::Point2d, 4>& input_corners_px, double cell_px,
                       CornerRefineResult* result);
+
+// The pixels of the band along one detected edge a -> b that the edge-model
+// refinements fit: those whose centres lie within `half_width` of the
+// segment (in distorted pixels, where the detector's corners are) and
+// between `end_margin` of its length from either end. Image pixel (x, y) is
+// grey(y - origin.y, x - origin.x).
+struct EdgeBandSamples {
+  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted when a camera is given
+  std::vector<double> value;             // grey level
+  std::vector<double> offset_px;         // signed distance from the edge, outwards positive
+  cv::Point2d normal_px;                 // outwards, distorted pixels
+  // The detector's edge mapped like the pixels: the line n . q = c with n at
+  // angle `start_angle` (outwards), c = `start_offset`.
+  double start_angle = 0.0;
+  double start_offset = 0.0;
+};
+EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
+                               const cv::Point2d& b_px, const cv::Point2d& centre_px,
+                               const CameraModel* camera, double half_width, double end_margin);
 
 }  // namespace odocal::vision::internal
 

@@ -27,10 +27,7 @@ namespace {
 using internal::G;
 using internal::H;
 
-struct EdgePixels {
-  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted pixels
-  std::vector<double> value;
-};
+using EdgePixels = internal::EdgeBandSamples;
 
 // Parameters: theta (normal angle), c (offset along the normal), a, b, log s.
 class EdgeModelCost {
@@ -74,44 +71,17 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
                                   double* rms) {
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
-  const cv::Point2d ab = b_px - a_px;
-  const double len = cv::norm(ab);
-  const cv::Point2d dir = ab * (1.0 / len);
-  cv::Point2d normal(-dir.y, dir.x);
-  if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
-  // Image pixel (x, y) is grey(y - origin.y, x - origin.x).
-  const int x0 = std::max(origin.x, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
-  const int x1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
-  const int y0 = std::max(origin.y, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
-  const int y1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
-  std::vector<cv::Point2d> centres;
-  EdgePixels pixels;
-  for (int y = y0; y <= y1; ++y) {
-    for (int x = x0; x <= x1; ++x) {
-      const cv::Point2d q(x, y);
-      const double t = (q - a_px).dot(dir) / len;
-      const double d = (q - a_px).dot(normal);
-      if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
-      centres.push_back(q);
-      pixels.value.push_back(grey.at<uint8_t>(y - origin.y, x - origin.x));
-    }
-  }
+  const EdgePixels pixels =
+      internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, end_margin);
   if (pixels.value.size() < 20) return std::nullopt;
-  pixels.undistorted = camera ? camera->UndistortPixels(centres) : centres;
-  // Start: the detector's edge, mapped like the pixels.
-  std::vector<cv::Point2d> ends = {a_px, b_px};
-  if (camera) ends = camera->UndistortPixels(ends);
-  const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));
-  cv::Point2d u_normal(-u_dir.y, u_dir.x);
-  if (u_normal.dot(normal) < 0) u_normal = -u_normal;
   double dark = 255.0, light = 0.0;
   for (double v : pixels.value) {
     dark = std::min(dark, v);
     light = std::max(light, v);
   }
   if (light - dark < 20.0) return std::nullopt;
-  double p[5] = {std::atan2(u_normal.y, u_normal.x), u_normal.dot(ends[0]), dark, light - dark,
-                 std::log(0.9)};
+  // Start: the detector's edge, mapped like the pixels.
+  double p[5] = {pixels.start_angle, pixels.start_offset, dark, light - dark, std::log(0.9)};
   ceres::Problem problem;
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5>(

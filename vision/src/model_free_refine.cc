@@ -43,10 +43,7 @@ namespace {
 constexpr int kEdgeParams = 4;
 constexpr int kSharedParams = 4;
 
-struct BandPixels {
-  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted pixels
-  std::vector<double> value;
-};
+using BandPixels = internal::EdgeBandSamples;
 
 class ModelFreeCost {
  public:
@@ -90,49 +87,26 @@ struct EdgeBand {
 std::optional<EdgeBand> PrepareEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                     const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                     const CameraModel* camera, double half_width, double end_margin) {
-  const cv::Point2d ab = b_px - a_px;
-  const double len = cv::norm(ab);
-  const cv::Point2d dir = ab * (1.0 / len);
-  cv::Point2d normal(-dir.y, dir.x);
-  if ((0.5 * (a_px + b_px) - centre_px).dot(normal) < 0) normal = -normal;  // outwards
-  const int x0 = std::max(origin.x, static_cast<int>(std::floor(std::min(a_px.x, b_px.x) - half_width - 1)));
-  const int x1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(std::max(a_px.x, b_px.x) + half_width + 1)));
-  const int y0 = std::max(origin.y, static_cast<int>(std::floor(std::min(a_px.y, b_px.y) - half_width - 1)));
-  const int y1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(std::max(a_px.y, b_px.y) + half_width + 1)));
-  std::vector<cv::Point2d> centres;
   EdgeBand band;
-  band.normal_px = normal;
+  band.pixels = internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, end_margin);
+  band.normal_px = band.pixels.normal_px;
   std::vector<double> dark_side, light_side;
-  for (int y = y0; y <= y1; ++y) {
-    for (int x = x0; x <= x1; ++x) {
-      const cv::Point2d q(x, y);
-      const double t = (q - a_px).dot(dir) / len;
-      const double d = (q - a_px).dot(normal);
-      if (t < end_margin || t > 1.0 - end_margin || std::abs(d) > half_width) continue;
-      centres.push_back(q);
-      const uint8_t v = grey.at<uint8_t>(y - origin.y, x - origin.x);
-      band.saturated += (v == 0 || v == 255) ? 1 : 0;
-      band.pixels.value.push_back(v);
-      // Plateau levels from the band's outer thirds (a robust start).
-      if (d < -half_width / 3) dark_side.push_back(v);
-      if (d > half_width / 3) light_side.push_back(v);
-    }
+  for (size_t i = 0; i < band.pixels.value.size(); ++i) {
+    const double v = band.pixels.value[i], d = band.pixels.offset_px[i];
+    band.saturated += (v <= 0.0 || v >= 255.0) ? 1 : 0;
+    // Plateau levels from the band's outer thirds (a robust start).
+    if (d < -half_width / 3) dark_side.push_back(v);
+    if (d > half_width / 3) light_side.push_back(v);
   }
   if (band.pixels.value.size() < 20 || dark_side.empty() || light_side.empty()) return std::nullopt;
-  band.pixels.undistorted = camera ? camera->UndistortPixels(centres) : centres;
-  std::vector<cv::Point2d> ends = {a_px, b_px};
-  if (camera) ends = camera->UndistortPixels(ends);
-  const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));
-  cv::Point2d u_normal(-u_dir.y, u_dir.x);
-  if (u_normal.dot(normal) < 0) u_normal = -u_normal;
   auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
   };
   const double dark = median(dark_side), light = median(light_side);
   if (light - dark < 10.0) return std::nullopt;
-  band.start[0] = std::atan2(u_normal.y, u_normal.x);
-  band.start[1] = u_normal.dot(ends[0]);
+  band.start[0] = band.pixels.start_angle;
+  band.start[1] = band.pixels.start_offset;
   band.start[2] = std::max(dark, 1.0);
   band.start[3] = light - dark;
   return band;

@@ -27,10 +27,7 @@ using test_util::RunCommand;
 
 using test_util::Odocal;
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test_util::ReadJson;
 
 // The standard camera (pose, distortion, pixel scale, noise, blur, exposure)
 // on a smaller sensor centred on the same optical axis.

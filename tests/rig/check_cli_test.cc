@@ -27,17 +27,8 @@ using test_util::RunCommand;
 
 std::string Session() { return test_util::SourceDir() + "/sample_data/session/session.yaml"; }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test_util::ReadJson;
+using test_util::Slurp;
 
 // The result of `set` for `run` in check.json.
 const nlohmann::json& Result(const nlohmann::json& run, const std::string& set) {

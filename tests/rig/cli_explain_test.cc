@@ -17,10 +17,7 @@ using test_util::RunCommand;
 
 using test_util::Odocal;
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test_util::ReadJson;
 
 TEST(CliExplain, NamesTheHiddenEffectsAndWritesTheReports) {
   const std::string sim = test_util::MakeTempDir("odocal_explain_sim_");

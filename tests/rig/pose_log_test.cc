@@ -156,10 +156,7 @@ std::vector<RunMeasurement> MeasureFile(const std::string& path) {
   return measured->front().runs;
 }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test_util::ReadJson;
 
 // ---------------------------------------------------------------------------
 // Known truth.

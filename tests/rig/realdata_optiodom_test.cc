@@ -29,10 +29,7 @@ std::string SharedSets() {
   return test_util::SourceDir() + "/../shared/realdata/optiodom/diff";
 }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test_util::ReadJson;
 
 // Imports one OptiOdom set and returns its session file.
 std::string Import(const std::string& set_dir, const std::string& out) {

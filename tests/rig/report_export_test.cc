@@ -19,17 +19,8 @@ using test_util::RunCommand;
 
 using test_util::Odocal;
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test_util::ReadJson;
+using test_util::Slurp;
 
 bool Has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
 

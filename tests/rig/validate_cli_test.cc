@@ -23,17 +23,8 @@ using test_util::RunCommand;
 using test_util::Odocal;
 std::string Session() { return test_util::SourceDir() + "/sample_data/session/session.yaml"; }
 
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test_util::ReadJson;
+using test_util::Slurp;
 
 struct Put {
   double bias, sd;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include <gmock/gmock.h>
+#include <nlohmann/json.hpp>
 
 #include "odocal/calibration/pose2.h"
 
@@ -41,6 +42,11 @@ struct CommandResult {
 };
 // Runs a shell command line, capturing stdout and stderr.
 CommandResult RunCommand(const std::string& command_line);
+
+// A file's whole text ("" when it cannot be read), and a JSON file parsed
+// (throws on a missing file or bad JSON: the test fails with the message).
+std::string Slurp(const std::string& path);
+nlohmann::json ReadJson(const std::string& path);
 
 }  // namespace odocal::test_util
 

@@ -29,7 +29,14 @@ std::string ReadAll(const std::filesystem::path& path) {
 
 std::string OdocalBinary() { return EnvOr("ODOCAL_BINARY", "build/odocal"); }
 std::string Odocal(const std::string& args) { return OdocalBinary() + " " + args; }
-std::string SourceDir() { return EnvOr("ODOCAL_SOURCE_DIR", "."); }
+// Absolute, so that it can be found and replaced in what the binary writes. ctest runs the
+// tests from the source tree, which is the fallback.
+std::string SourceDir() {
+  std::string dir =
+      std::filesystem::absolute(EnvOr("ODOCAL_SOURCE_DIR", ".")).lexically_normal().string();
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  return dir;
+}
 
 std::string MakeTempDir(const std::string& prefix) {
   std::string templ = (std::filesystem::temp_directory_path() / (prefix + "XXXXXX")).string();

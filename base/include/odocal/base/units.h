@@ -1,0 +1,17 @@
+// Unit conversions. odocal computes in SI (metres, radians, seconds); files and the terminal
+// speak millimetres and degrees. Convert at the boundary, with these names.
+#ifndef ODOCAL_BASE_UNITS_H_
+#define ODOCAL_BASE_UNITS_H_
+
+#include <numbers>
+
+namespace odocal {
+
+inline constexpr double kDegToRad = std::numbers::pi / 180.0;
+inline constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+inline constexpr double kMmToM = 1e-3;
+inline constexpr double kMToMm = 1e3;
+
+}  // namespace odocal
+
+#endif  // ODOCAL_BASE_UNITS_H_

@@ -24,10 +24,11 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "odocal/rig/measure.h"
-#include "odocal/rig/session.h"
-#include "odocal/vision/video.h"
-#include "odocal/vision/video_track.h"
+#include "odocal/config/session.h"
+#include "odocal/measure/measure.h"
+#include "odocal/measure/video_track.h"
+#include "odocal/media/video.h"
+#include "odocal/report/measurement_json.h"
 
 namespace {
 
@@ -35,7 +36,7 @@ using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 double DecodeOnlyFps(const std::string& video, int* frames) {
-  odocal::vision::VideoReader reader;
+  odocal::media::VideoReader reader;
   if (!reader.Open(video).ok) return 0.0;
   cv::Mat grey;
   const auto t0 = Clock::now();
@@ -45,7 +46,7 @@ double DecodeOnlyFps(const std::string& video, int* frames) {
 }
 
 double FullFrameApriltagFps(const std::string& video) {
-  odocal::vision::VideoReader reader;
+  odocal::media::VideoReader reader;
   if (!reader.Open(video).ok) return 0.0;
   apriltag_detector_t* detector = apriltag_detector_create();  // library defaults
   apriltag_family_t* family = tag36h11_create();
@@ -74,13 +75,13 @@ int main(int argc, char** argv) {
   }
   const std::string dir = argv[1];
   std::string error;
-  const auto session = odocal::rig::LoadSession(dir + "/session.yaml", &error);
+  const auto session = odocal::config::LoadSession(dir + "/session.yaml", &error);
   if (!session) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 1;
   }
   // The longest video.
-  const odocal::rig::SessionRun* longest = &session->runs.front();
+  const odocal::config::SessionRun* longest = &session->runs.front();
   for (const auto& run : session->runs)
     if (std::filesystem::file_size(run.video) > std::filesystem::file_size(longest->video)) longest = &run;
   std::printf("session %s: %zu runs, %dx%d; throughput on %s\n", dir.c_str(), session->runs.size(),
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
   int frames = 0;
   const double decode_fps = DecodeOnlyFps(longest->video, &frames);
   const auto t0 = Clock::now();
-  const odocal::vision::VideoTrack track = odocal::vision::TrackTagInVideo(
+  const odocal::measure::VideoTrack track = odocal::measure::TrackTagInVideo(
       longest->video, {}, session->tag, session->intrinsics);
   const double batch_fps = track.frames.size() / Since(t0);
   const double apriltag_fps = FullFrameApriltagFps(longest->video);
@@ -104,7 +105,7 @@ int main(int argc, char** argv) {
 
   // Accuracy: the whole session, as batch measures it.
   const auto t1 = Clock::now();
-  const auto measured = odocal::rig::MeasureSessions({*session}, {}, {}, &error);
+  const auto measured = odocal::measure::MeasureSessions({*session}, {}, {}, &error);
   if (!measured) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 1;
@@ -119,7 +120,7 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < measured->front().runs.size(); ++i) {
     const auto& rm = measured->front().runs[i];
     total_frames += static_cast<long>(rm.track.frames.size());
-    const nlohmann::json j = odocal::rig::RunJson(rm);
+    const nlohmann::json j = odocal::report::RunJson(rm);
     const nlohmann::json& t = truth["runs"][i]["true_return_error"];
     if (j["return_error"].is_null()) {
       std::printf("  %-24s not measured: %s\n", rm.run.name.c_str(), j["flags"].dump().c_str());

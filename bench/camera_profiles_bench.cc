@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/media/video.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/edge_quality.h"
@@ -35,6 +36,7 @@
 using odocal::calibration::Pose2;
 using odocal::calibration::WrapAngle;
 using namespace odocal::vision;
+namespace media = odocal::media;
 
 namespace {
 
@@ -117,7 +119,7 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
       images.push_back(truth.image);
     }
     std::string error;
-    const auto coded = CodecRoundTrip(images, formation.codec, 30.0, &error);
+    const auto coded = media::CodecRoundTrip(images, formation.codec, 30.0, &error);
     if (!coded) {
       std::printf("codec: %s\n", error.c_str());
       return;

@@ -17,15 +17,16 @@
 #include <string>
 #include <vector>
 
+#include "odocal/media/video.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/renderer.h"
-#include "odocal/vision/video.h"
 
 using odocal::calibration::Pose2;
 using odocal::calibration::WrapAngle;
 using namespace odocal::vision;
+namespace media = odocal::media;
 
 namespace {
 
@@ -196,7 +197,7 @@ int main(int argc, char** argv) {
     RenderOptions mo = ro;
     mo.exposure_s = 0.004;
     auto moving_renderer = Renderer::Create(camera, tag, mo);
-    Mp4Writer writer;
+    media::Mp4Writer writer;
     const auto st = writer.Open(path, 30.0, cv::Size(1920, 1080));
     if (!st.ok) {
       std::printf("\nH.264: %s\n", st.message.c_str());
@@ -211,14 +212,14 @@ int main(int argc, char** argv) {
       truth.push_back(f.T_world_tag);
     }
     writer.Close();
-    VideoReader reader;
+    media::VideoReader reader;
     reader.Open(path);
     cv::Mat grey;
     double t0 = NowMs();
     int decoded = 0;
     while (reader.Read(&grey)) ++decoded;
     const double decode_ms = (NowMs() - t0) / decoded;
-    VideoReader reader2;
+    media::VideoReader reader2;
     reader2.Open(path);
     auto det = TagDetector::Create(DetectorOptions{});
     TagTracker tracker(det.detector.get(), tag.id);
@@ -254,14 +255,14 @@ int main(int argc, char** argv) {
   for (int crf : {-1, 18, 12, 6}) {
   double encode_ms = 0;
   int encode_clips = 0;
-  Mp4WriterOptions wo;
-  if (crf >= 0) wo.backend = Mp4WriterOptions::Backend::kFfmpegCli, wo.crf = crf;
+  media::Mp4WriterOptions wo;
+  if (crf >= 0) wo.backend = media::Mp4WriterOptions::Backend::kFfmpegCli, wo.crf = crf;
   std::printf("\n### H.264 (%s), static robot, mean of 30 frames vs truth\n\n",
               crf < 0 ? "OpenCV VideoWriter, x264 default CRF 23" : ("ffmpeg CLI, CRF " + std::to_string(crf)).c_str());
   std::printf("| position | mean error x mm | mean error y mm | mean error heading deg |\n|---|---|---|---|\n");
   for (const Pose2& truth : {Pose2::FromXYHeading(0.02, -1.0, 0.4), Pose2::FromXYHeading(-1.05, -0.6, -2.0),
                              Pose2::FromXYHeading(1.0, -1.45, 2.9), Pose2::FromXYHeading(0.5, -0.7, 1.3)}) {
-    Mp4Writer writer;
+    media::Mp4Writer writer;
     if (const auto st = writer.Open(path, 30.0, cv::Size(1920, 1080), wo); !st.ok) {
       std::printf("| %s |\n", st.message.c_str());
       break;
@@ -273,7 +274,7 @@ int main(int argc, char** argv) {
     writer.Close();
     encode_ms += (NowMs() - e0) / 30.0;
     ++encode_clips;
-    VideoReader reader;
+    media::VideoReader reader;
     reader.Open(path);
     auto det = TagDetector::Create(DetectorOptions{});
     TagTracker tracker(det.detector.get(), tag.id);

@@ -14,3 +14,15 @@ function(odocal_test name)
     PROPERTIES ENVIRONMENT "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
     DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# odocal_module(name SOURCES ... [PUBLIC ...] [PRIVATE ...])
+# One library per concern: target odocal_<name>, alias odocal::<name>, public headers under
+# include/odocal/<name>/. PUBLIC lists what the public headers include, PRIVATE what only the
+# sources include: the link lists are the architecture (docs/architecture.md).
+function(odocal_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC;PRIVATE" ${ARGN})
+  add_library(odocal_${name} ${ARG_SOURCES})
+  add_library(odocal::${name} ALIAS odocal_${name})
+  target_include_directories(odocal_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_link_libraries(odocal_${name} PUBLIC ${ARG_PUBLIC} PRIVATE ${ARG_PRIVATE})
+endfunction()

@@ -207,4 +207,12 @@ RelativePose Between(const RestWindow& start, const RestWindow& end) {
   return r;
 }
 
+RelativePose Between(const RestWindow& start, const RestWindow& end, const SystematicFloor& floor) {
+  RelativePose r = Between(start, end);
+  r.covariance(0, 0) += floor.position_m * floor.position_m;
+  r.covariance(1, 1) += floor.position_m * floor.position_m;
+  r.covariance(2, 2) += floor.heading_rad * floor.heading_rad;
+  return r;
+}
+
 }  // namespace odocal::calibration

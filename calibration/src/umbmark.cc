@@ -237,6 +237,21 @@ std::ostream& operator<<(std::ostream& os, const ReturnError& e) {
   return os << ")";
 }
 
+bool UmbmarkInput::AddRun(const RunSpec& spec, const Pose2& return_error, std::string* why) {
+  if (spec.procedure != Procedure::kUmbmark) {
+    if (why) *why = "not a UMBMark square";
+    return false;
+  }
+  if (side_m == 0.0) side_m = spec.side_m;
+  if (std::abs(spec.side_m - side_m) > 1e-9) {
+    if (why) *why = "a square of another side cannot be pooled";
+    return false;
+  }
+  const ReturnError e{return_error.x(), return_error.y(), return_error.heading()};
+  (spec.direction == Direction::kCw ? cw : ccw).push_back(e);
+  return true;
+}
+
 bool UmbmarkInput::IsValid(std::string* why) const {
   auto fail = [why](const std::string& message) {
     if (why) *why = message;

@@ -123,4 +123,27 @@ Bytes ParamBody(size_t index, const ParamValue& value) {
   return w.Take();
 }
 
+calibration::WheelParams ToWheelParams(const ParamSet& p) {
+  calibration::WheelParams w;
+  w.left_wheel_diameter_m = p.left_wheel_diameter_mm * 1e-3;
+  w.right_wheel_diameter_m = p.right_wheel_diameter_mm * 1e-3;
+  w.track_m = p.track_mm * 1e-3;
+  w.ticks_per_rev = p.ticks_per_rev;
+  return w;
+}
+
+ParamSet ToParamSet(const calibration::WheelParams& w, uint32_t ticks_per_rev) {
+  return ParamSet{w.left_wheel_diameter_m * 1e3, w.right_wheel_diameter_m * 1e3, w.track_m * 1e3,
+                  ticks_per_rev};
+}
+
+std::optional<ParamSet> ToParamSet(const calibration::WheelParams& w, std::string* why) {
+  if (!(w.ticks_per_rev >= 1.0 && w.ticks_per_rev <= 4294967295.0) ||
+      std::abs(w.ticks_per_rev - std::round(w.ticks_per_rev)) > 1e-9) {
+    if (why) *why = "ticks_per_rev: the robot link carries whole ticks per revolution";
+    return std::nullopt;
+  }
+  return ToParamSet(w, static_cast<uint32_t>(std::round(w.ticks_per_rev)));
+}
+
 }  // namespace odocal::robot_link

@@ -11,7 +11,7 @@
 
 #include "explain_fixtures.h"
 
-namespace odocal::rig::testing {
+namespace odocal::testing {
 namespace {
 
 using calibration::Direction;
@@ -23,7 +23,7 @@ using calibration::RunSpec;
 using calibration::WheelScales;
 
 WheelScales TrueScales() {
-  const Scenario scenario = MakeScenario(IdentifyingPlan(), {}, 1);
+  const config::Scenario scenario = MakeScenario(IdentifyingPlan(), {}, 1);
   return calibration::WheelScalesFrom(scenario.robot.nominal, scenario.robot.truth);
 }
 
@@ -123,4 +123,4 @@ TEST(Replay, SaysWhyARunCannotBeReplayed) {
 }
 
 }  // namespace
-}  // namespace odocal::rig::testing
+}  // namespace odocal::testing

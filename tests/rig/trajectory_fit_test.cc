@@ -10,7 +10,7 @@
 
 #include "explain_fixtures.h"
 
-namespace odocal::rig::testing {
+namespace odocal::testing {
 namespace {
 
 using calibration::Direction;
@@ -37,7 +37,7 @@ TEST(TrajectoryFit, RecoversTheBaseParametersOfACleanSession) {
 // (r_left + r_right) / Eb, so the scale and the track are one number; the
 // fit must say so instead of inventing both.
 TEST(TrajectoryFit, ReportsWhatSpinsAtHomeCannotTell) {
-  StandInCameraOptions camera;
+  simulation::StandInCameraOptions camera;
   camera.home_radius_m = 0.3;
   const SessionUnderTest s = MakeSession(
       {RunSpec::Spin(2, Direction::kCw), RunSpec::Spin(2, Direction::kCcw)}, {}, 5, camera);
@@ -65,7 +65,7 @@ TEST(TrajectoryFit, ReportsThatStraightsAloneCannotSeparateEdFromEb) {
 }
 
 TEST(TrajectoryFit, AHomeAreaCameraStillCalibratesFromRestsAndNearbyLegs) {
-  StandInCameraOptions camera;
+  simulation::StandInCameraOptions camera;
   camera.home_radius_m = 0.3;
   const SessionUnderTest s = MakeSession(
       {RunSpec::Umbmark(Direction::kCw, 2.0), RunSpec::Umbmark(Direction::kCcw, 2.0)}, {}, 5, camera);
@@ -188,4 +188,4 @@ TEST(TrajectoryFit, RejectsBadInput) {
 }
 
 }  // namespace
-}  // namespace odocal::rig::testing
+}  // namespace odocal::testing

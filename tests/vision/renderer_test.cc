@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/media/video.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/renderer.h"
-#include "odocal/vision/video.h"
 #include "vision_fixtures.h"
 
 namespace odocal::vision {
@@ -173,19 +173,19 @@ TEST(Renderer, RejectsInvalidInput) {
   EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), testing::StandardTag(), o).ok);
 }
 
-class Video : public ::testing::TestWithParam<Mp4WriterOptions::Backend> {};
+class Video : public ::testing::TestWithParam<media::Mp4WriterOptions::Backend> {};
 
 TEST_P(Video, H264RoundTripWithTimestamps) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_video");
-  Mp4WriterOptions wo;
+  media::Mp4WriterOptions wo;
   wo.backend = GetParam();
   const std::string path = dir + "/clip.mp4";
   const CameraModel cam(Intrinsics{320, 240, 350.0, 350.0, 160.0, 120.0, {0, 0, 0, 0, 0}},
                         CameraMount{0, 0, 1000.0, 0, 0, 0});
   auto renderer = MakeRenderer(cam, testing::StandardTag(), testing::StandardRender());
-  Mp4Writer writer;
-  const VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
-  if (!opened.ok && GetParam() == Mp4WriterOptions::Backend::kFfmpegCli &&
+  media::Mp4Writer writer;
+  const media::VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
+  if (!opened.ok && GetParam() == media::Mp4WriterOptions::Backend::kFfmpegCli &&
       opened.message.find("cannot run the ffmpeg program") != std::string::npos) {
     GTEST_SKIP() << opened.message;  // the ffmpeg program is optional
   }
@@ -196,7 +196,7 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
     ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok);
   }
   EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok);  // wrong size
-  const VideoStatus closed = writer.Close();
+  const media::VideoStatus closed = writer.Close();
   ASSERT_TRUE(closed.ok) << closed.message;
   ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok);
   std::ifstream ts(dir + "/clip.timestamps.csv");
@@ -204,8 +204,8 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
   for (std::string line; std::getline(ts, line);) ++lines;
   EXPECT_EQ(lines, 11);
 
-  VideoReader reader;
-  const VideoStatus read_open = reader.Open(path);
+  media::VideoReader reader;
+  const media::VideoStatus read_open = reader.Open(path);
   ASSERT_TRUE(read_open.ok) << read_open.message;
   EXPECT_NEAR(reader.fps(), 30.0, 0.01);
   int n = 0;
@@ -222,18 +222,18 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, Video,
-                         ::testing::Values(Mp4WriterOptions::Backend::kOpenCv,
-                                           Mp4WriterOptions::Backend::kFfmpegCli));
+                         ::testing::Values(media::Mp4WriterOptions::Backend::kOpenCv,
+                                           media::Mp4WriterOptions::Backend::kFfmpegCli));
 
 // Two ffmpeg writers open at once, closed one after the other: the second
 // child must not hold the first one's socket (before close-on-exec it did,
 // and the first Close waited for ever: a deadlock of parallel recording).
 TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_two_writers");
-  Mp4WriterOptions wo;
-  wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
-  Mp4Writer a, b;
-  const VideoStatus opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
+  media::Mp4WriterOptions wo;
+  wo.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
+  media::Mp4Writer a, b;
+  const media::VideoStatus opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
   if (!opened_a.ok && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
     GTEST_SKIP() << opened_a.message;
   ASSERT_TRUE(opened_a.ok) << opened_a.message;
@@ -246,7 +246,7 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
   ASSERT_TRUE(a.Close().ok);
   ASSERT_TRUE(b.Close().ok);
   for (const char* name : {"/a.mp4", "/b.mp4"}) {
-    VideoReader reader;
+    media::VideoReader reader;
     ASSERT_TRUE(reader.Open(dir + name).ok) << name;
     cv::Mat frame;
     int frames = 0;
@@ -257,15 +257,15 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
 
 TEST(VideoFiles, BadFilesGiveAClearStatus) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_badvideo");
-  VideoReader missing;
-  VideoStatus s = missing.Open(dir + "/nope.mp4");
+  media::VideoReader missing;
+  media::VideoStatus s = missing.Open(dir + "/nope.mp4");
   EXPECT_FALSE(s.ok);
   EXPECT_NE(s.message.find("does not exist"), std::string::npos);
   cv::Mat frame;
   EXPECT_FALSE(missing.Read(&frame));
 
   { std::ofstream(dir + "/empty.mp4"); }
-  VideoReader empty;
+  media::VideoReader empty;
   s = empty.Open(dir + "/empty.mp4");
   EXPECT_FALSE(s.ok);
   EXPECT_NE(s.message.find("empty"), std::string::npos);
@@ -275,17 +275,17 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
     std::mt19937 rng(5);
     for (int i = 0; i < 20000; ++i) junk.put(static_cast<char>(rng() & 0xFF));
   }
-  VideoReader corrupt;
+  media::VideoReader corrupt;
   s = corrupt.Open(dir + "/junk.mp4");
   EXPECT_FALSE(s.ok);
   EXPECT_FALSE(s.message.empty());
   EXPECT_FALSE(corrupt.Read(&frame));
 
-  Mp4Writer writer;
+  media::Mp4Writer writer;
   EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok);
   EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok);
-  Mp4WriterOptions cli;
-  cli.backend = Mp4WriterOptions::Backend::kFfmpegCli;
+  media::Mp4WriterOptions cli;
+  cli.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
   EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
   EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok);
   cli.crf = 99;
@@ -293,7 +293,7 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
 
   // A truncated file: the first half of a good one.
   {
-    Mp4Writer good;
+    media::Mp4Writer good;
     ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok);
     for (int i = 0; i < 30; ++i) good.Write(cv::Mat(64, 64, CV_8U, cv::Scalar(4 * i)), i / 30.0);
     good.Close();
@@ -301,8 +301,8 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     std::ofstream(dir + "/cut.mp4", std::ios::binary).write(bytes.data(), bytes.size() / 2);
   }
-  VideoReader truncated;
-  const VideoStatus t = truncated.Open(dir + "/cut.mp4");
+  media::VideoReader truncated;
+  const media::VideoStatus t = truncated.Open(dir + "/cut.mp4");
   int frames = 0;
   if (t.ok) {
     while (truncated.Read(&frame)) ++frames;

@@ -1,18 +1,14 @@
 #include "odocal/vision/image_formation.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <random>
 
-#include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "odocal/vision/video.h"
 #include "raster.h"
 
 namespace odocal::vision {
@@ -287,49 +283,6 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
     grey = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
   }
   return grey;
-}
-
-std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
-                                                    const CodecOptions& codec, double fps,
-                                                    std::string* error) {
-  if (codec.kind != CodecOptions::Kind::kH264 || frames.empty()) {
-    if (codec.kind == CodecOptions::Kind::kMjpeg) {
-      std::vector<cv::Mat> out;
-      for (const cv::Mat& f : frames) {
-        std::vector<uchar> bytes;
-        cv::imencode(".jpg", f, bytes, {cv::IMWRITE_JPEG_QUALITY, codec.quality});
-        out.push_back(cv::imdecode(bytes, cv::IMREAD_GRAYSCALE));
-      }
-      return out;
-    }
-    return frames;
-  }
-  static std::atomic<int> counter{0};
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("odocal_codec_" + std::to_string(getpid()) + "_" +
-                             std::to_string(counter++) + ".mp4"))
-                               .string();
-  Mp4Writer writer;
-  Mp4WriterOptions wo;
-  wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
-  wo.crf = codec.crf;
-  VideoStatus s = writer.Open(path, fps, frames.front().size(), wo);
-  for (size_t k = 0; s.ok && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
-  if (s.ok) s = writer.Close();
-  std::vector<cv::Mat> out;
-  if (s.ok) {
-    VideoReader reader;
-    s = reader.Open(path);
-    cv::Mat f;
-    while (s.ok && reader.Read(&f)) out.push_back(f.clone());
-  }
-  std::error_code ignored;
-  std::filesystem::remove(path, ignored);
-  if (!s.ok || out.size() != frames.size()) {
-    if (error) *error = s.ok ? "H.264 round trip lost frames" : s.message;
-    return std::nullopt;
-  }
-  return out;
 }
 
 }  // namespace odocal::vision

@@ -89,6 +89,18 @@ struct RelativePose {
 
 RelativePose Between(const RestWindow& start, const RestWindow& end);
 
+// What the spread of a rest's frames cannot see: errors all its frames share
+// (compression artefacts, detector bias), measured against rendered truth
+// (docs/vision.md). Added in quadrature to a return error's covariance.
+struct SystematicFloor {
+  double position_m = 0.01e-3;
+  double heading_rad = 0.005 * M_PI / 180.0;
+};
+
+// Between(start, end) with `floor` added to the covariance: the return error
+// between two camera rests, as the batch and the station report it.
+RelativePose Between(const RestWindow& start, const RestWindow& end, const SystematicFloor& floor);
+
 // A return error: the true relative pose of a run minus the odometry's own
 // relative pose over it, componentwise in the start frame (true - odometry,
 // UMBMark's x_abs - x_calc; docs/conventions.md). For a plan that closes the

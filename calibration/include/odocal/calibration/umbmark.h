@@ -24,6 +24,9 @@
 #include <string>
 #include <vector>
 
+#include "odocal/calibration/pose2.h"
+#include "odocal/calibration/procedures.h"
+
 namespace odocal::calibration {
 
 // One run's return error: true - odometry, in the run's start frame.
@@ -46,6 +49,11 @@ struct UmbmarkInput {
 
   // `why` names the offending field as the command line spells it.
   bool IsValid(std::string* why) const;
+
+  // Pools one square: its return error (true - odometry in its start frame)
+  // under its direction; the first square sets side_m. False with `why` when
+  // the run is not a UMBMark square or its side differs from the pooled ones.
+  bool AddRun(const RunSpec& spec, const Pose2& return_error, std::string* why);
 };
 
 struct UmbmarkOptions {

@@ -12,6 +12,7 @@
 #include <string_view>
 #include <variant>
 
+#include "odocal/calibration/robot_model.h"
 #include "odocal/robot_link/codec.h"
 
 namespace odocal::robot_link {
@@ -58,6 +59,13 @@ std::ostream& operator<<(std::ostream& os, const ParamSet& set);
 std::string FormatValue(const ParamValue& value);
 // Parses a value for parameter `index` from text ("72.4", "4096").
 std::optional<ParamValue> ParseValue(size_t index, std::string_view text);
+
+// The link's parameter set (millimetres, whole ticks) and the estimators'
+// calibration::WheelParams (metres): the one mapping between them.
+calibration::WheelParams ToWheelParams(const ParamSet& params);
+ParamSet ToParamSet(const calibration::WheelParams& params, uint32_t ticks_per_rev);
+// nullopt with `*why` when ticks_per_rev is not a whole number the link can carry.
+std::optional<ParamSet> ToParamSet(const calibration::WheelParams& params, std::string* why);
 
 }  // namespace odocal::robot_link
 

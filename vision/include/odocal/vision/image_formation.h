@@ -101,12 +101,6 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
                      const std::vector<float>& unit_normals, size_t offset,
                      const cv::Rect& fresh_noise_roi, cv::RNG* rng);
 
-// Codec round trip of a clip: MJPEG frame by frame in memory, H.264 through
-// a temporary .mp4 (video.h, ffmpeg program). nullopt with `error` set when
-// the codec is unavailable. kNone returns the frames.
-std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
-                                                    const CodecOptions& codec, double fps,
-                                                    std::string* error);
 
 }  // namespace odocal::vision
 

@@ -1,0 +1,38 @@
+// Small helpers shared by the commands: failing with one clear line, and
+// parsing number lists from the command line.
+#ifndef ODOCAL_APP_CLI_UTIL_H_
+#define ODOCAL_APP_CLI_UTIL_H_
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/report/exports.h"
+
+namespace CLI {
+class App;
+}
+
+namespace odocal::app {
+
+// Exit codes: 1 = the work failed (no valid result), 2 = bad input.
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitBadInput = 2;
+
+// Prints "odocal <command>: <message>" on stderr and ends the command with
+// `exit_code` (through CLI11, so main returns it).
+[[noreturn]] void Fail(const std::string& command, int exit_code, const std::string& message);
+
+// "1.5,-2,0.25" -> {1.5, -2, 0.25}; nullopt unless every field is a finite number.
+std::optional<std::vector<double>> ParseNumberList(const std::string& text);
+
+// A progress bar on stderr when it is a terminal, nothing otherwise.
+std::function<void(long, long)> TerminalProgressBar(const std::string& label);
+
+// Adds `--export KIND FILE` (repeatable) to `cmd`; kinds are checked at parse time.
+void AddExportOption(CLI::App* cmd, report::ExportRequests* requests);
+
+}  // namespace odocal::app
+
+#endif  // ODOCAL_APP_CLI_UTIL_H_

@@ -1,0 +1,234 @@
+// odocal calibrate-camera IMAGES... --board SPEC --out camera.yaml [--format opencv|ros] [--json]
+//
+// Loads the images, finds the board in each (vision::DetectBoard), calibrates
+// (vision::CalibrateCamera) and writes the camera file (camera_io.h) with the
+// reprojection errors. Images without the board are named and skipped.
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "odocal/config/camera_file.h"
+#include "odocal/vision/camera_calibration.h"
+
+namespace odocal::app {
+namespace {
+
+constexpr const char* kCommand = "calibrate-camera";
+
+std::vector<std::string> Split(const std::string& text, char sep) {
+  std::vector<std::string> out;
+  std::stringstream s(text);
+  std::string field;
+  while (std::getline(s, field, sep)) out.push_back(field);
+  if (!text.empty() && text.back() == sep) out.emplace_back();
+  return out;
+}
+
+bool PositiveNumber(const std::string& text, double* value) {
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  return !text.empty() && *end == '\0' && std::isfinite(*value) && *value > 0.0;
+}
+
+bool CountPair(const std::string& text, int* cols, int* rows) {
+  const auto parts = Split(text, 'x');
+  if (parts.size() != 2) return false;
+  for (const std::string& p : parts) {
+    if (p.empty() || p.find_first_not_of("0123456789") != std::string::npos || p.size() > 4) return false;
+  }
+  *cols = std::stoi(parts[0]);
+  *rows = std::stoi(parts[1]);
+  return true;
+}
+
+// "chessboard:9x6:25" or "charuco:7x5:40:30:DICT_5X5_100" (sides in mm).
+vision::CalibrationBoard ParseBoard(const std::string& text) {
+  const std::string usage = "--board: expected chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
+                            "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares), got '" + text + "'";
+  const auto parts = Split(text, ':');
+  vision::CalibrationBoard board;
+  double square_mm = 0.0, marker_mm = 0.0;
+  if (parts.size() == 3 && parts[0] == "chessboard") {
+    board.type = vision::CalibrationBoard::Type::kChessboard;
+  } else if (parts.size() == 5 && parts[0] == "charuco") {
+    board.type = vision::CalibrationBoard::Type::kCharuco;
+    if (!PositiveNumber(parts[3], &marker_mm)) Fail(kCommand, kExitBadInput, usage);
+    board.dictionary = parts[4];
+  } else {
+    Fail(kCommand, kExitBadInput, usage);
+  }
+  if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm))
+    Fail(kCommand, kExitBadInput, usage);
+  board.square_m = square_mm * 1e-3;
+  board.marker_m = marker_mm * 1e-3;
+  if (board.type == vision::CalibrationBoard::Type::kCharuco && !vision::CharucoAvailable())
+    Fail(kCommand, kExitBadInput,
+         "--board charuco: ChArUco boards are not available in this build (OpenCV without the "
+         "aruco module); use a chessboard");
+  std::string why;
+  if (!board.IsValid(&why)) Fail(kCommand, kExitBadInput, "--board: " + why);
+  return board;
+}
+
+std::string Fixed(double value, int precision) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(precision) << value;
+  return os.str();
+}
+
+struct ImageOutcome {
+  std::string path;
+  bool used = false;
+  std::string reason;  // when not used
+  int corners = 0;
+  double rms_px = 0.0;
+};
+
+}  // namespace
+
+void RegisterCalibrateCameraCommand(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> images;
+    std::string board;
+    std::string out;
+    std::string format = "opencv";
+    std::string camera_name = "camera";
+    bool fix_k3 = false;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate-camera",
+      "Camera intrinsics (fx fy cx cy, k1 k2 p1 p2 k3) from images of a calibration board.\n"
+      "Images where the board is not found are named and skipped; at least 3 must remain.\n"
+      "Writes OpenCV FileStorage or ROS camera_info YAML with the reprojection errors.");
+  cmd->add_option("images", args->images, "Images of the board (any format OpenCV reads)")->required();
+  cmd->add_option("--board", args->board,
+                  "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25) or\n"
+                  "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares, e.g. charuco:7x5:40:30:DICT_5X5_100)")
+      ->required();
+  cmd->add_option("--out", args->out, "Camera file to write")->required();
+  cmd->add_option("--format", args->format, "opencv (default) or ros");
+  cmd->add_option("--camera-name", args->camera_name, "camera_name in ROS files (default: camera)");
+  cmd->add_flag("--fix-k3", args->fix_k3, "Keep k3 = 0 (lenses with a modest field of view)");
+  cmd->add_flag("--json", args->json, "Print one JSON object");
+  cmd->callback([args]() {
+    // Every unreadable image is reported once, by us, in one line.
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+    const vision::CalibrationBoard board = ParseBoard(args->board);
+    const auto format = config::ParseCameraFileFormat(args->format);
+    if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args->format + "'");
+
+    std::vector<ImageOutcome> outcomes;
+    std::vector<vision::BoardDetection> views;
+    std::vector<size_t> view_image;  // views[i] came from outcomes[view_image[i]]
+    cv::Size size;
+    for (const std::string& path : args->images) {
+      ImageOutcome o;
+      o.path = path;
+      const cv::Mat image =
+          std::filesystem::is_regular_file(path) ? cv::imread(path, cv::IMREAD_GRAYSCALE) : cv::Mat();
+      if (image.empty()) {
+        o.reason = !std::filesystem::exists(path)       ? "no such file"
+                   : std::filesystem::is_directory(path) ? "is a directory"
+                                                         : "cannot be read as an image";
+      } else if (!size.empty() && image.size() != size) {
+        o.reason = "size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                   " differs from the first image's " + std::to_string(size.width) + "x" +
+                   std::to_string(size.height);
+      } else {
+        size = image.size();
+        vision::BoardDetection d = vision::DetectBoard(image, board);
+        if (d.found) {
+          o.used = true;
+          o.corners = static_cast<int>(d.image_points.size());
+          views.push_back(std::move(d));
+          view_image.push_back(outcomes.size());
+        } else {
+          o.reason = d.message;
+        }
+      }
+      if (!o.used) std::cerr << "odocal " << kCommand << ": skipping " << path << ": " << o.reason << "\n";
+      outcomes.push_back(o);
+    }
+
+    vision::CameraCalibrationOptions options;
+    options.fix_k3 = args->fix_k3;
+    if (static_cast<int>(views.size()) < options.min_views) {
+      Fail(kCommand, kExitFailure,
+           "only " + std::to_string(views.size()) + " of " + std::to_string(outcomes.size()) +
+               " images show the board; need at least " + std::to_string(options.min_views) +
+               " (no camera file written)");
+    }
+    const vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
+    if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
+    for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
+
+    config::CameraFile file;
+    file.intrinsics = result.intrinsics;
+    file.camera_name = args->camera_name;
+    file.rms_reprojection_error_px = result.rms_reprojection_error_px;
+    file.per_view_reprojection_errors_px = result.per_view_rms_px;
+    if (const auto error = config::WriteCameraFile(args->out, file, *format)) Fail(kCommand, kExitFailure, *error);
+
+    const vision::Intrinsics& in = result.intrinsics;
+    if (args->json) {
+      nlohmann::json images = nlohmann::json::array();
+      for (const ImageOutcome& o : outcomes) {
+        if (o.used) {
+          images.push_back({{"path", o.path}, {"used", true}, {"corners", o.corners}, {"rms_px", o.rms_px}});
+        } else {
+          images.push_back({{"path", o.path}, {"used", false}, {"reason", o.reason}});
+        }
+      }
+      const nlohmann::json doc = {
+          {"out", args->out},
+          {"format", config::CameraFileFormatName(*format)},
+          {"image_width", in.width},
+          {"image_height", in.height},
+          {"fx", in.fx}, {"fy", in.fy}, {"cx", in.cx}, {"cy", in.cy},
+          {"distortion", {in.distortion[0], in.distortion[1], in.distortion[2], in.distortion[3], in.distortion[4]}},
+          {"sigma", {{"fx", result.sigma[0]}, {"fy", result.sigma[1]}, {"cx", result.sigma[2]},
+                     {"cy", result.sigma[3]}, {"k1", result.sigma[4]}, {"k2", result.sigma[5]},
+                     {"p1", result.sigma[6]}, {"p2", result.sigma[7]}, {"k3", result.sigma[8]}}},
+          {"rms_reprojection_error_px", result.rms_reprojection_error_px},
+          {"views_used", result.views},
+          {"corners_used", result.corners},
+          {"images", images},
+      };
+      std::cout << doc.dump(2) << std::endl;
+      return;
+    }
+    std::cout << "Camera calibration  " << in.width << "x" << in.height << ", " << result.views
+              << " of " << outcomes.size() << " images, " << result.corners << " corners\n\n";
+    std::cout << "  fx " << std::setw(12) << Fixed(in.fx, 3) << "  +/- " << Fixed(result.sigma[0], 3) << " px\n"
+              << "  fy " << std::setw(12) << Fixed(in.fy, 3) << "  +/- " << Fixed(result.sigma[1], 3) << " px\n"
+              << "  cx " << std::setw(12) << Fixed(in.cx, 3) << "  +/- " << Fixed(result.sigma[2], 3) << " px\n"
+              << "  cy " << std::setw(12) << Fixed(in.cy, 3) << "  +/- " << Fixed(result.sigma[3], 3) << " px\n";
+    const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
+    for (int i = 0; i < 5; ++i) {
+      std::cout << "  " << names[i] << " " << std::setw(12) << Fixed(in.distortion[i], 6) << "  +/- "
+                << Fixed(result.sigma[4 + i], 6) << "\n";
+    }
+    std::cout << "\n  RMS reprojection error " << Fixed(result.rms_reprojection_error_px, 4) << " px\n\n";
+    for (const ImageOutcome& o : outcomes) {
+      std::cout << "  " << o.path << ": "
+                << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners"
+                           : "skipped (" + o.reason + ")")
+                << "\n";
+    }
+    std::cout << "\n  wrote " << args->out << " (" << config::CameraFileFormatName(*format) << ")\n";
+  });
+}
+
+}  // namespace odocal::app

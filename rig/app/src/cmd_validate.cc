@@ -1,0 +1,290 @@
+// odocal validate --manual manual.csv SESSION.yaml --out DIR
+//
+// How far can the tape be trusted? Each hand-measured return error (the CSV
+// format is in rig/manual_csv.h) against the camera's measurement of the same
+// run: Bland-Altman per axis (calibration/bland_altman.h), outliers, and a
+// plain verdict. Writes DIR/report.json and DIR/report.html.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "odocal/calibration/bland_altman.h"
+#include "odocal/config/files.h"
+#include "odocal/config/manual_csv.h"
+#include "odocal/config/session.h"
+#include "odocal/measure/measure.h"
+#include "odocal/report/html_report.h"
+#include "odocal/report/json.h"
+#include "odocal/report/measurement_json.h"
+
+namespace odocal::app {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+struct Pair {
+  const config::ManualReading* reading;
+  double camera_x_mm, camera_y_mm, camera_theta_deg;
+  double sigma_x_mm, sigma_y_mm, sigma_theta_deg;
+};
+
+std::string Fmt(double v, int precision = 2) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", precision, v);
+  return buf;
+}
+
+// A round figure at or above v: 1, 2, 5 x 10^k.
+double NiceCeil(double v) {
+  if (!(v > 0.0)) return 0.0;
+  const double p = std::pow(10.0, std::floor(std::log10(v)));
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * p >= v * (1 - 1e-12)) return m * p;
+  return 10.0 * p;
+}
+
+nlohmann::json IntervalJson(const calibration::Interval& i) { return {i.lower, i.upper}; }
+
+std::string AxisSentence(const std::string& axis, const std::string& unit,
+                         const calibration::BlandAltmanResult& r, double confidence) {
+  std::ostringstream os;
+  const int pct = static_cast<int>(std::lround(confidence * 100));
+  os << axis << ": ";
+  if (r.bias_ci.Contains(0.0)) {
+    os << "no significant bias (" << (r.bias >= 0 ? "+" : "") << Fmt(r.bias) << " " << unit
+       << ", " << pct << " % CI " << Fmt(r.bias_ci.lower) << " to " << Fmt(r.bias_ci.upper) << ")";
+  } else {
+    os << "tape reads " << Fmt(std::abs(r.bias)) << " " << unit << (r.bias > 0 ? " high" : " low")
+       << " (" << pct << " % CI " << Fmt(r.bias_ci.lower) << " to " << Fmt(r.bias_ci.upper) << ")";
+  }
+  os << ", a single reading within ±" << Fmt(r.z * r.sd) << " " << unit << " of that ("
+     << pct << " % limits of agreement " << Fmt(r.lower_limit) << " to " << Fmt(r.upper_limit)
+     << " " << unit << ")";
+  if (!r.outliers.empty()) os << "; " << r.outliers.size() << " outlier(s)";
+  return os.str();
+}
+
+}  // namespace
+
+void RegisterValidateCommand(CLI::App& app) {
+  struct Args {
+    std::string manual;
+    std::string session;
+    std::string out;
+    double confidence = 0.95;
+    int threads = 0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "validate",
+      "Tape-measured return errors against the camera's: Bland-Altman bias, limits of agreement,\n"
+      "outliers and a verdict; writes DIR/report.json and DIR/report.html.\n"
+      "manual.csv: header run,x_mm,y_mm[,theta_deg], one reading a line, run = the session's\n"
+      "run name; x, y, theta = true - odometry in the run's start frame (mm, degrees)");
+  cmd->add_option("--manual", args->manual, "Manual measurements (CSV)")->required();
+  cmd->add_option("session", args->session, "Session file (session.yaml)")->required();
+  cmd->add_option("--out", args->out, "Output directory (created)")->required();
+  cmd->add_option("--confidence", args->confidence, "Of the limits and intervals")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
+  cmd->callback([args]() {
+    const std::string name = "validate";
+    std::string error;
+    calibration::BlandAltmanOptions ba_options;
+    ba_options.confidence = args->confidence;
+    if (!ba_options.IsValid(&error)) Fail(name, kExitBadInput, "--confidence: " + error);
+    const auto readings = config::ReadManualCsv(args->manual, &error);
+    if (!readings) Fail(name, kExitBadInput, error);
+    const std::optional<config::Session> session = config::LoadSession(args->session, &error);
+    if (!session) Fail(name, kExitBadInput, error);
+    std::map<std::string, int> run_index;
+    std::string run_names;
+    for (size_t i = 0; i < session->runs.size(); ++i) {
+      run_index[session->runs[i].name] = static_cast<int>(i);
+      run_names += (run_names.empty() ? "" : ", ") + session->runs[i].name;
+    }
+    for (const config::ManualReading& r : *readings)
+      if (!run_index.count(r.run))
+        Fail(name, kExitBadInput,
+             args->manual + ":" + std::to_string(r.line) + ": run '" + r.run + "' is not in " +
+                 args->session + " (its runs: " + run_names + ")");
+
+    measure::MeasureOptions options;
+    options.threads = args->threads;
+    const auto measured =
+        measure::MeasureSessions({*session}, options, TerminalProgressBar("measuring"), &error);
+    // A malformed pose log (or its telemetry) is the one way measuring fails.
+    if (!measured) Fail(name, kExitBadInput, error);
+    const measure::SessionMeasurement& sm = measured->front();
+
+    std::vector<Pair> pairs;
+    std::vector<std::string> notes;
+    for (const config::ManualReading& r : *readings) {
+      const measure::RunMeasurement& rm = sm.runs[run_index[r.run]];
+      const nlohmann::json j = report::RunJson(rm);
+      if (j["return_error"].is_null()) {
+        notes.push_back(args->manual + ":" + std::to_string(r.line) + ": run " + r.run +
+                        " has no camera measurement (" + j["flags"].dump() + "); left out");
+        continue;
+      }
+      pairs.push_back({&r, j["return_error"]["x_mm"].get<double>(),
+                       j["return_error"]["y_mm"].get<double>(),
+                       j["return_error"]["theta_deg"].get<double>(), j["sigma"]["x_mm"].get<double>(),
+                       j["sigma"]["y_mm"].get<double>(), j["sigma"]["theta_deg"].get<double>()});
+    }
+
+    nlohmann::json report = {{"command", "validate"},
+                             {"session", args->session},
+                             {"manual", args->manual},
+                             {"confidence", args->confidence},
+                             {"differences", "manual - camera"},
+                             {"pairs", nlohmann::json::array()},
+                             {"axes", nlohmann::json::array()}};
+    for (const Pair& p : pairs) {
+      nlohmann::json manual = {{"x_mm", p.reading->x_mm}, {"y_mm", p.reading->y_mm}};
+      if (p.reading->theta_deg) manual["theta_deg"] = *p.reading->theta_deg;
+      report["pairs"].push_back(
+          {{"run", p.reading->run},
+           {"line", p.reading->line},
+           {"manual", manual},
+           {"camera", {{"x_mm", p.camera_x_mm}, {"y_mm", p.camera_y_mm}, {"theta_deg", p.camera_theta_deg}}},
+           {"camera_sigma", {{"x_mm", p.sigma_x_mm}, {"y_mm", p.sigma_y_mm}, {"theta_deg", p.sigma_theta_deg}}}});
+    }
+
+    struct Axis {
+      std::string key, label, unit;
+      std::vector<double> manual, camera, camera_sigma;
+      std::vector<const config::ManualReading*> from;
+    };
+    std::vector<Axis> axes = {{"x", "x", "mm", {}, {}, {}, {}},
+                              {"y", "y", "mm", {}, {}, {}, {}},
+                              {"theta", "theta", "deg", {}, {}, {}, {}}};
+    for (const Pair& p : pairs) {
+      axes[0].manual.push_back(p.reading->x_mm);
+      axes[0].camera.push_back(p.camera_x_mm);
+      axes[0].camera_sigma.push_back(p.sigma_x_mm);
+      axes[0].from.push_back(p.reading);
+      axes[1].manual.push_back(p.reading->y_mm);
+      axes[1].camera.push_back(p.camera_y_mm);
+      axes[1].camera_sigma.push_back(p.sigma_y_mm);
+      axes[1].from.push_back(p.reading);
+      if (p.reading->theta_deg) {
+        axes[2].manual.push_back(*p.reading->theta_deg);
+        axes[2].camera.push_back(p.camera_theta_deg);
+        axes[2].camera_sigma.push_back(p.sigma_theta_deg);
+        axes[2].from.push_back(p.reading);
+      }
+    }
+    std::vector<std::string> sentences;
+    double position_bound_mm = 0.0;
+    double position_worst_mm = 0.0;  // the limits' far confidence bounds
+    int position_n = 0;
+    bool position_ok = true;
+    for (const Axis& a : axes) {
+      if (a.key == "theta" && a.manual.empty()) continue;
+      const calibration::BlandAltmanResult r = calibration::BlandAltman(a.manual, a.camera, ba_options);
+      if (!r.ok()) {
+        notes.push_back(a.label + ": " + r.message);
+        if (a.key != "theta") position_ok = false;
+        continue;
+      }
+      nlohmann::json outliers = nlohmann::json::array(), outside = nlohmann::json::array();
+      for (int i : r.outliers)
+        outliers.push_back({{"run", a.from[i]->run}, {"line", a.from[i]->line},
+                            {"difference", r.differences[i]}});
+      for (int i : r.outside_limits)
+        outside.push_back({{"run", a.from[i]->run}, {"line", a.from[i]->line},
+                           {"difference", r.differences[i]}});
+      double max_sigma = 0.0;
+      for (double s : a.camera_sigma) max_sigma = std::max(max_sigma, s);
+      std::vector<std::string> runs;
+      for (const config::ManualReading* m : a.from) runs.push_back(m->run);
+      report["axes"].push_back({{"axis", a.key},
+                                {"unit", a.unit},
+                                {"n", r.n},
+                                {"bias", r.bias},
+                                {"bias_ci", IntervalJson(r.bias_ci)},
+                                {"sd", r.sd},
+                                {"lower_limit", r.lower_limit},
+                                {"lower_limit_ci", IntervalJson(r.lower_limit_ci)},
+                                {"upper_limit", r.upper_limit},
+                                {"upper_limit_ci", IntervalJson(r.upper_limit_ci)},
+                                {"z", r.z},
+                                {"t", r.t},
+                                {"error_bound", r.error_bound()},
+                                {"camera_sigma_max", max_sigma},
+                                {"outliers", outliers},
+                                {"outside_limits", outside},
+                                {"runs", runs},
+                                {"means", r.means},
+                                {"differences", r.differences}});
+      sentences.push_back(AxisSentence(a.label, a.unit, r, args->confidence));
+      if (a.key != "theta") {
+        position_bound_mm = std::max(position_bound_mm, r.error_bound());
+        position_worst_mm = std::max({position_worst_mm, std::abs(r.lower_limit_ci.lower),
+                                      std::abs(r.upper_limit_ci.upper)});
+        position_n = r.n;
+      }
+    }
+    if (!position_ok || report["axes"].empty())
+      Fail(name, kExitFailure,
+           "fewer than 3 readings with a camera measurement: no agreement statistics (" +
+               std::to_string(pairs.size()) + " usable)");
+
+    // The tape is good for return errors well above its own error: a third
+    // or less of what it measures keeps E_max,syst within ~30 %.
+    const double usable_above_mm = NiceCeil(3.0 * position_bound_mm);
+    std::ostringstream verdict;
+    verdict << "A tape reading is within " << Fmt(position_bound_mm, 1) << " mm of the camera ("
+            << static_cast<int>(std::lround(args->confidence * 100))
+            << " %, bias included): good for UMBMark when E_max,syst is above ~" << Fmt(usable_above_mm, 0)
+            << " mm, not for fine calibration below that (use the camera).";
+    if (position_n < 30)
+      verdict << " With " << position_n << " readings the limits themselves are uncertain: up to "
+              << Fmt(position_worst_mm, 1) << " mm at the far end of their confidence intervals"
+              << " (more readings narrow them).";
+    report["verdict"] = {{"text", verdict.str()},
+                         {"axes", sentences},
+                         {"error_bound_mm", position_bound_mm},
+                         {"limits_worst_case_mm", position_worst_mm},
+                         {"usable_above_emax_mm", usable_above_mm}};
+    report["notes"] = notes;
+    report["runs"] = nlohmann::json::array();
+    report["trajectories"] = nlohmann::json::array();
+    for (const measure::RunMeasurement& rm : sm.runs) {
+      report["runs"].push_back(report::RunJson(rm));
+      report["trajectories"].push_back(report::TrajectoryJson(rm));
+    }
+
+    if (auto e = config::EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
+    if (auto e = config::WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
+      Fail(name, kExitFailure, *e);
+    if (auto e = report::WriteReportHtml(report, "odocal validate", args->out + "/report.html"))
+      Fail(name, kExitFailure, *e);
+
+    std::printf("odocal validate: %zu readings, %zu with a camera measurement\n", readings->size(),
+                pairs.size());
+    std::printf("  %-6s %4s %22s %10s %26s\n", "axis", "n", "bias [CI]", "sd", "limits of agreement");
+    for (const auto& a : report["axes"]) {
+      char bias[64], lim[64];
+      std::snprintf(bias, sizeof(bias), "%+.2f [%+.2f,%+.2f]", a["bias"].get<double>(),
+                    a["bias_ci"][0].get<double>(), a["bias_ci"][1].get<double>());
+      std::snprintf(lim, sizeof(lim), "%+.2f to %+.2f %s", a["lower_limit"].get<double>(),
+                    a["upper_limit"].get<double>(), a["unit"].get<std::string>().c_str());
+      std::printf("  %-6s %4d %22s %10.2f %26s\n", a["axis"].get<std::string>().c_str(),
+                  a["n"].get<int>(), bias, a["sd"].get<double>(), lim);
+    }
+    for (const std::string& s : sentences) std::printf("  %s\n", s.c_str());
+    for (const std::string& n : notes) std::printf("note: %s\n", n.c_str());
+    std::printf("\n%s\n", verdict.str().c_str());
+    std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
+  });
+}
+
+}  // namespace odocal::app

@@ -1,0 +1,73 @@
+// Camera files: the intrinsics of a camera (pinhole + OpenCV k1 k2 p1 p2 k3
+// distortion) as the two YAML layouts operators already have (issue 3 §1).
+//
+//   OpenCV FileStorage YAML   what cv::FileStorage writes: a `%YAML:1.0`
+//     header, `camera_matrix` and `distortion_coefficients` as
+//     `!!opencv-matrix {rows, cols, dt, data}`, `image_width`, `image_height`.
+//     Also read: OpenCV's calibration sample layout (extra keys such as
+//     `avg_reprojection_error`, `extrinsic_parameters`, `image_points` are
+//     ignored; the distortion may be a 5x1 column, or have 4, 8, 12 or 14
+//     coefficients whose extra terms are zero), and the capitalised
+//     `Camera_Matrix` / `Distortion_Coefficients` of older samples.
+//   ROS camera_info YAML      what camera_calibration_parsers reads and writes:
+//     `image_width`, `image_height`, `camera_name`, `camera_matrix`,
+//     `distortion_model: plumb_bob`, `distortion_coefficients`,
+//     `rectification_matrix`, `projection_matrix`, each matrix as
+//     `{rows, cols, data}`.
+// Reading auto-detects the layout (the ROS-only keys, or matrices without
+// OpenCV's `dt`, mean ROS). Pixel coordinates are OpenCV's in both (ROS
+// uses the same convention), so nothing is converted.
+//
+// Errors are one line, "<path>: <key>: <what is wrong>", returned as a value:
+// no exception leaves this module.
+#ifndef ODOCAL_CONFIG_CAMERA_FILE_H_
+#define ODOCAL_CONFIG_CAMERA_FILE_H_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/vision/camera_model.h"
+
+namespace odocal::config {
+
+enum class CameraFileFormat { kOpenCv, kRos };
+
+// "opencv" / "ros".
+const char* CameraFileFormatName(CameraFileFormat format);
+std::optional<CameraFileFormat> ParseCameraFileFormat(const std::string& name);
+
+// What a camera file holds. The quality figures are optional: a file written
+// by `odocal calibrate-camera` has them, a hand-made one need not.
+struct CameraFile {
+  vision::Intrinsics intrinsics;
+  // The layout the file was read in (writing takes the format explicitly).
+  CameraFileFormat format = CameraFileFormat::kOpenCv;
+  // ROS `camera_name`; written to ROS files only.
+  std::string camera_name = "camera";
+  // RMS reprojection error of the calibration over all corners [px], and per
+  // image [px] (OpenCV sample keys `avg_reprojection_error`,
+  // `per_view_reprojection_errors`; the same keys are added to ROS files,
+  // whose readers ignore keys they do not know).
+  std::optional<double> rms_reprojection_error_px;
+  std::vector<double> per_view_reprojection_errors_px;
+};
+
+// Parses the text of a camera file; `name` is the path used in messages.
+// nullopt with `*error` set to one line otherwise.
+std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::string& name,
+                                          std::string* error);
+// Reads and parses `path`.
+std::optional<CameraFile> ReadCameraFile(const std::string& path, std::string* error);
+
+// The file's text in `format` (OpenCV: written by cv::FileStorage itself;
+// numbers with 17 significant digits, so a round trip is exact).
+std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format);
+// Writes atomically (temporary file + rename); nullopt on success, else the
+// error line. Refuses intrinsics that fail Intrinsics::IsValid.
+std::optional<std::string> WriteCameraFile(const std::string& path, const CameraFile& file,
+                                           CameraFileFormat format);
+
+}  // namespace odocal::config
+
+#endif  // ODOCAL_CONFIG_CAMERA_FILE_H_

@@ -1,0 +1,35 @@
+// The station file (`odocal station --config station.yaml`): the robot's port, the camera and
+// its calibration file, the tag and the plan. Paths are resolved against the file's folder.
+// docs/formats.md lists every key.
+#ifndef ODOCAL_CONFIG_STATION_FILE_H_
+#define ODOCAL_CONFIG_STATION_FILE_H_
+
+#include <optional>
+#include <string>
+
+#include "odocal/vision/camera_model.h"
+#include "odocal/vision/tag.h"
+
+namespace odocal::config {
+
+struct StationConfig {
+  std::string port;
+  int baud = 115200;
+  int timeout_ms = 200;
+  std::string camera_device;
+  std::string camera_file;
+  vision::CameraMount mount_guess;
+  int flush_frames = 5;
+  double settle_s = 0.5;
+  vision::TagSpec tag;
+  double side_mm = 2000.0;
+  int runs_per_direction = 3;
+  int max_rounds = 3;
+};
+
+// nullopt + one error line naming the file and the key otherwise.
+std::optional<StationConfig> LoadStationConfig(const std::string& path, std::string* error);
+
+}  // namespace odocal::config
+
+#endif  // ODOCAL_CONFIG_STATION_FILE_H_

@@ -1,0 +1,311 @@
+#include "odocal/config/camera_file.h"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <initializer_list>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "odocal/config/files.h"
+
+namespace odocal::config {
+namespace {
+
+// Key spellings accepted on reading; the first is the one written and named
+// in messages. The others are those of OpenCV's older calibration sample and
+// of its interactive-calibration app.
+const std::initializer_list<const char*> kCameraMatrixKeys = {"camera_matrix", "Camera_Matrix",
+                                                              "cameraMatrix"};
+const std::initializer_list<const char*> kDistortionKeys = {
+    "distortion_coefficients", "Distortion_Coefficients", "dist_coeffs", "distCoeffs"};
+// Keys only ROS camera_info files have.
+const std::initializer_list<const char*> kRosOnlyKeys = {"camera_name", "distortion_model",
+                                                         "rectification_matrix",
+                                                         "projection_matrix"};
+
+// The reader's own failure: carries the "<key>: <message>" part; converted to
+// a returned string before leaving this file.
+struct KeyError {
+  std::string text;
+};
+
+[[noreturn]] void Throw(const std::string& key, const std::string& message) {
+  throw KeyError{key + ": " + message};
+}
+
+// nullopt when none of the spellings is present (a default YAML::Node would
+// be a defined null, indistinguishable from `key: ~`).
+std::optional<YAML::Node> Find(const YAML::Node& root, std::initializer_list<const char*> keys,
+                               std::string* used) {
+  for (const char* key : keys) {
+    if (const YAML::Node node = root[key]) {
+      *used = key;
+      return node;
+    }
+  }
+  return std::nullopt;
+}
+
+bool ParseDouble(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  *value = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0' && errno != ERANGE;
+}
+
+bool ParseInt(const std::string& text, int* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE || v < -(1L << 30) || v > (1L << 30))
+    return false;
+  *value = static_cast<int>(v);
+  return true;
+}
+
+int ReadInt(const YAML::Node& node, const std::string& key) {
+  int value = 0;
+  if (!node.IsScalar() || !ParseInt(node.Scalar(), &value))
+    Throw(key, "expected an integer, got '" + (node.IsScalar() ? node.Scalar() : "a collection") + "'");
+  return value;
+}
+
+// A matrix node: {rows, cols, data} (ROS), the same with `dt` and the
+// !!opencv-matrix tag (OpenCV), or a bare list (read as one row).
+cv::Mat ReadMatrix(const YAML::Node& node, const std::string& key) {
+  YAML::Node data;
+  int rows = 1, cols = 0;
+  if (node.IsSequence()) {
+    data = node;
+    cols = static_cast<int>(node.size());
+  } else if (node.IsMap()) {
+    if (!node["rows"] || !node["cols"] || !node["data"])
+      Throw(key, "expected a matrix {rows, cols, data}");
+    rows = ReadInt(node["rows"], key + ".rows");
+    cols = ReadInt(node["cols"], key + ".cols");
+    data = node["data"];
+    if (rows <= 0 || cols <= 0) Throw(key, "rows and cols must be positive");
+    if (!data.IsSequence()) Throw(key + ".data", "expected a list of numbers");
+    if (const YAML::Node dt = node["dt"]) {
+      // OpenCV element types with one channel; anything else is not a plain matrix.
+      const std::string t = dt.IsScalar() ? dt.Scalar() : "";
+      if (t.size() != 1 || std::string("ucwsifd").find(t) == std::string::npos)
+        Throw(key + ".dt", "expected a one-channel element type (u c w s i f d), got '" + t + "'");
+    }
+  } else {
+    Throw(key, "expected a matrix {rows, cols, data}");
+  }
+  if (static_cast<long>(data.size()) != static_cast<long>(rows) * cols)
+    Throw(key, "data has " + std::to_string(data.size()) + " values, rows x cols = " +
+                   std::to_string(static_cast<long>(rows) * cols));
+  cv::Mat m(rows, cols, CV_64F);
+  for (int i = 0; i < rows * cols; ++i) {
+    const YAML::Node v = data[i];
+    double value = 0.0;
+    if (!v.IsScalar() || !ParseDouble(v.Scalar(), &value) || !std::isfinite(value))
+      Throw(key, "data[" + std::to_string(i) + "]: '" + (v.IsScalar() ? v.Scalar() : "?") +
+                     "' is not a finite number");
+    m.at<double>(i / cols, i % cols) = value;
+  }
+  return m;
+}
+
+CameraFile ParseRoot(const YAML::Node& root) {
+  CameraFile file;
+  bool ros = false;
+  for (const char* key : kRosOnlyKeys) ros |= static_cast<bool>(root[key]);
+  std::string k_key = "camera_matrix";
+  const auto k_found = Find(root, kCameraMatrixKeys, &k_key);
+  if (!k_found) Throw("camera_matrix", "missing");
+  const YAML::Node k_node = *k_found;
+  if (k_node.IsMap() && !k_node["dt"] && k_node.Tag().find("opencv-matrix") == std::string::npos)
+    ros = true;
+  file.format = ros ? CameraFileFormat::kRos : CameraFileFormat::kOpenCv;
+
+  // Image size: image_width / image_height, or the interactive-calibration
+  // app's cameraResolution: [w, h].
+  int width = 0, height = 0;
+  if (root["image_width"] || root["image_height"] || !root["cameraResolution"]) {
+    if (!root["image_width"]) Throw("image_width", "missing");
+    if (!root["image_height"]) Throw("image_height", "missing");
+    width = ReadInt(root["image_width"], "image_width");
+    height = ReadInt(root["image_height"], "image_height");
+    if (width <= 0) Throw("image_width", "must be positive");
+    if (height <= 0) Throw("image_height", "must be positive");
+  } else {
+    const YAML::Node res = root["cameraResolution"];
+    if (!res.IsSequence() || res.size() != 2) Throw("cameraResolution", "expected [width, height]");
+    width = ReadInt(res[0], "cameraResolution[0]");
+    height = ReadInt(res[1], "cameraResolution[1]");
+    if (width <= 0 || height <= 0) Throw("cameraResolution", "must be positive");
+  }
+
+  const cv::Mat K = ReadMatrix(k_node, k_key);
+  if (K.rows != 3 || K.cols != 3)
+    Throw(k_key, "expected a 3x3 matrix, got " + std::to_string(K.rows) + "x" +
+                     std::to_string(K.cols));
+  std::string why;
+  if (!vision::Intrinsics::FromCv(K, cv::Mat(), width, height, &why)) Throw(k_key, why);
+
+  std::string d_key = "distortion_coefficients";
+  const auto d_node = Find(root, kDistortionKeys, &d_key);
+  if (!d_node) Throw("distortion_coefficients", "missing");
+  if (ros) {
+    if (const YAML::Node model = root["distortion_model"]) {
+      const std::string name = model.IsScalar() ? model.Scalar() : "";
+      // rational_polynomial is plumb_bob plus k4 k5 k6, accepted when those are zero.
+      if (name != "plumb_bob" && name != "rational_polynomial")
+        Throw("distortion_model", "'" + name + "' is not supported (plumb_bob only)");
+    }
+  }
+  const cv::Mat D = ReadMatrix(*d_node, d_key);
+  if (D.rows != 1 && D.cols != 1)
+    Throw(d_key, "expected a 1xN or Nx1 vector, got " + std::to_string(D.rows) + "x" +
+                     std::to_string(D.cols));
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why);
+  if (!intrinsics) Throw(d_key, why);
+  file.intrinsics = *intrinsics;
+
+  if (const YAML::Node name = root["camera_name"]) {
+    if (!name.IsScalar()) Throw("camera_name", "expected a string");
+    file.camera_name = name.Scalar();
+  }
+  if (const YAML::Node rms = root["avg_reprojection_error"]) {
+    double value = 0.0;
+    if (!rms.IsScalar() || !ParseDouble(rms.Scalar(), &value) || !(value >= 0.0))
+      Throw("avg_reprojection_error", "expected a non-negative number");
+    file.rms_reprojection_error_px = value;
+  }
+  if (const YAML::Node per_view = root["per_view_reprojection_errors"]) {
+    const cv::Mat e = ReadMatrix(per_view, "per_view_reprojection_errors");
+    for (int i = 0; i < static_cast<int>(e.total()); ++i)
+      file.per_view_reprojection_errors_px.push_back(e.at<double>(i / e.cols, i % e.cols));
+  }
+  return file;
+}
+
+// An empty file parses as a YAML null; say "empty" rather than "not a mapping".
+bool IsBlank(const std::string& text) {
+  for (char c : text) {
+    if (!std::isspace(static_cast<unsigned char>(c))) return false;
+  }
+  return true;
+}
+
+void EmitMatrix(YAML::Emitter& out, const char* key, const cv::Mat& m) {
+  out << YAML::Key << key << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "rows" << YAML::Value << m.rows;
+  out << YAML::Key << "cols" << YAML::Value << m.cols;
+  out << YAML::Key << "data" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int r = 0; r < m.rows; ++r) {
+    for (int c = 0; c < m.cols; ++c) out << m.at<double>(r, c);
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+}
+
+}  // namespace
+
+const char* CameraFileFormatName(CameraFileFormat format) {
+  return format == CameraFileFormat::kRos ? "ros" : "opencv";
+}
+
+std::optional<CameraFileFormat> ParseCameraFileFormat(const std::string& name) {
+  if (name == "opencv") return CameraFileFormat::kOpenCv;
+  if (name == "ros") return CameraFileFormat::kRos;
+  return std::nullopt;
+}
+
+std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::string& name,
+                                          std::string* error) {
+  auto fail = [&](const std::string& message) -> std::optional<CameraFile> {
+    if (error) *error = name + ": " + message;
+    return std::nullopt;
+  };
+  if (IsBlank(text)) return fail("empty file");
+  // yaml-cpp reads cv::FileStorage's own output, "%YAML:1.0" header and
+  // !!opencv-matrix tags included, so one parser serves both layouts and
+  // every message can name its key.
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    return fail("not valid YAML (line " + std::to_string(e.mark.line + 1) + ": " + e.msg + ")");
+  }
+  if (root.IsNull()) return fail("empty file");  // comments only
+  if (!root.IsMap()) return fail("expected a mapping of keys (camera_matrix, ...) at the top level");
+  try {
+    return ParseRoot(root);
+  } catch (const KeyError& e) {
+    return fail(e.text);
+  } catch (const YAML::Exception& e) {
+    // Not expected (every access above is checked), but no exception leaves.
+    return fail(e.msg);
+  }
+}
+
+std::optional<CameraFile> ReadCameraFile(const std::string& path, std::string* error) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    if (error) *error = path + ": cannot open file";
+    return std::nullopt;
+  }
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return ParseCameraFile(buffer.str(), path, error);
+}
+
+std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
+  const vision::Intrinsics& in = file.intrinsics;
+  if (format == CameraFileFormat::kOpenCv) {
+    // cv::FileStorage itself, so the file is exactly what OpenCV programs expect.
+    cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY |
+                                    cv::FileStorage::FORMAT_YAML);
+    fs << "image_width" << in.width << "image_height" << in.height;
+    fs << "camera_matrix" << in.CameraMatrix();
+    fs << "distortion_coefficients" << in.DistortionCoeffs();
+    if (file.rms_reprojection_error_px) fs << "avg_reprojection_error" << *file.rms_reprojection_error_px;
+    if (!file.per_view_reprojection_errors_px.empty()) {
+      fs << "per_view_reprojection_errors"
+         << cv::Mat(file.per_view_reprojection_errors_px, /*copyData=*/true);
+    }
+    return fs.releaseAndGetString();
+  }
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "image_width" << YAML::Value << in.width;
+  out << YAML::Key << "image_height" << YAML::Value << in.height;
+  out << YAML::Key << "camera_name" << YAML::Value << file.camera_name;
+  EmitMatrix(out, "camera_matrix", in.CameraMatrix());
+  out << YAML::Key << "distortion_model" << YAML::Value << "plumb_bob";
+  EmitMatrix(out, "distortion_coefficients", in.DistortionCoeffs());
+  EmitMatrix(out, "rectification_matrix", cv::Mat::eye(3, 3, CV_64F));
+  // A monocular camera: P = [K | 0] (no rectification, no stereo baseline).
+  cv::Mat P = cv::Mat::zeros(3, 4, CV_64F);
+  in.CameraMatrix().copyTo(P(cv::Rect(0, 0, 3, 3)));
+  EmitMatrix(out, "projection_matrix", P);
+  if (file.rms_reprojection_error_px)
+    out << YAML::Key << "avg_reprojection_error" << YAML::Value << *file.rms_reprojection_error_px;
+  if (!file.per_view_reprojection_errors_px.empty()) {
+    EmitMatrix(out, "per_view_reprojection_errors",
+               cv::Mat(file.per_view_reprojection_errors_px, true));
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+std::optional<std::string> WriteCameraFile(const std::string& path, const CameraFile& file,
+                                           CameraFileFormat format) {
+  std::string why;
+  if (!file.intrinsics.IsValid(&why)) return path + ": not written: " + why;
+  return WriteFileAtomically(path, FormatCameraFile(file, format));
+}
+
+}  // namespace odocal::config

@@ -1,0 +1,75 @@
+#include "odocal/config/station_file.h"
+
+#include <filesystem>
+
+#include <yaml-cpp/yaml.h>
+
+#include "yaml_util.h"
+
+namespace odocal::config {
+
+namespace fs = std::filesystem;
+
+std::optional<StationConfig> LoadStationConfig(const std::string& path, std::string* error) {
+  using namespace yaml_util;
+  if (!fs::exists(path)) {
+    *error = path + ": no such file";
+    return std::nullopt;
+  }
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    *error = path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg;
+    return std::nullopt;
+  }
+  const fs::path dir = fs::absolute(path).parent_path();
+  try {
+    ExpectMap(root, "");
+    CheckKeys(root, "", {"robot", "camera", "tag", "plan", "max_rounds"});
+    StationConfig c;
+    for (const char* key : {"robot", "camera", "tag"})
+      if (!root[key]) yaml_util::Fail(root, key, "missing (required)");
+    const YAML::Node robot = root["robot"];
+    ExpectMap(robot, "robot");
+    CheckKeys(robot, "robot", {"port", "baud", "timeout_ms"});
+    if (!robot["port"]) yaml_util::Fail(robot, "robot.port", "missing (required)");
+    c.port = String(robot["port"], "robot.port");
+    c.baud = static_cast<int>(OptionalNumber(robot, "robot", "baud", 115200));
+    c.timeout_ms = static_cast<int>(Positive(OptionalNumber(robot, "robot", "timeout_ms", 200), robot, "robot.timeout_ms"));
+    const YAML::Node camera = root["camera"];
+    ExpectMap(camera, "camera");
+    CheckKeys(camera, "camera", {"device", "calibration", "mount_guess", "flush_frames", "settle_s"});
+    for (const char* key : {"device", "calibration", "mount_guess"})
+      if (!camera[key]) yaml_util::Fail(camera, Join("camera", key), "missing (required)");
+    c.camera_device = String(camera["device"], "camera.device");
+    c.camera_file = (dir / String(camera["calibration"], "camera.calibration")).lexically_normal().string();
+    const YAML::Node m = camera["mount_guess"];
+    ExpectMap(m, "camera.mount_guess");
+    CheckKeys(m, "camera.mount_guess", {"x_mm", "y_mm", "height_mm", "roll_deg", "pitch_deg", "yaw_deg"});
+    c.mount_guess.x_mm = OptionalNumber(m, "camera.mount_guess", "x_mm", 0.0);
+    c.mount_guess.y_mm = OptionalNumber(m, "camera.mount_guess", "y_mm", 0.0);
+    c.mount_guess.height_mm =
+        Positive(RequiredNumber(m, "camera.mount_guess", "height_mm"), m, "camera.mount_guess.height_mm");
+    c.mount_guess.roll_deg = OptionalNumber(m, "camera.mount_guess", "roll_deg", 0.0);
+    c.mount_guess.pitch_deg = OptionalNumber(m, "camera.mount_guess", "pitch_deg", 0.0);
+    c.mount_guess.yaw_deg = OptionalNumber(m, "camera.mount_guess", "yaw_deg", 0.0);
+    c.flush_frames = static_cast<int>(OptionalNumber(camera, "camera", "flush_frames", 5));
+    c.settle_s = OptionalNumber(camera, "camera", "settle_s", 0.5);
+    if (c.flush_frames < 0 || c.settle_s < 0.0) yaml_util::Fail(camera, "camera", "flush_frames and settle_s must not be negative");
+    c.tag = ParseTag(root["tag"]);
+    if (const YAML::Node plan = root["plan"]) {
+      ExpectMap(plan, "plan");
+      CheckKeys(plan, "plan", {"side_mm", "runs_per_direction"});
+      c.side_mm = Positive(OptionalNumber(plan, "plan", "side_mm", 2000.0), plan, "plan.side_mm");
+      c.runs_per_direction = static_cast<int>(Positive(OptionalNumber(plan, "plan", "runs_per_direction", 3), plan, "plan.runs_per_direction"));
+    }
+    if (root["max_rounds"]) c.max_rounds = static_cast<int>(Integer(root["max_rounds"], "max_rounds"));
+    return c;
+  } catch (const YamlError& e) {
+    *error = path + ":" + e.what();
+    return std::nullopt;
+  }
+}
+
+}  // namespace odocal::config

@@ -1,0 +1,159 @@
+// Measuring recorded sessions: videos -> the tag in every frame -> the
+// camera's plane over the tag -> planar robot poses -> rests -> each run's
+// return error with its uncertainty and quality flags.
+//
+// Return errors are the robot's end pose in its start frame (x along the
+// start heading, y left, theta CCW), from the rest before the run to the rest
+// after it; for closed paths this is true - odometry (docs/conventions.md).
+#ifndef ODOCAL_MEASURE_MEASURE_H_
+#define ODOCAL_MEASURE_MEASURE_H_
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/calibration/measured_session.h"
+#include "odocal/calibration/rest.h"
+#include "odocal/config/session.h"
+#include "odocal/measure/pose_log.h"
+#include "odocal/measure/video_track.h"
+#include "odocal/vision/edge_quality.h"
+#include "odocal/vision/planar_pose.h"
+
+namespace odocal::measure {
+
+struct MeasureOptions {
+  vision::VideoTrackOptions track;
+  vision::CameraPlaneOptions plane;
+  // Views used for the plane estimate: distinct positions, evenly spread.
+  int max_plane_views = 300;
+  double min_view_separation_px = 8.0;
+  // A frame whose tag (with its white quiet zone, one cell wide) comes within
+  // this many pixels of the image border is not measured: half-visible tags
+  // at the border gave poses 2 mm off.
+  double border_margin_px = 2.0;
+  // Refine the plane's views with the exact edge model (the camera's height,
+  // hence every measured distance, depends on the tag's apparent size).
+  bool exact_plane_refinement = true;
+  calibration::RestOptions rest;
+  // Refine the frames of each start and end rest with the exact edge model
+  // before averaging them.
+  bool exact_rest_refinement = true;
+  // ... by the edge model that assumes neither the PSF nor a power-law tone
+  // curve (vision/edge_quality.h), which also reports each frame's image
+  // quality; false: the Gaussian edge model of the renderer (issue 3).
+  bool model_free_rest_refinement = true;
+  // When a rest frame's image cannot support the stated sigma (overexposed,
+  // low contrast, defocused, an edge that is not straight). A rest keeps its
+  // number only when at least half its frames pass; otherwise the run gets a
+  // fatal image_quality flag and no return error.
+  vision::QualityGate quality_gate;
+  // Floors on a return error's sigma: what the spread of rest frames cannot
+  // see (compression artefacts shared by the frames of a rest, detector
+  // bias), measured on rendered truth at CRF 12 (docs/vision.md).
+  calibration::SystematicFloor systematic_floor;
+  // The camera's length scale beyond the plane estimate's own sigma: the
+  // tag's apparent size, hence the camera height and every distance, came
+  // out 3.0e-4 small on the rendered 720p explain plan (a 30 px tag) with
+  // the exact refinement, 8.3e-4 without. Add the tag's print tolerance for
+  // a real tag.
+  double systematic_scale_sigma = 4e-4;
+  // A start (end) rest must begin (end) within this fraction of the run's
+  // span from its start (end).
+  double rest_search_fraction = 0.35;
+  // Gaps longer than this while the robot moves are flagged.
+  double flag_gap_s = 0.5;
+  int threads = 0;  // 0: one per core
+  // Runs measured from a pose log instead of a video (pose_log.h).
+  PoseLogOptions pose_log;
+};
+
+// Flags that leave a run without a return error.
+bool IsFatalFlag(const std::string& flag);
+
+// The image quality of one refined rest frame, and of a rest (issue 12):
+// what the user reads to judge the camera (report.json "quality").
+struct FrameQuality {
+  double t_s = 0.0;
+  bool fitted = false;  // false: the edges could not be fitted at all
+  vision::TagImageQuality quality;
+  std::vector<std::string> flags;  // QualityFlags; empty = usable
+};
+struct RestQuality {
+  int frames = 0, usable = 0;
+  // Medians over the fitted frames (saturation and residual: the worst).
+  vision::TagImageQuality median;
+  std::vector<std::string> flags;  // the reasons, when fewer than half are usable
+  std::vector<FrameQuality> per_frame;
+};
+
+struct RunMeasurement {
+  config::SessionRun run;
+  VideoTrack track;  // video runs
+  std::optional<PoseLogStats> pose_log;  // pose-log runs
+  calibration::MeasuredRun measured;
+  std::optional<RestQuality> start_quality, end_quality;  // with model_free_rest_refinement
+};
+
+struct SessionMeasurement {
+  config::Session session;
+  vision::CameraPlaneResult plane;
+  bool plane_estimated = false;
+  // Relative 1-sigma of every measured distance (the plane's height sigma
+  // and MeasureOptions::systematic_scale_sigma).
+  double camera_scale_sigma = 0.0;
+  std::vector<RunMeasurement> runs;
+  std::vector<std::string> flags;  // session-wide
+
+  // The session as estimators see it. Each valid frame states the noise of
+  // one frame's pose: the scatter of the per-frame poses about their rest
+  // means, pooled over every rest of the session (frames in motion are
+  // blurred and scatter more; the trajectory fit scales its covariance by
+  // the reduced chi-square when they do). Zero when no rest was seen.
+  // Pose-log runs keep the sigma their own rests gave (pose_log.h).
+  calibration::MeasuredSession ToMeasuredSession() const;
+};
+
+// The camera's geometry over the tag plane, as the lens candidate of the
+// trajectory model needs it (calibration/floor_camera.h): the camera pose the
+// plane estimate found in the videos (the session's mount guess without one)
+// and the session's calibrated lens. nullopt when that is not a camera looking
+// down at the plane. Shared by explain and check, so both model the same lens.
+std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& measurement);
+
+// Progress: called with (frames done, frames expected) from worker threads.
+using ProgressFn = std::function<void(long, long)>;
+
+// Measures every session's runs (videos in parallel across cores; pose logs
+// by pose_log.h). Fails (nullopt + error) for options and for a malformed
+// pose log or its telemetry (the error names the file); bad videos become
+// flags.
+std::optional<std::vector<SessionMeasurement>> MeasureSessions(
+    const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
+    std::string* error);
+
+// Pieces of the measurement shared with the live station (station.h):
+// Views for the plane estimate from candidate corners in time order: each new
+// one at least `separation_px` from the last kept, then evenly thinned to
+// `max_views`.
+std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
+                                               double separation_px, int max_views);
+// The frames of a rest (those with t_begin_s <= t_s <= t_end_s), each refined
+// exactly from its kept crop and measured on the camera's plane, averaged;
+// nullopt when fewer than half of them could be.
+// With `quality`, the frames are refined by the PSF- and tone-free edge model
+// instead, frames failing `gate` are left out, and `quality` says how the
+// rest's images were (nullopt is then returned when fewer than half pass).
+std::optional<calibration::RestWindow> MeasureRestExactly(
+    const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
+    const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality = nullptr,
+    const vision::QualityGate& gate = {});
+
+
+
+}  // namespace odocal::measure
+
+#endif  // ODOCAL_MEASURE_MEASURE_H_

@@ -1,0 +1,396 @@
+#include "odocal/measure/measure.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "odocal/base/parallel.h"
+#include "odocal/base/units.h"
+#include "odocal/media/video.h"
+
+namespace odocal::measure {
+namespace {
+
+// The telemetry reader shared with pose-log runs (pose_log.h); for a video
+// run a bad file is a flag, not an error.
+std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
+                                                        const calibration::WheelParams& nominal,
+                                                        std::vector<std::string>* flags) {
+  if (path.empty()) return {};
+  std::string error;
+  auto records = ReadTelemetryCsv(path, nominal, &error);
+  if (records) return *records;
+  flags->push_back((std::ifstream(path) ? "telemetry_malformed: " : "telemetry_unreadable: ") + error);
+  return {};
+}
+
+// Whether the tag and its quiet zone (one cell of 10 beyond the black
+// square's 8: an eighth of its side) lie `margin_px` inside the image.
+bool AwayFromBorder(const vision::CameraModel& camera, const vision::TagCorners& c,
+                    double margin_px) {
+  const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+  for (const cv::Point2d& p : c) {
+    // The quiet zone's corner: 1/8 of the side beyond the black corner, i.e.
+    // 1.25 times as far from the centre.
+    const cv::Point2d q = centre + (p - centre) * 1.25;
+    if (!camera.InImage(Eigen::Vector2d(q.x, q.y), margin_px)) return false;
+  }
+  return true;
+}
+
+// The views for the plane estimate. With `exact`, each picked view is
+// refined by the exact edge model from its kept crop (the per-frame corners
+// make a 30 px tag look 0.025 px too large: the camera's height came out
+// 1.5 mm low at 1.85 m, 15 sigma, and every distance 8e-4 long).
+std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
+                                          double separation_px, int max_views,
+                                          const vision::CameraModel& lens, double margin_px,
+                                          bool exact) {
+  std::vector<vision::TagCorners> candidates;
+  std::vector<const vision::FrameObservation*> frames;
+  for (const RunMeasurement& run : runs)
+    for (const vision::FrameObservation& f : run.track.frames)
+      if (f.corners_px && AwayFromBorder(lens, *f.corners_px, margin_px)) {
+        candidates.push_back(*f.corners_px);
+        frames.push_back(&f);
+      }
+  std::vector<vision::TagCorners> views = PickPlaneViews(candidates, separation_px, max_views);
+  if (!exact) return views;
+  // PickPlaneViews keeps candidates in order: find each view's frame.
+  size_t k = 0;
+  for (vision::TagCorners& view : views) {
+    while (k < candidates.size() && candidates[k] != view) ++k;
+    if (k == candidates.size()) break;
+    if (auto refined = vision::RefineObservationExactly(*frames[k], lens)) view = *refined;
+  }
+  return views;
+}
+
+void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::CameraModel& camera,
+                                const vision::TagSpec& tag, RunMeasurement* rm) {
+  calibration::MeasuredRun& m = rm->measured;
+  std::vector<calibration::PoseSample> samples;
+  for (const calibration::CameraRecord& c : m.camera) {
+    if (c.t_s < rm->run.start_s - 1e-6 || c.t_s > rm->run.end_s + 1e-6) continue;
+    samples.push_back({c.t_s, c.T_world_robot, c.valid});
+  }
+  const calibration::RestSummary rests = calibration::FindRests(samples, options.rest);
+  const double span = std::min(rm->run.end_s, samples.empty() ? 0.0 : samples.back().t_s) -
+                      std::max(rm->run.start_s, samples.empty() ? 0.0 : samples.front().t_s);
+  const double t0 = samples.empty() ? rm->run.start_s : samples.front().t_s;
+  const double t1 = samples.empty() ? rm->run.end_s : samples.back().t_s;
+  if (!rests.rests.empty() && rests.rests.front().t_begin_s <= t0 + options.rest_search_fraction * span)
+    m.start_rest = rests.rests.front();
+  if (!rests.rests.empty() && rests.rests.back().t_end_s >= t1 - options.rest_search_fraction * span &&
+      (!m.start_rest || rests.rests.size() >= 2))
+    m.end_rest = rests.rests.back();
+  if (!m.start_rest) m.flags.push_back("no_start_rest");
+  if (!m.end_rest) m.flags.push_back("no_end_rest");
+  // The averaged frames, refined exactly (the per-frame refinement is biased
+  // by up to 0.02 px on edges parallel to the pixel grid: docs/vision.md).
+  if (options.exact_rest_refinement) {
+    for (std::optional<calibration::RestWindow>* rest : {&m.start_rest, &m.end_rest}) {
+      if (!*rest) continue;
+      const bool start = rest == &m.start_rest;
+      RestQuality quality;
+      RestQuality* q = options.model_free_rest_refinement ? &quality : nullptr;
+      if (auto exact = MeasureRestExactly(rm->track.frames, (*rest)->t_begin_s, (*rest)->t_end_s,
+                                          camera, tag, q, options.quality_gate)) {
+        **rest = *exact;
+      } else if (q && !quality.flags.empty()) {
+        // The images cannot support the number: no value, say why.
+        for (const std::string& f : quality.flags)
+          m.flags.push_back("image_quality:" + std::string(start ? "start_rest:" : "end_rest:") + f);
+      } else {
+        m.flags.push_back("exact_refinement_failed");
+      }
+      if (q) (start ? rm->start_quality : rm->end_quality) = std::move(quality);
+    }
+  }
+  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back("short_start_rest");
+  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back("short_end_rest");
+  // Gaps while moving: between the rests, longer than flag_gap_s.
+  if (m.start_rest && m.end_rest) {
+    double last_seen = m.start_rest->t_end_s, longest = 0.0;
+    for (const calibration::PoseSample& s : samples) {
+      if (s.t_s <= m.start_rest->t_end_s || s.t_s >= m.end_rest->t_begin_s || !s.valid) continue;
+      longest = std::max(longest, s.t_s - last_seen);
+      last_seen = s.t_s;
+    }
+    longest = std::max(longest, m.end_rest->t_begin_s - last_seen);
+    if (longest > options.flag_gap_s) {
+      char flag[64];
+      std::snprintf(flag, sizeof(flag), "tag_out_of_view_mid_run:%.1fs", longest);
+      m.flags.push_back(flag);
+    }
+    const calibration::RelativePose r =
+        calibration::Between(*m.start_rest, *m.end_rest, options.systematic_floor);
+    // true - odometry: the odometry's relative pose over the run (it does not
+    // change during the rests, whatever the offset of the clocks).
+    const calibration::Pose2 odometry =
+        m.telemetry.size() < 2 ? calibration::Pose2::Identity()
+                               : m.telemetry.front().odometry.inverse() * m.telemetry.back().odometry;
+    m.return_error = calibration::TrueMinusOdometry(r, odometry);
+  }
+}
+
+}  // namespace
+
+std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
+                                               double separation_px, int max_views) {
+  std::vector<vision::TagCorners> views;
+  cv::Point2d last(-1e9, -1e9);
+  for (const vision::TagCorners& c : candidates) {
+    const cv::Point2d centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+    if (cv::norm(centre - last) < separation_px) continue;
+    last = centre;
+    views.push_back(c);
+  }
+  if (static_cast<int>(views.size()) <= max_views) return views;
+  std::vector<vision::TagCorners> thinned;
+  for (int i = 0; i < max_views; ++i)
+    thinned.push_back(views[static_cast<size_t>(i) * views.size() / max_views]);
+  return thinned;
+}
+
+std::optional<calibration::RestWindow> MeasureRestExactly(
+    const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
+    const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
+    const vision::QualityGate& gate) {
+  std::vector<calibration::PoseSample> samples;
+  int tried = 0;
+  std::map<std::string, int> reasons;
+  for (const vision::FrameObservation& f : frames) {
+    if (f.t_s < t_begin_s - 1e-9 || f.t_s > t_end_s + 1e-9 || !f.corners_px) continue;
+    ++tried;
+    std::optional<vision::TagCorners> corners;
+    if (quality) {
+      if (f.crop.empty()) continue;
+      const vision::ModelFreeRefineResult r = vision::RefineTagCornersModelFree(
+          f.crop, *f.corners_px, &camera, vision::CornerRefineOptions{}, f.crop_origin);
+      FrameQuality fq;
+      fq.t_s = f.t_s;
+      fq.fitted = r.ok;
+      fq.quality = r.quality;
+      fq.flags = r.ok ? vision::QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
+      for (const std::string& reason : fq.flags) ++reasons[reason];
+      if (fq.flags.empty()) corners = r.corners_px;
+      quality->per_frame.push_back(std::move(fq));
+    } else {
+      corners = vision::RefineObservationExactly(f, camera);
+    }
+    if (!corners) continue;
+    const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
+    if (pose.ok) samples.push_back({f.t_s, pose.T_world_robot, true});
+  }
+  if (quality) {
+    quality->frames = tried;
+    quality->usable = static_cast<int>(samples.size());
+    std::vector<vision::TagImageQuality> fitted;
+    for (const FrameQuality& fq : quality->per_frame)
+      if (fq.fitted) fitted.push_back(fq.quality);
+    if (!fitted.empty()) {
+      auto median = [&](auto member) {
+        std::vector<double> v;
+        for (const auto& q : fitted) v.push_back(q.*member);
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+      };
+      vision::TagImageQuality& m = quality->median;
+      m.side_px = median(&vision::TagImageQuality::side_px);
+      m.cell_px = median(&vision::TagImageQuality::cell_px);
+      m.contrast_grey = median(&vision::TagImageQuality::contrast_grey);
+      m.blur_sigma_px = median(&vision::TagImageQuality::blur_sigma_px);
+      m.gamma = median(&vision::TagImageQuality::gamma);
+      for (const auto& q : fitted) {
+        m.saturated_fraction = std::max(m.saturated_fraction, q.saturated_fraction);
+        m.rms_residual_grey = std::max(m.rms_residual_grey, q.rms_residual_grey);
+        m.relative_residual = std::max(m.relative_residual, q.relative_residual);
+      }
+    }
+    if (tried > 0 && 2 * quality->usable < tried)
+      for (const auto& [reason, count] : reasons) quality->flags.push_back(reason);
+  }
+  if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
+  return calibration::SummarizeRest(samples);
+}
+
+bool IsFatalFlag(const std::string& flag) {
+  for (const char* fatal : {"video_unreadable", "tag_never_seen", "wrong_tag_id", "duplicate_tag_id",
+                            "no_start_rest", "no_end_rest", "image_quality"}) {
+    if (flag.rfind(fatal, 0) == 0) return true;
+  }
+  return false;
+}
+
+std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& sm) {
+  const config::Session& session = sm.session;
+  if (!session.has_camera) return std::nullopt;  // pose logs alone
+  const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session.camera_mount_guess;
+  const vision::CameraModel camera(session.intrinsics, mount);
+  calibration::FloorCamera floor;
+  floor.centre_m = camera.T_world_camera().translation() -
+                   Eigen::Vector3d(0.0, 0.0, session.tag.height_m());
+  floor.R_camera_world = camera.T_camera_world().rotation();
+  floor.distortion = session.intrinsics.distortion;
+  if (!floor.IsValid()) return std::nullopt;
+  return floor;
+}
+
+calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
+  calibration::MeasuredSession s;
+  s.believed = session.nominal;
+  for (const RunMeasurement& r : runs) s.runs.push_back(r.measured);
+  s.camera_scale_sigma = camera_scale_sigma;
+  // One frame's noise, from the frames at rest about their window's mean
+  // (a pose log's tracker states its own noise: pose_log.h).
+  std::vector<const calibration::MeasuredRun*> video_runs;
+  for (size_t i = 0; i < s.runs.size(); ++i)
+    if (!runs[i].pose_log) video_runs.push_back(&s.runs[i]);
+  const calibration::RestScatter scatter = calibration::PooledRestScatter(video_runs);
+  if (scatter.dof > 0) {
+    const double sigma_p = scatter.sigma_position_m, sigma_h = scatter.sigma_heading_rad;
+    for (size_t i = 0; i < s.runs.size(); ++i)
+      for (calibration::CameraRecord& c : s.runs[i].camera)
+        if (c.valid && !runs[i].pose_log) {
+          c.sigma_position_m = sigma_p;
+          c.sigma_heading_rad = sigma_h;
+        }
+  }
+  return s;
+}
+
+std::optional<std::vector<SessionMeasurement>> MeasureSessions(
+    const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
+    std::string* error) {
+  std::string why;
+  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
+      !options.pose_log.IsValid(&why) || !options.quality_gate.IsValid(&why)) {
+    if (error) *error = "measure options: " + why;
+    return std::nullopt;
+  }
+  std::vector<SessionMeasurement> out(sessions.size());
+  // Phase 1: every run of every session, in parallel.
+  struct Job {
+    size_t session;
+    size_t run;
+  };
+  std::vector<Job> jobs;
+  long expected_frames = 0;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    out[s].session = sessions[s];
+    out[s].runs.resize(sessions[s].runs.size());
+    for (size_t r = 0; r < sessions[s].runs.size(); ++r) {
+      const config::SessionRun& run = sessions[s].runs[r];
+      out[s].runs[r].run = run;
+      if (!run.poses.empty()) continue;  // no video to decode
+      jobs.push_back({s, r});
+      if (std::isfinite(run.end_s)) expected_frames += static_cast<long>((run.end_s - run.start_s) * 30.0) + 1;
+    }
+  }
+  std::atomic<long> frames_done{0};
+  ParallelFor(jobs.size(), static_cast<unsigned>(std::max(0, options.threads)), [&](size_t j) {
+    const config::Session& session = sessions[jobs[j].session];
+    RunMeasurement& rm = out[jobs[j].session].runs[jobs[j].run];
+    std::vector<double> stamps;
+    if (!rm.run.timestamps.empty()) {
+      std::string stamp_error;
+      const auto read = media::ReadTimestamps(rm.run.timestamps, &stamp_error);
+      if (read) {
+        stamps = *read;
+      } else {
+        rm.measured.flags.push_back("timestamps_unreadable");
+      }
+    }
+    rm.track = TrackTagInVideo(rm.run.video, stamps, session.tag, session.intrinsics, options.track,
+                               [&](int) {
+                                 const long done = ++frames_done;
+                                 if (progress && done % 10 == 0) progress(done, expected_frames);
+                               });
+  });
+  if (progress) progress(frames_done, frames_done);
+
+  // Phase 2, per session: the plane, the poses, the rests.
+  for (SessionMeasurement& sm : out) {
+    // Pose-log runs first: a bad log is an error, not a flag.
+    std::vector<calibration::MeasuredRun*> pose_runs;
+    bool any_video = false;
+    for (RunMeasurement& rm : sm.runs) {
+      if (rm.run.poses.empty()) {
+        any_video = true;
+        continue;
+      }
+      rm.pose_log.emplace();
+      if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log,
+                             &rm.measured, &*rm.pose_log, error))
+        return std::nullopt;
+      pose_runs.push_back(&rm.measured);
+    }
+    if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
+    if (!any_video) continue;
+    const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
+    const std::vector<vision::TagCorners> views =
+        PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
+                  options.border_margin_px, options.exact_plane_refinement);
+    vision::CameraMount mount = sm.session.camera_mount_guess;
+    if (static_cast<int>(views.size()) >= options.plane.min_views) {
+      sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
+                                                    sm.session.camera_mount_guess, options.plane);
+      if (sm.plane.ok) {
+        mount = sm.plane.mount;
+        sm.plane_estimated = true;
+      }
+    }
+    if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
+    const double above_tag_mm = mount.height_mm - sm.session.tag.height_mm;
+    sm.camera_scale_sigma =
+        std::hypot(sm.plane_estimated && above_tag_mm > 0.0 ? sm.plane.sigma_height_mm / above_tag_mm : 0.0,
+                   options.systematic_scale_sigma);
+    const vision::CameraModel camera(sm.session.intrinsics, mount);
+    for (RunMeasurement& rm : sm.runs) {
+      if (rm.pose_log) continue;
+      calibration::MeasuredRun& m = rm.measured;
+      m.name = rm.run.name;
+      m.spec = rm.run.spec;
+      m.telemetry = ReadTelemetry(rm.run.telemetry, sm.session.nominal, &m.flags);
+      if (!rm.track.ok) {
+        m.flags.push_back("video_unreadable: " + rm.track.message);
+        continue;
+      }
+      if (rm.track.duplicate_frames > 0) {
+        m.flags.push_back("duplicate_tag_id: id " + std::to_string(sm.session.tag.id) + " seen twice in " +
+                          std::to_string(rm.track.duplicate_frames) + " frames");
+      }
+      if (rm.track.found == 0) {
+        if (rm.track.duplicate_frames == 0) {
+          m.flags.push_back(rm.track.wrong_id_frames > 0
+                                ? "wrong_tag_id: tags seen, never id " + std::to_string(sm.session.tag.id)
+                                : std::string("tag_never_seen"));
+        }
+        continue;
+      }
+      for (const vision::FrameObservation& f : rm.track.frames) {
+        calibration::CameraRecord c;
+        c.t_s = f.t_s;
+        if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {
+          const vision::PlanarPoseResult pose =
+              vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
+          c.valid = pose.ok;
+          if (pose.ok) c.T_world_robot = pose.T_world_robot;
+        }
+        m.camera.push_back(c);
+      }
+      if (rm.track.duplicate_frames > 0) continue;
+      MeasureRestsAndReturnError(options, camera, sm.session.tag, &rm);
+    }
+  }
+  return out;
+}
+
+}  // namespace odocal::measure

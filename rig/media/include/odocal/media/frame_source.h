@@ -1,0 +1,50 @@
+// Live frames: the interface the station reads a camera through, and a real
+// camera through OpenCV. The virtual camera (simulation::SimCameraSource)
+// implements the same interface.
+#ifndef ODOCAL_MEDIA_FRAME_SOURCE_H_
+#define ODOCAL_MEDIA_FRAME_SOURCE_H_
+
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+namespace odocal::media {
+
+// A camera frame as the station receives it: 8-bit grey, with its time.
+struct CameraFrame {
+  cv::Mat grey;
+  double t_s = 0.0;
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  // The next frame; nullopt with `*error` when the camera delivers none
+  // (unplugged, stream ended).
+  virtual std::optional<CameraFrame> Grab(std::string* error) = 0;
+  virtual std::string Describe() const = 0;
+};
+
+// A real camera through OpenCV: a device index ("0") or a stream URL / file.
+// Frames are stamped with the host's steady clock.
+class CaptureSource final : public FrameSource {
+ public:
+  // nullptr with `*error` when the camera cannot be opened or gives no frame.
+  static std::unique_ptr<CaptureSource> Open(const std::string& device, std::string* error);
+  std::optional<CameraFrame> Grab(std::string* error) override;
+  std::string Describe() const override { return "camera " + device_; }
+
+ private:
+  explicit CaptureSource(std::string device) : device_(std::move(device)) {}
+  std::string device_;
+  cv::VideoCapture capture_;
+  std::chrono::steady_clock::time_point opened_at_;
+};
+
+}  // namespace odocal::media
+
+#endif  // ODOCAL_MEDIA_FRAME_SOURCE_H_

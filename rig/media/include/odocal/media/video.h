@@ -1,0 +1,93 @@
+// Video files: H.264 .mp4 writing (the renderer's output, issue 3 §2) and
+// reading grey frames back (rendered or recorded by a real camera).
+//
+// Frames are 8-bit grey (CV_8UC1) in and out; timestamps are seconds from
+// the start of the video.
+#ifndef ODOCAL_MEDIA_VIDEO_H_
+#define ODOCAL_MEDIA_VIDEO_H_
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "odocal/vision/image_formation.h"
+
+namespace odocal::media {
+
+struct VideoStatus {
+  bool ok = false;
+  std::string message;
+};
+
+// How Mp4Writer encodes. OpenCV 4.6's FFmpeg writer offers no quality
+// setting: libx264 runs at its default CRF 23, which at the standard
+// condition costs ~0.05 deg of heading per frame, and a static robot's
+// frames share the same artefacts so averaging does not remove them
+// (docs/vision.md). kFfmpegCli pipes raw frames to the `ffmpeg` program
+// instead, still H.264 in .mp4, at the CRF asked for.
+struct Mp4WriterOptions {
+  enum class Backend { kOpenCv, kFfmpegCli };
+  Backend backend = Backend::kOpenCv;
+  int crf = 12;  // kFfmpegCli only; 0 = lossless H.264
+  // kFfmpegCli only: x264 speed preset (ultrafast ... veryslow).
+  std::string preset = "veryfast";
+  bool IsValid(std::string* why) const;
+};
+
+// H.264 .mp4 (fourcc avc1) of grey frames, and each frame's timestamp for
+// the timestamp list.
+class Mp4Writer {
+ public:
+  Mp4Writer();
+  ~Mp4Writer();
+  // Fails with a clear message when H.264 cannot be written here (no
+  // libx264 in this OpenCV/FFmpeg, no ffmpeg program, unwritable path).
+  VideoStatus Open(const std::string& path, double fps, cv::Size frame_size,
+                   const Mp4WriterOptions& options = {});
+  VideoStatus Write(const cv::Mat& grey_frame, double timestamp_s);
+  // Finishes the file (waits for ffmpeg with kFfmpegCli); safe to repeat.
+  VideoStatus Close();
+  const std::vector<double>& timestamps_s() const { return timestamps_s_; }
+  // "frame,t_s" lines, one per written frame.
+  VideoStatus WriteTimestamps(const std::string& path) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::vector<double> timestamps_s_;
+  cv::Size size_;
+};
+
+// Reads grey frames back (any container/codec FFmpeg reads).
+class VideoReader {
+ public:
+  VideoReader();
+  ~VideoReader();
+  // Missing, empty or corrupt files fail here with a message.
+  VideoStatus Open(const std::string& path);
+  // False at the end of the stream (or on a truncated file).
+  bool Read(cv::Mat* grey_frame);
+  double fps() const;
+  int frame_count() const;  // as the container claims; may be -1
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Reads "frame,t_s" files as Mp4Writer::WriteTimestamps writes them.
+std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error);
+
+// Codec round trip of a clip (the camera simulator's last stage): MJPEG frame
+// by frame in memory, H.264 through a temporary .mp4 (ffmpeg program). nullopt
+// with `error` set when the codec is unavailable. kNone returns the frames.
+std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
+                                                    const vision::CodecOptions& codec, double fps,
+                                                    std::string* error);
+
+}  // namespace odocal::media
+
+#endif  // ODOCAL_MEDIA_VIDEO_H_

@@ -1,0 +1,51 @@
+#include "odocal/media/frame_source.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include <opencv2/imgproc.hpp>
+
+namespace odocal::media {
+namespace {
+
+double Seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+}  // namespace
+
+std::unique_ptr<CaptureSource> CaptureSource::Open(const std::string& device, std::string* error) {
+  std::unique_ptr<CaptureSource> source(new CaptureSource(device));
+  const bool is_index = !device.empty() && std::all_of(device.begin(), device.end(),
+                                                      [](unsigned char c) { return std::isdigit(c); });
+  const bool opened = is_index ? source->capture_.open(std::stoi(device)) : source->capture_.open(device);
+  if (!opened || !source->capture_.isOpened()) {
+    if (error)
+      *error = "cannot open camera '" + device + "'" +
+               (is_index ? " (no such video device, or busy)" : " (no such stream or file, or no backend reads it)");
+    return nullptr;
+  }
+  source->opened_at_ = std::chrono::steady_clock::now();
+  return source;
+}
+
+std::optional<CameraFrame> CaptureSource::Grab(std::string* error) {
+  cv::Mat frame;
+  if (!capture_.read(frame) || frame.empty()) {
+    if (error) *error = "camera '" + device_ + "' delivered no frame (unplugged, or the stream ended)";
+    return std::nullopt;
+  }
+  CameraFrame out;
+  out.t_s = Seconds(std::chrono::steady_clock::now() - opened_at_);
+  if (frame.channels() == 3) {
+    cv::cvtColor(frame, out.grey, cv::COLOR_BGR2GRAY);
+  } else if (frame.channels() == 4) {
+    cv::cvtColor(frame, out.grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    out.grey = frame;
+  }
+  if (out.grey.depth() != CV_8U) out.grey.convertTo(out.grey, CV_8U);
+  return out;
+}
+
+}  // namespace odocal::media

@@ -1,0 +1,288 @@
+#include "odocal/media/video.h"
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+extern "C" char** environ;
+
+namespace odocal::media {
+
+bool Mp4WriterOptions::IsValid(std::string* why) const {
+  if (crf < 0 || crf > 51) {
+    if (why) *why = "H.264 crf must be in [0, 51]";
+    return false;
+  }
+  static const char* kPresets[] = {"ultrafast", "superfast", "veryfast", "faster", "fast",
+                                   "medium",    "slow",      "slower",   "veryslow"};
+  for (const char* p : kPresets) {
+    if (preset == p) return true;
+  }
+  if (why) *why = "unknown x264 preset '" + preset + "'";
+  return false;
+}
+
+struct Mp4Writer::Impl {
+  Mp4WriterOptions options;
+  cv::VideoWriter writer;
+  cv::Mat bgr;
+  // kFfmpegCli: the child process and the pipe to its stdin.
+  pid_t child = -1;
+  int pipe_fd = -1;
+  bool IsOpen() const { return writer.isOpened() || pipe_fd >= 0; }
+};
+
+Mp4Writer::Mp4Writer() : impl_(std::make_unique<Impl>()) {}
+Mp4Writer::~Mp4Writer() { Close(); }
+
+VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_size,
+                            const Mp4WriterOptions& options) {
+  Close();
+  std::string why;
+  if (!options.IsValid(&why)) return {false, why};
+  if (!(fps > 0.0) || frame_size.width <= 0 || frame_size.height <= 0) {
+    return {false, "video fps and frame size must be positive"};
+  }
+  if (frame_size.width % 2 || frame_size.height % 2) {
+    return {false, "H.264 (yuv420p) needs an even frame width and height"};
+  }
+  impl_->options = options;
+  size_ = frame_size;
+  timestamps_s_.clear();
+  if (options.backend == Mp4WriterOptions::Backend::kOpenCv) {
+    const int fourcc = cv::VideoWriter::fourcc('a', 'v', 'c', '1');
+    if (!impl_->writer.open(path, cv::CAP_FFMPEG, fourcc, fps, frame_size, true)) {
+      return {false, "cannot open '" + path +
+                         "' for H.264 (avc1) writing through OpenCV's FFmpeg backend: this OpenCV "
+                         "build or FFmpeg lacks an H.264 encoder (libx264), or the path is not writable"};
+    }
+    return {true, ""};
+  }
+  // kFfmpegCli. The output must be creatable (ffmpeg would only say so later).
+  {
+    std::ofstream probe(path, std::ios::binary);
+    if (!probe) return {false, "cannot create video file '" + path + "'"};
+  }
+  // A socket rather than a pipe: send(MSG_NOSIGNAL) reports a dead ffmpeg as
+  // an error instead of raising SIGPIPE in the caller's process.
+  // Close-on-exec: writers opened at once from several threads would
+  // otherwise hand each other's socket to their ffmpeg children, and no
+  // ffmpeg would see the end of its input (a deadlock at Close). The child's
+  // dup2 onto its stdin makes a descriptor without the flag.
+  int fds[2];
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
+    return {false, "cannot create a socket to ffmpeg"};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);
+  posix_spawn_file_actions_addclose(&actions, fds[1]);
+  const std::string size = std::to_string(frame_size.width) + "x" + std::to_string(frame_size.height);
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.9g", fps);
+  const std::string crf = std::to_string(options.crf);
+  std::vector<std::string> args = {"ffmpeg", "-nostdin", "-y", "-loglevel", "error", "-f", "rawvideo",
+                                   "-pix_fmt", "gray", "-s", size, "-r", rate, "-i", "pipe:0",
+                                   "-c:v", "libx264", "-preset", options.preset, "-crf", crf,
+                                   "-pix_fmt", "yuv420p", "-movflags", "+faststart", path};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawnp(&pid, "ffmpeg", &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[0]);
+  if (rc != 0) {
+    close(fds[1]);
+    return {false, "cannot run the ffmpeg program for H.264 writing (is it installed?)"};
+  }
+  impl_->child = pid;
+  impl_->pipe_fd = fds[1];
+  return {true, ""};
+}
+
+VideoStatus Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
+  if (!impl_->IsOpen()) return {false, "video writer is not open"};
+  if (grey_frame.type() != CV_8UC1 || grey_frame.size() != size_) {
+    return {false, "frame must be 8-bit grey of the size the writer was opened with"};
+  }
+  if (impl_->pipe_fd >= 0) {
+    const cv::Mat frame = grey_frame.isContinuous() ? grey_frame : grey_frame.clone();
+    const auto* data = frame.ptr<uint8_t>(0);
+    size_t left = frame.total();
+    while (left > 0) {
+      const ssize_t n = ::send(impl_->pipe_fd, data, left, MSG_NOSIGNAL);
+      if (n <= 0) {
+        if (n < 0 && errno == EINTR) continue;
+        return {false, "ffmpeg stopped accepting frames"};
+      }
+      data += n;
+      left -= static_cast<size_t>(n);
+    }
+  } else {
+    cv::cvtColor(grey_frame, impl_->bgr, cv::COLOR_GRAY2BGR);
+    impl_->writer.write(impl_->bgr);
+  }
+  timestamps_s_.push_back(timestamp_s);
+  return {true, ""};
+}
+
+VideoStatus Mp4Writer::Close() {
+  if (!impl_) return {true, ""};
+  if (impl_->writer.isOpened()) impl_->writer.release();
+  if (impl_->pipe_fd >= 0) {
+    close(impl_->pipe_fd);
+    impl_->pipe_fd = -1;
+    int status = 0;
+    while (waitpid(impl_->child, &status, 0) < 0 && errno == EINTR) {
+    }
+    impl_->child = -1;
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      return {false, "ffmpeg failed to finish the video"};
+    }
+  }
+  return {true, ""};
+}
+
+VideoStatus Mp4Writer::WriteTimestamps(const std::string& path) const {
+  std::ofstream out(path);
+  if (!out) return {false, "cannot write timestamp list '" + path + "'"};
+  out << "frame,t_s\n";
+  out.precision(9);
+  for (size_t i = 0; i < timestamps_s_.size(); ++i) out << i << ',' << timestamps_s_[i] << '\n';
+  return out ? VideoStatus{true, ""} : VideoStatus{false, "write error on '" + path + "'"};
+}
+
+struct VideoReader::Impl {
+  cv::VideoCapture capture;
+  cv::Mat pending;  // the first frame, decoded by Open() to prove the file is readable
+  cv::Mat bgr;
+};
+
+VideoReader::VideoReader() : impl_(std::make_unique<Impl>()) {}
+VideoReader::~VideoReader() = default;
+
+VideoStatus VideoReader::Open(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return {false, "video file '" + path + "' does not exist"};
+  if (std::filesystem::file_size(path, ec) == 0 || ec) {
+    return {false, "video file '" + path + "' is empty"};
+  }
+  if (!impl_->capture.open(path, cv::CAP_FFMPEG)) {
+    return {false, "cannot open video '" + path + "': not a video FFmpeg can read (corrupt?)"};
+  }
+  cv::Mat first;
+  if (!impl_->capture.read(first) || first.empty()) {
+    impl_->capture.release();
+    return {false, "video '" + path + "' has no decodable frame (corrupt or truncated?)"};
+  }
+  impl_->pending = first;
+  return {true, ""};
+}
+
+bool VideoReader::Read(cv::Mat* grey_frame) {
+  cv::Mat frame;
+  if (!impl_->pending.empty()) {
+    frame = impl_->pending;
+    impl_->pending.release();
+  } else if (!impl_->capture.isOpened() || !impl_->capture.read(frame) || frame.empty()) {
+    return false;
+  }
+  if (frame.channels() == 3) {
+    cv::cvtColor(frame, *grey_frame, cv::COLOR_BGR2GRAY);
+  } else if (frame.channels() == 4) {
+    cv::cvtColor(frame, *grey_frame, cv::COLOR_BGRA2GRAY);
+  } else {
+    frame.copyTo(*grey_frame);
+  }
+  return true;
+}
+
+double VideoReader::fps() const { return impl_->capture.get(cv::CAP_PROP_FPS); }
+int VideoReader::frame_count() const {
+  return static_cast<int>(impl_->capture.get(cv::CAP_PROP_FRAME_COUNT));
+}
+
+std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    if (error) *error = path + ": cannot read";
+    return std::nullopt;
+  }
+  std::vector<double> stamps;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.empty() || line.rfind("frame", 0) == 0) continue;
+    std::istringstream fields(line);
+    std::string index, t;
+    if (!std::getline(fields, index, ',') || !std::getline(fields, t)) {
+      if (error) *error = path + ":" + std::to_string(line_number) + ": expected frame,t_s";
+      return std::nullopt;
+    }
+    try {
+      stamps.push_back(std::stod(t));
+    } catch (const std::exception&) {
+      if (error) *error = path + ":" + std::to_string(line_number) + ": t_s is not a number";
+      return std::nullopt;
+    }
+  }
+  return stamps;
+}
+
+std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
+                                                    const vision::CodecOptions& codec, double fps,
+                                                    std::string* error) {
+  if (codec.kind != vision::CodecOptions::Kind::kH264 || frames.empty()) {
+    if (codec.kind == vision::CodecOptions::Kind::kMjpeg) {
+      std::vector<cv::Mat> out;
+      for (const cv::Mat& f : frames) {
+        std::vector<uchar> bytes;
+        cv::imencode(".jpg", f, bytes, {cv::IMWRITE_JPEG_QUALITY, codec.quality});
+        out.push_back(cv::imdecode(bytes, cv::IMREAD_GRAYSCALE));
+      }
+      return out;
+    }
+    return frames;
+  }
+  static std::atomic<int> counter{0};
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("odocal_codec_" + std::to_string(getpid()) + "_" +
+                             std::to_string(counter++) + ".mp4"))
+                               .string();
+  Mp4Writer writer;
+  Mp4WriterOptions wo;
+  wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
+  wo.crf = codec.crf;
+  VideoStatus s = writer.Open(path, fps, frames.front().size(), wo);
+  for (size_t k = 0; s.ok && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
+  if (s.ok) s = writer.Close();
+  std::vector<cv::Mat> out;
+  if (s.ok) {
+    VideoReader reader;
+    s = reader.Open(path);
+    cv::Mat f;
+    while (s.ok && reader.Read(&f)) out.push_back(f.clone());
+  }
+  std::error_code ignored;
+  std::filesystem::remove(path, ignored);
+  if (!s.ok || out.size() != frames.size()) {
+    if (error) *error = s.ok ? "H.264 round trip lost frames" : s.message;
+    return std::nullopt;
+  }
+  return out;
+}
+
+}  // namespace odocal::media

@@ -1,0 +1,28 @@
+// The measurement's entries in report.json: one run (its return error with
+// sigma and flags, its frames), the image quality at its rests, its
+// trajectory. Units at this edge: millimetres and degrees, the unit in every key.
+#ifndef ODOCAL_REPORT_MEASUREMENT_JSON_H_
+#define ODOCAL_REPORT_MEASUREMENT_JSON_H_
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/measure/measure.h"
+
+namespace odocal::report {
+
+// One run's JSON entry of report.json: procedure, direction, source
+// ("video" or "poses") and its file, return_error {x_mm, y_mm, theta_deg}
+// (null when fatal), sigma, flags, frames; pose runs add clock_offset_s.
+nlohmann::json RunJson(const measure::RunMeasurement& run);
+
+// The quality entry of report.json for one rest.
+nlohmann::json RestQualityJson(const measure::RestQuality& quality);
+
+// One run's trajectory for report.json's `trajectories[]`: {name, procedure,
+// direction, points_mm: [[x, y], ...]} of the camera's valid poses in its
+// measurement frame, thinned to at most `max_points`.
+nlohmann::json TrajectoryJson(const measure::RunMeasurement& run, int max_points = 300);
+
+}  // namespace odocal::report
+
+#endif  // ODOCAL_REPORT_MEASUREMENT_JSON_H_

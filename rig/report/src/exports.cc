@@ -1,0 +1,71 @@
+#include "odocal/config/files.h"
+#include "odocal/report/exports.h"
+
+#include <cstdio>
+
+#include "odocal/calibration/corrections.h"
+#include "odocal/report/json.h"
+
+namespace odocal::report {
+namespace {
+
+std::string Number(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.9g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::optional<std::string> CheckExports(const ExportRequests& requests) {
+  if (requests.raw.size() % 2 != 0) return "--export takes KIND FILE";
+  for (size_t i = 0; i < requests.raw.size(); i += 2) {
+    const std::string& kind = requests.raw[i];
+    if (kind != "ros2" && kind != "firmware")
+      return "--export " + kind + ": unknown kind (ros2 or firmware)";
+  }
+  return std::nullopt;
+}
+
+std::string Ros2ExportYaml(const calibration::WheelParams& nominal,
+                           const calibration::WheelParams& corrected) {
+  const calibration::Ros2Multipliers m = calibration::Ros2MultipliersFrom(nominal, corrected);
+  return "# odocal: ROS 2 diff_drive_controller multipliers (nominal -> corrected)\n"
+         "diff_drive_controller:\n"
+         "  ros__parameters:\n"
+         "    wheel_separation_multiplier: " + Number(m.wheel_separation_multiplier) + "\n" +
+         "    left_wheel_radius_multiplier: " + Number(m.left_wheel_radius_multiplier) + "\n" +
+         "    right_wheel_radius_multiplier: " + Number(m.right_wheel_radius_multiplier) + "\n";
+}
+
+std::string FirmwareExportYaml(const calibration::WheelParams& c) {
+  const std::string left = Number(c.left_wheel_diameter_m * 1e3),
+                    right = Number(c.right_wheel_diameter_m * 1e3), track = Number(c.track_m * 1e3),
+                    ticks = Number(c.ticks_per_rev);
+  return "# odocal: corrected parameters in the robot link's names (mm)\n"
+         "# push: odocal robot push --port DEVICE left_wheel_diameter_mm=" + left +
+         " right_wheel_diameter_mm=" + right + " track_mm=" + track + " ticks_per_rev=" + ticks +
+         "\n"
+         "left_wheel_diameter_mm: " + left + "\n" +
+         "right_wheel_diameter_mm: " + right + "\n" +
+         "track_mm: " + track + "\n" +
+         "ticks_per_rev: " + ticks + "\n";
+}
+
+std::optional<std::string> WriteExports(const ExportRequests& requests,
+                                        const calibration::WheelParams& nominal,
+                                        const std::optional<calibration::WheelParams>& corrected) {
+  if (auto e = CheckExports(requests)) return e;
+  for (size_t i = 0; i < requests.raw.size(); i += 2) {
+    const std::string& kind = requests.raw[i];
+    const std::string& file = requests.raw[i + 1];
+    if (!corrected)
+      return "--export " + kind + " " + file + ": no corrected parameters to export";
+    const std::string text =
+        kind == "ros2" ? Ros2ExportYaml(nominal, *corrected) : FirmwareExportYaml(*corrected);
+    if (auto e = config::WriteFileAtomically(file, text)) return e;
+  }
+  return std::nullopt;
+}
+
+}  // namespace odocal::report

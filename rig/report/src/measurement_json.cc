@@ -1,0 +1,102 @@
+#include "odocal/report/measurement_json.h"
+
+#include <algorithm>
+#include <vector>
+
+#include "odocal/base/units.h"
+
+namespace odocal::report {
+
+using json = nlohmann::json;
+
+nlohmann::json RunJson(const measure::RunMeasurement& rm) {
+  const calibration::MeasuredRun& m = rm.measured;
+  nlohmann::json j = {{"name", m.name},
+                      {"procedure", calibration::ToString(m.spec.procedure)},
+                      {"direction", calibration::ToString(m.spec.direction)}};
+  if (rm.pose_log) {
+    j["source"] = "poses";
+    j["poses"] = rm.run.poses;
+  } else {
+    j["source"] = "video";
+    j["video"] = rm.run.video;
+  }
+  bool fatal = false;
+  for (const std::string& f : m.flags) fatal = fatal || measure::IsFatalFlag(f);
+  if (m.return_error && !fatal) {
+    const calibration::RelativePose& r = *m.return_error;
+    j["return_error"] = {{"x_mm", r.pose.x() * 1e3}, {"y_mm", r.pose.y() * 1e3},
+                         {"theta_deg", r.pose.heading() * kRadToDeg}};
+    j["sigma"] = {{"x_mm", r.sigma_x_m() * 1e3}, {"y_mm", r.sigma_y_m() * 1e3},
+                  {"theta_deg", r.sigma_heading_rad() * kRadToDeg}};
+  } else {
+    j["return_error"] = nullptr;
+    j["sigma"] = nullptr;
+  }
+  j["flags"] = m.flags;
+  if (rm.pose_log) {
+    const measure::PoseLogStats& p = *rm.pose_log;
+    j["frames"] = {{"logged", p.rows}, {"valid", p.valid}, {"nan", p.nan_rows},
+                   {"tracker_jump", p.jump_frames},
+                   {"start_rest", m.start_rest ? m.start_rest->n : 0},
+                   {"end_rest", m.end_rest ? m.end_rest->n : 0}};
+    j["pose_period_s"] = p.pose_period_s;
+    j["clock_offset_s"] = p.clock_offset_s ? nlohmann::json(*p.clock_offset_s) : nlohmann::json(nullptr);
+    j["unit_check"] = {{"path_ratio", p.path_ratio}, {"heading_ratio", p.heading_ratio}};
+    return j;
+  }
+  int searched = 0;
+  for (const auto& f : rm.track.frames) searched += f.searched ? 1 : 0;
+  j["frames"] = {{"decoded", rm.track.frames.size()}, {"tag_found", rm.track.found},
+                 {"searched", searched},
+                 {"start_rest", m.start_rest ? m.start_rest->n : 0},
+                 {"end_rest", m.end_rest ? m.end_rest->n : 0}};
+  // What the images were like at the rests (medians; each refined frame
+  // under per_frame): tag size, contrast, blur, tone, saturation.
+  if (rm.start_quality || rm.end_quality) {
+    j["quality"] = {{"start_rest", rm.start_quality ? RestQualityJson(*rm.start_quality) : nlohmann::json()},
+                    {"end_rest", rm.end_quality ? RestQualityJson(*rm.end_quality) : nlohmann::json()}};
+  }
+  return j;
+}
+
+nlohmann::json RestQualityJson(const measure::RestQuality& q) {
+  auto entry = [](const vision::TagImageQuality& m) {
+    return nlohmann::json{{"tag_side_px", m.side_px},
+                          {"contrast_grey", m.contrast_grey},
+                          {"blur_sigma_px", m.blur_sigma_px},
+                          {"saturated_fraction", m.saturated_fraction},
+                          {"edge_residual_grey", m.rms_residual_grey}};
+  };
+  nlohmann::json frames = nlohmann::json::array();
+  for (const measure::FrameQuality& f : q.per_frame) {
+    nlohmann::json j = f.fitted ? entry(f.quality) : nlohmann::json::object();
+    j["t_s"] = f.t_s;
+    j["flags"] = f.flags;
+    frames.push_back(j);
+  }
+  nlohmann::json j = entry(q.median);
+  j["frames"] = q.frames;
+  j["usable_frames"] = q.usable;
+  j["flags"] = q.flags;
+  j["per_frame"] = frames;
+  return j;
+}
+
+nlohmann::json TrajectoryJson(const measure::RunMeasurement& rm, int max_points) {
+  std::vector<const calibration::CameraRecord*> valid;
+  for (const calibration::CameraRecord& c : rm.measured.camera)
+    if (c.valid) valid.push_back(&c);
+  json points = json::array();
+  const size_t step = std::max<size_t>(1, (valid.size() + max_points - 1) / std::max(1, max_points));
+  for (size_t i = 0; i < valid.size(); i += step)
+    points.push_back({valid[i]->T_world_robot.x() * 1e3, valid[i]->T_world_robot.y() * 1e3});
+  if (!valid.empty() && (valid.size() - 1) % step != 0)
+    points.push_back({valid.back()->T_world_robot.x() * 1e3, valid.back()->T_world_robot.y() * 1e3});
+  return {{"name", rm.measured.name},
+          {"procedure", calibration::ToString(rm.measured.spec.procedure)},
+          {"direction", calibration::ToString(rm.measured.spec.direction)},
+          {"points_mm", points}};
+}
+
+}  // namespace odocal::report

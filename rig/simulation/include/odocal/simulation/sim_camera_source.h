@@ -1,0 +1,44 @@
+// The virtual camera live: frames rendered from the simulated robot's true
+// pose as the station asks for them.
+#ifndef ODOCAL_SIMULATION_SIM_CAMERA_SOURCE_H_
+#define ODOCAL_SIMULATION_SIM_CAMERA_SOURCE_H_
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "odocal/config/scenario.h"
+#include "odocal/media/frame_source.h"
+#include "odocal/sim/sim_motion_backend.h"
+#include "odocal/vision/renderer.h"
+#include "odocal/vision/tag.h"
+
+namespace odocal::simulation {
+
+// The virtual camera: renders the simulated robot's true pose when asked, at
+// most at the camera's frame rate in robot time (the robot's clock stands
+// still between runs, so frames of a rest are spaced by 1/fps). Frames are
+// rendered without motion blur: the station averages rest frames only; the
+// frames taken while moving serve tracking and the camera-plane estimate.
+class SimCameraSource final : public media::FrameSource {
+ public:
+  static std::unique_ptr<SimCameraSource> Create(const config::CameraScenario& camera,
+                                                 const vision::TagSpec& tag,
+                                                 const sim::SimMotionBackend& backend,
+                                                 std::string* error);
+  std::optional<media::CameraFrame> Grab(std::string* error) override;
+  std::string Describe() const override { return "virtual camera"; }
+
+ private:
+  SimCameraSource(std::unique_ptr<vision::Renderer> renderer, double fps,
+                  const sim::SimMotionBackend& backend)
+      : renderer_(std::move(renderer)), fps_(fps), backend_(backend) {}
+  std::unique_ptr<vision::Renderer> renderer_;
+  double fps_;
+  const sim::SimMotionBackend& backend_;
+  std::optional<double> last_t_s_;
+};
+
+}  // namespace odocal::simulation
+
+#endif  // ODOCAL_SIMULATION_SIM_CAMERA_SOURCE_H_

@@ -1,0 +1,82 @@
+// Building a MeasuredSession — what the estimators consume — from recorded
+// files.
+//
+// STAND-IN FOR THE CAMERA PIPELINE. Until the integrator's pipeline (videos
+// -> camera poses) lands, a session can be built from an `odocal simulate`
+// output directory: the telemetry as the robot sent it, and camera poses
+// made from the simulator's true trajectory by a stand-in camera (30 fps,
+// seeded per-frame noise, an optional home-area visibility window, and —
+// for tests only — the camera-side effects a real camera would add). From
+// truth.json it reads only the nominal parameters and the run plan, never
+// `truth`, the true poses or any effect. The real camera loader will fill the
+// same MeasuredSession.
+//
+// Frames: the stand-in camera measures in the simulator's world frame
+// (REP-103). Units: SI inside, mm/deg in the files.
+#ifndef ODOCAL_SIMULATION_STAND_IN_CAMERA_H_
+#define ODOCAL_SIMULATION_STAND_IN_CAMERA_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "odocal/calibration/measured_session.h"
+#include "odocal/simulation/simulation.h"
+
+namespace odocal::simulation {
+
+struct StandInCameraOptions {
+  double fps = 30.0;
+  // Per-frame noise of the measured pose (white, Gaussian), also stated in
+  // each CameraRecord for weighting.
+  double sigma_position_m = 1e-3;
+  double sigma_heading_rad = 0.3 * M_PI / 180.0;
+  std::uint64_t seed = 1;
+  // Home-area camera: frames are valid only while the robot is within this
+  // radius of home_centre_m. Unset: the whole floor is seen.
+  std::optional<double> home_radius_m;
+  Eigen::Vector2d home_centre_m = Eigen::Vector2d::Zero();
+  // Where the camera looks (the lens model needs it).
+  calibration::FloorCamera camera =
+      calibration::FloorCamera::Overhead(Eigen::Vector2d(1.0, 0.0), 2.5);
+  // Camera-side effects of the stand-in, for tests of the explain workflow
+  // (the CLI never sets them: in the station a scenario's camera-side effects
+  // are rendered into the video by the integrator's pipeline).
+  double tag_x_m = 0.0;  // tag centre in the robot frame; measured as if at the axle
+  double tag_y_m = 0.0;
+  double latency_s = 0.0;  // a frame captured at telemetry time t is stamped t - latency
+  double k1_delta = 0.0;   // the lens's true k1 minus camera.distortion[0]
+  double tracker_yaw_rad = 0.0;  // the tag turned on the robot: heading measured + yaw
+
+  bool IsValid(std::string* why) const;
+};
+
+// One run as recorded by the simulator: its telemetry and its true poses
+// (at any rate; interpolated to the camera's frames).
+struct SimulatedRunRecord {
+  std::string name;
+  calibration::RunSpec spec;
+  std::vector<calibration::TelemetryRecord> telemetry;
+  std::vector<double> truth_t_s;
+  std::vector<calibration::Pose2> truth_poses;
+};
+
+// The stand-in camera looking at recorded runs.
+calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelParams& believed,
+                                                      const std::vector<SimulatedRunRecord>& runs,
+                                                      const StandInCameraOptions& options);
+
+// The runs of an in-memory simulation (full control-rate trajectory).
+std::vector<SimulatedRunRecord> SimulatedRunRecordsOf(const SimulationResult& result);
+
+// From an `odocal simulate --out DIR` directory. nullopt with `error` (one
+// line naming the file) when it is missing or malformed.
+std::optional<calibration::MeasuredSession> LoadSimulatedSession(
+    const std::string& dir, const StandInCameraOptions& options, std::string* error);
+
+}  // namespace odocal::simulation
+
+#endif  // ODOCAL_SIMULATION_STAND_IN_CAMERA_H_

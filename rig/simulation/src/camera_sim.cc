@@ -1,0 +1,124 @@
+#include "odocal/simulation/camera_sim.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <mutex>
+
+#include "odocal/base/parallel.h"
+#include "odocal/config/files.h"
+#include "odocal/media/video.h"
+#include "odocal/sim/trajectory.h"
+
+namespace odocal::simulation {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim::RunRecord& run,
+                                     const std::string& name, const std::string& dir,
+                                     RecordedRun* out) {
+  const config::CameraScenario& cam = *scenario.camera;
+  const sim::Effects& effects = scenario.robot.effects;
+  // The world as it is, not as the operator's files say.
+  vision::TagSpec true_tag = *scenario.tag;
+  true_tag.size_mm *= cam.tag_print_scale;  // as printed, not as stated
+  if (effects.tag_offset) {
+    true_tag.offset_x_mm = effects.tag_offset->x_m * 1e3;
+    true_tag.offset_y_mm = effects.tag_offset->y_m * 1e3;
+  }
+  if (effects.tracker_yaw) true_tag.yaw_deg += effects.tracker_yaw->yaw_rad * kRadToDeg;
+  vision::Intrinsics true_lens = cam.intrinsics;
+  if (effects.lens_distortion) true_lens.distortion[0] += effects.lens_distortion->k1_delta;
+  const double latency_s = effects.camera_latency ? effects.camera_latency->latency_s : 0.0;
+
+  vision::RenderOptions render = cam.render;
+  render.seed = scenario.seed * 1000003ULL + std::hash<std::string>{}(name);
+  vision::RendererResult created =
+      vision::Renderer::Create(vision::CameraModel(true_lens, cam.mount), true_tag, render);
+  if (!created.ok) return name + ": cannot render: " + created.message;
+  vision::Renderer& renderer = *created.renderer;
+
+  out->video = dir + "/" + name + ".mp4";
+  out->timestamps = dir + "/" + name + ".timestamps.csv";
+  out->frames = dir + "/" + name + ".frames.csv";
+  media::Mp4Writer writer;
+  media::Mp4WriterOptions writer_options;
+  writer_options.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
+  writer_options.crf = cam.crf;
+  const media::VideoStatus opened =
+      writer.Open(out->video, cam.fps, cv::Size(cam.intrinsics.width, cam.intrinsics.height),
+                  writer_options);
+  if (!opened.ok) return opened.message;
+
+  std::string truth =
+      "frame,t_capture_s,stamp_s,visible,robot_x_mm,robot_y_mm,robot_heading_deg,tag_x_mm,"
+      "tag_y_mm,tag_heading_deg,c0x,c0y,c1x,c1y,c2x,c2y,c3x,c3y\n";
+  const auto trajectory = [&run](double t) { return sim::PoseAt(run, t); };
+  const int frame_count =
+      static_cast<int>(std::floor((run.end_time_s - run.start_time_s) * cam.fps + 1e-9)) + 1;
+  char line[512];
+  for (int k = 0; k < frame_count; ++k) {
+    const double t = run.start_time_s + k / cam.fps;
+    const vision::RenderedFrame frame = renderer.RenderExposure(trajectory, t);
+    const double stamp = t - latency_s;
+    const media::VideoStatus wrote = writer.Write(frame.image, stamp);
+    if (!wrote.ok) return wrote.message;
+    const auto& c = frame.corners_px;
+    std::snprintf(line, sizeof(line),
+                  "%d,%.6f,%.6f,%d,%.5f,%.5f,%.6f,%.5f,%.5f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
+                  k, t, stamp, frame.tag_visible ? 1 : 0, frame.T_world_robot.x() * 1e3,
+                  frame.T_world_robot.y() * 1e3, frame.T_world_robot.heading() * kRadToDeg,
+                  frame.T_world_tag.x() * 1e3, frame.T_world_tag.y() * 1e3,
+                  frame.T_world_tag.heading() * kRadToDeg, c[0].x, c[0].y, c[1].x, c[1].y, c[2].x,
+                  c[2].y, c[3].x, c[3].y);
+    truth += line;
+    out->frames_visible += frame.tag_visible ? 1 : 0;
+    if (k == 0) out->start_s = stamp;
+    out->end_s = stamp;
+  }
+  out->frames_written = frame_count;
+  const media::VideoStatus closed = writer.Close();
+  if (!closed.ok) return closed.message;
+  const media::VideoStatus stamps = writer.WriteTimestamps(out->timestamps);
+  if (!stamps.ok) return stamps.message;
+  return config::WriteFileAtomically(out->frames, truth);
+}
+
+}  // namespace
+
+std::optional<std::string> RecordRuns(const config::Scenario& scenario, const SimulationResult& result,
+                                      const std::string& dir, bool progress,
+                                      std::vector<RecordedRun>* recorded) {
+  if (!scenario.camera || !scenario.tag) return "scenario has no camera and tag";
+  const size_t n = result.runs.size();
+  recorded->assign(n, RecordedRun{});
+  std::vector<std::optional<std::string>> errors(n);
+  std::atomic<size_t> done{0};
+  std::mutex print;
+  ParallelFor(n, 0, [&](size_t i) {
+    errors[i] = RecordOne(scenario, result.runs[i], result.run_names[i], dir, &(*recorded)[i]);
+    const size_t finished = ++done;
+    if (progress) {
+      std::lock_guard<std::mutex> lock(print);
+      std::cerr << "recorded " << finished << "/" << n << ": " << result.run_names[i] << " ("
+                << (*recorded)[i].frames_written << " frames)\n";
+    }
+  });
+  for (const auto& e : errors)
+    if (e) return e;
+  return std::nullopt;
+}
+
+vision::CameraMount OperatorMountGuess(const vision::CameraMount& truth) {
+  vision::CameraMount guess;
+  guess.x_mm = std::round(truth.x_mm / 100.0) * 100.0;
+  guess.y_mm = std::round(truth.y_mm / 100.0) * 100.0;
+  guess.height_mm = std::round(truth.height_mm / 100.0) * 100.0;
+  guess.yaw_deg = std::round(truth.yaw_deg / 90.0) * 90.0;
+  return guess;
+}
+
+}  // namespace odocal::simulation

@@ -1,0 +1,166 @@
+// End to end: rendered chessboard photographs -> the real `odocal
+// calibrate-camera` -> camera file and report, against the known camera.
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "odocal/config/camera_file.h"
+#include "odocal/test_util/test_util.h"
+#include "odocal/vision/board_render.h"
+
+namespace odocal {
+namespace {
+
+using test_util::CommandResult;
+using test_util::RunCommand;
+using vision::Intrinsics;
+
+// 640x480, barrel distortion, slightly off-centre, non-square pixels.
+Intrinsics Truth() {
+  return Intrinsics{640, 480, 610.0, 606.0, 322.5, 237.25, {-0.21, 0.09, 6e-4, -4e-4, 0.0}};
+}
+
+// Writes `count` seeded views of a 9x6 (25 mm) chessboard as PNGs; returns their paths.
+std::vector<std::string> WriteViews(const std::string& dir, int count, uint64_t seed) {
+  const auto corners = vision::ChessboardCorners(9, 6, 0.025);
+  vision::BoardPoseSampling sampling;
+  sampling.count = count;
+  sampling.seed = seed;
+  const auto poses = vision::SampleBoardPoses(Truth(), corners, sampling);
+  EXPECT_TRUE(poses);
+  std::vector<std::string> paths;
+  for (int i = 0; poses && i < count; ++i) {
+    vision::BoardRenderOptions o;  // 2 grey levels of noise, 0.7 px blur
+    o.seed = seed * 100 + i;
+    const auto r = vision::RenderBoard(Truth(), vision::BoardPattern::Chessboard(9, 6, 0.025),
+                                       (*poses)[i], corners, o);
+    EXPECT_TRUE(r.ok) << r.message;
+    paths.push_back(dir + "/view" + std::to_string(i) + ".png");
+    EXPECT_TRUE(cv::imwrite(paths.back(), r.frame.image));
+  }
+  return paths;
+}
+
+std::string WriteBlank(const std::string& dir) {
+  cv::Mat blank(480, 640, CV_8U, cv::Scalar(110));
+  cv::randn(blank, 110, 2);
+  const std::string path = dir + "/no_board.png";
+  EXPECT_TRUE(cv::imwrite(path, blank));
+  return path;
+}
+
+std::string Join(const std::vector<std::string>& paths) {
+  std::string out;
+  for (const auto& p : paths) out += " " + p;
+  return out;
+}
+
+TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_");
+  std::vector<std::string> images = WriteViews(dir, 12, 1);
+  images.insert(images.begin() + 5, WriteBlank(dir));
+  const std::string out = dir + "/camera.yaml";
+  const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                                     " --board chessboard:9x6:25 --out " + out + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // The image without a board is named, on stderr and in the report.
+  EXPECT_NE(r.err.find("skipping " + dir + "/no_board.png: chessboard 9x6 not found"), std::string::npos) << r.err;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["views_used"], 12);
+  ASSERT_EQ(doc["images"].size(), 13u);
+  EXPECT_EQ(doc["images"][5]["path"], dir + "/no_board.png");
+  EXPECT_EQ(doc["images"][5]["used"], false);
+  EXPECT_EQ(doc["images"][0]["corners"], 54);
+
+  // Measured (seed 1, this set-up): fx +0.005 px, fy +0.058, cx +0.12,
+  // cy +0.06, k1 +0.0004, RMS 0.039 px; over 8 seeds the worst were 0.12,
+  // 0.12, 0.17, 0.28 px and 0.0025 (camera_calibration_test). Bounds ~3x
+  // that: 0.1 % on the focal lengths (the issue asks 0.5 %), 1 px on the
+  // principal point, 0.006 on k1.
+  std::string error;
+  const auto file = config::ReadCameraFile(out, &error);
+  ASSERT_TRUE(file) << error;
+  EXPECT_EQ(file->format, config::CameraFileFormat::kOpenCv);
+  const Intrinsics t = Truth();
+  const Intrinsics& e = file->intrinsics;
+  EXPECT_EQ(e.width, 640);
+  EXPECT_EQ(e.height, 480);
+  EXPECT_NEAR(e.fx, t.fx, 1e-3 * t.fx);
+  EXPECT_NEAR(e.fy, t.fy, 1e-3 * t.fy);
+  EXPECT_NEAR(e.cx, t.cx, 1.0);
+  EXPECT_NEAR(e.cy, t.cy, 1.0);
+  EXPECT_NEAR(e.distortion[0], t.distortion[0], 0.006);
+  // The report and the file agree, and carry the reprojection errors.
+  EXPECT_NEAR(doc["fx"].get<double>(), e.fx, 1e-9 * e.fx);
+  ASSERT_TRUE(file->rms_reprojection_error_px);
+  EXPECT_LT(*file->rms_reprojection_error_px, 0.1);
+  EXPECT_NEAR(doc["rms_reprojection_error_px"].get<double>(), *file->rms_reprojection_error_px, 1e-12);
+  ASSERT_EQ(file->per_view_reprojection_errors_px.size(), 12u);
+  EXPECT_NEAR(doc["images"][6]["rms_px"].get<double>(), file->per_view_reprojection_errors_px[5], 1e-12);
+}
+
+TEST(CliCalibrateCamera, FewerThanThreeUsableImagesFailWithoutWritingAFile) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_");
+  std::vector<std::string> images = WriteViews(dir, 2, 2);
+  images.push_back(WriteBlank(dir));
+  images.push_back(dir + "/missing.png");
+  const std::string out = dir + "/camera.yaml";
+  const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                                     " --board chessboard:9x6:25 --out " + out + " --format ros");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("skipping " + dir + "/missing.png: no such file"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("odocal calibrate-camera: only 2 of 4 images show the board; need at least 3 "
+                       "(no camera file written)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_");
+  const std::vector<std::string> images = WriteViews(dir, 4, 3);
+  const std::string out = dir + "/ost.yaml";
+  CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                               " --board chessboard:9x6:25 --out " + out +
+                               " --format ros --camera-name overhead");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("RMS reprojection error"), std::string::npos) << r.out;
+  std::string error;
+  const auto file = config::ReadCameraFile(out, &error);
+  ASSERT_TRUE(file) << error;
+  EXPECT_EQ(file->format, config::CameraFileFormat::kRos);
+  EXPECT_EQ(file->camera_name, "overhead");
+
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {"--board chessboard:9x6", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
+           {"--board chessboard:9by6:25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
+           {"--board chessboard:9x6:-25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
+           {"--board chessboard:9x6:25 --format xml", "--format: expected opencv or ros, got 'xml'"},
+       }) {
+    r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) + " " + args +
+                   " --out " + dir + "/x.yaml");
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+  }
+
+  // ChArUco: parsed, and chessboard photographs are skipped for want of
+  // markers; or, in a build without OpenCV's aruco module, refused up front.
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                 " --board charuco:8x6:36:28:DICT_5X5_100 --out " + dir + "/x.yaml");
+  if (r.exit_code == 2) {
+    EXPECT_NE(r.err.find("ChArUco boards are not available in this build"), std::string::npos) << r.err;
+  } else {
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("skipping " + images[0] + ": no DICT_5X5_100 markers found"), std::string::npos) << r.err;
+    r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
+                   " --board charuco:8x6:36:28:DICT_NOPE --out " + dir + "/x.yaml");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("--board: unknown ArUco dictionary 'DICT_NOPE'"), std::string::npos) << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace odocal

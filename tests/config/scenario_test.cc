@@ -1,0 +1,202 @@
+// Scenario files: the issue's keys load into the right typed values; every
+// malformed file is rejected with the file, the line and the key named.
+#include "odocal/config/scenario.h"
+#include "odocal/config/session.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "odocal/test_util/test_util.h"
+
+namespace odocal {
+namespace {
+
+std::string WriteTemp(const std::string& text) {
+  const std::string dir = test_util::MakeTempDir("odocal_scenario_");
+  const std::string path = dir + "/s.yaml";
+  std::ofstream(path) << text;
+  return path;
+}
+
+const char* kIssueScenario = R"(seed: 7
+robot:
+  nominal: {left_wheel_diameter_mm: 70.0, right_wheel_diameter_mm: 70.0, track_mm: 300.0, ticks_per_rev: 2048}
+  true:    {left_wheel_diameter_mm: 69.95, right_wheel_diameter_mm: 70.06, track_mm: 303.0}
+  start_pose: {x_mm: 0, y_mm: 0, heading_deg: 0}
+  speed_mm_s: 250
+  turn_rate_deg_s: 60
+runs:
+  - {procedure: umbmark, direction: cw, side_mm: 2000}
+  - {procedure: umbmark, direction: ccw, side_mm: 2000}
+  - {procedure: straight, distance_mm: 1500}
+  - {procedure: spin, turns: 3, direction: cw}
+  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}
+effects: []
+)";
+
+TEST(Scenario, LoadsTheIssuesKeys) {
+  std::string error;
+  const auto s = config::LoadScenario(WriteTemp(kIssueScenario), &error);
+  ASSERT_TRUE(s) << error;
+  EXPECT_EQ(s->seed, 7u);
+  EXPECT_NEAR(s->robot.nominal.track_m, 0.300, 1e-12);
+  EXPECT_DOUBLE_EQ(s->robot.nominal.ticks_per_rev, 2048.0);
+  EXPECT_DOUBLE_EQ(s->robot.truth.ticks_per_rev, 2048.0) << "defaults to the nominal encoder";
+  EXPECT_NEAR(s->robot.truth.left_wheel_diameter_m, 0.06995, 1e-12);
+  EXPECT_NEAR(s->robot.limits.turn_rate_rad_s, M_PI / 3.0, 1e-12);
+  ASSERT_EQ(s->runs.size(), 5u);
+  EXPECT_EQ(s->runs[0].direction, calibration::Direction::kCw);
+  EXPECT_NEAR(s->runs[1].side_m, 2.0, 1e-12);
+  EXPECT_EQ(s->runs[3].turns, 3);
+  EXPECT_EQ(s->runs[4].reference, calibration::Reference::kWall);
+  EXPECT_EQ(config::RunName(0, s->runs[0]), "run01_umbmark_cw");
+  EXPECT_EQ(config::RunName(2, s->runs[2]), "run03_straight");
+}
+
+struct BadCase {
+  std::string from;  // text replaced in the issue's scenario
+  std::string to;
+  std::string expected;  // must appear in the error
+};
+
+class ScenarioErrors : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(ScenarioErrors, NameTheField) {
+  std::string text = kIssueScenario;
+  const BadCase& c = GetParam();
+  const size_t at = text.find(c.from);
+  ASSERT_NE(at, std::string::npos) << c.from;
+  text.replace(at, c.from.size(), c.to);
+  const std::string path = WriteTemp(text);
+  std::string error;
+  EXPECT_FALSE(config::LoadScenario(path, &error));
+  EXPECT_NE(error.find(c.expected), std::string::npos) << error;
+  EXPECT_NE(error.find(path), std::string::npos) << "names the file: " << error;
+  EXPECT_EQ(error.find('\n'), std::string::npos) << "one line: " << error;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Malformed, ScenarioErrors,
+    ::testing::Values(
+        BadCase{"procedure: straight", "procedure: spiral", "runs[2].procedure: unknown procedure 'spiral'"},
+        BadCase{"track_mm: 300.0", "track_mm: -300.0", "robot.nominal.track_mm: must be positive"},
+        BadCase{"track_mm: 300.0", "track_mm: abc", "robot.nominal.track_mm: expected a number"},
+        BadCase{"track_mm: 300.0, ", "", "robot.nominal.track_mm: missing"},
+        BadCase{"seed: 7", "sede: 7", "sede: unknown key"},
+        BadCase{"speed_mm_s: 250", "sped_mm_s: 250", "robot.sped_mm_s: unknown key"},
+        BadCase{"direction: cw, side_mm", "direction: left, side_mm", "runs[0].direction: expected cw or ccw"},
+        BadCase{"side_mm: 2000}\n  - {procedure: umbmark, direction: ccw", "side_mm: 0}\n  - {procedure: umbmark, direction: ccw", "runs[0].side_mm: must be positive"},
+        BadCase{"turns: 3", "turns: 2.5", "runs[3].turns: expected a whole number"},
+        BadCase{"{procedure: straight, distance_mm: 1500}", "{procedure: straight, distance_mm: 1500, side_mm: 3}", "runs[2].side_mm: does not apply to procedure straight"},
+        BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0].name: unknown effect 'warp_drive'"},
+        BadCase{"effects: []", "effects: [{name: turn_slip, fraction: 0.1}]", "effects[0].fraction: unknown key"},
+        BadCase{"effects: []", "effects: [{name: camera_latency}]", "effects[0].ms: missing"},
+        BadCase{"  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
+                "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
+                "  - {procedure: straight, distance_mm: 1500}\n"
+                "  - {procedure: spin, turns: 3, direction: cw}\n"
+                "  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}\n",
+                "  []\n", "runs: expected a non-empty list"},
+        BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive number"},
+        BadCase{"left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
+    [](const ::testing::TestParamInfo<BadCase>& info) { return "case" + std::to_string(info.index); });
+
+TEST(Scenario, LoadsEveryEffect) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("effects: []"), 11,
+               "effects:\n"
+               "  - {name: tag_offset, x_mm: 20, y_mm: -5}\n"
+               "  - {name: camera_latency, ms: 40}\n"
+               "  - {name: turn_slip, fraction_at_1rad_s: 0.02}\n"
+               "  - {name: lens_distortion, k1: 0.01}\n"
+               "  - {name: encoder_backlash, ticks: 3}\n"
+               "  - {name: carpet_drift, grain_deg: 90, rate_mm_per_m: 2}\n"
+               "  - {name: tracker_yaw, deg: -1.5}\n"
+               "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
+               "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n"
+               "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n");
+  std::string error;
+  const auto s = config::LoadScenario(WriteTemp(text), &error);
+  ASSERT_TRUE(s) << error;
+  const sim::Effects& e = s->robot.effects;
+  EXPECT_EQ(e.Names().size(), 10u);
+  EXPECT_NEAR(e.arc_scale->fraction_at_1_per_m, 0.001, 1e-12);
+  EXPECT_NEAR(e.tracker_yaw->yaw_rad, -1.5 * M_PI / 180, 1e-12);
+  EXPECT_NEAR(e.speed_slip->fraction_at_1m_s, 0.03, 1e-12);
+  EXPECT_FALSE(e.eccentric_wheel->left);
+  EXPECT_NEAR(e.eccentric_wheel->amplitude, 0.02, 1e-12);
+  EXPECT_NEAR(e.eccentric_wheel->phase_rad, M_PI / 2, 1e-12);
+  EXPECT_NEAR(e.tag_offset->x_m, 0.020, 1e-12);
+  EXPECT_NEAR(e.camera_latency->latency_s, 0.040, 1e-12);
+  EXPECT_NEAR(e.turn_slip->fraction_at_1rad_s, 0.02, 1e-12);
+  EXPECT_NEAR(e.lens_distortion->k1_delta, 0.01, 1e-12);
+  EXPECT_NEAR(e.encoder_backlash->ticks, 3.0, 1e-12);
+  EXPECT_NEAR(e.carpet_drift->grain_rad, M_PI / 2, 1e-12);
+  EXPECT_NEAR(e.carpet_drift->rate_m_per_m, 0.002, 1e-12);
+}
+
+TEST(Scenario, LoadsACircle) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("  - {procedure: spin, turns: 3, direction: cw}"), 46,
+               "  - {procedure: circle, radius_mm: 320, turns: 2, direction: cw}");
+  std::string error;
+  const auto s = config::LoadScenario(WriteTemp(text), &error);
+  ASSERT_TRUE(s) << error;
+  const calibration::RunSpec* circle = nullptr;
+  for (const auto& r : s->runs)
+    if (r.procedure == calibration::Procedure::kCircle) circle = &r;
+  ASSERT_NE(circle, nullptr);
+  EXPECT_NEAR(circle->radius_m, 0.320, 1e-12);
+  EXPECT_EQ(circle->turns, 2);
+  EXPECT_EQ(circle->direction, calibration::Direction::kCw);
+  // A circle without its radius is named.
+  text.replace(text.find("radius_mm: 320, "), 16, "");
+  EXPECT_FALSE(config::LoadScenario(WriteTemp(text), &error));
+  EXPECT_NE(error.find("radius_mm"), std::string::npos) << error;
+}
+
+TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
+  std::string error;
+  EXPECT_FALSE(config::LoadScenario("/nonexistent/s.yaml", &error));
+  EXPECT_NE(error.find("/nonexistent/s.yaml: no such file"), std::string::npos) << error;
+  EXPECT_FALSE(config::LoadScenario(WriteTemp(""), &error));
+  EXPECT_NE(error.find("empty scenario file"), std::string::npos) << error;
+  EXPECT_FALSE(config::LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
+  EXPECT_NE(error.find("is a directory"), std::string::npos) << error;
+}
+
+// A session keeps a circle's size and direction through a write and a load.
+TEST(Session, ACircleRunRoundTrips) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_circle_");
+  std::ofstream(dir + "/run01.poses.csv") << "t_s,x_mm,y_mm,heading_deg\n0,0,0,0\n";
+  std::ofstream(dir + "/run01.telemetry.csv") << "t_s,left_ticks,right_ticks\n0,0,0\n";
+  config::Session session;
+  session.has_camera = false;
+  session.nominal.left_wheel_diameter_m = 0.084;
+  session.nominal.right_wheel_diameter_m = 0.084;
+  session.nominal.track_m = 0.2;
+  session.nominal.ticks_per_rev = 2796.8;
+  config::SessionRun run;
+  run.name = "circle_cw";
+  run.spec = calibration::RunSpec::Circle(0.32, 2, calibration::Direction::kCw);
+  run.poses = dir + "/run01.poses.csv";
+  run.telemetry = dir + "/run01.telemetry.csv";
+  run.end_s = 10.0;
+  session.runs.push_back(run);
+  ASSERT_FALSE(config::WriteSession(session, dir + "/session.yaml"));
+  std::string error;
+  const auto loaded = config::LoadSession(dir + "/session.yaml", &error);
+  ASSERT_TRUE(loaded) << error;
+  ASSERT_EQ(loaded->runs.size(), 1u);
+  const calibration::RunSpec& spec = loaded->runs[0].spec;
+  EXPECT_EQ(spec.procedure, calibration::Procedure::kCircle);
+  EXPECT_NEAR(spec.radius_m, 0.32, 1e-9);
+  EXPECT_EQ(spec.turns, 2);
+  EXPECT_EQ(spec.direction, calibration::Direction::kCw);
+}
+
+}  // namespace
+}  // namespace odocal

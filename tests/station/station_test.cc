@@ -1,0 +1,492 @@
+// The hands-off station (issue 5 §1, §5): the virtual robot behind the
+// firmware library on a real pseudo-terminal, the virtual camera rendering it
+// live, the whole loop in-process so the test can see the truth, plus the
+// failure paths, each injected with an existing seam (a MotionBackend, a
+// Transport or a FrameSource wrapper, FirmwareHost's cable pull, the robot's
+// storage) and checked the same way: the robot is stopped, its parameters
+// read back are bitwise the ones it had, and the result says why.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "odocal/config/camera_file.h"
+#include "odocal/config/scenario.h"
+#include "odocal/robot_link/client.h"
+#include "odocal/robot_link/firmware_host.h"
+#include "odocal/robot_link/serial_transport.h"
+#include "odocal/sim/sim_motion_backend.h"
+#include "odocal/simulation/sim_camera_source.h"
+#include "odocal/station/report_json.h"
+#include "odocal/station/station.h"
+#include "odocal/test_util/test_util.h"
+
+namespace odocal {
+namespace {
+
+using namespace std::chrono_literals;
+using robot_link::ParamSet;
+
+// The standard pixel scale on a small sensor over the home area
+// (tests/rig/camera_pipeline_test.cc): the robot leaves the view on a square.
+std::string ScenarioText(const std::string& true_wheels, double start_x_mm, double start_y_mm,
+                         double side_mm, int per_direction) {
+  std::ostringstream os;
+  os << "seed: 7\nrobot:\n"
+     << "  nominal: {left_wheel_diameter_mm: 70.0, right_wheel_diameter_mm: 70.0, track_mm: 300.0, "
+        "ticks_per_rev: 2048}\n"
+     << "  true: " << true_wheels << "\n"
+     << "  start_pose: {x_mm: " << start_x_mm << ", y_mm: " << start_y_mm << ", heading_deg: 0}\n"
+     << "  speed_mm_s: 500\n  accel_mm_s2: 800\n  turn_rate_deg_s: 180\n  turn_accel_deg_s2: 360\n"
+     << "  rest_s: 0.1\n  pause_s: 0.2\n  noise: {wheel_mm_per_sqrt_m: 0.0}\n"
+     << "runs:\n";
+  for (int i = 0; i < per_direction; ++i) {
+    os << "  - {procedure: umbmark, direction: cw, side_mm: " << side_mm << "}\n"
+       << "  - {procedure: umbmark, direction: ccw, side_mm: " << side_mm << "}\n";
+  }
+  os << "tag: {family: tag36h11, id: 5, size_mm: 80, height_mm: 150, offset_mm: {x: 0, y: 0}}\n"
+     << "camera:\n  width: 960\n  height: 540\n  fx: 1400\n  fy: 1400\n  cx: 480\n  cy: 270\n"
+     << "  distortion: [-0.12, 0.05, 0, 0, 0]\n"
+     << "  pose: {x_mm: 0, y_mm: -1000, height_mm: 2000, roll_deg: 0, pitch_deg: 3, yaw_deg: 0}\n"
+     << "  fps: 30\n  noise_sigma: 2.0\n  blur_sigma_px: 0.8\n  exposure_ms: 4\n";
+  return os.str();
+}
+
+const char* kMisCalibrated = "{left_wheel_diameter_mm: 69.95, right_wheel_diameter_mm: 70.06, track_mm: 303.0}";
+
+// The virtual station: scenario, simulated robot on a pty, virtual camera.
+struct VirtualStation {
+  config::Scenario scenario;
+  std::unique_ptr<sim::SimMotionBackend> backend;
+  std::unique_ptr<robot_link::MotionBackend> wrapper;  // optional fault injector
+  std::unique_ptr<robot_link::FirmwareHost> host;
+  std::unique_ptr<robot_link::SerialTransport> port;
+  std::unique_ptr<simulation::SimCameraSource> camera;
+  station::StationSetup setup;
+  std::vector<std::string> log;
+
+  // The robot's parameters through a fresh client on the same line.
+  ParamSet ReadBack() {
+    robot_link::Client client(*port);
+    const auto hello = client.Hello();
+    EXPECT_TRUE(hello.ok()) << hello.message;
+    const auto params = client.GetParams();
+    EXPECT_TRUE(params.ok()) << params.message;
+    return params.value.value_or(ParamSet{});
+  }
+};
+
+std::unique_ptr<VirtualStation> MakeStation(
+    const std::string& scenario_text, const std::string& storage_path = "",
+    std::function<std::unique_ptr<robot_link::MotionBackend>(sim::SimMotionBackend&)> wrap = {}) {
+  auto vs = std::make_unique<VirtualStation>();
+  const std::string dir = test_util::MakeTempDir("odocal_station_");
+  std::ofstream(dir + "/scenario.yaml") << scenario_text;
+  std::string error;
+  auto scenario = config::LoadScenario(dir + "/scenario.yaml", &error);
+  EXPECT_TRUE(scenario) << error;
+  if (!scenario) return nullptr;
+  vs->scenario = *scenario;
+  vs->backend = std::make_unique<sim::SimMotionBackend>(vs->scenario.robot);
+  if (wrap) vs->wrapper = wrap(*vs->backend);
+  robot_link::FirmwareHostOptions options;
+  options.time_scale = 50.0;
+  options.storage_path = storage_path;
+  const calibration::WheelParams& n = vs->scenario.robot.nominal;
+  options.robot.defaults = ParamSet{n.left_wheel_diameter_m * 1e3, n.right_wheel_diameter_m * 1e3,
+                                    n.track_m * 1e3, static_cast<uint32_t>(n.ticks_per_rev)};
+  auto host = robot_link::FirmwareHost::Start(
+      options, vs->wrapper ? *vs->wrapper : static_cast<robot_link::MotionBackend&>(*vs->backend));
+  EXPECT_TRUE(host.ok()) << host.message;
+  if (!host.ok()) return nullptr;
+  vs->host = std::move(*host.value);
+  auto port = robot_link::SerialTransport::Open(vs->host->device_path());
+  EXPECT_TRUE(port.ok()) << port.message;
+  if (!port.ok()) return nullptr;
+  vs->port = std::move(*port.value);
+  vs->camera = simulation::SimCameraSource::Create(*vs->scenario.camera, *vs->scenario.tag, *vs->backend, &error);
+  EXPECT_TRUE(vs->camera) << error;
+  if (!vs->camera) return nullptr;
+  vs->setup.transport = vs->port.get();
+  vs->setup.camera = vs->camera.get();
+  vs->setup.intrinsics = vs->scenario.camera->intrinsics;
+  vs->setup.mount_guess = vs->scenario.camera->mount;
+  vs->setup.tag = *vs->scenario.tag;
+  vs->setup.plan = vs->scenario.runs;
+  VirtualStation* raw = vs.get();
+  vs->setup.progress = [raw](const std::string& line) {
+    raw->log.push_back(line);
+    std::fprintf(stderr, "  station: %s\n", line.c_str());
+  };
+  return vs;
+}
+
+const ParamSet kNominal{70.0, 70.0, 300.0, 2048};
+
+// What every failure must leave behind.
+void ExpectLeftAsItWas(VirtualStation& vs, const station::StationResult& r) {
+  EXPECT_FALSE(r.ok());
+  EXPECT_FALSE(r.message.empty());
+  // The robot is not running (stopped by the station, or finished by itself).
+  for (int i = 0; i < 200 && vs.host->running(); ++i) std::this_thread::sleep_for(20ms);
+  EXPECT_FALSE(vs.host->running());
+  EXPECT_TRUE(vs.host->active().SameBits(kNominal)) << vs.host->active();
+  EXPECT_TRUE(vs.ReadBack().SameBits(kNominal));
+}
+
+TEST(StationEndToEnd, CalibratesAMisCalibratedVirtualRobotInAtMostTwoRounds) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
+  ASSERT_TRUE(vs);
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  ASSERT_TRUE(r.ok()) << ToString(r.status) << ": " << r.message;
+  ASSERT_GE(r.iterations.size(), 2u);
+  EXPECT_LE(r.iterations.size(), 2u) << "converged within the measurement uncertainty in two rounds";
+  const calibration::WheelParams& n = vs->scenario.robot.nominal;
+  const calibration::WheelParams& t = vs->scenario.robot.truth;
+  const double Ed = (t.right_wheel_diameter_m / t.left_wheel_diameter_m) /
+                    (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
+  const double Es = (t.left_wheel_diameter_m + t.right_wheel_diameter_m) /
+                    (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
+  const double turn_gain = (t.track_m / n.track_m) / Es;
+  const station::StationIteration& first = r.iterations.front();
+  const station::StationIteration& last = r.iterations.back();
+  std::printf("figures: E_max,syst %.3f mm -> %.4f mm (%.0fx) in %zu rounds, %.1f s wall\n",
+              first.estimate.emax_syst_m * 1e3, last.estimate.emax_syst_m * 1e3, r.improvement.value_or(0),
+              r.iterations.size(), r.wall_s);
+  std::printf("figures: Ed %.7f (truth %.7f, diff %.1e), Eb %.7f (turn gain truth %.7f, diff %.1e)\n",
+              first.estimate.coupled.Ed, Ed, first.estimate.coupled.Ed - Ed, first.estimate.coupled.Eb,
+              turn_gain, first.estimate.coupled.Eb - turn_gain);
+  std::printf("figures: camera plane estimated %d from %d views, pitch %.4f deg (true 3)\n",
+              r.plane_estimated, r.plane.views_used, r.plane.mount.pitch_deg);
+  EXPECT_NEAR(first.estimate.coupled.Ed, Ed, 5e-5);
+  EXPECT_NEAR(first.estimate.coupled.Eb, turn_gain, 2e-4);
+  ASSERT_TRUE(r.improvement);
+  EXPECT_GE(*r.improvement, 50.0);
+  // The set pushed in round 1 is what the robot holds, bitwise.
+  ASSERT_TRUE(first.pushed);
+  EXPECT_FALSE(last.pushed) << "the last round only verifies";
+  ASSERT_TRUE(r.params_final);
+  EXPECT_TRUE(r.params_final->SameBits(*first.pushed));
+  EXPECT_TRUE(vs->ReadBack().SameBits(*first.pushed));
+  EXPECT_NEAR(vs->backend->BelievedParams().track_m * 1e3, first.pushed->track_mm, 1e-9);
+  const nlohmann::json report = station::StationReportJson(r);
+  for (const char* key : {"iterations", "robot_params_final", "improvement"}) EXPECT_TRUE(report.contains(key)) << key;
+  for (const char* key : {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"})
+    EXPECT_TRUE(report["iterations"][0]["pushed"].contains(key)) << key;
+  EXPECT_TRUE(report["iterations"][0]["estimate"].contains("Ed"));
+  EXPECT_TRUE(report["iterations"][0]["estimate"].contains("Eb"));
+}
+
+TEST(StationFailure, TagNotFoundAtTheStart) {
+  // The robot stands 2 m away from the home area: the camera sees floor.
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, 2000, 1000, 500, 1));
+  ASSERT_TRUE(vs);
+  const calibration::Pose2 before = vs->backend->TruePose();
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kTagNotFound) << r.message;
+  EXPECT_NE(r.message.find("not found at the start"), std::string::npos) << r.message;
+  EXPECT_EQ(vs->host->last_run_id(), 0) << "no run was started";
+  EXPECT_NEAR((vs->backend->TruePose().translation() - before.translation()).norm(), 0.0, 1e-12);
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// A camera that goes blind (covered, unplugged behind a frame grabber that
+// keeps delivering) after `frames` frames.
+class BlindAfter final : public media::FrameSource {
+ public:
+  BlindAfter(media::FrameSource& inner, int frames) : inner_(inner), left_(frames) {}
+  std::optional<media::CameraFrame> Grab(std::string* error) override {
+    auto frame = inner_.Grab(error);
+    if (frame && left_-- <= 0) frame->grey.setTo(cv::Scalar(120));
+    return frame;
+  }
+  std::string Describe() const override { return "blinded " + inner_.Describe(); }
+
+ private:
+  media::FrameSource& inner_;
+  int left_;
+};
+
+TEST(StationFailure, CameraLostAfterTheStart) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  const station::StationOptions options;
+  BlindAfter blind(*vs->camera, options.rest_frames);  // the start rest is seen
+  vs->setup.camera = &blind;
+  const station::StationResult r = station::RunStation(vs->setup, options);
+  EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
+  EXPECT_NE(r.message.find("camera lost the tag"), std::string::npos) << r.message;
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// A camera whose grabber stops delivering frames (unplugged) after `frames`.
+class UnpluggedAfter final : public media::FrameSource {
+ public:
+  UnpluggedAfter(media::FrameSource& inner, int frames) : inner_(inner), left_(frames) {}
+  std::optional<media::CameraFrame> Grab(std::string* error) override {
+    if (left_-- <= 0) {
+      *error = "no frame (unplugged)";
+      return std::nullopt;
+    }
+    return inner_.Grab(error);
+  }
+  std::string Describe() const override { return "unplugged " + inner_.Describe(); }
+
+ private:
+  media::FrameSource& inner_;
+  int left_;
+};
+
+TEST(StationFailure, CameraUnpluggedDuringARun) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
+  ASSERT_TRUE(vs);
+  const station::StationOptions options;
+  UnpluggedAfter unplugged(*vs->camera, options.rest_frames + 2);  // two frames into the run
+  vs->setup.camera = &unplugged;
+  const station::StationResult r = station::RunStation(vs->setup, options);
+  EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
+  EXPECT_NE(r.message.find("unplugged"), std::string::npos) << r.message;
+  EXPECT_NE(r.cleanup.find("robot stopped"), std::string::npos) << r.cleanup;
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// A line on which the robot stops answering after `writes` writes (the
+// handshake, the parameter read, the telemetry rate and the run start).
+class SilentAfter final : public robot_link::Transport {
+ public:
+  SilentAfter(robot_link::Transport& inner, int writes) : inner_(inner), left_(writes) {}
+  robot_link::IoResult Write(std::span<const uint8_t> data) override {
+    if (left_-- > 0) return inner_.Write(data);
+    return {robot_link::IoStatus::kOk, data.size(), ""};
+  }
+  robot_link::IoResult Read(std::span<uint8_t> buffer, std::chrono::milliseconds timeout) override {
+    if (left_ > 0) return inner_.Read(buffer, timeout);
+    std::this_thread::sleep_for(timeout);
+    return {robot_link::IoStatus::kTimeout, 0, ""};
+  }
+  std::string Describe() const override { return inner_.Describe(); }
+
+ private:
+  robot_link::Transport& inner_;
+  int left_;
+};
+
+TEST(StationFailure, RobotStopsAnsweringDuringARun) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  SilentAfter silent(*vs->port, 4);
+  vs->setup.transport = &silent;
+  vs->setup.client.reply_timeout = 50ms;
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kRobotLink) << r.message;
+  EXPECT_NE(r.message.find("not answering"), std::string::npos) << r.message;
+  EXPECT_FALSE(r.robot_stopped) << "a stop cannot reach a robot that does not answer";
+  EXPECT_NE(r.cleanup.find("could not stop"), std::string::npos) << r.cleanup;
+  ExpectLeftAsItWas(*vs, r);  // the robot ends its square by itself
+}
+
+TEST(StationFailure, CablePulledDuringARun) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  auto log = vs->setup.progress;
+  vs->setup.progress = [&, log](const std::string& line) {
+    log(line);
+    if (line.find("started") != std::string::npos) vs->host->CutCable();
+  };
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kRobotLink) << r.message;
+  EXPECT_FALSE(r.robot_stopped);
+  EXPECT_NE(r.cleanup.find("line is gone"), std::string::npos) << r.cleanup;
+  for (int i = 0; i < 200 && vs->host->running(); ++i) std::this_thread::sleep_for(20ms);
+  EXPECT_TRUE(vs->host->active().SameBits(kNominal)) << "nothing was pushed";
+}
+
+// The robot's motion code reports a failed run (a stalled wheel) after one
+// second of robot time.
+class FailingMotion final : public robot_link::MotionBackend {
+ public:
+  explicit FailingMotion(sim::SimMotionBackend& inner) : inner_(inner) {}
+  bool StartRun(const robot_link::RunCommand& c) override {
+    elapsed_s_ = 0.0;
+    return inner_.StartRun(c);
+  }
+  robot_link::StepResult Step(double dt_s) override {
+    robot_link::StepResult r = inner_.Step(dt_s);
+    elapsed_s_ += dt_s;
+    if (!r.finished && elapsed_s_ > 1.0) {
+      inner_.Stop();
+      r = inner_.Step(0.0);
+      r.finished = true;
+      r.status = robot_link::RunStatus::kFailed;
+    }
+    return r;
+  }
+  void Stop() override { inner_.Stop(); }
+  void SetParams(const ParamSet& p) override { inner_.SetParams(p); }
+
+ private:
+  sim::SimMotionBackend& inner_;
+  double elapsed_s_ = 0.0;
+};
+
+TEST(StationFailure, RunNotCompleted) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1), "",
+                        [](sim::SimMotionBackend& b) { return std::make_unique<FailingMotion>(b); });
+  ASSERT_TRUE(vs);
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kRunNotCompleted) << r.message;
+  EXPECT_NE(r.message.find("failed"), std::string::npos) << r.message;
+  ExpectLeftAsItWas(*vs, r);
+}
+
+TEST(StationFailure, PushRefusedByTheRobot) {
+  // The robot's flash cannot be written (its temporary image is a
+  // directory): COMMIT is answered NACK STORAGE and the old set is kept.
+  const std::string dir = test_util::MakeTempDir("odocal_station_flash_");
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1), dir + "/flash.bin");
+  ASSERT_TRUE(vs);
+  std::filesystem::create_directory(dir + "/flash.bin.tmp");
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kPushRefused) << r.message;
+  EXPECT_NE(r.message.find("push"), std::string::npos) << r.message;
+  ASSERT_EQ(r.iterations.size(), 1u);
+  EXPECT_TRUE(r.iterations[0].estimate.ok()) << "round 1 was measured before the push";
+  EXPECT_FALSE(r.restored) << "nothing reached the robot, nothing to undo";
+  ExpectLeftAsItWas(*vs, r);
+}
+
+TEST(StationFailure, InterruptStopsTheRobotMidRun) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
+  ASSERT_TRUE(vs);
+  std::atomic<bool> stop{false};
+  auto log = vs->setup.progress;
+  vs->setup.progress = [&, log](const std::string& line) {
+    log(line);
+    if (line.find("started") != std::string::npos) stop = true;  // Ctrl-C
+  };
+  vs->setup.stop_requested = &stop;
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kInterrupted) << r.message;
+  EXPECT_TRUE(r.robot_stopped);
+  EXPECT_NE(r.cleanup.find("robot stopped"), std::string::npos) << r.cleanup;
+  // Stopped well short of the 8 m square: it is near where it started.
+  const double moved_m = (vs->backend->TruePose().translation() - vs->scenario.robot.start_pose.translation()).norm();
+  EXPECT_LT(moved_m, 1.5);
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// Ctrl-C while a push is under way: the push runs to its end (staged, read
+// back, committed, verified), the station stops at the next step and, the new
+// set not being verified by runs, puts the initial one back.
+TEST(StationFailure, InterruptDuringAPushLetsItFinishThenRestores) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  std::atomic<bool> stop{false};
+  auto log = vs->setup.progress;
+  vs->setup.progress = [&, log](const std::string& line) {
+    log(line);
+    if (line.rfind("pushing", 0) == 0) stop = true;
+  };
+  vs->setup.stop_requested = &stop;
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kInterrupted) << r.message;
+  ASSERT_EQ(r.iterations.size(), 1u);
+  ASSERT_TRUE(r.iterations[0].pushed) << "the push was not cut short";
+  bool verified = false;
+  for (const std::string& line : vs->log) verified = verified || line.rfind("pushed and verified", 0) == 0;
+  EXPECT_TRUE(verified);
+  EXPECT_TRUE(r.restored);
+  ExpectLeftAsItWas(*vs, r);
+}
+
+// ---- The command line --------------------------------------------------------
+
+using test_util::Odocal;
+
+TEST(StationCli, VirtualRobotWritesTheReport) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_cli_");
+  std::ofstream(dir + "/s.yaml") << ScenarioText(kMisCalibrated, -100, -1000, 500, 1);
+  const test_util::CommandResult r = test_util::RunCommand(
+      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --max-rounds 2 --time-scale 50" +
+             " --export firmware " + dir + "/firmware.yaml --export ros2 " + dir + "/ros2.yaml"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("station: round 2"), std::string::npos) << "progress on stderr";
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/report.html"));
+  // The exports carry the set read back from the robot.
+  std::ifstream fw(dir + "/firmware.yaml");
+  const std::string firmware((std::istreambuf_iterator<char>(fw)), std::istreambuf_iterator<char>());
+  EXPECT_NE(firmware.find("track_mm: 30"), std::string::npos) << firmware;
+  std::ifstream ros(dir + "/ros2.yaml");
+  const std::string ros2((std::istreambuf_iterator<char>(ros)), std::istreambuf_iterator<char>());
+  EXPECT_NE(ros2.find("wheel_separation_multiplier: 1.0"), std::string::npos) << ros2;
+  std::ifstream in(dir + "/out/report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  ASSERT_EQ(report["iterations"].size(), 2u);
+  EXPECT_TRUE(report["iterations"][0]["pushed"].contains("track_mm"));
+  EXPECT_TRUE(report["iterations"][1]["estimate"].contains("Eb"));
+  EXPECT_TRUE(report["robot_params_final"].contains("ticks_per_rev"));
+  EXPECT_GT(report["improvement"].get<double>(), 10.0);
+}
+
+TEST(StationCli, CtrlCStopsTheRobotAndExits130) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_sigint_");
+  std::ofstream(dir + "/s.yaml") << ScenarioText(kMisCalibrated, -100, -1000, 2000, 1);
+  // SIGINT 2.5 s in, while the first 2 m square is driven (about 5 s at 5x).
+  const test_util::CommandResult r = test_util::RunCommand(
+      "timeout --preserve-status -s INT 2.5 " +
+      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --time-scale 5"));
+  EXPECT_EQ(r.exit_code, 130) << r.err;
+  EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("parameters as they were"), std::string::npos) << r.err;
+  std::ifstream in(dir + "/out/report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["status"], "interrupted");
+}
+
+TEST(StationCli, RealRobotConfigNamesTheMissingDeviceAndCamera) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_cfg_");
+  config::CameraFile camera;
+  camera.intrinsics.width = 960;
+  camera.intrinsics.height = 540;
+  camera.intrinsics.fx = camera.intrinsics.fy = 1400;
+  camera.intrinsics.cx = 480;
+  camera.intrinsics.cy = 270;
+  ASSERT_FALSE(config::WriteCameraFile(dir + "/camera.yaml", camera, config::CameraFileFormat::kOpenCv));
+  auto config = [&](const std::string& port, const std::string& device) {
+    std::ofstream(dir + "/station.yaml")
+        << "robot: {port: " << port << ", baud: 115200}\n"
+        << "camera: {device: \"" << device << "\", calibration: camera.yaml, "
+        << "mount_guess: {x_mm: 0, y_mm: 0, height_mm: 2000}}\n"
+        << "tag: {family: tag36h11, id: 5, size_mm: 80, height_mm: 150, offset_mm: {x: 0, y: 0}}\n"
+        << "plan: {side_mm: 2000, runs_per_direction: 3}\n";
+    return test_util::RunCommand(Odocal("station --config " + dir + "/station.yaml --out " + dir + "/out"));
+  };
+  const test_util::CommandResult no_robot = config("/dev/odocal-no-such-robot", "0");
+  EXPECT_EQ(no_robot.exit_code, 2);
+  EXPECT_NE(no_robot.err.find("/dev/odocal-no-such-robot"), std::string::npos) << no_robot.err;
+  // A robot that exists (a virtual one on a pty), a camera that does not.
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  const test_util::CommandResult no_camera = config(vs->host->device_path(), "/nonexistent/camera.mp4");
+  EXPECT_EQ(no_camera.exit_code, 2);
+  EXPECT_NE(no_camera.err.find("cannot open camera '/nonexistent/camera.mp4'"), std::string::npos)
+      << no_camera.err;
+  // A malformed file names the key: unknown keys are errors, required ones are required.
+  std::ofstream(dir + "/bad.yaml") << "robot: {port: /dev/x}\nbogus: 1\n";
+  const test_util::CommandResult bad = test_util::RunCommand(Odocal("station --config " + dir + "/bad.yaml"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("bogus"), std::string::npos) << bad.err;
+  std::ofstream(dir + "/bad.yaml") << "robot: {port: /dev/x}\n";
+  const test_util::CommandResult missing = test_util::RunCommand(Odocal("station --config " + dir + "/bad.yaml"));
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("camera: missing"), std::string::npos) << missing.err;
+}
+
+}  // namespace
+}  // namespace odocal

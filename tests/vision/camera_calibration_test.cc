@@ -101,7 +101,7 @@ TEST(CameraCalibration, NoBoardIsNamedAndTooFewViewsFail) {
   std::vector<BoardDetection> views;
   for (const cv::Mat& image : images) views.push_back(DetectBoard(image, board));
   const CameraCalibrationResult r = CalibrateCamera(views, cv::Size(640, 480));
-  EXPECT_EQ(r.status, CameraCalibrationResult::Status::kTooFewViews);
+  EXPECT_EQ(r.status, StatusCode::kInvalidArgument);
   EXPECT_EQ(r.message, "2 usable views, need at least 3");
 }
 

@@ -184,29 +184,29 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
                         CameraMount{0, 0, 1000.0, 0, 0, 0});
   auto renderer = MakeRenderer(cam, testing::StandardTag(), testing::StandardRender());
   Mp4Writer writer;
-  const VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
-  if (!opened.ok && GetParam() == Mp4WriterOptions::Backend::kFfmpegCli &&
+  const Status opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
+  if (!opened.ok() && GetParam() == Mp4WriterOptions::Backend::kFfmpegCli &&
       opened.message.find("cannot run the ffmpeg program") != std::string::npos) {
     GTEST_SKIP() << opened.message;  // the ffmpeg program is optional
   }
-  ASSERT_TRUE(opened.ok) << opened.message;
+  ASSERT_TRUE(opened.ok()) << opened.message;
   std::vector<cv::Mat> frames;
   for (int i = 0; i < 10; ++i) {
     frames.push_back(renderer->Render(Pose2::FromXYHeading(0.01 * i, 0.0, 0.1 * i)).image);
-    ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok);
+    ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok());
   }
-  EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok);  // wrong size
-  const VideoStatus closed = writer.Close();
-  ASSERT_TRUE(closed.ok) << closed.message;
-  ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok);
+  EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok());  // wrong size
+  const Status closed = writer.Close();
+  ASSERT_TRUE(closed.ok()) << closed.message;
+  ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok());
   std::ifstream ts(dir + "/clip.timestamps.csv");
   int lines = 0;
   for (std::string line; std::getline(ts, line);) ++lines;
   EXPECT_EQ(lines, 11);
 
   VideoReader reader;
-  const VideoStatus read_open = reader.Open(path);
-  ASSERT_TRUE(read_open.ok) << read_open.message;
+  const Status read_open = reader.Open(path);
+  ASSERT_TRUE(read_open.ok()) << read_open.message;
   EXPECT_NEAR(reader.fps(), 30.0, 0.01);
   int n = 0;
   cv::Mat grey;
@@ -233,21 +233,21 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
   Mp4WriterOptions wo;
   wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
   Mp4Writer a, b;
-  const VideoStatus opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
-  if (!opened_a.ok && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
+  const Status opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
+  if (!opened_a.ok() && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
     GTEST_SKIP() << opened_a.message;
-  ASSERT_TRUE(opened_a.ok) << opened_a.message;
-  ASSERT_TRUE(b.Open(dir + "/b.mp4", 30.0, cv::Size(64, 48), wo).ok);
+  ASSERT_TRUE(opened_a.ok()) << opened_a.message;
+  ASSERT_TRUE(b.Open(dir + "/b.mp4", 30.0, cv::Size(64, 48), wo).ok());
   const cv::Mat grey(48, 64, CV_8U, cv::Scalar(128));
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(a.Write(grey, i / 30.0).ok);
-    ASSERT_TRUE(b.Write(grey, i / 30.0).ok);
+    ASSERT_TRUE(a.Write(grey, i / 30.0).ok());
+    ASSERT_TRUE(b.Write(grey, i / 30.0).ok());
   }
-  ASSERT_TRUE(a.Close().ok);
-  ASSERT_TRUE(b.Close().ok);
+  ASSERT_TRUE(a.Close().ok());
+  ASSERT_TRUE(b.Close().ok());
   for (const char* name : {"/a.mp4", "/b.mp4"}) {
     VideoReader reader;
-    ASSERT_TRUE(reader.Open(dir + name).ok) << name;
+    ASSERT_TRUE(reader.Open(dir + name).ok()) << name;
     cv::Mat frame;
     int frames = 0;
     while (reader.Read(&frame)) ++frames;
@@ -258,8 +258,8 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
 TEST(VideoFiles, BadFilesGiveAClearStatus) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_badvideo");
   VideoReader missing;
-  VideoStatus s = missing.Open(dir + "/nope.mp4");
-  EXPECT_FALSE(s.ok);
+  Status s = missing.Open(dir + "/nope.mp4");
+  EXPECT_FALSE(s.ok());
   EXPECT_NE(s.message.find("does not exist"), std::string::npos);
   cv::Mat frame;
   EXPECT_FALSE(missing.Read(&frame));
@@ -267,7 +267,7 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
   { std::ofstream(dir + "/empty.mp4"); }
   VideoReader empty;
   s = empty.Open(dir + "/empty.mp4");
-  EXPECT_FALSE(s.ok);
+  EXPECT_FALSE(s.ok());
   EXPECT_NE(s.message.find("empty"), std::string::npos);
 
   {
@@ -277,24 +277,24 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
   }
   VideoReader corrupt;
   s = corrupt.Open(dir + "/junk.mp4");
-  EXPECT_FALSE(s.ok);
+  EXPECT_FALSE(s.ok());
   EXPECT_FALSE(s.message.empty());
   EXPECT_FALSE(corrupt.Read(&frame));
 
   Mp4Writer writer;
-  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok);
-  EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok);
+  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok());
+  EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok());
   Mp4WriterOptions cli;
   cli.backend = Mp4WriterOptions::Backend::kFfmpegCli;
-  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
-  EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok);
+  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok());
+  EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok());
   cli.crf = 99;
-  EXPECT_FALSE(writer.Open(dir + "/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
+  EXPECT_FALSE(writer.Open(dir + "/out.mp4", 30.0, cv::Size(64, 64), cli).ok());
 
   // A truncated file: the first half of a good one.
   {
     Mp4Writer good;
-    ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok);
+    ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok());
     for (int i = 0; i < 30; ++i) good.Write(cv::Mat(64, 64, CV_8U, cv::Scalar(4 * i)), i / 30.0);
     good.Close();
     std::ifstream in(dir + "/good.mp4", std::ios::binary);
@@ -302,9 +302,9 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
     std::ofstream(dir + "/cut.mp4", std::ios::binary).write(bytes.data(), bytes.size() / 2);
   }
   VideoReader truncated;
-  const VideoStatus t = truncated.Open(dir + "/cut.mp4");
+  const Status t = truncated.Open(dir + "/cut.mp4");
   int frames = 0;
-  if (t.ok) {
+  if (t.ok()) {
     while (truncated.Read(&frame)) ++frames;
   } else {
     EXPECT_FALSE(t.message.empty());

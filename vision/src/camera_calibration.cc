@@ -197,12 +197,12 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   CameraCalibrationResult result;
   std::string why;
   if (!options.IsValid(&why)) {
-    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
   if (image_size.width <= 0 || image_size.height <= 0) {
-    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.status = StatusCode::kInvalidArgument;
     result.message = "image size must be positive";
     return result;
   }
@@ -210,7 +210,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   std::vector<std::vector<cv::Point2f>> image_points;
   for (const BoardDetection& v : views) {
     if (!v.found || v.image_points.size() != v.object_points.size() || v.image_points.size() < 4) {
-      result.status = CameraCalibrationResult::Status::kInvalidInput;
+      result.status = StatusCode::kInvalidArgument;
       result.message = "every view must be a detection with at least 4 matched corners";
       return result;
     }
@@ -220,7 +220,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   }
   result.views = static_cast<int>(views.size());
   if (result.views < options.min_views) {
-    result.status = CameraCalibrationResult::Status::kTooFewViews;
+    result.status = StatusCode::kInvalidArgument;
     result.message = std::to_string(result.views) + " usable view" + (result.views == 1 ? "" : "s") +
                      ", need at least " + std::to_string(options.min_views);
     return result;
@@ -236,13 +236,13 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
         std_extrinsics, per_view, flags,
         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
   } catch (const cv::Exception& e) {
-    result.status = CameraCalibrationResult::Status::kFailed;
+    result.status = StatusCode::kFailed;
     result.message = "cv::calibrateCamera failed: " + e.err;
     return result;
   }
   const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
   if (!intrinsics || !std::isfinite(result.rms_reprojection_error_px)) {
-    result.status = CameraCalibrationResult::Status::kFailed;
+    result.status = StatusCode::kFailed;
     result.message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
     return result;
   }
@@ -251,7 +251,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     result.per_view_rms_px.push_back(per_view.at<double>(i));
   for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i)
     result.sigma[i] = std_intrinsics.at<double>(i);
-  result.status = CameraCalibrationResult::Status::kOk;
+  result.status = StatusCode::kOk;
   result.message = "ok";
   return result;
 }

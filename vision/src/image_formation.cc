@@ -313,20 +313,20 @@ std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& f
   Mp4WriterOptions wo;
   wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
   wo.crf = codec.crf;
-  VideoStatus s = writer.Open(path, fps, frames.front().size(), wo);
-  for (size_t k = 0; s.ok && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
-  if (s.ok) s = writer.Close();
+  Status s = writer.Open(path, fps, frames.front().size(), wo);
+  for (size_t k = 0; s.ok() && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
+  if (s.ok()) s = writer.Close();
   std::vector<cv::Mat> out;
-  if (s.ok) {
+  if (s.ok()) {
     VideoReader reader;
     s = reader.Open(path);
     cv::Mat f;
-    while (s.ok && reader.Read(&f)) out.push_back(f.clone());
+    while (s.ok() && reader.Read(&f)) out.push_back(f.clone());
   }
   std::error_code ignored;
   std::filesystem::remove(path, ignored);
-  if (!s.ok || out.size() != frames.size()) {
-    if (error) *error = s.ok ? "H.264 round trip lost frames" : s.message;
+  if (!s.ok() || out.size() != frames.size()) {
+    if (error) *error = s.ok() ? "H.264 round trip lost frames" : s.message;
     return std::nullopt;
   }
   return out;

@@ -192,8 +192,8 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
     return track;
   }
   VideoReader reader;
-  const VideoStatus opened = reader.Open(video_path);
-  if (!opened.ok) {
+  const Status opened = reader.Open(video_path);
+  if (!opened.ok()) {
     track.message = opened.message;
     return track;
   }

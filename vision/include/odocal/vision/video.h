@@ -12,12 +12,9 @@
 
 #include <opencv2/core.hpp>
 
-namespace odocal::vision {
+#include "odocal/base/status.h"
 
-struct VideoStatus {
-  bool ok = false;
-  std::string message;
-};
+namespace odocal::vision {
 
 // How Mp4Writer encodes. OpenCV 4.6's FFmpeg writer offers no quality
 // setting: libx264 runs at its default CRF 23, which at the standard
@@ -42,14 +39,14 @@ class Mp4Writer {
   ~Mp4Writer();
   // Fails with a clear message when H.264 cannot be written here (no
   // libx264 in this OpenCV/FFmpeg, no ffmpeg program, unwritable path).
-  VideoStatus Open(const std::string& path, double fps, cv::Size frame_size,
-                   const Mp4WriterOptions& options = {});
-  VideoStatus Write(const cv::Mat& grey_frame, double timestamp_s);
+  Status Open(const std::string& path, double fps, cv::Size frame_size,
+              const Mp4WriterOptions& options = {});
+  Status Write(const cv::Mat& grey_frame, double timestamp_s);
   // Finishes the file (waits for ffmpeg with kFfmpegCli); safe to repeat.
-  VideoStatus Close();
+  Status Close();
   const std::vector<double>& timestamps_s() const { return timestamps_s_; }
   // "frame,t_s" lines, one per written frame.
-  VideoStatus WriteTimestamps(const std::string& path) const;
+  Status WriteTimestamps(const std::string& path) const;
 
  private:
   struct Impl;
@@ -64,7 +61,7 @@ class VideoReader {
   VideoReader();
   ~VideoReader();
   // Missing, empty or corrupt files fail here with a message.
-  VideoStatus Open(const std::string& path);
+  Status Open(const std::string& path);
   // False at the end of the stream (or on a truncated file).
   bool Read(cv::Mat* grey_frame);
   double fps() const;

@@ -80,6 +80,18 @@ int CalibrationBoard::MaxCorners() const {
   return type == Type::kChessboard ? cols * rows : (cols - 1) * (rows - 1);
 }
 
+bool BoardDetectionOptions::IsValid(std::string* why) const {
+  if (subpix_half_window_px < 1) {
+    if (why) *why = "the corner refinement half window must be at least 1 px";
+    return false;
+  }
+  if (min_charuco_corners < 4) {
+    if (why) *why = "a ChArUco view needs at least 4 corners (min_charuco_corners >= 4)";
+    return false;
+  }
+  return true;
+}
+
 bool CharucoAvailable() {
 #ifdef ODOCAL_HAVE_ARUCO
   return true;
@@ -90,6 +102,12 @@ bool CharucoAvailable() {
 
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) {
+    BoardDetection out;
+    out.message = "board detection options: " + why;
+    return out;
+  }
   try {
     return DetectBoardOrThrow(image, board, options);
   } catch (const cv::Exception& e) {

@@ -65,10 +65,15 @@ struct BoardDetectionOptions {
   // cv::findChessboardCornersSB (finds steeper views; slower on images
   // without a board).
   bool sector_fallback = true;
+
+  // Valid: a half window of at least 1 px and min_charuco_corners >= 4 (a
+  // view with fewer corners cannot enter CalibrateCamera).
+  bool IsValid(std::string* why) const;
 };
 
 // `image`: 8-bit grey, or BGR / BGRA (converted to grey). Not found (with
-// the reason in `message`) rather than an exception when OpenCV objects.
+// the reason in `message`) rather than an exception when OpenCV objects or
+// the options are invalid.
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options = {});
 

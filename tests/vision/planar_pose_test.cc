@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "odocal/base/units.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -20,8 +21,6 @@ namespace {
 using calibration::Pose2;
 using calibration::WrapAngle;
 using test_util::IsNearPose;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // Tracks, refines and measures one frame; nullopt if anything fails.
 std::optional<TagCorners> Corners(TagTracker* tracker, const RenderedFrame& f, const CameraModel& camera) {

@@ -117,7 +117,7 @@ TEST(CameraCalibration, RejectsInvalidBoards) {
   board.cols = 5;
   board.marker_m = 0.03;  // larger than the square
   EXPECT_FALSE(board.IsValid(&why));
-  EXPECT_NE(why.find("marker"), std::string::npos);
+  EXPECT_THAT(why, ::testing::HasSubstr("marker"));
 }
 
 TEST(CameraCalibration, InvalidDetectionOptionsAreNamedNotFound) {

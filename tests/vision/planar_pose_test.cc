@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/base/units.h"
@@ -215,7 +216,7 @@ TEST(CameraPlane, TooFewViewsIsAClearFailure) {
   const CameraPlaneResult r = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), testing::StandardTag(),
                                                          {}, testing::StandardMount());
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("views"), std::string::npos);
+  EXPECT_THAT(r.message, ::testing::HasSubstr("views"));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -164,7 +165,7 @@ TEST(Renderer, RejectsInvalidInput) {
   bad_tag.family = "tag99h99";
   auto r = Renderer::Create(testing::SmallCamera(), bad_tag, RenderOptions{});
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("family"), std::string::npos);
+  EXPECT_THAT(r.message, ::testing::HasSubstr("family"));
   TagSpec big_id = testing::StandardTag();
   big_id.id = 100000;
   EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), big_id, RenderOptions{}).ok);
@@ -260,7 +261,7 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
   VideoReader missing;
   Status s = missing.Open(dir + "/nope.mp4");
   EXPECT_FALSE(s.ok());
-  EXPECT_NE(s.message.find("does not exist"), std::string::npos);
+  EXPECT_THAT(s.message, ::testing::HasSubstr("does not exist"));
   cv::Mat frame;
   EXPECT_FALSE(missing.Read(&frame));
 
@@ -268,7 +269,7 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
   VideoReader empty;
   s = empty.Open(dir + "/empty.mp4");
   EXPECT_FALSE(s.ok());
-  EXPECT_NE(s.message.find("empty"), std::string::npos);
+  EXPECT_THAT(s.message, ::testing::HasSubstr("empty"));
 
   {
     std::ofstream junk(dir + "/junk.mp4", std::ios::binary);

@@ -37,7 +37,7 @@ double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 
 double DecodeOnlyFps(const std::string& video, int* frames) {
   odocal::media::VideoReader reader;
-  if (!reader.Open(video).ok) return 0.0;
+  if (!reader.Open(video).ok()) return 0.0;
   cv::Mat grey;
   const auto t0 = Clock::now();
   *frames = 0;
@@ -47,7 +47,7 @@ double DecodeOnlyFps(const std::string& video, int* frames) {
 
 double FullFrameApriltagFps(const std::string& video) {
   odocal::media::VideoReader reader;
-  if (!reader.Open(video).ok) return 0.0;
+  if (!reader.Open(video).ok()) return 0.0;
   apriltag_detector_t* detector = apriltag_detector_create();  // library defaults
   apriltag_family_t* family = tag36h11_create();
   apriltag_detector_add_family(detector, family);

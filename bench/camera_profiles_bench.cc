@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "odocal/media/video.h"
+#include "odocal/base/units.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/edge_quality.h"
@@ -37,10 +38,9 @@ using odocal::calibration::Pose2;
 using odocal::calibration::WrapAngle;
 using namespace odocal::vision;
 namespace media = odocal::media;
+using odocal::kRadToDeg;
 
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 CameraModel StandardCamera() {
   return CameraModel(Intrinsics{1920, 1080, 1400.0, 1400.0, 960.0, 540.0, {-0.12, 0.05, 0.0, 0.0, 0.0}},

@@ -199,7 +199,7 @@ int main(int argc, char** argv) {
     auto moving_renderer = Renderer::Create(camera, tag, mo);
     media::Mp4Writer writer;
     const auto st = writer.Open(path, 30.0, cv::Size(1920, 1080));
-    if (!st.ok) {
+    if (!st.ok()) {
       std::printf("\nH.264: %s\n", st.message.c_str());
       return 0;
     }
@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
   for (const Pose2& truth : {Pose2::FromXYHeading(0.02, -1.0, 0.4), Pose2::FromXYHeading(-1.05, -0.6, -2.0),
                              Pose2::FromXYHeading(1.0, -1.45, 2.9), Pose2::FromXYHeading(0.5, -0.7, 1.3)}) {
     media::Mp4Writer writer;
-    if (const auto st = writer.Open(path, 30.0, cv::Size(1920, 1080), wo); !st.ok) {
+    if (const auto st = writer.Open(path, 30.0, cv::Size(1920, 1080), wo); !st.ok()) {
       std::printf("| %s |\n", st.message.c_str());
       break;
     }

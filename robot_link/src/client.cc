@@ -54,24 +54,6 @@ std::string Hex32(uint32_t v) {
 
 }  // namespace
 
-std::string_view ToString(Status status) {
-  switch (status) {
-    case Status::kOk: return "ok";
-    case Status::kInvalidArgument: return "invalid argument";
-    case Status::kOpenFailed: return "cannot open device";
-    case Status::kIoError: return "I/O error";
-    case Status::kLineCut: return "line cut";
-    case Status::kTimeout: return "robot not answering";
-    case Status::kCrcErrors: return "CRC errors";
-    case Status::kVersionMismatch: return "protocol version mismatch";
-    case Status::kTableMismatch: return "parameter table mismatch";
-    case Status::kNack: return "robot refused";
-    case Status::kVerifyFailed: return "verification failed";
-    case Status::kProtocolError: return "protocol error";
-  }
-  return "?";
-}
-
 std::string_view ToString(RunStatus status) {
   switch (status) {
     case RunStatus::kCompleted: return "completed";
@@ -164,18 +146,18 @@ Result<Frame> Client::Pump(std::optional<uint16_t> seq, Clock::time_point until)
   std::array<uint8_t, 512> buf;
   while (true) {
     const auto now = Clock::now();
-    if (now >= until) return Result<Frame>::Error(Status::kTimeout, "");
+    if (now >= until) return Result<Frame>::Error(StatusCode::kTimeout, "");
     const auto left = std::chrono::ceil<std::chrono::milliseconds>(until - now);
     const IoResult io = transport_.Read(buf, left);
     switch (io.status) {
       case IoStatus::kOk: break;
       // The transport waited as long as asked (a loopback answers at once).
-      case IoStatus::kTimeout: return Result<Frame>::Error(Status::kTimeout, "");
+      case IoStatus::kTimeout: return Result<Frame>::Error(StatusCode::kTimeout, "");
       case IoStatus::kClosed:
-        return Result<Frame>::Error(Status::kLineCut, "serial line to " + transport_.Describe() +
-                                                          " cut (cable pulled or device gone): " +
-                                                          io.message);
-      case IoStatus::kError: return Result<Frame>::Error(Status::kIoError, io.message);
+        return Result<Frame>::Error(StatusCode::kLineCut,
+                                    "serial line to " + transport_.Describe() +
+                                        " cut (cable pulled or device gone): " + io.message);
+      case IoStatus::kError: return Result<Frame>::Error(StatusCode::kIoError, io.message);
     }
     std::optional<Frame> wanted;
     for (size_t i = 0; i < io.bytes; ++i) {
@@ -206,19 +188,19 @@ Result<Bytes> Client::Transact(uint8_t type, const Bytes& body) {
     if (attempt > 1) ++counters_.retransmissions;
     const IoResult w = transport_.Write(wire);
     if (w.status == IoStatus::kClosed) {
-      return R::Error(Status::kLineCut, "serial line to " + transport_.Describe() +
-                                            " cut (cable pulled or device gone): " + w.message);
+      return R::Error(StatusCode::kLineCut, "serial line to " + transport_.Describe() +
+                                                " cut (cable pulled or device gone): " + w.message);
     }
-    if (w.status != IoStatus::kOk) return R::Error(Status::kIoError, w.message);
+    if (w.status != IoStatus::kOk) return R::Error(StatusCode::kIoError, w.message);
     Result<Frame> reply = Pump(seq, Clock::now() + options_.reply_timeout);
-    if (reply.status == Status::kTimeout) {
+    if (reply.status == StatusCode::kTimeout) {
       ++counters_.timeouts;
       continue;
     }
     if (!reply.ok()) return R::From(reply);
     const Frame& f = *reply.value;
     if (f.version != OLF_PROTOCOL_VERSION) {
-      return R::Error(Status::kVersionMismatch,
+      return R::Error(StatusCode::kVersionMismatch,
                       "robot on " + transport_.Describe() + " speaks protocol version " +
                           std::to_string(f.version) + ", odocal speaks version " +
                           std::to_string(OLF_PROTOCOL_VERSION));
@@ -226,16 +208,16 @@ Result<Bytes> Client::Transact(uint8_t type, const Bytes& body) {
     if (f.type == OLF_MSG_NACK && f.body.size() >= 2 && f.body[0] == type) {
       if (f.body[1] == OLF_ERR_BAD_VERSION) {
         const int robot_version = f.body.size() >= 3 ? f.body[2] : -1;
-        return R::Error(Status::kVersionMismatch,
+        return R::Error(StatusCode::kVersionMismatch,
                         "robot on " + transport_.Describe() + " speaks protocol version " +
                             std::to_string(robot_version) + ", odocal speaks version " +
                             std::to_string(OLF_PROTOCOL_VERSION));
       }
-      return R::Error(Status::kNack, "robot refused " + std::string(TypeName(type)) + ": " +
-                                         std::string(ErrorName(f.body[1])));
+      return R::Error(StatusCode::kNack, "robot refused " + std::string(TypeName(type)) + ": " +
+                                             std::string(ErrorName(f.body[1])));
     }
     if (f.type != OLF_MSG_ACK || f.body.empty() || f.body[0] != type) {
-      return R::Error(Status::kProtocolError,
+      return R::Error(StatusCode::kProtocolError,
                       "unexpected reply to " + std::string(TypeName(type)) + ": " + ToHex(f.body));
     }
     return R::Ok(Bytes(f.body.begin() + 1, f.body.end()));
@@ -247,11 +229,12 @@ Result<Bytes> Client::Transact(uint8_t type, const Bytes& body) {
                            std::to_string(options_.max_attempts) + " attempts of " +
                            std::to_string(options_.reply_timeout.count()) + " ms";
   if (bad > 0) {
-    return R::Error(Status::kCrcErrors, what + ": " + std::to_string(bad) +
-                                            " frames failed their CRC/framing check (noisy line "
-                                            "or wrong baud rate?)");
+    return R::Error(StatusCode::kCrcErrors,
+                    what + ": " + std::to_string(bad) +
+                        " frames failed their CRC/framing check (noisy line "
+                        "or wrong baud rate?)");
   }
-  return R::Error(Status::kTimeout, "robot not answering: " + what);
+  return R::Error(StatusCode::kTimeout, "robot not answering: " + what);
 }
 
 Result<RobotInfo> Client::Hello() {
@@ -264,20 +247,20 @@ Result<RobotInfo> Client::Hello() {
   if (!(in.U8(&version) && in.U8(&count) && in.U32(&info.table_crc) &&
         in.U32(&info.active_set_crc) && in.U8(&boot) && in.Str8(&info.robot_name) &&
         in.AtEnd())) {
-    return R::Error(Status::kProtocolError, "malformed HELLO reply: " + ToHex(*r.value));
+    return R::Error(StatusCode::kProtocolError, "malformed HELLO reply: " + ToHex(*r.value));
   }
   info.protocol_version = version;
   info.param_count = count;
   info.boot_source = static_cast<BootSource>(boot);
   if (version != OLF_PROTOCOL_VERSION) {
-    return R::Error(Status::kVersionMismatch, "robot '" + info.robot_name +
-                                                  "' speaks protocol version " +
-                                                  std::to_string(version) +
-                                                  ", odocal speaks version " +
-                                                  std::to_string(OLF_PROTOCOL_VERSION));
+    return R::Error(StatusCode::kVersionMismatch, "robot '" + info.robot_name +
+                                                      "' speaks protocol version " +
+                                                      std::to_string(version) +
+                                                      ", odocal speaks version " +
+                                                      std::to_string(OLF_PROTOCOL_VERSION));
   }
   if (info.table_crc != ParamTableCrc()) {
-    return R::Error(Status::kTableMismatch,
+    return R::Error(StatusCode::kTableMismatch,
                     "robot '" + info.robot_name + "' has another parameter table (checksum " +
                         Hex32(info.table_crc) + ", odocal expects " + Hex32(ParamTableCrc()) +
                         "): firmware and odocal disagree on parameter names or types");
@@ -292,7 +275,7 @@ Result<ParamSet> Client::ParseParamSet(const Bytes& body, olf_param_set_id which
   uint8_t got_which = 0, count = 0;
   uint32_t got_mask = 0, crc = 0;
   const auto malformed = [&] {
-    return R::Error(Status::kProtocolError, "malformed PARAMS_READ reply: " + ToHex(body));
+    return R::Error(StatusCode::kProtocolError, "malformed PARAMS_READ reply: " + ToHex(body));
   };
   if (!(in.U8(&got_which) && in.U32(&got_mask) && in.U32(&crc) && in.U8(&count))) {
     return malformed();
@@ -318,8 +301,9 @@ Result<ParamSet> Client::ParseParamSet(const Bytes& body, olf_param_set_id which
   // The robot's checksum of its own set must match ours of what we decoded:
   // an end-to-end check on top of the frame CRC.
   if (set.Checksum() != crc) {
-    return R::Error(Status::kVerifyFailed, "parameter set checksum mismatch (robot " + Hex32(crc) +
-                                               ", decoded " + Hex32(set.Checksum()) + ")");
+    return R::Error(StatusCode::kVerifyFailed, "parameter set checksum mismatch (robot " +
+                                                   Hex32(crc) + ", decoded " +
+                                                   Hex32(set.Checksum()) + ")");
   }
   if (mask) *mask = got_mask;
   return R::Ok(set);
@@ -334,7 +318,7 @@ Result<ParamSet> Client::GetParams(olf_param_set_id which) {
 Result<ParamValue> Client::GetParam(std::string_view name) {
   using R = Result<ParamValue>;
   if (name.empty() || name.size() > OLF_MAX_NAME) {
-    return R::Error(Status::kInvalidArgument, "bad parameter name '" + std::string(name) + "'");
+    return R::Error(StatusCode::kInvalidArgument, "bad parameter name '" + std::string(name) + "'");
   }
   Result<Bytes> r = Transact(OLF_MSG_PARAM_GET, ByteWriter().Str8(std::string(name)).Take());
   if (!r) return R::From(r);
@@ -348,15 +332,16 @@ Result<ParamValue> Client::GetParam(std::string_view name) {
     uint32_t v;
     if (in.U32(&v) && in.AtEnd()) return R::Ok(v);
   }
-  return R::Error(Status::kProtocolError, "malformed PARAM_GET reply: " + ToHex(*r.value));
+  return R::Error(StatusCode::kProtocolError, "malformed PARAM_GET reply: " + ToHex(*r.value));
 }
 
 Result<ParamSet> Client::SetParam(std::string_view name, const ParamValue& value) {
   using R = Result<ParamSet>;
   const std::optional<size_t> index = FindParam(name);
-  if (!index) return R::Error(Status::kInvalidArgument, "unknown parameter '" + std::string(name) + "'");
+  if (!index)
+    return R::Error(StatusCode::kInvalidArgument, "unknown parameter '" + std::string(name) + "'");
   if (!ValueMatchesType(*index, value)) {
-    return R::Error(Status::kInvalidArgument, "wrong type for '" + std::string(name) + "'");
+    return R::Error(StatusCode::kInvalidArgument, "wrong type for '" + std::string(name) + "'");
   }
   Result<Bytes> r = Transact(OLF_MSG_PARAM_SET, ParamBody(*index, value));
   if (!r) return R::From(r);
@@ -365,8 +350,8 @@ Result<ParamSet> Client::SetParam(std::string_view name, const ParamValue& value
   ParamSet expected = *active.value;
   expected.Set(*index, value);
   if (!active.value->SameBits(expected)) {
-    return R::Error(Status::kVerifyFailed, std::string(name) + " reads back as " +
-                                               FormatValue(active.value->Get(*index)));
+    return R::Error(StatusCode::kVerifyFailed, std::string(name) + " reads back as " +
+                                                   FormatValue(active.value->Get(*index)));
   }
   return active;
 }
@@ -374,7 +359,7 @@ Result<ParamSet> Client::SetParam(std::string_view name, const ParamValue& value
 Result<PushReport> Client::PushParams(const ParamSet& target) {
   using R = Result<PushReport>;
   std::string why;
-  if (!target.IsValid(&why)) return R::Error(Status::kInvalidArgument, why);
+  if (!target.IsValid(&why)) return R::Error(StatusCode::kInvalidArgument, why);
   if (Result<Bytes> r = Transact(OLF_MSG_STAGE_BEGIN, {}); !r) return R::From(r);
   for (size_t i = 0; i < ParamTable().size(); ++i) {
     if (Result<Bytes> r = Transact(OLF_MSG_STAGE_PUT, ParamBody(i, target.Get(i))); !r) {
@@ -390,10 +375,10 @@ Result<PushReport> Client::PushParams(const ParamSet& target) {
   if (mask != (1u << ParamTable().size()) - 1 || !staged.value->SameBits(target)) {
     std::ostringstream os;
     os << "staged set read back differs from what was sent, not committed: " << *staged.value;
-    return R::Error(Status::kVerifyFailed, os.str());
+    return R::Error(StatusCode::kVerifyFailed, os.str());
   }
   Result<Bytes> commit = Transact(OLF_MSG_COMMIT, ByteWriter().U32(target.Checksum()).Take());
-  if (!commit && commit.status != Status::kTimeout && commit.status != Status::kCrcErrors) {
+  if (!commit && commit.status != StatusCode::kTimeout && commit.status != StatusCode::kCrcErrors) {
     return R::From(commit);  // refused, or the line is gone: nothing more to ask
   }
   // Verify what the robot now runs on. After a lost commit reply this also
@@ -412,7 +397,7 @@ Result<PushReport> Client::PushParams(const ParamSet& target) {
     }
     std::ostringstream os;
     os << "active set after commit differs from the target: " << *active.value;
-    return R::Error(Status::kVerifyFailed, os.str());
+    return R::Error(StatusCode::kVerifyFailed, os.str());
   }
   return R::Ok(PushReport{*active.value, active.value->Checksum()});
 }
@@ -436,21 +421,21 @@ Result<uint16_t> Client::StartRun(const RunCommand& c) {
   ByteReader in(*r.value);
   uint16_t run_id = 0;
   if (!in.U16(&run_id) || !in.AtEnd()) {
-    return R::Error(Status::kProtocolError, "malformed RUN_START reply: " + ToHex(*r.value));
+    return R::Error(StatusCode::kProtocolError, "malformed RUN_START reply: " + ToHex(*r.value));
   }
   return R::Ok(run_id);
 }
 
-Outcome Client::Stop() {
+Status Client::Stop() {
   Result<Bytes> r = Transact(OLF_MSG_STOP, {});
-  if (!r) return Outcome::From(r);
-  return Outcome::Ok({});
+  if (!r) return Status::From(r);
+  return Status::Ok();
 }
 
-Outcome Client::SetTelemetryRate(uint16_t rate_hz) {
+Status Client::SetTelemetryRate(uint16_t rate_hz) {
   Result<Bytes> r = Transact(OLF_MSG_TELEMETRY_RATE, ByteWriter().U16(rate_hz).Take());
-  if (!r) return Outcome::From(r);
-  return Outcome::Ok({});
+  if (!r) return Status::From(r);
+  return Status::Ok();
 }
 
 Result<RobotStatus> Client::GetStatus() {
@@ -464,7 +449,7 @@ Result<RobotStatus> Client::GetStatus() {
         in.U32(&s.last_run.t_ms) && in.F64(&s.last_run.x_mm) && in.F64(&s.last_run.y_mm) &&
         in.F64(&s.last_run.heading_rad) && in.U32(&s.frames_ok) && in.U32(&s.crc_errors) &&
         in.U32(&s.framing_errors) && in.AtEnd())) {
-    return R::Error(Status::kProtocolError, "malformed STATUS reply: " + ToHex(*r.value));
+    return R::Error(StatusCode::kProtocolError, "malformed STATUS reply: " + ToHex(*r.value));
   }
   s.state = static_cast<RunState>(state);
   s.last_run.run_id = s.last_run_id;
@@ -484,21 +469,22 @@ Result<RunComplete> Client::WaitRunComplete(uint16_t run_id, std::chrono::millis
     }
     const auto now = Clock::now();
     if (now >= deadline) {
-      return R::Error(Status::kTimeout, "run " + std::to_string(run_id) + " on " +
-                                            transport_.Describe() + " did not complete within " +
-                                            std::to_string(timeout.count()) + " ms");
+      return R::Error(StatusCode::kTimeout,
+                      "run " + std::to_string(run_id) + " on " + transport_.Describe() +
+                          " did not complete within " + std::to_string(timeout.count()) + " ms");
     }
     Result<Frame> r = Pump(std::nullopt, std::min(deadline, now + options_.status_poll_interval));
-    if (!r && r.status != Status::kTimeout) return R::From(r);
-    if (r.status == Status::kTimeout || Clock::now() - last_poll >= options_.status_poll_interval) {
+    if (!r && r.status != StatusCode::kTimeout) return R::From(r);
+    if (r.status == StatusCode::kTimeout ||
+        Clock::now() - last_poll >= options_.status_poll_interval) {
       // Quiet line or a long stretch without the event: ask. A lost
       // run-complete event is thus recovered from STATUS.
       last_poll = Clock::now();
       Result<RobotStatus> s = GetStatus();
-      if (s.status == Status::kLineCut || s.status == Status::kIoError) return R::From(s);
+      if (s.status == StatusCode::kLineCut || s.status == StatusCode::kIoError) return R::From(s);
       if (s && completed_runs_.count(run_id) == 0 && s.value->state == RunState::kIdle) {
         if (s.value->last_run_id == run_id) return R::Ok(s.value->last_run);
-        return R::Error(Status::kProtocolError,
+        return R::Error(StatusCode::kProtocolError,
                         "robot is idle and does not know run " + std::to_string(run_id) +
                             " (restarted?)");
       }

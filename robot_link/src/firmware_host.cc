@@ -129,11 +129,11 @@ Result<std::unique_ptr<FileStorage>> FileStorage::Open(const std::string& path) 
   if (in) {
     in.read(reinterpret_cast<char*>(s->image_.data()), s->image_.size());
     if (in.gcount() != static_cast<std::streamsize>(s->image_.size())) {
-      return R::Error(Status::kOpenFailed, "storage file " + path + " is truncated");
+      return R::Error(StatusCode::kOpenFailed, "storage file " + path + " is truncated");
     }
   } else if (errno != ENOENT) {
-    return R::Error(Status::kOpenFailed, "cannot read storage file " + path + ": " +
-                                             std::strerror(errno));
+    return R::Error(StatusCode::kOpenFailed, "cannot read storage file " + path + ": " +
+                                                 std::strerror(errno));
   }
   return R::Ok(std::move(s));
 }
@@ -272,7 +272,7 @@ Result<std::unique_ptr<FirmwareHost>> FirmwareHost::Start(const FirmwareHostOpti
                                                           MotionBackend& backend) {
   using R = Result<std::unique_ptr<FirmwareHost>>;
   std::string why;
-  if (!options.IsValid(&why)) return R::Error(Status::kInvalidArgument, why);
+  if (!options.IsValid(&why)) return R::Error(StatusCode::kInvalidArgument, why);
   std::unique_ptr<Storage> storage;
   if (!options.storage_path.empty()) {
     Result<std::unique_ptr<FileStorage>> fs = FileStorage::Open(options.storage_path);

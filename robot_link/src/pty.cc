@@ -20,7 +20,7 @@ Result<Pty> OpenPty() {
   tio.c_cc[VMIN] = 0;
   tio.c_cc[VTIME] = 0;
   if (::openpty(&master, &slave, name, &tio, nullptr) != 0) {
-    return Result<Pty>::Error(Status::kOpenFailed,
+    return Result<Pty>::Error(StatusCode::kOpenFailed,
                               std::string("openpty failed: ") + std::strerror(errno));
   }
   Pty pty;

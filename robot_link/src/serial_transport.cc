@@ -46,13 +46,13 @@ Result<std::unique_ptr<SerialTransport>> SerialTransport::Open(const std::string
                                                                const SerialOptions& options) {
   using R = Result<std::unique_ptr<SerialTransport>>;
   std::string why;
-  if (!options.IsValid(&why)) return R::Error(Status::kInvalidArgument, why);
+  if (!options.IsValid(&why)) return R::Error(StatusCode::kInvalidArgument, why);
   // O_NONBLOCK: a port with modem-control lines down must not block open();
   // every later wait goes through poll() with an explicit timeout.
   UniqueFd owned(::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC));
-  if (!owned.valid()) return R::Error(Status::kOpenFailed, Errno("cannot open " + path));
+  if (!owned.valid()) return R::Error(StatusCode::kOpenFailed, Errno("cannot open " + path));
   const int fd = owned.get();
-  auto fail = [](const std::string& msg) { return R::Error(Status::kOpenFailed, msg); };
+  auto fail = [](const std::string& msg) { return R::Error(StatusCode::kOpenFailed, msg); };
   if (!::isatty(fd)) return fail("cannot use " + path + ": not a serial device (not a tty)");
   termios tio{};
   if (::tcgetattr(fd, &tio) != 0) return fail(Errno("cannot configure " + path));

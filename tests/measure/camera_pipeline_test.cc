@@ -313,7 +313,7 @@ TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
     media::Mp4Writer writer;
     media::Mp4WriterOptions wo;
     wo.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
-    ASSERT_TRUE(writer.Open(Video(d), 30, cv::Size(640, 360), wo).ok);
+    ASSERT_TRUE(writer.Open(Video(d), 30, cv::Size(640, 360), wo).ok());
     cv::Mat bg;
     created.renderer->background().convertTo(bg, CV_8U);
     for (int k = 0; k < 60; ++k) {
@@ -323,10 +323,10 @@ TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
       cv::absdiff(a, bg, da);
       cv::absdiff(b, bg, db);
       b.copyTo(frame, db > da);
-      ASSERT_TRUE(writer.Write(frame, k / 30.0).ok);
+      ASSERT_TRUE(writer.Write(frame, k / 30.0).ok());
     }
-    ASSERT_TRUE(writer.Close().ok);
-    ASSERT_TRUE(writer.WriteTimestamps(d + "/run01_straight.timestamps.csv").ok);
+    ASSERT_TRUE(writer.Close().ok());
+    ASSERT_TRUE(writer.WriteTimestamps(d + "/run01_straight.timestamps.csv").ok());
   });
   const CommandResult r = Batch(dir);
   EXPECT_EQ(r.exit_code, 1);

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/measure.h"
@@ -33,8 +34,6 @@ using ::testing::HasSubstr;
 using test_util::CommandResult;
 using test_util::Odocal;
 using test_util::RunCommand;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // The tracked body on the robot: T_robot_body.
 constexpr double kBodyX_mm = 80.0, kBodyY_mm = -35.0, kBodyYaw_deg = 25.0;

@@ -139,7 +139,7 @@ TEST(LinkFaultInjection, CutLineIsReportedAndLeavesTheRobotAlone) {
   FaultInjectingTransport line(link, faults);
   Client client(line);
   Result<PushReport> r = client.PushParams(ParamSet{70.0, 70.0, 300.0, 2048});
-  EXPECT_EQ(r.status, Status::kLineCut);
+  EXPECT_EQ(r.status, StatusCode::kLineCut);
   EXPECT_THAT(r.message, ::testing::HasSubstr("cut"));
   EXPECT_TRUE(link.robot().active().SameBits(options.defaults));
   EXPECT_EQ(link.robot().ctx().counters.commits, 0u);

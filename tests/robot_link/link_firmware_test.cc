@@ -56,7 +56,7 @@ TEST_F(LinkFirmwareTest, ReadsEveryParameterByNameWithItsType) {
     EXPECT_EQ(FormatValue(*v.value), FormatValue(options_.defaults.Get(i)));
   }
   Result<ParamValue> missing = client_.GetParam("wheel_base_in");
-  EXPECT_EQ(missing.status, Status::kNack);
+  EXPECT_EQ(missing.status, StatusCode::kNack);
   EXPECT_THAT(missing.message, HasSubstr("unknown parameter"));
 }
 
@@ -70,10 +70,10 @@ TEST_F(LinkFirmwareTest, SetParamCommitsOneValueAndRejectsOutOfRange) {
 
   for (double bad : {0.0, -5.0, 1e9, std::nan("")}) {
     Result<ParamSet> r = client_.SetParam("left_wheel_diameter_mm", bad);
-    EXPECT_EQ(r.status, Status::kNack) << bad;
+    EXPECT_EQ(r.status, StatusCode::kNack) << bad;
     EXPECT_THAT(r.message, HasSubstr("out of range"));
   }
-  EXPECT_EQ(client_.SetParam("ticks_per_rev", 72.0).status, Status::kInvalidArgument);
+  EXPECT_EQ(client_.SetParam("ticks_per_rev", 72.0).status, StatusCode::kInvalidArgument);
   EXPECT_TRUE(Active().SameBits(expected));
 }
 
@@ -98,7 +98,7 @@ TEST_F(LinkFirmwareTest, PushVerifiesAndRollbackSwapsSets) {
 
 TEST_F(LinkFirmwareTest, RollbackWithoutPreviousSetIsRefused) {
   Result<ParamSet> r = client_.Rollback();
-  EXPECT_EQ(r.status, Status::kNack);
+  EXPECT_EQ(r.status, StatusCode::kNack);
   EXPECT_THAT(r.message, HasSubstr("no previous"));
 }
 
@@ -189,9 +189,9 @@ TEST_F(LinkFirmwareTest, ParametersCannotChangeDuringARun) {
       calibration::RunSpec::Umbmark(calibration::Direction::kCcw, 1.0)));
   ASSERT_TRUE(run.ok()) << run;
   EXPECT_EQ(client_.StartRun(RunCommand::FromRunSpec(calibration::RunSpec::Straight(1.0))).status,
-            Status::kNack);
+            StatusCode::kNack);
   Result<PushReport> push = client_.PushParams(ParamSet{70.0, 70.0, 300.0, 2048});
-  EXPECT_EQ(push.status, Status::kNack);
+  EXPECT_EQ(push.status, StatusCode::kNack);
   EXPECT_THAT(push.message, HasSubstr("run is in progress"));
   EXPECT_TRUE(Active().SameBits(options_.defaults));
 
@@ -212,11 +212,11 @@ TEST_F(LinkFirmwareTest, InvalidProceduresAreRefused) {
   c.procedure = calibration::Procedure::kSpin;
   c.count = 0;
   Result<uint16_t> r = client_.StartRun(c);
-  EXPECT_EQ(r.status, Status::kNack);
+  EXPECT_EQ(r.status, StatusCode::kNack);
   EXPECT_THAT(r.message, HasSubstr("invalid procedure"));
   c.procedure = calibration::Procedure::kUmbmark;
   c.amount_mm = std::nan("");
-  EXPECT_EQ(client_.StartRun(c).status, Status::kNack);
+  EXPECT_EQ(client_.StartRun(c).status, StatusCode::kNack);
   EXPECT_EQ(backend_.runs_started(), 0);
 }
 
@@ -231,7 +231,7 @@ TEST(LinkFirmwareStorage, FailedPersistKeepsTheOldSetInRamAndOnReboot) {
     ASSERT_TRUE(client.PushParams(a).ok());
     storage.SetPowerBudget(0);  // flash refuses every write from now on
     Result<PushReport> r = client.PushParams(ParamSet{80.0, 80.0, 310.0, 1000});
-    EXPECT_EQ(r.status, Status::kNack);
+    EXPECT_EQ(r.status, StatusCode::kNack);
     EXPECT_THAT(r.message, HasSubstr("storage"));
     EXPECT_TRUE(link.robot().active().SameBits(a));
   }

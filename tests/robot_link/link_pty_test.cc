@@ -144,11 +144,11 @@ TEST(LinkPty, CableCutMidRunIsReportedAndParametersStayPut) {
   ASSERT_TRUE(run.ok()) << run;
   (*host.value)->CutCable();
   Result<RunComplete> done = client.WaitRunComplete(*run.value, 10s);
-  EXPECT_EQ(done.status, Status::kLineCut) << done;
+  EXPECT_EQ(done.status, StatusCode::kLineCut) << done;
   EXPECT_THAT(done.message, HasSubstr("cut"));
   EXPECT_THAT(done.message, HasSubstr((*host.value)->device_path()));
   Result<PushReport> push = client.PushParams(ParamSet{70.0, 70.0, 300.0, 2048});
-  EXPECT_EQ(push.status, Status::kLineCut) << push;
+  EXPECT_EQ(push.status, StatusCode::kLineCut) << push;
   EXPECT_TRUE((*host.value)->active().SameBits(before));
 }
 
@@ -162,22 +162,22 @@ TEST(LinkPty, RobotNotAnsweringTimesOutWithAClearMessage) {
   o.max_attempts = 3;
   Client client(**port.value, o);
   Result<RobotInfo> info = client.Hello();
-  EXPECT_EQ(info.status, Status::kTimeout);
+  EXPECT_EQ(info.status, StatusCode::kTimeout);
   EXPECT_THAT(info.message, HasSubstr("robot not answering"));
   EXPECT_THAT(info.message, HasSubstr("3 attempts"));
 }
 
 TEST(LinkPty, WrongDevicePathAndNonTtyAreRefusedAtOpen) {
   Result<std::unique_ptr<SerialTransport>> missing = SerialTransport::Open("/dev/ttyUSB_odocal_missing");
-  EXPECT_EQ(missing.status, Status::kOpenFailed);
+  EXPECT_EQ(missing.status, StatusCode::kOpenFailed);
   EXPECT_THAT(missing.message, HasSubstr("/dev/ttyUSB_odocal_missing"));
   EXPECT_THAT(missing.message, HasSubstr("No such file or directory"));
   Result<std::unique_ptr<SerialTransport>> not_tty = SerialTransport::Open("/dev/null");
-  EXPECT_EQ(not_tty.status, Status::kOpenFailed);
+  EXPECT_EQ(not_tty.status, StatusCode::kOpenFailed);
   EXPECT_THAT(not_tty.message, HasSubstr("not a tty"));
   SerialOptions odd;
   odd.baud = 12345;
-  EXPECT_EQ(SerialTransport::Open("/dev/null", odd).status, Status::kInvalidArgument);
+  EXPECT_EQ(SerialTransport::Open("/dev/null", odd).status, StatusCode::kInvalidArgument);
 }
 
 using testing::FakePeer;
@@ -191,7 +191,7 @@ TEST(LinkPty, RobotSpeakingAnotherProtocolVersionIsNamed) {
   ASSERT_TRUE(port.ok()) << port;
   Client client(**port.value);
   Result<RobotInfo> info = client.Hello();
-  EXPECT_EQ(info.status, Status::kVersionMismatch);
+  EXPECT_EQ(info.status, StatusCode::kVersionMismatch);
   EXPECT_THAT(info.message, HasSubstr("protocol version 2"));
   EXPECT_THAT(info.message, HasSubstr("odocal speaks version 1"));
 }
@@ -210,7 +210,7 @@ TEST(LinkPty, RepliesFailingTheirCrcAreReportedAsSuch) {
   o.max_attempts = 3;
   Client client(**port.value, o);
   Result<RobotInfo> info = client.Hello();
-  EXPECT_EQ(info.status, Status::kCrcErrors);
+  EXPECT_EQ(info.status, StatusCode::kCrcErrors);
   EXPECT_THAT(info.message, HasSubstr("failed their CRC"));
 }
 

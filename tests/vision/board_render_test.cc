@@ -2,6 +2,7 @@
 // anti-aliasing, seeded noise, and pose sampling.
 #include <cmath>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -147,7 +148,7 @@ TEST(BoardRender, RejectsInvalidInput) {
   BoardPattern empty;
   const auto r = RenderBoard(TestIntrinsics(), empty, Eigen::Isometry3d::Identity(), {}, {});
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("pattern"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("pattern")) << r.message;
   BoardRenderOptions o;
   o.supersample = 0;
   EXPECT_FALSE(RenderBoard(TestIntrinsics(), BoardPattern::Chessboard(3, 2, 0.01),

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 // The ChArUco case needs OpenCV's contrib aruco module (libopencv-contrib-dev),
@@ -101,7 +102,7 @@ TEST(CameraCalibration, NoBoardIsNamedAndTooFewViewsFail) {
   std::vector<BoardDetection> views;
   for (const cv::Mat& image : images) views.push_back(DetectBoard(image, board));
   const CameraCalibrationResult r = CalibrateCamera(views, cv::Size(640, 480));
-  EXPECT_EQ(r.status, CameraCalibrationResult::Status::kTooFewViews);
+  EXPECT_EQ(r.status, StatusCode::kInvalidArgument);
   EXPECT_EQ(r.message, "2 usable views, need at least 3");
 }
 
@@ -116,7 +117,31 @@ TEST(CameraCalibration, RejectsInvalidBoards) {
   board.cols = 5;
   board.marker_m = 0.03;  // larger than the square
   EXPECT_FALSE(board.IsValid(&why));
-  EXPECT_NE(why.find("marker"), std::string::npos);
+  EXPECT_THAT(why, ::testing::HasSubstr("marker"));
+}
+
+TEST(CameraCalibration, InvalidDetectionOptionsAreNamedNotFound) {
+  std::string why;
+  EXPECT_TRUE(BoardDetectionOptions{}.IsValid(&why)) << why;
+  BoardDetectionOptions window;
+  window.subpix_half_window_px = 0;
+  EXPECT_FALSE(window.IsValid(&why));
+  EXPECT_THAT(why, ::testing::HasSubstr("half window"));
+  BoardDetectionOptions corners;
+  corners.min_charuco_corners = 3;
+  EXPECT_FALSE(corners.IsValid(&why));
+  EXPECT_THAT(why, ::testing::HasSubstr("min_charuco_corners"));
+
+  CalibrationBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square_m = 0.025;
+  const auto images = RenderViews(BoardPattern::Chessboard(9, 6, 0.025), ChessboardCorners(9, 6, 0.025), 1, 1);
+  ASSERT_FALSE(images.empty());
+  ASSERT_TRUE(DetectBoard(images.front(), board).found);
+  const BoardDetection d = DetectBoard(images.front(), board, window);
+  EXPECT_FALSE(d.found);
+  EXPECT_THAT(d.message, ::testing::HasSubstr("board detection options"));
 }
 
 #ifdef ODOCAL_TEST_HAVE_ARUCO

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
@@ -101,7 +102,7 @@ TEST(Intrinsics, OpenCvMatrixRoundTripAndValidation) {
   // with non-zero k4..k6 are not representable and must be refused.
   cv::Mat d8 = (cv::Mat_<double>(1, 8) << -0.1, 0.01, 0, 0, 0, 0.2, 0, 0);
   EXPECT_FALSE(Intrinsics::FromCv(in.CameraMatrix(), d8, 1920, 1080, &why));
-  EXPECT_NE(why.find("higher"), std::string::npos);
+  EXPECT_THAT(why, ::testing::HasSubstr("higher"));
   cv::Mat k_bad = in.CameraMatrix();
   k_bad.at<double>(0, 0) = -5;
   EXPECT_FALSE(Intrinsics::FromCv(k_bad, cv::Mat(), 1920, 1080, &why));

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/edge_quality.h"
@@ -22,8 +23,6 @@ namespace {
 
 using calibration::Pose2;
 using calibration::WrapAngle;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::unique_ptr<Renderer> MakeRenderer(const ImageFormationOptions& formation, uint64_t seed = 1,
                                        const TagSpec& tag = testing::StandardTag()) {

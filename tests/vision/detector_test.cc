@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/vision/corner_refine.h"
@@ -193,7 +194,7 @@ TEST(DetectorBadInput, WrongIdWrongFamilyNotInViewDuplicateAndEmpty) {
 
   const FindResult wrong_id = detector->Find(f.image, 7);
   EXPECT_EQ(wrong_id.status, DetectStatus::kWrongId);
-  EXPECT_NE(wrong_id.message.find("5"), std::string::npos) << wrong_id.message;
+  EXPECT_THAT(wrong_id.message, ::testing::HasSubstr("5")) << wrong_id.message;
   EXPECT_FALSE(wrong_id.detection);
 
   DetectorOptions other_family;
@@ -220,7 +221,7 @@ TEST(DetectorBadInput, WrongIdWrongFamilyNotInViewDuplicateAndEmpty) {
   bad.family = "tag36h12";
   const auto created = TagDetector::Create(bad);
   EXPECT_FALSE(created.ok);
-  EXPECT_NE(created.message.find("family"), std::string::npos);
+  EXPECT_THAT(created.message, ::testing::HasSubstr("family"));
   bad = DetectorOptions{};
   bad.quad_decimate = 0.5f;
   std::string why;

@@ -5,8 +5,10 @@
 #include <cstdio>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "odocal/base/units.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -20,8 +22,6 @@ namespace {
 using calibration::Pose2;
 using calibration::WrapAngle;
 using test_util::IsNearPose;
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // Tracks, refines and measures one frame; nullopt if anything fails.
 std::optional<TagCorners> Corners(TagTracker* tracker, const RenderedFrame& f, const CameraModel& camera) {
@@ -216,7 +216,7 @@ TEST(CameraPlane, TooFewViewsIsAClearFailure) {
   const CameraPlaneResult r = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), testing::StandardTag(),
                                                          {}, testing::StandardMount());
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("views"), std::string::npos);
+  EXPECT_THAT(r.message, ::testing::HasSubstr("views"));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -164,7 +165,7 @@ TEST(Renderer, RejectsInvalidInput) {
   bad_tag.family = "tag99h99";
   auto r = Renderer::Create(testing::SmallCamera(), bad_tag, RenderOptions{});
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("family"), std::string::npos);
+  EXPECT_THAT(r.message, ::testing::HasSubstr("family"));
   TagSpec big_id = testing::StandardTag();
   big_id.id = 100000;
   EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), big_id, RenderOptions{}).ok);
@@ -184,29 +185,29 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
                         CameraMount{0, 0, 1000.0, 0, 0, 0});
   auto renderer = MakeRenderer(cam, testing::StandardTag(), testing::StandardRender());
   media::Mp4Writer writer;
-  const media::VideoStatus opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
-  if (!opened.ok && GetParam() == media::Mp4WriterOptions::Backend::kFfmpegCli &&
+  const Status opened = writer.Open(path, 30.0, cv::Size(320, 240), wo);
+  if (!opened.ok() && GetParam() == media::Mp4WriterOptions::Backend::kFfmpegCli &&
       opened.message.find("cannot run the ffmpeg program") != std::string::npos) {
     GTEST_SKIP() << opened.message;  // the ffmpeg program is optional
   }
-  ASSERT_TRUE(opened.ok) << opened.message;
+  ASSERT_TRUE(opened.ok()) << opened.message;
   std::vector<cv::Mat> frames;
   for (int i = 0; i < 10; ++i) {
     frames.push_back(renderer->Render(Pose2::FromXYHeading(0.01 * i, 0.0, 0.1 * i)).image);
-    ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok);
+    ASSERT_TRUE(writer.Write(frames.back(), i / 30.0).ok());
   }
-  EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok);  // wrong size
-  const media::VideoStatus closed = writer.Close();
-  ASSERT_TRUE(closed.ok) << closed.message;
-  ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok);
+  EXPECT_FALSE(writer.Write(cv::Mat(10, 10, CV_8U), 1.0).ok());  // wrong size
+  const Status closed = writer.Close();
+  ASSERT_TRUE(closed.ok()) << closed.message;
+  ASSERT_TRUE(writer.WriteTimestamps(dir + "/clip.timestamps.csv").ok());
   std::ifstream ts(dir + "/clip.timestamps.csv");
   int lines = 0;
   for (std::string line; std::getline(ts, line);) ++lines;
   EXPECT_EQ(lines, 11);
 
   media::VideoReader reader;
-  const media::VideoStatus read_open = reader.Open(path);
-  ASSERT_TRUE(read_open.ok) << read_open.message;
+  const Status read_open = reader.Open(path);
+  ASSERT_TRUE(read_open.ok()) << read_open.message;
   EXPECT_NEAR(reader.fps(), 30.0, 0.01);
   int n = 0;
   cv::Mat grey;
@@ -233,21 +234,21 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
   media::Mp4WriterOptions wo;
   wo.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
   media::Mp4Writer a, b;
-  const media::VideoStatus opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
-  if (!opened_a.ok && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
+  const Status opened_a = a.Open(dir + "/a.mp4", 30.0, cv::Size(64, 48), wo);
+  if (!opened_a.ok() && opened_a.message.find("cannot run the ffmpeg program") != std::string::npos)
     GTEST_SKIP() << opened_a.message;
-  ASSERT_TRUE(opened_a.ok) << opened_a.message;
-  ASSERT_TRUE(b.Open(dir + "/b.mp4", 30.0, cv::Size(64, 48), wo).ok);
+  ASSERT_TRUE(opened_a.ok()) << opened_a.message;
+  ASSERT_TRUE(b.Open(dir + "/b.mp4", 30.0, cv::Size(64, 48), wo).ok());
   const cv::Mat grey(48, 64, CV_8U, cv::Scalar(128));
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(a.Write(grey, i / 30.0).ok);
-    ASSERT_TRUE(b.Write(grey, i / 30.0).ok);
+    ASSERT_TRUE(a.Write(grey, i / 30.0).ok());
+    ASSERT_TRUE(b.Write(grey, i / 30.0).ok());
   }
-  ASSERT_TRUE(a.Close().ok);
-  ASSERT_TRUE(b.Close().ok);
+  ASSERT_TRUE(a.Close().ok());
+  ASSERT_TRUE(b.Close().ok());
   for (const char* name : {"/a.mp4", "/b.mp4"}) {
     media::VideoReader reader;
-    ASSERT_TRUE(reader.Open(dir + name).ok) << name;
+    ASSERT_TRUE(reader.Open(dir + name).ok()) << name;
     cv::Mat frame;
     int frames = 0;
     while (reader.Read(&frame)) ++frames;
@@ -258,17 +259,17 @@ TEST(VideoFiles, ConcurrentFfmpegWritersEachFinish) {
 TEST(VideoFiles, BadFilesGiveAClearStatus) {
   const std::string dir = test_util::MakeTempDir("odocal_vision_badvideo");
   media::VideoReader missing;
-  media::VideoStatus s = missing.Open(dir + "/nope.mp4");
-  EXPECT_FALSE(s.ok);
-  EXPECT_NE(s.message.find("does not exist"), std::string::npos);
+  Status s = missing.Open(dir + "/nope.mp4");
+  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s.message, ::testing::HasSubstr("does not exist"));
   cv::Mat frame;
   EXPECT_FALSE(missing.Read(&frame));
 
   { std::ofstream(dir + "/empty.mp4"); }
   media::VideoReader empty;
   s = empty.Open(dir + "/empty.mp4");
-  EXPECT_FALSE(s.ok);
-  EXPECT_NE(s.message.find("empty"), std::string::npos);
+  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s.message, ::testing::HasSubstr("empty"));
 
   {
     std::ofstream junk(dir + "/junk.mp4", std::ios::binary);
@@ -277,24 +278,24 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
   }
   media::VideoReader corrupt;
   s = corrupt.Open(dir + "/junk.mp4");
-  EXPECT_FALSE(s.ok);
+  EXPECT_FALSE(s.ok());
   EXPECT_FALSE(s.message.empty());
   EXPECT_FALSE(corrupt.Read(&frame));
 
   media::Mp4Writer writer;
-  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok);
-  EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok);
+  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64)).ok());
+  EXPECT_FALSE(writer.Write(cv::Mat(64, 64, CV_8U), 0.0).ok());
   media::Mp4WriterOptions cli;
   cli.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
-  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
-  EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok);
+  EXPECT_FALSE(writer.Open(dir + "/no/such/dir/out.mp4", 30.0, cv::Size(64, 64), cli).ok());
+  EXPECT_FALSE(writer.Open(dir + "/odd.mp4", 30.0, cv::Size(63, 64), cli).ok());
   cli.crf = 99;
-  EXPECT_FALSE(writer.Open(dir + "/out.mp4", 30.0, cv::Size(64, 64), cli).ok);
+  EXPECT_FALSE(writer.Open(dir + "/out.mp4", 30.0, cv::Size(64, 64), cli).ok());
 
   // A truncated file: the first half of a good one.
   {
     media::Mp4Writer good;
-    ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok);
+    ASSERT_TRUE(good.Open(dir + "/good.mp4", 30.0, cv::Size(64, 64)).ok());
     for (int i = 0; i < 30; ++i) good.Write(cv::Mat(64, 64, CV_8U, cv::Scalar(4 * i)), i / 30.0);
     good.Close();
     std::ifstream in(dir + "/good.mp4", std::ios::binary);
@@ -302,9 +303,9 @@ TEST(VideoFiles, BadFilesGiveAClearStatus) {
     std::ofstream(dir + "/cut.mp4", std::ios::binary).write(bytes.data(), bytes.size() / 2);
   }
   media::VideoReader truncated;
-  const media::VideoStatus t = truncated.Open(dir + "/cut.mp4");
+  const Status t = truncated.Open(dir + "/cut.mp4");
   int frames = 0;
-  if (t.ok) {
+  if (t.ok()) {
     while (truncated.Read(&frame)) ++frames;
   } else {
     EXPECT_FALSE(t.message.empty());

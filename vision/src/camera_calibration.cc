@@ -80,6 +80,18 @@ int CalibrationBoard::MaxCorners() const {
   return type == Type::kChessboard ? cols * rows : (cols - 1) * (rows - 1);
 }
 
+bool BoardDetectionOptions::IsValid(std::string* why) const {
+  if (subpix_half_window_px < 1) {
+    if (why) *why = "the corner refinement half window must be at least 1 px";
+    return false;
+  }
+  if (min_charuco_corners < 4) {
+    if (why) *why = "a ChArUco view needs at least 4 corners (min_charuco_corners >= 4)";
+    return false;
+  }
+  return true;
+}
+
 bool CharucoAvailable() {
 #ifdef ODOCAL_HAVE_ARUCO
   return true;
@@ -90,6 +102,12 @@ bool CharucoAvailable() {
 
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) {
+    BoardDetection out;
+    out.message = "board detection options: " + why;
+    return out;
+  }
   try {
     return DetectBoardOrThrow(image, board, options);
   } catch (const cv::Exception& e) {
@@ -197,12 +215,12 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   CameraCalibrationResult result;
   std::string why;
   if (!options.IsValid(&why)) {
-    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
   if (image_size.width <= 0 || image_size.height <= 0) {
-    result.status = CameraCalibrationResult::Status::kInvalidInput;
+    result.status = StatusCode::kInvalidArgument;
     result.message = "image size must be positive";
     return result;
   }
@@ -210,7 +228,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   std::vector<std::vector<cv::Point2f>> image_points;
   for (const BoardDetection& v : views) {
     if (!v.found || v.image_points.size() != v.object_points.size() || v.image_points.size() < 4) {
-      result.status = CameraCalibrationResult::Status::kInvalidInput;
+      result.status = StatusCode::kInvalidArgument;
       result.message = "every view must be a detection with at least 4 matched corners";
       return result;
     }
@@ -220,7 +238,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   }
   result.views = static_cast<int>(views.size());
   if (result.views < options.min_views) {
-    result.status = CameraCalibrationResult::Status::kTooFewViews;
+    result.status = StatusCode::kInvalidArgument;
     result.message = std::to_string(result.views) + " usable view" + (result.views == 1 ? "" : "s") +
                      ", need at least " + std::to_string(options.min_views);
     return result;
@@ -236,13 +254,13 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
         std_extrinsics, per_view, flags,
         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
   } catch (const cv::Exception& e) {
-    result.status = CameraCalibrationResult::Status::kFailed;
+    result.status = StatusCode::kFailed;
     result.message = "cv::calibrateCamera failed: " + e.err;
     return result;
   }
   const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
   if (!intrinsics || !std::isfinite(result.rms_reprojection_error_px)) {
-    result.status = CameraCalibrationResult::Status::kFailed;
+    result.status = StatusCode::kFailed;
     result.message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
     return result;
   }
@@ -251,7 +269,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     result.per_view_rms_px.push_back(per_view.at<double>(i));
   for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i)
     result.sigma[i] = std_intrinsics.at<double>(i);
-  result.status = CameraCalibrationResult::Status::kOk;
+  result.status = StatusCode::kOk;
   result.message = "ok";
   return result;
 }

@@ -6,10 +6,10 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "odocal/base/units.h"
+
 namespace odocal::vision {
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // Optical axes of a camera looking straight down, image x along world x.
 Eigen::Matrix3d RWorldDown() {

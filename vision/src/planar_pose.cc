@@ -7,13 +7,13 @@
 #include <ceres/ceres.h>
 #include <opencv2/calib3d.hpp>
 
+#include "odocal/base/units.h"
+
 namespace odocal::vision {
 
 using calibration::Pose2;
 
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // Camera over the tag plane: roll, pitch, height above the plane (m). The
 // gauge (x, y, yaw) is constant.

@@ -29,16 +29,16 @@ constexpr int kExitLineCut = 6;     // cable pulled, device gone
 constexpr int kExitRefused = 7;     // robot refused (NACK)
 constexpr int kExitVerify = 8;      // read-back differs
 
-int ExitCode(rl::Status s) {
+int ExitCode(odocal::StatusCode s) {
   switch (s) {
-    case rl::Status::kOpenFailed: return kExitOpen;
-    case rl::Status::kTimeout: return kExitTimeout;
-    case rl::Status::kCrcErrors: return kExitCrc;
-    case rl::Status::kVersionMismatch:
-    case rl::Status::kTableMismatch: return kExitVersion;
-    case rl::Status::kLineCut: return kExitLineCut;
-    case rl::Status::kNack: return kExitRefused;
-    case rl::Status::kVerifyFailed: return kExitVerify;
+    case odocal::StatusCode::kOpenFailed: return kExitOpen;
+    case odocal::StatusCode::kTimeout: return kExitTimeout;
+    case odocal::StatusCode::kCrcErrors: return kExitCrc;
+    case odocal::StatusCode::kVersionMismatch:
+    case odocal::StatusCode::kTableMismatch: return kExitVersion;
+    case odocal::StatusCode::kLineCut: return kExitLineCut;
+    case odocal::StatusCode::kNack: return kExitRefused;
+    case odocal::StatusCode::kVerifyFailed: return kExitVerify;
     default: return kExitOther;
   }
 }
@@ -49,7 +49,7 @@ int ExitCode(rl::Status s) {
 }
 
 template <typename T>
-T Check(rl::Result<T> r) {
+T Check(odocal::Result<T> r) {
   if (!r.ok()) Fail(ExitCode(r.status), r.message);
   return std::move(*r.value);
 }

@@ -62,8 +62,8 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
     return track;
   }
   media::VideoReader reader;
-  const media::VideoStatus opened = reader.Open(video_path);
-  if (!opened.ok) {
+  const odocal::Status opened = reader.Open(video_path);
+  if (!opened.ok()) {
     track.message = opened.message;
     return track;
   }

@@ -47,16 +47,17 @@ struct Mp4Writer::Impl {
 Mp4Writer::Mp4Writer() : impl_(std::make_unique<Impl>()) {}
 Mp4Writer::~Mp4Writer() { Close(); }
 
-VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_size,
-                            const Mp4WriterOptions& options) {
+Status Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_size,
+                       const Mp4WriterOptions& options) {
   Close();
   std::string why;
-  if (!options.IsValid(&why)) return {false, why};
+  if (!options.IsValid(&why)) return Status::Error(StatusCode::kInvalidArgument, why);
   if (!(fps > 0.0) || frame_size.width <= 0 || frame_size.height <= 0) {
-    return {false, "video fps and frame size must be positive"};
+    return Status::Error(StatusCode::kInvalidArgument, "video fps and frame size must be positive");
   }
   if (frame_size.width % 2 || frame_size.height % 2) {
-    return {false, "H.264 (yuv420p) needs an even frame width and height"};
+    return Status::Error(StatusCode::kInvalidArgument,
+                         "H.264 (yuv420p) needs an even frame width and height");
   }
   impl_->options = options;
   size_ = frame_size;
@@ -64,16 +65,19 @@ VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_
   if (options.backend == Mp4WriterOptions::Backend::kOpenCv) {
     const int fourcc = cv::VideoWriter::fourcc('a', 'v', 'c', '1');
     if (!impl_->writer.open(path, cv::CAP_FFMPEG, fourcc, fps, frame_size, true)) {
-      return {false, "cannot open '" + path +
-                         "' for H.264 (avc1) writing through OpenCV's FFmpeg backend: this OpenCV "
-                         "build or FFmpeg lacks an H.264 encoder (libx264), or the path is not writable"};
+      return Status::Error(
+          StatusCode::kIoError,
+          "cannot open '" + path +
+              "' for H.264 (avc1) writing through OpenCV's FFmpeg backend: this OpenCV "
+              "build or FFmpeg lacks an H.264 encoder (libx264), or the path is not writable");
     }
-    return {true, ""};
+    return Status::Ok();
   }
   // kFfmpegCli. The output must be creatable (ffmpeg would only say so later).
   {
     std::ofstream probe(path, std::ios::binary);
-    if (!probe) return {false, "cannot create video file '" + path + "'"};
+    if (!probe)
+      return Status::Error(StatusCode::kIoError, "cannot create video file '" + path + "'");
   }
   // A socket rather than a pipe: send(MSG_NOSIGNAL) reports a dead ffmpeg as
   // an error instead of raising SIGPIPE in the caller's process.
@@ -83,7 +87,7 @@ VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_
   // dup2 onto its stdin makes a descriptor without the flag.
   int fds[2];
   if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
-    return {false, "cannot create a socket to ffmpeg"};
+    return Status::Error(StatusCode::kIoError, "cannot create a socket to ffmpeg");
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, fds[0], STDIN_FILENO);
@@ -105,17 +109,20 @@ VideoStatus Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_
   close(fds[0]);
   if (rc != 0) {
     close(fds[1]);
-    return {false, "cannot run the ffmpeg program for H.264 writing (is it installed?)"};
+    return Status::Error(StatusCode::kFailed,
+                         "cannot run the ffmpeg program for H.264 writing (is it installed?)");
   }
   impl_->child = pid;
   impl_->pipe_fd = fds[1];
-  return {true, ""};
+  return Status::Ok();
 }
 
-VideoStatus Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
-  if (!impl_->IsOpen()) return {false, "video writer is not open"};
+Status Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
+  if (!impl_->IsOpen())
+    return Status::Error(StatusCode::kInvalidArgument, "video writer is not open");
   if (grey_frame.type() != CV_8UC1 || grey_frame.size() != size_) {
-    return {false, "frame must be 8-bit grey of the size the writer was opened with"};
+    return Status::Error(StatusCode::kInvalidArgument,
+                         "frame must be 8-bit grey of the size the writer was opened with");
   }
   if (impl_->pipe_fd >= 0) {
     const cv::Mat frame = grey_frame.isContinuous() ? grey_frame : grey_frame.clone();
@@ -125,7 +132,7 @@ VideoStatus Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
       const ssize_t n = ::send(impl_->pipe_fd, data, left, MSG_NOSIGNAL);
       if (n <= 0) {
         if (n < 0 && errno == EINTR) continue;
-        return {false, "ffmpeg stopped accepting frames"};
+        return Status::Error(StatusCode::kIoError, "ffmpeg stopped accepting frames");
       }
       data += n;
       left -= static_cast<size_t>(n);
@@ -135,11 +142,11 @@ VideoStatus Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
     impl_->writer.write(impl_->bgr);
   }
   timestamps_s_.push_back(timestamp_s);
-  return {true, ""};
+  return Status::Ok();
 }
 
-VideoStatus Mp4Writer::Close() {
-  if (!impl_) return {true, ""};
+Status Mp4Writer::Close() {
+  if (!impl_) return Status::Ok();
   if (impl_->writer.isOpened()) impl_->writer.release();
   if (impl_->pipe_fd >= 0) {
     close(impl_->pipe_fd);
@@ -149,19 +156,20 @@ VideoStatus Mp4Writer::Close() {
     }
     impl_->child = -1;
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-      return {false, "ffmpeg failed to finish the video"};
+      return Status::Error(StatusCode::kFailed, "ffmpeg failed to finish the video");
     }
   }
-  return {true, ""};
+  return Status::Ok();
 }
 
-VideoStatus Mp4Writer::WriteTimestamps(const std::string& path) const {
+Status Mp4Writer::WriteTimestamps(const std::string& path) const {
   std::ofstream out(path);
-  if (!out) return {false, "cannot write timestamp list '" + path + "'"};
+  if (!out)
+    return Status::Error(StatusCode::kIoError, "cannot write timestamp list '" + path + "'");
   out << "frame,t_s\n";
   out.precision(9);
   for (size_t i = 0; i < timestamps_s_.size(); ++i) out << i << ',' << timestamps_s_[i] << '\n';
-  return out ? VideoStatus{true, ""} : VideoStatus{false, "write error on '" + path + "'"};
+  return out ? Status::Ok() : Status::Error(StatusCode::kIoError, "write error on '" + path + "'");
 }
 
 struct VideoReader::Impl {
@@ -173,22 +181,25 @@ struct VideoReader::Impl {
 VideoReader::VideoReader() : impl_(std::make_unique<Impl>()) {}
 VideoReader::~VideoReader() = default;
 
-VideoStatus VideoReader::Open(const std::string& path) {
+Status VideoReader::Open(const std::string& path) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return {false, "video file '" + path + "' does not exist"};
+  if (!std::filesystem::exists(path, ec))
+    return Status::Error(StatusCode::kNotFound, "video file '" + path + "' does not exist");
   if (std::filesystem::file_size(path, ec) == 0 || ec) {
-    return {false, "video file '" + path + "' is empty"};
+    return Status::Error(StatusCode::kBadFile, "video file '" + path + "' is empty");
   }
   if (!impl_->capture.open(path, cv::CAP_FFMPEG)) {
-    return {false, "cannot open video '" + path + "': not a video FFmpeg can read (corrupt?)"};
+    return Status::Error(StatusCode::kBadFile, "cannot open video '" + path +
+                                                   "': not a video FFmpeg can read (corrupt?)");
   }
   cv::Mat first;
   if (!impl_->capture.read(first) || first.empty()) {
     impl_->capture.release();
-    return {false, "video '" + path + "' has no decodable frame (corrupt or truncated?)"};
+    return Status::Error(StatusCode::kBadFile,
+                         "video '" + path + "' has no decodable frame (corrupt or truncated?)");
   }
   impl_->pending = first;
-  return {true, ""};
+  return Status::Ok();
 }
 
 bool VideoReader::Read(cv::Mat* grey_frame) {
@@ -266,20 +277,20 @@ std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& f
   Mp4WriterOptions wo;
   wo.backend = Mp4WriterOptions::Backend::kFfmpegCli;
   wo.crf = codec.crf;
-  VideoStatus s = writer.Open(path, fps, frames.front().size(), wo);
-  for (size_t k = 0; s.ok && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
-  if (s.ok) s = writer.Close();
+  Status s = writer.Open(path, fps, frames.front().size(), wo);
+  for (size_t k = 0; s.ok() && k < frames.size(); ++k) s = writer.Write(frames[k], k / fps);
+  if (s.ok()) s = writer.Close();
   std::vector<cv::Mat> out;
-  if (s.ok) {
+  if (s.ok()) {
     VideoReader reader;
     s = reader.Open(path);
     cv::Mat f;
-    while (s.ok && reader.Read(&f)) out.push_back(f.clone());
+    while (s.ok() && reader.Read(&f)) out.push_back(f.clone());
   }
   std::error_code ignored;
   std::filesystem::remove(path, ignored);
-  if (!s.ok || out.size() != frames.size()) {
-    if (error) *error = s.ok ? "H.264 round trip lost frames" : s.message;
+  if (!s.ok() || out.size() != frames.size()) {
+    if (error) *error = s.ok() ? "H.264 round trip lost frames" : s.message;
     return std::nullopt;
   }
   return out;

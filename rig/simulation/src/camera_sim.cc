@@ -48,10 +48,10 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
   media::Mp4WriterOptions writer_options;
   writer_options.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
   writer_options.crf = cam.crf;
-  const media::VideoStatus opened =
+  const odocal::Status opened =
       writer.Open(out->video, cam.fps, cv::Size(cam.intrinsics.width, cam.intrinsics.height),
                   writer_options);
-  if (!opened.ok) return opened.message;
+  if (!opened.ok()) return opened.message;
 
   std::string truth =
       "frame,t_capture_s,stamp_s,visible,robot_x_mm,robot_y_mm,robot_heading_deg,tag_x_mm,"
@@ -64,8 +64,8 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
     const double t = run.start_time_s + k / cam.fps;
     const vision::RenderedFrame frame = renderer.RenderExposure(trajectory, t);
     const double stamp = t - latency_s;
-    const media::VideoStatus wrote = writer.Write(frame.image, stamp);
-    if (!wrote.ok) return wrote.message;
+    const odocal::Status wrote = writer.Write(frame.image, stamp);
+    if (!wrote.ok()) return wrote.message;
     const auto& c = frame.corners_px;
     std::snprintf(line, sizeof(line),
                   "%d,%.6f,%.6f,%d,%.5f,%.5f,%.6f,%.5f,%.5f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
@@ -80,10 +80,10 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
     out->end_s = stamp;
   }
   out->frames_written = frame_count;
-  const media::VideoStatus closed = writer.Close();
-  if (!closed.ok) return closed.message;
-  const media::VideoStatus stamps = writer.WriteTimestamps(out->timestamps);
-  if (!stamps.ok) return stamps.message;
+  const odocal::Status closed = writer.Close();
+  if (!closed.ok()) return closed.message;
+  const odocal::Status stamps = writer.WriteTimestamps(out->timestamps);
+  if (!stamps.ok()) return stamps.message;
   return config::WriteFileAtomically(out->frames, truth);
 }
 

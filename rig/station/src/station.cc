@@ -141,8 +141,8 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
                                   std::string(calibration::ToString(spec.direction)).c_str(), spec.side_m * 1e3);
   const auto started = client_.StartRun(robot_link::RunCommand::FromRunSpec(spec));
   if (!started) {
-    return Failure{started.status == robot_link::Status::kNack ? StationStatus::kRunNotCompleted
-                                                               : StationStatus::kRobotLink,
+    return Failure{started.status == odocal::StatusCode::kNack ? StationStatus::kRunNotCompleted
+                                                                : StationStatus::kRobotLink,
                    what + ": start: " + started.message};
   }
   run->run_id = *started.value;
@@ -156,7 +156,7 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     // robot that stopped answering from a run that is merely long.
     const auto status = client_.GetStatus();
     if (!status) {
-      link_ok_ = status.status != robot_link::Status::kLineCut;
+      link_ok_ = status.status != odocal::StatusCode::kLineCut;
       return Failure{StationStatus::kRobotLink, what + ": " + status.message};
     }
     if (status.value->state == robot_link::RunState::kIdle) {
@@ -428,9 +428,9 @@ StationResult Station::Run() {
     const auto push = client_.PushParams(target);
     if (!push) {
       result.iterations.push_back(std::move(iteration));
-      if (push.status == robot_link::Status::kLineCut) link_ok_ = false;
-      const bool refused = push.status == robot_link::Status::kNack ||
-                           push.status == robot_link::Status::kVerifyFailed;
+      if (push.status == odocal::StatusCode::kLineCut) link_ok_ = false;
+      const bool refused = push.status == odocal::StatusCode::kNack ||
+                           push.status == odocal::StatusCode::kVerifyFailed;
       return finish(Failure{refused ? StationStatus::kPushRefused : StationStatus::kRobotLink,
                             "push: " + push.message});
     }

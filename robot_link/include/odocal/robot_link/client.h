@@ -20,10 +20,10 @@
 #include <optional>
 #include <string>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/robot_link/codec.h"
 #include "odocal/robot_link/params.h"
-#include "odocal/robot_link/result.h"
 #include "odocal/robot_link/transport.h"
 #include "odolink/olf_wire.h"
 
@@ -134,8 +134,8 @@ class Client {
   Result<ParamSet> Rollback();
 
   Result<uint16_t> StartRun(const RunCommand& command);  // returns the run id
-  Outcome Stop();
-  Outcome SetTelemetryRate(uint16_t rate_hz);
+  Status Stop();
+  Status SetTelemetryRate(uint16_t rate_hz);
   Result<RobotStatus> GetStatus();
   // Waits for the run-complete event of `run_id` (polling STATUS if events are
   // lost); telemetry received meanwhile goes to the telemetry callback.

@@ -28,10 +28,10 @@
 #include <thread>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/params.h"
 #include "odocal/robot_link/pty.h"
-#include "odocal/robot_link/result.h"
 #include "odocal/robot_link/transport.h"
 #include "odolink/olf.h"
 

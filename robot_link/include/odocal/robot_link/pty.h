@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "odocal/robot_link/result.h"
+#include "odocal/base/status.h"
 #include "odocal/robot_link/unique_fd.h"
 
 namespace odocal::robot_link {

@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "odocal/robot_link/result.h"
+#include "odocal/base/status.h"
 #include "odocal/robot_link/transport.h"
 #include "odocal/robot_link/unique_fd.h"
 

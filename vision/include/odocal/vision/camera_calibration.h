@@ -24,6 +24,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -64,15 +65,20 @@ struct BoardDetectionOptions {
   // cv::findChessboardCornersSB (finds steeper views; slower on images
   // without a board).
   bool sector_fallback = true;
+
+  // Valid: a half window of at least 1 px and min_charuco_corners >= 4 (a
+  // view with fewer corners cannot enter CalibrateCamera).
+  bool IsValid(std::string* why) const;
 };
 
 // `image`: 8-bit grey, or BGR / BGRA (converted to grey). Not found (with
-// the reason in `message`) rather than an exception when OpenCV objects.
+// the reason in `message`) rather than an exception when OpenCV objects or
+// the options are invalid.
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options = {});
 
 struct CameraCalibrationOptions {
-  int min_views = 3;     // fewer usable views: kTooFewViews
+  int min_views = 3;     // fewer usable views: kInvalidArgument
   // Estimate k3 too (OpenCV's default). For lenses with a modest field of view
   // k3 is poorly observed and trades off against k1, k2; fix it (to 0) there.
   bool fix_k3 = false;
@@ -82,8 +88,9 @@ struct CameraCalibrationOptions {
 };
 
 struct CameraCalibrationResult {
-  enum class Status { kOk, kInvalidInput, kTooFewViews, kFailed };
-  Status status = Status::kFailed;
+  // kInvalidArgument: bad options, image size or views, or fewer usable views
+  // than min_views; kFailed: OpenCV gave no valid camera. The message says which.
+  StatusCode status = StatusCode::kFailed;
   std::string message;
   Intrinsics intrinsics;
   // Over all corners of all views, and per view (input order) [px].
@@ -95,7 +102,7 @@ struct CameraCalibrationResult {
   int views = 0;
   int corners = 0;
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
 };
 
 // Views without a detection (found = false) must be filtered out by the caller.

@@ -1,4 +1,4 @@
-// Video files: H.264 .mp4 writing (the renderer's output, issue 3 §2) and
+// Video files: H.264 .mp4 writing (the renderer's output) and
 // reading grey frames back (rendered or recorded by a real camera).
 //
 // Frames are 8-bit grey (CV_8UC1) in and out; timestamps are seconds from
@@ -13,14 +13,10 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/image_formation.h"
 
 namespace odocal::media {
-
-struct VideoStatus {
-  bool ok = false;
-  std::string message;
-};
 
 // How Mp4Writer encodes. OpenCV 4.6's FFmpeg writer offers no quality
 // setting: libx264 runs at its default CRF 23, which at the standard
@@ -45,14 +41,14 @@ class Mp4Writer {
   ~Mp4Writer();
   // Fails with a clear message when H.264 cannot be written here (no
   // libx264 in this OpenCV/FFmpeg, no ffmpeg program, unwritable path).
-  VideoStatus Open(const std::string& path, double fps, cv::Size frame_size,
+  Status Open(const std::string& path, double fps, cv::Size frame_size,
                    const Mp4WriterOptions& options = {});
-  VideoStatus Write(const cv::Mat& grey_frame, double timestamp_s);
+  Status Write(const cv::Mat& grey_frame, double timestamp_s);
   // Finishes the file (waits for ffmpeg with kFfmpegCli); safe to repeat.
-  VideoStatus Close();
+  Status Close();
   const std::vector<double>& timestamps_s() const { return timestamps_s_; }
   // "frame,t_s" lines, one per written frame.
-  VideoStatus WriteTimestamps(const std::string& path) const;
+  Status WriteTimestamps(const std::string& path) const;
 
  private:
   struct Impl;
@@ -67,7 +63,7 @@ class VideoReader {
   VideoReader();
   ~VideoReader();
   // Missing, empty or corrupt files fail here with a message.
-  VideoStatus Open(const std::string& path);
+  Status Open(const std::string& path);
   // False at the end of the stream (or on a truncated file).
   bool Read(cv::Mat* grey_frame);
   double fps() const;

@@ -8,7 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include "explain_fixtures.h"
+// The sessions come from the virtual robot and the stand-in camera, which
+// live in rig (Simulate, MeasureWithStandInCamera): hence the rig link.
+#include "../rig/explain_fixtures.h"
 
 namespace odocal::rig::testing {
 namespace {

@@ -426,7 +426,7 @@ double TrajectoryFitResult::Wald(Effect effect) const {
 std::string TrajectoryFitResult::BriefReport() const {
   std::ostringstream os;
   os << "trajectory fit: "
-     << (status == Status::kOk ? "ok" : status == Status::kInvalidInput ? "invalid input"
+     << (status == StatusCode::kOk ? "ok" : status == StatusCode::kInvalidArgument ? "invalid input"
                                                                          : "no convergence");
   if (!message.empty()) os << " (" << message << ")";
   os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap "
@@ -556,7 +556,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     solver_options.num_threads = 1;
     ceres::Solve(solver_options, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {
-      result.status = TrajectoryFitResult::Status::kNoConvergence;
+      result.status = StatusCode::kNoConvergence;
       result.message = summary.message;
       return result;
     }
@@ -927,9 +927,9 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     }
   }
 
-  result.status = TrajectoryFitResult::Status::kOk;
+  result.status = StatusCode::kOk;
   if (!summary.IsSolutionUsable()) {
-    result.status = TrajectoryFitResult::Status::kNoConvergence;
+    result.status = StatusCode::kNoConvergence;
     result.message = summary.message;
   } else if (!result.unidentifiable.empty()) {
     result.message = std::to_string(result.unidentifiable.size()) +

@@ -11,13 +11,12 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <ceres/ceres.h>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/statistics.h"
 
 namespace odocal::calibration {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::string Fmt(double value, int precision = 3) {
   std::ostringstream os;
@@ -292,7 +291,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   UmbmarkSummary summary;
   std::string why;
   if (!input.IsValid(&why) || !options.IsValid(&why)) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
@@ -305,14 +304,14 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   const std::optional<FirstOrderEstimate> from_x =
       FirstOrderFromX(summary.cw.x_m, summary.ccw.x_m, L, b, &why);
   if (!from_x) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
   const std::optional<FirstOrderEstimate> from_y =
       FirstOrderFromY(summary.cw.y_m, summary.ccw.y_m, L, b, &why);
   if (!from_y) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
@@ -366,7 +365,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   ceres::Solver::Summary solver_summary;
   ceres::Solve(solver_options, &problem, &solver_summary);
   if (!solver_summary.IsSolutionUsable()) {
-    summary.status = UmbmarkSummary::Status::kNoConvergence;
+    summary.status = StatusCode::kNoConvergence;
     summary.message = "coupled fit did not converge: " + solver_summary.message;
     return summary;
   }
@@ -384,7 +383,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   summary.turn_scale = eb / options.mean_scale;
   summary.c_left = CorrectionLeft(ed);
   summary.c_right = CorrectionRight(ed);
-  summary.status = UmbmarkSummary::Status::kOk;
+  summary.status = StatusCode::kOk;
   summary.message = "ok";
   return summary;
 }

@@ -169,7 +169,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   calibration::MeasuredSession empty;
   empty.believed = test_util::NominalParams();
   auto fit = FitTrajectory(empty);
-  EXPECT_EQ(fit.status, calibration::TrajectoryFitResult::Status::kInvalidInput);
+  EXPECT_EQ(fit.status, odocal::StatusCode::kInvalidArgument);
   EXPECT_FALSE(fit.message.empty());
   TrajectoryFitOptions bad;
   bad.rank_tolerance = 0.0;

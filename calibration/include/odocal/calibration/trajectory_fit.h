@@ -73,6 +73,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/robot_model.h"
@@ -193,8 +194,7 @@ struct ParameterEstimate {
 };
 
 struct TrajectoryFitResult {
-  enum class Status { kOk, kInvalidInput, kNoConvergence };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   TrajectoryFitOptions options;
@@ -244,7 +244,7 @@ struct TrajectoryFitResult {
   // (EffectParams order), then 3 per used run. For aliasing tests.
   Eigen::MatrixXd jacobian;
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
 };
 

@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
+
 namespace odocal::calibration {
 
 // One run's return error: true - odometry, in the run's start frame.
@@ -112,8 +114,7 @@ struct CoupledEstimate {
 };
 
 struct UmbmarkSummary {
-  enum class Status { kOk, kInvalidInput, kNoConvergence };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   CentreOfGravity cw;
@@ -129,7 +130,7 @@ struct UmbmarkSummary {
   double c_left = 1.0;             // multiply left wheel travel per tick (diameter) by this
   double c_right = 1.0;
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
 };
 

@@ -427,10 +427,7 @@ SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFit
                                 new ceres::SubsetManifold(kEffectParams, held_at_zero));
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_QR;
-    solver_options.max_num_iterations = options.max_solver_iterations;
-    solver_options.function_tolerance = 1e-10;
-    solver_options.parameter_tolerance = 1e-10;
-    solver_options.num_threads = 1;
+    ApplyTo(options.solver, &solver_options);
     ceres::Solve(solver_options, &ceres_problem, &summary);
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {
       outcome.failed = true;
@@ -1003,7 +1000,7 @@ bool TrajectoryFitOptions::IsValid(std::string* why) const {
   if (!(wheel_sigma_m_per_sqrt_m >= 0.0)) return fail("wheel_sigma_m_per_sqrt_m must not be negative");
   if (!(huber_threshold >= 0.0)) return fail("huber_threshold must not be negative");
   if (irls_rounds < 1) return fail("irls_rounds must be at least 1");
-  if (max_solver_iterations < 1) return fail("max_solver_iterations must be at least 1");
+  if (!solver.IsValid(why)) return false;
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0))
     return fail("rank_tolerance must be in (0, 1)");
   if (min_frames_per_run < 2) return fail("min_frames_per_run must be at least 2");

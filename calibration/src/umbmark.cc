@@ -267,6 +267,8 @@ bool UmbmarkOptions::IsValid(std::string* why) const {
     return fail("default sigmas must be positive");
   if (!(min_position_sigma_m > 0.0) || !(min_heading_sigma_rad > 0.0))
     return fail("sigma floors must be positive");
+  std::string solver_why;
+  if (!solver.IsValid(&solver_why)) return fail(solver_why);
   return true;
 }
 
@@ -358,10 +360,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   problem.SetParameterUpperBound(&eb, 0, 2.0);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.function_tolerance = 1e-16;
-  solver_options.gradient_tolerance = 1e-20;
-  solver_options.parameter_tolerance = 1e-14;
-  solver_options.max_num_iterations = 100;
+  ApplyTo(options.solver, &solver_options);
   ceres::Solver::Summary solver_summary;
   ceres::Solve(solver_options, &problem, &solver_summary);
   if (!solver_summary.IsSolutionUsable()) {

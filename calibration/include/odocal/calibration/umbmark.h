@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/solver_settings.h"
 #include "odocal/base/status.h"
 
 namespace odocal::calibration {
@@ -63,6 +64,11 @@ struct UmbmarkOptions {
   // Floors on the standard errors learned from the spread of repeated runs.
   double min_position_sigma_m = 1e-6;
   double min_heading_sigma_rad = 1e-7;
+  // The coupled fit of Ed and Eb (two parameters, Ceres with dense QR): run to
+  // the limits of double precision, since the answer is a ratio near 1 and
+  // the problem is tiny.
+  SolverSettings solver{.max_iterations = 100, .function_tolerance = 1e-16,
+                        .gradient_tolerance = 1e-20, .parameter_tolerance = 1e-14};
 
   bool IsValid(std::string* why) const;
 };

@@ -88,8 +88,22 @@ bool CharucoAvailable() {
 #endif
 }
 
+bool BoardDetectionOptions::IsValid(std::string* why) const {
+  if (subpix_half_window_px < 1 || min_charuco_corners < 4) {
+    if (why) *why = "board detection options: subpix_half_window_px >= 1, min_charuco_corners >= 4";
+    return false;
+  }
+  return true;
+}
+
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) {
+    BoardDetection out;
+    out.message = why;
+    return out;
+  }
   try {
     return DetectBoardOrThrow(image, board, options);
   } catch (const cv::Exception& e) {

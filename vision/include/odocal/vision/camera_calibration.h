@@ -64,6 +64,10 @@ struct BoardDetectionOptions {
   // cv::findChessboardCornersSB (finds steeper views; slower on images
   // without a board).
   bool sector_fallback = true;
+
+  // A half window of at least 1 px, and at least 4 ChArUco corners (a view's
+  // homography needs 4 points).
+  bool IsValid(std::string* why) const;
 };
 
 // `image`: 8-bit grey, or BGR / BGRA (converted to grey). Not found (with

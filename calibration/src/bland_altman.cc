@@ -16,7 +16,7 @@ namespace {
 
 BlandAltmanResult Invalid(const std::string& why) {
   BlandAltmanResult r;
-  r.status = BlandAltmanResult::Status::kInvalidInput;
+  r.status = StatusCode::kInvalidArgument;
   r.message = why;
   return r;
 }
@@ -100,7 +100,7 @@ BlandAltmanResult BlandAltman(const std::vector<double>& test, const std::vector
       r.outliers.push_back(i);
     if (d < r.lower_limit || d > r.upper_limit) r.outside_limits.push_back(i);
   }
-  r.status = BlandAltmanResult::Status::kOk;
+  r.status = StatusCode::kOk;
   return r;
 }
 

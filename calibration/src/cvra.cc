@@ -10,14 +10,14 @@ namespace {
 
 CvraResult Invalid(const std::string& message) {
   CvraResult r;
-  r.status = CvraResult::Status::kInvalidInput;
+  r.status = StatusCode::kInvalidArgument;
   r.message = message;
   return r;
 }
 
 CvraResult Ok(double value) {
   CvraResult r;
-  r.status = CvraResult::Status::kOk;
+  r.status = StatusCode::kOk;
   r.message = "ok";
   r.value = value;
   return r;

@@ -244,7 +244,7 @@ std::vector<std::string> ExplainResult::EffectsAdded() const {
 
 std::string ExplainResult::BriefReport() const {
   std::ostringstream os;
-  if (status != Status::kOk) {
+  if (status != StatusCode::kOk) {
     os << "explain: " << message << "\n";
     return os.str();
   }
@@ -310,9 +310,9 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   fit_options.effects.clear();
   result.base = FitTrajectory(session, fit_options);
   if (!result.base.ok()) {
-    result.status = result.base.status == TrajectoryFitResult::Status::kInvalidInput
-                        ? ExplainResult::Status::kInvalidInput
-                        : ExplainResult::Status::kNoConvergence;
+    result.status = result.base.status == StatusCode::kInvalidArgument
+                        ? StatusCode::kInvalidArgument
+                        : StatusCode::kNoConvergence;
     result.message = "base fit: " + result.base.message;
     return result;
   }
@@ -424,7 +424,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     if (a.aliased) result.aliased.push_back(a);
   }
   result.unexplained = FindUnexplained(session, current, options);
-  result.status = ExplainResult::Status::kOk;
+  result.status = StatusCode::kOk;
   return result;
 }
 

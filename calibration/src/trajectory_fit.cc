@@ -13,12 +13,11 @@
 #include <ceres/ceres.h>
 
 #include "odocal/calibration/arc.h"
+#include "odocal/calibration/internal/trajectory_fit_stages.h"
 
 namespace odocal::calibration {
+namespace internal {
 namespace {
-
-constexpr int kBase = 3;
-constexpr int kFx = EffectParams::kSize;
 
 inline double Scalar(double v) { return v; }
 template <typename T, int N>
@@ -26,158 +25,149 @@ double Scalar(const ceres::Jet<T, N>& j) {
   return Scalar(j.a);
 }
 
-// Everything the model needs of one run, extracted once.
-struct RunData {
-  int run = 0;
-  std::vector<double> t;                   // telemetry times (robot clock)
-  std::vector<std::int64_t> dl, dr;        // tick deltas of step k (t[k-1] -> t[k]), k >= 1
-  std::vector<MotionKind> kind;            // of step k
-  std::vector<double> curvature;           // of step k on arcs (1/m), else 0 (arc_scale)
-  int left_direction0 = 1, right_direction0 = 1;  // shaft directions before the run
-  // Used camera frames.
-  std::vector<double> frame_t, zx, zy, zh, sigma_p, sigma_h;
-  std::vector<double> sqrt_w;  // IRLS weights (square roots)
-  int residuals_per_frame = 3;
-};
-
-struct ModelConstants {
-  double left_m_per_tick = 0.0;
-  double right_m_per_tick = 0.0;
-  double track_m = 0.0;
-  std::optional<FloorCamera> camera;
-};
-
-// encoder_backlash: the ticks of step `d` that moved the wheel.
+// encoder_backlash: the ticks of a step of `step_ticks` that moved the wheel.
 template <typename T>
-T MovingTicks(std::int64_t d, int* direction, T* dead, const T& backlash) {
-  if (d == 0) return T(0.0);
-  const int s = d > 0 ? 1 : -1;
+T MovingTicks(std::int64_t step_ticks, int* direction, T* dead_ticks, const T& backlash_ticks) {
+  if (step_ticks == 0) return T(0.0);
+  const int s = step_ticks > 0 ? 1 : -1;
   if (s != *direction) {
     *direction = s;
-    *dead = backlash;
+    *dead_ticks = backlash_ticks;
   }
-  const double magnitude = static_cast<double>(d > 0 ? d : -d);
-  const T consumed = Scalar(*dead) < magnitude ? *dead : T(magnitude);
-  *dead -= consumed;
-  return T(static_cast<double>(d)) - double(s) * consumed;
+  const double magnitude = static_cast<double>(step_ticks > 0 ? step_ticks : -step_ticks);
+  const T consumed = Scalar(*dead_ticks) < magnitude ? *dead_ticks : T(magnitude);
+  *dead_ticks -= consumed;
+  return T(static_cast<double>(step_ticks)) - double(s) * consumed;
 }
 
-// The dead-reckoned poses of a run at its telemetry times, from `start`.
+// The dead-reckoned poses of a run at its telemetry times, from `start`
+// (x_m, y_m, heading_rad), with `base_scales` (r_left, r_right, Eb) and the
+// effect block `effect_values` (EffectParams order).
 template <typename T>
-void DeadReckon(const RunData& run, const ModelConstants& c, const T* base, const T* start,
-                const T* fx, std::vector<T>* xs, std::vector<T>* ys, std::vector<T>* hs) {
+void DeadReckon(const RunData& run, const ModelConstants& constants, const T* base_scales,
+                const T* start, const T* effect_values, std::vector<T>* xs_m,
+                std::vector<T>* ys_m, std::vector<T>* headings_rad) {
   using std::abs;
   using std::cos;
   using std::sin;
-  const size_t n = run.t.size();
-  xs->resize(n);
-  ys->resize(n);
-  hs->resize(n);
+  const size_t n = run.t_s.size();
+  xs_m->resize(n);
+  ys_m->resize(n);
+  headings_rad->resize(n);
   T x = start[0], y = start[1], h = start[2];
-  (*xs)[0] = x;
-  (*ys)[0] = y;
-  (*hs)[0] = h;
+  (*xs_m)[0] = x;
+  (*ys_m)[0] = y;
+  (*headings_rad)[0] = h;
   int left_direction = run.left_direction0, right_direction = run.right_direction0;
-  T left_dead(0.0), right_dead(0.0);
-  const T track = base[2] * c.track_m;
+  T left_dead_ticks(0.0), right_dead_ticks(0.0);
+  const T track_m = base_scales[2] * constants.track_m;
+  const T& backlash_ticks = effect_values[EffectParams::kBacklash];
   for (size_t k = 1; k < n; ++k) {
-    const std::int64_t dl = run.dl[k], dr = run.dr[k];
-    if (dl != 0 || dr != 0) {
-      const double dt = std::max(run.t[k] - run.t[k - 1], 1e-6);
-      T left = MovingTicks(dl, &left_direction, &left_dead, fx[EffectParams::kBacklash]) *
-               c.left_m_per_tick * base[0];
-      T right = MovingTicks(dr, &right_direction, &right_dead, fx[EffectParams::kBacklash]) *
-                c.right_m_per_tick * base[1];
+    const std::int64_t left_ticks = run.left_step_ticks[k], right_ticks = run.right_step_ticks[k];
+    if (left_ticks != 0 || right_ticks != 0) {
+      const double dt_s = std::max(run.t_s[k] - run.t_s[k - 1], 1e-6);
+      T left_m = MovingTicks(left_ticks, &left_direction, &left_dead_ticks, backlash_ticks) *
+                 constants.left_m_per_tick * base_scales[0];
+      T right_m = MovingTicks(right_ticks, &right_direction, &right_dead_ticks, backlash_ticks) *
+                  constants.right_m_per_tick * base_scales[1];
       // speed_slip: each wheel loses k |v| of its travel, v its speed over the step.
-      left *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(left) / dt;
-      right *= 1.0 - fx[EffectParams::kSpeedSlip] * abs(right) / dt;
+      left_m *= 1.0 - effect_values[EffectParams::kSpeedSlip] * abs(left_m) / dt_s;
+      right_m *= 1.0 - effect_values[EffectParams::kSpeedSlip] * abs(right_m) / dt_s;
       // arc_scale: on an arc both wheels lose c |kappa| of their travel.
-      if (run.curvature[k] != 0.0) {
-        const T scale = 1.0 - fx[EffectParams::kArcScale] * std::abs(run.curvature[k]);
-        left *= scale;
-        right *= scale;
+      if (run.curvature_per_m[k] != 0.0) {
+        const T scale =
+            1.0 - effect_values[EffectParams::kArcScale] * std::abs(run.curvature_per_m[k]);
+        left_m *= scale;
+        right_m *= scale;
       }
-      const T ds = (left + right) / 2.0;
+      const T ds_m = (left_m + right_m) / 2.0;
       if (run.kind[k] == MotionKind::kTurn) {
-        const T dtheta = (right - left) / track;
-        const T achieved = dtheta * (1.0 - fx[EffectParams::kSlip] * abs(dtheta) / dt);
-        left = ds - achieved * track / 2.0;
-        right = ds + achieved * track / 2.0;
+        const T dtheta_rad = (right_m - left_m) / track_m;
+        const T achieved_rad =
+            dtheta_rad * (1.0 - effect_values[EffectParams::kSlip] * abs(dtheta_rad) / dt_s);
+        left_m = ds_m - achieved_rad * track_m / 2.0;
+        right_m = ds_m + achieved_rad * track_m / 2.0;
       }
       const T h0 = h;
-      AdvanceArc(left, right, track, &x, &y, &h);
+      AdvanceArc(left_m, right_m, track_m, &x, &y, &h);
       if (run.kind[k] == MotionKind::kStraight) {
-        const T mid = (h0 + h) / 2.0;
-        const T lateral =
-            (fx[EffectParams::kDriftA] * cos(mid) + fx[EffectParams::kDriftB] * sin(mid)) * ds;
-        x -= lateral * sin(mid);
-        y += lateral * cos(mid);
+        const T mid_rad = (h0 + h) / 2.0;
+        const T lateral_m = (effect_values[EffectParams::kDriftA] * cos(mid_rad) +
+                             effect_values[EffectParams::kDriftB] * sin(mid_rad)) *
+                            ds_m;
+        x -= lateral_m * sin(mid_rad);
+        y += lateral_m * cos(mid_rad);
       }
     }
-    (*xs)[k] = x;
-    (*ys)[k] = y;
-    (*hs)[k] = h;
+    (*xs_m)[k] = x;
+    (*ys_m)[k] = y;
+    (*headings_rad)[k] = h;
   }
 }
 
 // The measured pose predicted for a camera frame stamped `stamp_s`.
 template <typename T>
-void PredictFrame(const RunData& run, const ModelConstants& c, const std::vector<T>& xs,
-                  const std::vector<T>& ys, const std::vector<T>& hs, const T* fx, double stamp_s,
-                  T* px, T* py, T* ph) {
+void PredictFrame(const RunData& run, const ModelConstants& constants, const std::vector<T>& xs_m,
+                  const std::vector<T>& ys_m, const std::vector<T>& headings_rad,
+                  const T* effect_values, double stamp_s, T* px_m, T* py_m, T* ph_rad) {
   using std::cos;
   using std::sin;
-  const T t = stamp_s + fx[EffectParams::kLatency];
+  const T t = stamp_s + effect_values[EffectParams::kLatency];
   const double ts = Scalar(t);
-  const size_t n = run.t.size();
-  if (ts <= run.t.front()) {
-    *px = xs.front(), *py = ys.front(), *ph = hs.front();
-  } else if (ts >= run.t.back()) {
-    *px = xs.back(), *py = ys.back(), *ph = hs.back();
+  const size_t n = run.t_s.size();
+  if (ts <= run.t_s.front()) {
+    *px_m = xs_m.front(), *py_m = ys_m.front(), *ph_rad = headings_rad.front();
+  } else if (ts >= run.t_s.back()) {
+    *px_m = xs_m.back(), *py_m = ys_m.back(), *ph_rad = headings_rad.back();
   } else {
-    const size_t k = static_cast<size_t>(std::upper_bound(run.t.begin(), run.t.end(), ts) -
-                                         run.t.begin()) - 1;
+    const size_t k = static_cast<size_t>(std::upper_bound(run.t_s.begin(), run.t_s.end(), ts) -
+                                         run.t_s.begin()) - 1;
     const size_t k1 = std::min(k + 1, n - 1);
-    const double span = std::max(run.t[k1] - run.t[k], 1e-9);
-    const T u = (t - run.t[k]) / span;
-    *px = xs[k] + u * (xs[k1] - xs[k]);
-    *py = ys[k] + u * (ys[k1] - ys[k]);
-    *ph = hs[k] + u * (hs[k1] - hs[k]);
+    const double span_s = std::max(run.t_s[k1] - run.t_s[k], 1e-9);
+    const T u = (t - run.t_s[k]) / span_s;
+    *px_m = xs_m[k] + u * (xs_m[k1] - xs_m[k]);
+    *py_m = ys_m[k] + u * (ys_m[k1] - ys_m[k]);
+    *ph_rad = headings_rad[k] + u * (headings_rad[k1] - headings_rad[k]);
   }
   // tag_offset: the camera measures the tag, taken to be at the axle midpoint.
-  const T tx = fx[EffectParams::kTagX], ty = fx[EffectParams::kTagY];
-  const T ch = cos(*ph), sh = sin(*ph);
-  *px += ch * tx - sh * ty;
-  *py += sh * tx + ch * ty;
+  const T tag_x_m = effect_values[EffectParams::kTagX], tag_y_m = effect_values[EffectParams::kTagY];
+  const T ch = cos(*ph_rad), sh = sin(*ph_rad);
+  *px_m += ch * tag_x_m - sh * tag_y_m;
+  *py_m += sh * tag_x_m + ch * tag_y_m;
   // tracker_yaw: the tracked body's heading is off the robot's by a constant.
-  *ph += fx[EffectParams::kTrackerYaw];
+  *ph_rad += effect_values[EffectParams::kTrackerYaw];
   // lens_distortion: where the pipeline measures the tag through a lens whose k1 is off.
-  if (c.camera) {
-    const T x = *px, y = *py;
-    SeenThroughLens(*c.camera, x, y, fx[EffectParams::kK1], fx[EffectParams::kTiltX],
-                    fx[EffectParams::kTiltY], px, py);
+  if (constants.camera) {
+    const T x = *px_m, y = *py_m;
+    SeenThroughLens(*constants.camera, x, y, effect_values[EffectParams::kK1],
+                    effect_values[EffectParams::kTiltX], effect_values[EffectParams::kTiltY], px_m,
+                    py_m);
   }
 }
 
+// One run's frames against the model, whitened and robust-weighted: one cost
+// block, since the frames share the run's dead reckoning.
 struct RunResidual {
   const RunData* run;
   const ModelConstants* constants;
 
   template <typename T>
-  bool operator()(const T* base, const T* start, const T* fx, T* residuals) const {
-    std::vector<T> xs, ys, hs;
-    DeadReckon(*run, *constants, base, start, fx, &xs, &ys, &hs);
+  bool operator()(const T* base_scales, const T* start, const T* effect_values,
+                  T* residuals) const {
+    std::vector<T> xs_m, ys_m, headings_rad;
+    DeadReckon(*run, *constants, base_scales, start, effect_values, &xs_m, &ys_m, &headings_rad);
     const int m = run->residuals_per_frame;
-    for (size_t j = 0; j < run->frame_t.size(); ++j) {
-      T px, py, ph;
-      PredictFrame(*run, *constants, xs, ys, hs, fx, run->frame_t[j], &px, &py, &ph);
-      const double w = run->sqrt_w[j];
-      residuals[m * j + 0] = w * (px - run->zx[j]) / run->sigma_p[j];
-      residuals[m * j + 1] = w * (py - run->zy[j]) / run->sigma_p[j];
+    for (size_t j = 0; j < run->frame_t_s.size(); ++j) {
+      T px_m, py_m, ph_rad;
+      PredictFrame(*run, *constants, xs_m, ys_m, headings_rad, effect_values, run->frame_t_s[j],
+                   &px_m, &py_m, &ph_rad);
+      const double w = run->sqrt_weight[j];
+      residuals[m * j + 0] = w * (px_m - run->measured_x_m[j]) / run->sigma_position_m[j];
+      residuals[m * j + 1] = w * (py_m - run->measured_y_m[j]) / run->sigma_position_m[j];
       if (m == 3) {
-        T dh = ph - run->zh[j];
-        dh -= 2.0 * M_PI * std::round(Scalar(dh) / (2.0 * M_PI));
-        residuals[m * j + 2] = w * dh / run->sigma_h[j];
+        T dh_rad = ph_rad - run->measured_heading_rad[j];
+        dh_rad -= 2.0 * M_PI * std::round(Scalar(dh_rad) / (2.0 * M_PI));
+        residuals[m * j + 2] = w * dh_rad / run->sigma_heading_rad[j];
       }
     }
     return true;
@@ -191,80 +181,11 @@ struct RunResidual {
 struct BasePrior {
   double sigma = 0.2;
   template <typename T>
-  bool operator()(const T* base, T* residuals) const {
-    for (int i = 0; i < kBase; ++i) residuals[i] = (base[i] - 1.0) / sigma;
+  bool operator()(const T* base_scales, T* residuals) const {
+    for (int i = 0; i < kBaseParams; ++i) residuals[i] = (base_scales[i] - 1.0) / sigma;
     return true;
   }
 };
-
-MotionKind StepKind(std::int64_t dl, std::int64_t dr) {
-  if (dl == 0 && dr == 0) return MotionKind::kRest;
-  if ((dl > 0 && dr < 0) || (dl < 0 && dr > 0)) return MotionKind::kTurn;
-  return MotionKind::kStraight;
-}
-
-// The telemetry part of a run: its times, each step's tick deltas and
-// motion. The shafts' last directions (encoder_backlash) come in and go out
-// through `left_direction` and `right_direction`.
-RunData ExtractTelemetry(const MeasuredRun& mr, int index, int* left_direction,
-                         int* right_direction) {
-  RunData rd;
-  rd.run = index;
-  rd.left_direction0 = *left_direction;
-  rd.right_direction0 = *right_direction;
-  for (size_t k = 0; k < mr.telemetry.size(); ++k) {
-    rd.t.push_back(mr.telemetry[k].t_s);
-    const std::int64_t dl = k == 0 ? 0 : mr.telemetry[k].left_ticks - mr.telemetry[k - 1].left_ticks;
-    const std::int64_t dr = k == 0 ? 0 : mr.telemetry[k].right_ticks - mr.telemetry[k - 1].right_ticks;
-    rd.dl.push_back(dl);
-    rd.dr.push_back(dr);
-    rd.kind.push_back(StepKind(dl, dr));
-    if (dl != 0) *left_direction = dl > 0 ? 1 : -1;
-    if (dr != 0) *right_direction = dr > 0 ? 1 : -1;
-  }
-  return rd;
-}
-
-// arc_scale's curvature of each step: the believed wheel travels summed over
-// the same-direction steps within kArcWindowSteps either side (one step's
-// ticks differ by a tick or two on a straight: ~0.2 /m at 50 Hz and 50 mm/s),
-// kappa = (right - left) / (track (right + left) / 2).
-void MarkArcs(const ModelConstants& c, RunData* rd) {
-  const size_t n = rd->t.size();
-  rd->curvature.assign(n, 0.0);
-  // Both wheels moving the same way: not at rest, not a turn in place, and
-  // not the first or last step of one (a single wheel still counting).
-  auto forward_like = [&](size_t k) {
-    return (rd->dl[k] > 0 && rd->dr[k] > 0) || (rd->dl[k] < 0 && rd->dr[k] < 0);
-  };
-  for (size_t k = 1; k < n; ++k) {
-    if (!forward_like(k)) continue;
-    double left = 0.0, right = 0.0;
-    const size_t from = k > static_cast<size_t>(kArcWindowSteps) ? k - kArcWindowSteps : 1;
-    const size_t to = std::min(n - 1, k + kArcWindowSteps);
-    for (size_t j = from; j <= to; ++j) {
-      // Same way as step k: a direct reversal would cancel the travel.
-      if (!forward_like(j) || (rd->dl[j] > 0) != (rd->dl[k] > 0)) continue;
-      left += rd->dl[j] * c.left_m_per_tick;
-      right += rd->dr[j] * c.right_m_per_tick;
-    }
-    const double ds = 0.5 * (left + right);
-    if (std::abs(ds) < 1e-9) continue;
-    // A backward arc turns the other way for the same wheel difference; the
-    // curvature's sign is only reported, the effect uses |kappa|.
-    const double kappa = (right - left) / (c.track_m * ds);
-    if (std::abs(kappa) >= kArcMinCurvature) rd->curvature[k] = kappa;
-  }
-}
-
-ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera) {
-  ModelConstants c;
-  c.left_m_per_tick = believed.LeftMetresPerTick();
-  c.right_m_per_tick = believed.RightMetresPerTick();
-  c.track_m = believed.track_m;
-  c.camera = camera;
-  return c;
-}
 
 std::string Fixed(double v, int precision) {
   std::ostringstream os;
@@ -279,6 +200,695 @@ double Median(std::vector<double> v) {
   return v[mid];
 }
 
+// The parameter blocks in the order of the cost blocks.
+std::array<const double*, 3> BlocksOf(const FitParameters& params, size_t run_index) {
+  return {params.base_scales.data(), params.start_poses[run_index].data(),
+          params.effects.values.data()};
+}
+
+}  // namespace
+
+MotionKind StepKind(std::int64_t left_step_ticks, std::int64_t right_step_ticks) {
+  if (left_step_ticks == 0 && right_step_ticks == 0) return MotionKind::kRest;
+  if ((left_step_ticks > 0 && right_step_ticks < 0) || (left_step_ticks < 0 && right_step_ticks > 0))
+    return MotionKind::kTurn;
+  return MotionKind::kStraight;
+}
+
+RunData ExtractTelemetry(const MeasuredRun& run, int index, int* left_direction,
+                         int* right_direction) {
+  RunData rd;
+  rd.run = index;
+  rd.left_direction0 = *left_direction;
+  rd.right_direction0 = *right_direction;
+  const std::vector<TelemetryRecord>& telemetry = run.telemetry;
+  for (size_t k = 0; k < telemetry.size(); ++k) {
+    rd.t_s.push_back(telemetry[k].t_s);
+    const std::int64_t left_ticks = k == 0 ? 0 : telemetry[k].left_ticks - telemetry[k - 1].left_ticks;
+    const std::int64_t right_ticks =
+        k == 0 ? 0 : telemetry[k].right_ticks - telemetry[k - 1].right_ticks;
+    rd.left_step_ticks.push_back(left_ticks);
+    rd.right_step_ticks.push_back(right_ticks);
+    rd.kind.push_back(StepKind(left_ticks, right_ticks));
+    if (left_ticks != 0) *left_direction = left_ticks > 0 ? 1 : -1;
+    if (right_ticks != 0) *right_direction = right_ticks > 0 ? 1 : -1;
+  }
+  return rd;
+}
+
+// arc_scale's curvature of each step: the believed wheel travels summed over
+// the same-direction steps within kArcWindowSteps either side (one step's
+// ticks differ by a tick or two on a straight: ~0.2 /m at 50 Hz and 50 mm/s),
+// kappa = (right - left) / (track (right + left) / 2).
+void MarkArcs(const ModelConstants& constants, RunData* rd) {
+  const size_t n = rd->t_s.size();
+  rd->curvature_per_m.assign(n, 0.0);
+  // Both wheels moving the same way: not at rest, not a turn in place, and
+  // not the first or last step of one (a single wheel still counting).
+  auto forward_like = [&](size_t k) {
+    return (rd->left_step_ticks[k] > 0 && rd->right_step_ticks[k] > 0) ||
+           (rd->left_step_ticks[k] < 0 && rd->right_step_ticks[k] < 0);
+  };
+  for (size_t k = 1; k < n; ++k) {
+    if (!forward_like(k)) continue;
+    double left_m = 0.0, right_m = 0.0;
+    const size_t from = k > static_cast<size_t>(kArcWindowSteps) ? k - kArcWindowSteps : 1;
+    const size_t to = std::min(n - 1, k + kArcWindowSteps);
+    for (size_t j = from; j <= to; ++j) {
+      // Same way as step k: a direct reversal would cancel the travel.
+      if (!forward_like(j) || (rd->left_step_ticks[j] > 0) != (rd->left_step_ticks[k] > 0))
+        continue;
+      left_m += rd->left_step_ticks[j] * constants.left_m_per_tick;
+      right_m += rd->right_step_ticks[j] * constants.right_m_per_tick;
+    }
+    const double ds_m = 0.5 * (left_m + right_m);
+    if (std::abs(ds_m) < 1e-9) continue;
+    // A backward arc turns the other way for the same wheel difference; the
+    // curvature's sign is only reported, the effect uses |kappa|.
+    const double kappa_per_m = (right_m - left_m) / (constants.track_m * ds_m);
+    if (std::abs(kappa_per_m) >= kArcMinCurvature) rd->curvature_per_m[k] = kappa_per_m;
+  }
+}
+
+ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera) {
+  ModelConstants c;
+  c.left_m_per_tick = believed.LeftMetresPerTick();
+  c.right_m_per_tick = believed.RightMetresPerTick();
+  c.track_m = believed.track_m;
+  c.camera = camera;
+  return c;
+}
+
+std::string ValidateFitInputs(const MeasuredSession& session, const TrajectoryFitOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return "options: " + why;
+  if (!session.believed.IsValid(&why)) return "believed parameters: " + why;
+  const bool lens_on = std::find(options.effects.begin(), options.effects.end(),
+                                 Effect::kLensDistortion) != options.effects.end();
+  if (lens_on && (!session.camera || !session.camera->IsValid()))
+    return "lens_distortion needs the camera's geometry over the tag plane (session.camera)";
+  return "";
+}
+
+ExtractedRuns ExtractRuns(const MeasuredSession& session, const TrajectoryFitOptions& options,
+                          const ModelConstants& constants) {
+  ExtractedRuns out;
+  out.run_used.assign(session.runs.size(), false);
+  int left_direction = 1, right_direction = 1;
+  for (size_t i = 0; i < session.runs.size(); ++i) {
+    const MeasuredRun& mr = session.runs[i];
+    RunData rd = ExtractTelemetry(mr, static_cast<int>(i), &left_direction, &right_direction);
+    MarkArcs(constants, &rd);
+    rd.residuals_per_frame = options.use_heading ? 3 : 2;
+    if (rd.t_s.size() < 2) continue;
+    for (const CameraRecord& f : mr.camera) {
+      if (!f.valid) continue;
+      rd.frame_t_s.push_back(f.t_s);
+      rd.measured_x_m.push_back(f.T_world_robot.x());
+      rd.measured_y_m.push_back(f.T_world_robot.y());
+      rd.measured_heading_rad.push_back(f.T_world_robot.heading());
+      rd.sigma_position_m.push_back(f.sigma_position_m > 0.0 ? f.sigma_position_m
+                                                             : options.default_position_sigma_m);
+      rd.sigma_heading_rad.push_back(f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
+                                                               : options.default_heading_sigma_rad);
+    }
+    if (rd.n_frames() < options.min_frames_per_run) continue;
+    rd.sqrt_weight.assign(rd.frame_t_s.size(), 1.0);
+    out.run_used[i] = true;
+    out.runs.push_back(std::move(rd));
+  }
+  return out;
+}
+
+FitParameters InitialParameters(const std::vector<RunData>& runs,
+                                const std::vector<bool>& run_used,
+                                const TrajectoryFitOptions& options,
+                                const TrajectoryFitResult* warm_start) {
+  FitParameters params;
+  params.start_poses.resize(runs.size());
+  for (size_t r = 0; r < runs.size(); ++r)
+    params.start_poses[r] = {runs[r].measured_x_m[0], runs[r].measured_y_m[0],
+                             runs[r].measured_heading_rad[0]};
+  for (Effect e : options.effects)
+    for (int idx : EffectParamIndices(e)) params.effect_enabled[idx] = true;
+  if (warm_start && warm_start->ok() && warm_start->run_used == run_used) {
+    params.base_scales = {warm_start->scales.r_left, warm_start->scales.r_right,
+                          warm_start->scales.Eb};
+    for (int i = 0; i < kEffectParams; ++i)
+      if (params.effect_enabled[i]) params.effects.values[i] = warm_start->effects.values[i];
+    for (size_t r = 0; r < runs.size(); ++r) {
+      const Pose2& p = warm_start->start_poses[runs[r].run];
+      params.start_poses[r] = {p.x(), p.y(), p.heading()};
+    }
+  }
+  return params;
+}
+
+TrajectoryProblem::TrajectoryProblem() = default;
+TrajectoryProblem::TrajectoryProblem(TrajectoryProblem&&) noexcept = default;
+TrajectoryProblem::~TrajectoryProblem() = default;
+
+TrajectoryProblem BuildProblem(const std::vector<RunData>& runs, const ModelConstants& constants,
+                               const TrajectoryFitOptions& options) {
+  TrajectoryProblem problem;
+  for (const RunData& rd : runs) {
+    auto* functor = new RunResidual{&rd, &constants};
+    problem.run_costs.emplace_back(
+        new ceres::AutoDiffCostFunction<RunResidual, ceres::DYNAMIC, kBaseParams,
+                                        kStartPoseParams, kEffectParams>(functor,
+                                                                         rd.n_residuals()));
+  }
+  problem.base_prior.reset(new ceres::AutoDiffCostFunction<BasePrior, kBaseParams, kBaseParams>(
+      new BasePrior{options.base_prior_sigma}));
+  return problem;
+}
+
+std::vector<double> RunResiduals(const TrajectoryProblem& problem, const FitParameters& params,
+                                 size_t run_index) {
+  const ceres::CostFunction& cost = *problem.run_costs[run_index];
+  std::vector<double> residuals(cost.num_residuals());
+  const std::array<const double*, 3> blocks = BlocksOf(params, run_index);
+  cost.Evaluate(blocks.data(), residuals.data(), nullptr);
+  return residuals;
+}
+
+void ReweightHuber(const TrajectoryProblem& problem, const FitParameters& params,
+                   double huber_threshold, std::vector<RunData>* runs) {
+  std::vector<std::vector<double>> frame_norms(runs->size());
+  std::vector<double> components;
+  for (size_t r = 0; r < runs->size(); ++r) {
+    const RunData& rd = (*runs)[r];
+    const int m = rd.residuals_per_frame;
+    const std::vector<double> residuals = RunResiduals(problem, params, r);
+    for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
+      double sq = 0.0;
+      for (int c = 0; c < m; ++c) {
+        const double e = residuals[m * j + c] / rd.sqrt_weight[j];
+        sq += e * e;
+        components.push_back(std::abs(e));
+      }
+      frame_norms[r].push_back(std::sqrt(sq));
+    }
+  }
+  const double robust_sigma = std::max(1.4826 * Median(components), 1e-12);
+  for (size_t r = 0; r < runs->size(); ++r) {
+    RunData& rd = (*runs)[r];
+    const double threshold =
+        huber_threshold * robust_sigma * std::sqrt(double(rd.residuals_per_frame));
+    for (size_t j = 0; j < rd.frame_t_s.size(); ++j)
+      rd.sqrt_weight[j] =
+          frame_norms[r][j] <= threshold ? 1.0 : std::sqrt(threshold / frame_norms[r][j]);
+  }
+}
+
+SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFitOptions& options,
+                           std::vector<RunData>* runs, FitParameters* params) {
+  SolveOutcome outcome;
+  ceres::Solver::Summary summary;
+  for (int round = 0; round < options.irls_rounds; ++round) {
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem ceres_problem(problem_options);
+    for (size_t r = 0; r < runs->size(); ++r)
+      ceres_problem.AddResidualBlock(problem.run_costs[r].get(), nullptr,
+                                     params->base_scales.data(), params->start_poses[r].data(),
+                                     params->effects.values.data());
+    if (options.base_prior_sigma > 0.0)
+      ceres_problem.AddResidualBlock(problem.base_prior.get(), nullptr,
+                                     params->base_scales.data());
+    std::vector<int> held_at_zero;
+    for (int i = 0; i < kEffectParams; ++i)
+      if (!params->effect_enabled[i]) held_at_zero.push_back(i);
+    if (static_cast<int>(held_at_zero.size()) == kEffectParams)
+      ceres_problem.SetParameterBlockConstant(params->effects.values.data());
+    else if (!held_at_zero.empty())
+      ceres_problem.SetManifold(params->effects.values.data(),
+                                new ceres::SubsetManifold(kEffectParams, held_at_zero));
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+    ApplyTo(options.solver, &solver_options);
+    ceres::Solve(solver_options, &ceres_problem, &summary);
+    if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {
+      outcome.failed = true;
+      outcome.message = summary.message;
+      return outcome;
+    }
+    if (options.huber_threshold <= 0.0 || round + 1 == options.irls_rounds) break;
+    // Reweight: Huber on each frame's whitened error norm, at a threshold
+    // in robust standard deviations of the current errors.
+    ReweightHuber(problem, *params, options.huber_threshold, runs);
+  }
+  outcome.solution_usable = summary.IsSolutionUsable();
+  outcome.message = summary.message;
+  return outcome;
+}
+
+Linearization Linearize(const TrajectoryProblem& problem, const std::vector<RunData>& runs,
+                        const FitParameters& params) {
+  const int n_cols = kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(runs.size());
+  int n_rows = 0;
+  for (const RunData& rd : runs) n_rows += rd.n_residuals();
+  Linearization lin;
+  lin.J_residual_param = Eigen::MatrixXd::Zero(n_rows, n_cols);
+  lin.whitened_residuals.resize(n_rows);
+  int row = 0;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunData& rd = runs[r];
+    const int m = rd.residuals_per_frame;
+    const int rows = rd.n_residuals();
+    std::vector<double> res(rows);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J_base(rows, kBaseParams),
+        J_start(rows, kStartPoseParams), J_effects(rows, kEffectParams);
+    const std::array<const double*, 3> blocks = BlocksOf(params, r);
+    double* jacobians[] = {J_base.data(), J_start.data(), J_effects.data()};
+    problem.run_costs[r]->Evaluate(blocks.data(), res.data(), jacobians);
+    lin.J_residual_param.block(row, 0, rows, kBaseParams) = J_base;
+    lin.J_residual_param.block(row, kBaseParams, rows, kEffectParams) = J_effects;
+    lin.J_residual_param.block(row, kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(r),
+                               rows, kStartPoseParams) = J_start;
+    for (int i = 0; i < rows; ++i) lin.whitened_residuals[row + i] = res[i];
+    // Lag-one autocorrelation per residual component along the run.
+    for (int c = 0; c < m; ++c)
+      for (size_t j = 0; j + 1 < rd.frame_t_s.size(); ++j) {
+        lin.lag1_numerator += res[m * j + c] * res[m * (j + 1) + c];
+        lin.lag1_denominator += res[m * j + c] * res[m * j + c];
+      }
+    row += rows;
+  }
+  return lin;
+}
+
+DeadReckonedPoses DeadReckonRun(const RunData& run, const ModelConstants& constants,
+                                const FitParameters& params, size_t run_index) {
+  DeadReckonedPoses poses;
+  DeadReckon(run, constants, params.base_scales.data(), params.start_poses[run_index].data(),
+             params.effects.values.data(), &poses.x_m, &poses.y_m, &poses.heading_rad);
+  return poses;
+}
+
+FrameReport ReportFrames(const std::vector<RunData>& runs, const ModelConstants& constants,
+                         const FitParameters& params) {
+  FrameReport report;
+  double sum_sq_gap_m2 = 0.0, sum_sq_noise_m2 = 0.0;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunData& rd = runs[r];
+    const DeadReckonedPoses poses = DeadReckonRun(rd, constants, params, r);
+    for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
+      double px_m, py_m, ph_rad;
+      PredictFrame(rd, constants, poses.x_m, poses.y_m, poses.heading_rad,
+                   params.effects.values.data(), rd.frame_t_s[j], &px_m, &py_m, &ph_rad);
+      FrameResidual fr;
+      fr.run = rd.run;
+      fr.t_s = rd.frame_t_s[j];
+      const double telemetry_t_s = rd.frame_t_s[j] + params.effects.latency_s();
+      const size_t k = std::min<size_t>(
+          std::upper_bound(rd.t_s.begin(), rd.t_s.end(), telemetry_t_s) - rd.t_s.begin(),
+          rd.t_s.size() - 1);
+      fr.motion = rd.kind[k];
+      fr.measured_m = {rd.measured_x_m[j], rd.measured_y_m[j]};
+      fr.error_m = {px_m - rd.measured_x_m[j], py_m - rd.measured_y_m[j]};
+      fr.heading_error_rad = WrapAngle(ph_rad - rd.measured_heading_rad[j]);
+      fr.measured_heading_rad = rd.measured_heading_rad[j];
+      fr.weight = rd.sqrt_weight[j] * rd.sqrt_weight[j];
+      sum_sq_gap_m2 += fr.error_m.squaredNorm();
+      sum_sq_noise_m2 += 2.0 * rd.sigma_position_m[j] * rd.sigma_position_m[j];
+      report.residuals.push_back(fr);
+    }
+  }
+  const double n_frames = static_cast<int>(report.residuals.size());
+  report.gap_m = std::sqrt(sum_sq_gap_m2 / n_frames);
+  report.noise_floor_m = std::sqrt(sum_sq_noise_m2 / n_frames);
+  return report;
+}
+
+FittedColumns SelectFittedColumns(const MeasuredSession& session,
+                                  const std::vector<RunData>& runs,
+                                  const TrajectoryFitOptions& options) {
+  FittedColumns columns;
+  columns.names = {"r_left", "r_right", "Eb"};
+  for (int i = 0; i < kBaseParams; ++i) columns.index.push_back(i);
+  for (Effect e : options.effects) {
+    const std::vector<int> idx = EffectParamIndices(e);
+    const std::vector<std::string> names = EffectParamNames(e);
+    for (size_t k = 0; k < idx.size(); ++k) {
+      columns.index.push_back(kBaseParams + idx[k]);
+      columns.names.push_back(std::string(ToString(e)) + "." + names[k]);
+    }
+  }
+  for (size_t r = 0; r < runs.size(); ++r)
+    for (int c = 0; c < kStartPoseParams; ++c) {
+      columns.index.push_back(kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(r) + c);
+      columns.names.push_back(session.runs[runs[r].run].name + ".start_" + "xyh"[c]);
+    }
+  return columns;
+}
+
+Eigen::MatrixXd FittedJacobian(const Eigen::MatrixXd& J_residual_param,
+                               const FittedColumns& columns) {
+  const int p = static_cast<int>(columns.index.size());
+  Eigen::MatrixXd J(J_residual_param.rows(), p);
+  for (int c = 0; c < p; ++c) J.col(c) = J_residual_param.col(columns.index[c]);
+  return J;
+}
+
+Identifiability AnalyseIdentifiability(const Eigen::MatrixXd& J_fitted, double rank_tolerance) {
+  const int p = static_cast<int>(J_fitted.cols());
+  Identifiability id;
+  id.column_norms = J_fitted.colwise().norm();
+  for (int c = 0; c < p; ++c) id.column_norms[c] = id.column_norms[c] > 0.0 ? id.column_norms[c] : 1.0;
+  const Eigen::MatrixXd J_normalised = J_fitted * id.column_norms.cwiseInverse().asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(J_normalised, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  id.singular_values = svd.singularValues();
+  id.V = svd.matrixV();
+  id.U = svd.matrixU();
+  const Eigen::VectorXd& s = id.singular_values;
+  id.condition_number = s[p - 1] > 0.0 ? s[0] / s[p - 1] : INFINITY;
+  id.determined.assign(p, false);
+  for (int i = 0; i < p; ++i) {
+    if (s[i] > rank_tolerance * s[0]) {
+      id.determined[i] = true;
+    } else {
+      id.null_vectors.push_back(id.V.col(i));
+    }
+  }
+  return id;
+}
+
+ParameterCovariance CameraNoiseCovariance(const Identifiability& id, int n_residuals,
+                                          double weighted_sse, const Linearization& lin) {
+  const int p = static_cast<int>(id.column_norms.size());
+  const Eigen::VectorXd& s = id.singular_values;
+  Eigen::MatrixXd cov_normalised = Eigen::MatrixXd::Zero(p, p);
+  // The pseudo-inverse of J (normalised), p x N: how each whitened residual
+  // moves the estimate.
+  Eigen::MatrixXd pinv_normalised = Eigen::MatrixXd::Zero(p, n_residuals);
+  for (int i = 0; i < p; ++i) {
+    if (!id.determined[i]) continue;
+    cov_normalised += id.V.col(i) * id.V.col(i).transpose() / (s[i] * s[i]);
+    pinv_normalised += id.V.col(i) * id.U.col(i).transpose() / s[i];
+  }
+  ParameterCovariance out;
+  const int dof = std::max(1, n_residuals - (p - static_cast<int>(id.null_vectors.size())));
+  out.lag1_autocorrelation =
+      lin.lag1_denominator > 0.0
+          ? std::clamp(lin.lag1_numerator / lin.lag1_denominator, 0.0, 0.95)
+          : 0.0;
+  // Camera noise: the stated sigmas, scaled up when the residuals say they
+  // are larger (never down: a fit is not more certain than its sensor).
+  out.variance_factor = std::max(1.0, weighted_sse / dof);
+  out.pinv = id.column_norms.cwiseInverse().asDiagonal() * pinv_normalised;
+  out.covariance = id.column_norms.cwiseInverse().asDiagonal() * cov_normalised *
+                   id.column_norms.cwiseInverse().asDiagonal() * out.variance_factor;
+  return out;
+}
+
+void AddWheelNoiseCovariance(const std::vector<RunData>& runs, const ModelConstants& constants,
+                             const FitParameters& params, double wheel_sigma_m_per_sqrt_m,
+                             ParameterCovariance* covariance) {
+  // Suffix sums over the frames make this O(steps * p) per run.
+  const Eigen::MatrixXd& pinv = covariance->pinv;
+  const int p = static_cast<int>(pinv.rows());
+  const double q_m = wheel_sigma_m_per_sqrt_m * wheel_sigma_m_per_sqrt_m;  // variance per metre
+  const double true_track_m = params.base_scales[2] * constants.track_m;
+  const double latency_s = params.effects.latency_s();
+  int row0 = 0;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunData& rd = runs[r];
+    const int m = rd.residuals_per_frame;
+    const DeadReckonedPoses poses = DeadReckonRun(rd, constants, params, r);
+    // Over the frames after step k: the sums of pinv's columns for x and y
+    // (weighted), for the heading, and the x columns times the frames' y
+    // and the y columns times their x (for rotations about a point).
+    Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(p), sum_y = sum_x, sum_h = sum_x,
+                    sum_x_times_y = sum_x, sum_y_times_x = sum_x;
+    int j = rd.n_frames() - 1;
+    for (int k = static_cast<int>(rd.t_s.size()) - 1; k >= 1; --k) {
+      // Frames at or after the end of step k feel its noise.
+      for (; j >= 0 && rd.frame_t_s[j] + latency_s >= rd.t_s[k]; --j) {
+        const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
+        const Eigen::VectorXd ax = pinv.col(row0 + m * j) * g;
+        const Eigen::VectorXd ay = pinv.col(row0 + m * j + 1) * g;
+        sum_x += ax;
+        sum_y += ay;
+        sum_x_times_y += ax * rd.measured_y_m[j];
+        sum_y_times_x += ay * rd.measured_x_m[j];
+        if (m == 3) sum_h += pinv.col(row0 + m * j + 2) * (rd.sqrt_weight[j] / rd.sigma_heading_rad[j]);
+      }
+      const double left_m =
+          std::abs(rd.left_step_ticks[k] * constants.left_m_per_tick * params.base_scales[0]);
+      const double right_m =
+          std::abs(rd.right_step_ticks[k] * constants.right_m_per_tick * params.base_scales[1]);
+      if (left_m == 0.0 && right_m == 0.0) continue;
+      // The estimate's sensitivity to a translation (x, y) and to a rotation
+      // about the pose at k of everything after step k.
+      const Eigen::VectorXd g_x = sum_x, g_y = sum_y;
+      const Eigen::VectorXd g_rotation = sum_h - (sum_x_times_y - poses.y_m[k] * sum_x) +
+                                         (sum_y_times_x - poses.x_m[k] * sum_y);
+      const double half_cos = std::cos(poses.heading_rad[k]) / 2.0,
+                   half_sin = std::sin(poses.heading_rad[k]) / 2.0;
+      // A travel error of one wheel: half of it along the heading, and a
+      // turn of -/+ 1/track.
+      const Eigen::VectorXd g_left = g_x * half_cos + g_y * half_sin - g_rotation / true_track_m;
+      const Eigen::VectorXd g_right = g_x * half_cos + g_y * half_sin + g_rotation / true_track_m;
+      covariance->covariance += q_m * left_m * g_left * g_left.transpose() +
+                                q_m * right_m * g_right * g_right.transpose();
+    }
+    row0 += rd.n_residuals();
+  }
+}
+
+void AddCameraScaleCovariance(const std::vector<RunData>& runs, double camera_scale_sigma,
+                              ParameterCovariance* covariance) {
+  const int n_rows = static_cast<int>(covariance->pinv.cols());
+  Eigen::VectorXd residuals_per_unit_scale = Eigen::VectorXd::Zero(n_rows);
+  int row0 = 0;
+  for (const RunData& rd : runs) {
+    const int m = rd.residuals_per_frame;
+    for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
+      const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
+      residuals_per_unit_scale[row0 + m * j] = rd.measured_x_m[j] * g;
+      residuals_per_unit_scale[row0 + m * j + 1] = rd.measured_y_m[j] * g;
+    }
+    row0 += rd.n_residuals();
+  }
+  const Eigen::VectorXd v = covariance->pinv * residuals_per_unit_scale;
+  covariance->covariance += camera_scale_sigma * camera_scale_sigma * v * v.transpose();
+}
+
+ParameterCovariance ComputeCovariance(const MeasuredSession& session,
+                                      const std::vector<RunData>& runs,
+                                      const ModelConstants& constants,
+                                      const FitParameters& params,
+                                      const TrajectoryFitOptions& options,
+                                      const Identifiability& identifiability,
+                                      const Linearization& linearization, double weighted_sse) {
+  ParameterCovariance cov =
+      CameraNoiseCovariance(identifiability, static_cast<int>(linearization.whitened_residuals.size()),
+                            weighted_sse, linearization);
+  if (options.wheel_sigma_m_per_sqrt_m > 0.0)
+    AddWheelNoiseCovariance(runs, constants, params, options.wheel_sigma_m_per_sqrt_m, &cov);
+  if (session.camera_scale_sigma > 0.0)
+    AddCameraScaleCovariance(runs, session.camera_scale_sigma, &cov);
+  return cov;
+}
+
+double WheelNoiseGap(const std::vector<RunData>& runs, const ModelConstants& constants,
+                     const FitParameters& params, const TrajectoryFitOptions& options,
+                     const Eigen::MatrixXd& J_fitted, const Eigen::MatrixXd& pinv, int n_frames) {
+  // A travel error at step k moves every later frame rigidly (translation
+  // along the heading, rotation about the pose at k); the fit removes its
+  // projection on J. Explain's `unexplained` needs it: with a precise camera
+  // the wheel noise, not the camera, sets the floor.
+  if (!(options.wheel_sigma_m_per_sqrt_m > 0.0 && options.wheel_noise_draws > 0)) return 0.0;
+  const int n_rows = static_cast<int>(J_fitted.rows());
+  std::mt19937 rng(20261123);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
+  const double true_track_m = params.base_scales[2] * constants.track_m;
+  const double latency_s = params.effects.latency_s();
+  double sum_sq_m2 = 0.0;
+  for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
+    Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);  // whitened residual change
+    int row0 = 0;
+    for (size_t r = 0; r < runs.size(); ++r) {
+      const RunData& rd = runs[r];
+      const int m = rd.residuals_per_frame;
+      const DeadReckonedPoses poses = DeadReckonRun(rd, constants, params, r);
+      // Displacement of a later point p: shift + rotation_rad * (-p.y, p.x).
+      double shift_x_m = 0.0, shift_y_m = 0.0, rotation_rad = 0.0;
+      size_t j = 0;
+      auto assign_until = [&](double t_s) {
+        for (; j < rd.frame_t_s.size() && rd.frame_t_s[j] + latency_s < t_s; ++j) {
+          const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
+          delta[row0 + m * j] = (shift_x_m - rotation_rad * rd.measured_y_m[j]) * g;
+          delta[row0 + m * j + 1] = (shift_y_m + rotation_rad * rd.measured_x_m[j]) * g;
+          if (m == 3) delta[row0 + m * j + 2] = rotation_rad * rd.sqrt_weight[j] / rd.sigma_heading_rad[j];
+        }
+      };
+      for (size_t k = 1; k < rd.t_s.size(); ++k) {
+        assign_until(rd.t_s[k]);
+        const double left_m =
+            std::abs(rd.left_step_ticks[k] * constants.left_m_per_tick * params.base_scales[0]);
+        const double right_m =
+            std::abs(rd.right_step_ticks[k] * constants.right_m_per_tick * params.base_scales[1]);
+        if (left_m == 0.0 && right_m == 0.0) continue;
+        const double left_error_m = sigma_w * std::sqrt(left_m) * normal(rng);
+        const double right_error_m = sigma_w * std::sqrt(right_m) * normal(rng);
+        const double ds_m = 0.5 * (left_error_m + right_error_m),
+                     dtheta_rad = (right_error_m - left_error_m) / true_track_m;
+        shift_x_m += ds_m * std::cos(poses.heading_rad[k]) + dtheta_rad * poses.y_m[k];
+        shift_y_m += ds_m * std::sin(poses.heading_rad[k]) - dtheta_rad * poses.x_m[k];
+        rotation_rad += dtheta_rad;
+      }
+      assign_until(INFINITY);
+      row0 += rd.n_residuals();
+    }
+    const Eigen::VectorXd left_over = delta - J_fitted * (pinv * delta);
+    row0 = 0;
+    for (const RunData& rd : runs) {
+      const int m = rd.residuals_per_frame;
+      for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
+        const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
+        sum_sq_m2 += (left_over[row0 + m * j] * left_over[row0 + m * j] +
+                      left_over[row0 + m * j + 1] * left_over[row0 + m * j + 1]) /
+                     (g * g);
+      }
+      row0 += rd.n_residuals();
+    }
+  }
+  return std::sqrt(sum_sq_m2 / (options.wheel_noise_draws * n_frames));
+}
+
+Eigen::Matrix<double, kEffectParams, kEffectParams> EffectBlockCovariance(
+    const Eigen::MatrixXd& covariance, const std::vector<Effect>& effects) {
+  Eigen::Matrix<double, kEffectParams, kEffectParams> block =
+      Eigen::Matrix<double, kEffectParams, kEffectParams>::Zero();
+  std::vector<int> effect_index;  // fitted column kBaseParams + a -> EffectParams index
+  for (Effect e : effects)
+    for (int idx : EffectParamIndices(e)) effect_index.push_back(idx);
+  for (size_t a = 0; a < effect_index.size(); ++a)
+    for (size_t b = 0; b < effect_index.size(); ++b)
+      block(effect_index[a], effect_index[b]) = covariance(kBaseParams + a, kBaseParams + b);
+  return block;
+}
+
+std::vector<std::string> DescribeNullVectors(const Identifiability& identifiability,
+                                             const std::vector<std::string>& column_names) {
+  const int p = static_cast<int>(column_names.size());
+  std::vector<std::string> lines;
+  for (const Eigen::VectorXd& v : identifiability.null_vectors) {
+    std::vector<int> order(p);
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(v[a]) > std::abs(v[b]); });
+    std::ostringstream os;
+    os << "the combination";
+    for (int k = 0; k < std::min(p, 4); ++k) {
+      if (std::abs(v[order[k]]) < 0.1) break;
+      os << " " << (v[order[k]] >= 0 ? "+" : "-") << Fixed(std::abs(v[order[k]]), 2) << " "
+         << column_names[order[k]];
+    }
+    os << " (normalised) does not change what was measured";
+    lines.push_back(os.str());
+  }
+  return lines;
+}
+
+std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
+                                               const FitParameters& params,
+                                               const TrajectoryFitOptions& options,
+                                               const Identifiability& identifiability,
+                                               const Eigen::MatrixXd& covariance,
+                                               std::vector<std::string>* unidentifiable) {
+  std::vector<ParameterEstimate> estimates;
+  const int p = static_cast<int>(covariance.rows());
+  // A direction in parameter space is estimable when it is orthogonal to
+  // every null vector (in the normalised coordinates).
+  auto estimable = [&](const Eigen::VectorXd& gradient) {
+    const Eigen::VectorXd g = gradient.cwiseQuotient(identifiability.column_norms);
+    if (g.norm() == 0.0) return true;
+    for (const Eigen::VectorXd& v : identifiability.null_vectors)
+      if (std::abs(g.normalized().dot(v)) > 0.02) return false;
+    return true;
+  };
+  auto estimate = [&](const std::string& name, double value, const Eigen::VectorXd& gradient) {
+    ParameterEstimate e;
+    e.name = name;
+    e.value = value;
+    e.identifiable = estimable(gradient);
+    e.sigma = std::sqrt(std::max(0.0, gradient.dot(covariance * gradient)));
+    estimates.push_back(e);
+  };
+  const std::array<double, kBaseParams>& base = params.base_scales;  // r_left, r_right, Eb
+  // Ed = r_r / r_l; Es = (r_l D_L + r_r D_R) / (D_L + D_R); Eb.
+  const double left_diameter_m = believed.left_wheel_diameter_m,
+               right_diameter_m = believed.right_wheel_diameter_m;
+  const double diameter_sum_m = left_diameter_m + right_diameter_m;
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+  g[0] = -base[1] / (base[0] * base[0]);
+  g[1] = 1.0 / base[0];
+  estimate("Ed", base[1] / base[0], g);
+  g.setZero();
+  g[0] = left_diameter_m / diameter_sum_m;
+  g[1] = right_diameter_m / diameter_sum_m;
+  const double es = (base[0] * left_diameter_m + base[1] * right_diameter_m) / diameter_sum_m;
+  estimate("Es", es, g);
+  g.setZero();
+  g[2] = 1.0;
+  estimate("Eb", base[2], g);
+  // The turn gain Eb / Es (what UMBMark measures; free of the camera's scale).
+  g.setZero();
+  g[0] = -base[2] / (es * es) * left_diameter_m / diameter_sum_m;
+  g[1] = -base[2] / (es * es) * right_diameter_m / diameter_sum_m;
+  g[2] = 1.0 / es;
+  estimate("turn_gain", base[2] / es, g);
+  // A ratio whose uncertainty spans more than its plausible range is not
+  // determined by these data, whatever the rank test says (a nearly flat
+  // direction just above the tolerance).
+  for (ParameterEstimate& e : estimates)
+    if (e.identifiable && e.sigma > options.max_ratio_sigma) {
+      e.identifiable = false;
+      unidentifiable->push_back(e.name + ": sigma " + Fixed(e.sigma, 4) +
+                                " exceeds the plausible range of a ratio (" +
+                                Fixed(options.max_ratio_sigma, 3) + ")");
+    }
+  const EffectParams& fx = params.effects;
+  int c = kBaseParams;  // the fitted column of the next effect parameter
+  for (Effect e : options.effects) {
+    const std::string prefix = std::string(ToString(e)) + ".";
+    if (e == Effect::kCarpetDrift) {
+      const double a = fx.values[EffectParams::kDriftA], b = fx.values[EffectParams::kDriftB];
+      const double rate = std::hypot(a, b);
+      g.setZero();
+      if (rate > 0.0) {
+        g[c] = -b / (rate * rate);
+        g[c + 1] = a / (rate * rate);
+      }
+      estimate(prefix + "grain_rad", std::atan2(b, a), g);
+      g.setZero();
+      if (rate > 0.0) {
+        g[c] = a / rate;
+        g[c + 1] = b / rate;
+      }
+      estimate(prefix + "rate_m_per_m", rate, g);
+      c += 2;
+      continue;
+    }
+    const std::vector<int> idx = EffectParamIndices(e);
+    const std::vector<std::string> names = EffectParamNames(e);
+    for (size_t k = 0; k < idx.size(); ++k, ++c) {
+      g.setZero();
+      g[c] = 1.0;
+      estimate(prefix + names[k], fx.values[idx[k]], g);
+    }
+  }
+  return estimates;
+}
+
+}  // namespace internal
+
+namespace {
+using internal::Fixed;
 }  // namespace
 
 std::string_view ToString(Effect effect) {
@@ -390,7 +1000,7 @@ bool TrajectoryFitOptions::IsValid(std::string* why) const {
   if (!(wheel_sigma_m_per_sqrt_m >= 0.0)) return fail("wheel_sigma_m_per_sqrt_m must not be negative");
   if (!(huber_threshold >= 0.0)) return fail("huber_threshold must not be negative");
   if (irls_rounds < 1) return fail("irls_rounds must be at least 1");
-  if (max_solver_iterations < 1) return fail("max_solver_iterations must be at least 1");
+  if (!solver.IsValid(why)) return false;
   if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0))
     return fail("rank_tolerance must be in (0, 1)");
   if (min_frames_per_run < 2) return fail("min_frames_per_run must be at least 2");
@@ -426,7 +1036,7 @@ double TrajectoryFitResult::Wald(Effect effect) const {
 std::string TrajectoryFitResult::BriefReport() const {
   std::ostringstream os;
   os << "trajectory fit: "
-     << (status == Status::kOk ? "ok" : status == Status::kInvalidInput ? "invalid input"
+     << (status == StatusCode::kOk ? "ok" : status == StatusCode::kInvalidArgument ? "invalid input"
                                                                          : "no convergence");
   if (!message.empty()) os << " (" << message << ")";
   os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap "
@@ -445,492 +1055,76 @@ std::string TrajectoryFitResult::BriefReport() const {
   return os.str();
 }
 
+
 TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                                   const TrajectoryFitOptions& options,
                                   const TrajectoryFitResult* warm_start) {
+  using namespace internal;
   TrajectoryFitResult result;
   result.options = options;
-  std::string why;
-  if (!options.IsValid(&why)) {
-    result.message = "options: " + why;
-    return result;
-  }
-  if (!session.believed.IsValid(&why)) {
-    result.message = "believed parameters: " + why;
-    return result;
-  }
-  const bool lens_on = std::find(options.effects.begin(), options.effects.end(),
-                                 Effect::kLensDistortion) != options.effects.end();
-  if (lens_on && (!session.camera || !session.camera->IsValid())) {
-    result.message = "lens_distortion needs the camera's geometry over the tag plane (session.camera)";
-    return result;
-  }
+  result.message = ValidateFitInputs(session, options);
+  if (!result.message.empty()) return result;
 
   const ModelConstants constants = ConstantsOf(session.believed, session.camera);
-
-  // Extract the runs; shaft directions carry over from run to run.
-  const size_t n_runs = session.runs.size();
-  std::vector<RunData> runs;
-  result.run_used.assign(n_runs, false);
-  result.start_poses.assign(n_runs, Pose2::Identity());
-  int left_direction = 1, right_direction = 1;
-  for (size_t i = 0; i < n_runs; ++i) {
-    const MeasuredRun& mr = session.runs[i];
-    RunData rd = ExtractTelemetry(mr, static_cast<int>(i), &left_direction, &right_direction);
-    MarkArcs(constants, &rd);
-    rd.residuals_per_frame = options.use_heading ? 3 : 2;
-    if (rd.t.size() < 2) continue;
-    for (const CameraRecord& f : mr.camera) {
-      if (!f.valid) continue;
-      rd.frame_t.push_back(f.t_s);
-      rd.zx.push_back(f.T_world_robot.x());
-      rd.zy.push_back(f.T_world_robot.y());
-      rd.zh.push_back(f.T_world_robot.heading());
-      rd.sigma_p.push_back(f.sigma_position_m > 0.0 ? f.sigma_position_m
-                                                    : options.default_position_sigma_m);
-      rd.sigma_h.push_back(f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
-                                                     : options.default_heading_sigma_rad);
-    }
-    if (static_cast<int>(rd.frame_t.size()) < options.min_frames_per_run) continue;
-    rd.sqrt_w.assign(rd.frame_t.size(), 1.0);
-    result.run_used[i] = true;
-    runs.push_back(std::move(rd));
-  }
+  ExtractedRuns extracted = ExtractRuns(session, options, constants);
+  std::vector<RunData>& runs = extracted.runs;
+  result.run_used = extracted.run_used;
+  result.start_poses.assign(session.runs.size(), Pose2::Identity());
   if (runs.empty()) {
     result.message = "no run has both telemetry and enough camera frames";
     return result;
   }
 
-  // Parameters.
-  std::array<double, kBase> base = {1.0, 1.0, 1.0};
-  EffectParams fx;
-  std::vector<std::array<double, 3>> starts(runs.size());
+  FitParameters params = InitialParameters(runs, result.run_used, options, warm_start);
+  const TrajectoryProblem problem = BuildProblem(runs, constants, options);
+  const SolveOutcome solved = SolveWithIrls(problem, options, &runs, &params);
+  if (solved.failed) {
+    result.status = StatusCode::kNoConvergence;
+    result.message = solved.message;
+    return result;
+  }
+
+  // The solution: residuals, gap and the full Jacobian.
+  const Linearization linearization = Linearize(problem, runs, params);
+  result.jacobian = linearization.J_residual_param;
+  FrameReport frames = ReportFrames(runs, constants, params);
+  result.residuals = std::move(frames.residuals);
   for (size_t r = 0; r < runs.size(); ++r)
-    starts[r] = {runs[r].zx[0], runs[r].zy[0], runs[r].zh[0]};
-  std::vector<bool> active(kFx, false);
-  for (Effect e : options.effects)
-    for (int idx : EffectParamIndices(e)) active[idx] = true;
-  if (warm_start && warm_start->ok() && warm_start->run_used == result.run_used) {
-    base = {warm_start->scales.r_left, warm_start->scales.r_right, warm_start->scales.Eb};
-    for (int i = 0; i < kFx; ++i)
-      if (active[i]) fx.values[i] = warm_start->effects.values[i];
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const Pose2& p = warm_start->start_poses[runs[r].run];
-      starts[r] = {p.x(), p.y(), p.heading()};
-    }
-  }
-
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
-  for (RunData& rd : runs) {
-    auto* functor = new RunResidual{&rd, &constants};
-    costs.emplace_back(new ceres::AutoDiffCostFunction<RunResidual, ceres::DYNAMIC, kBase, 3, kFx>(
-        functor, static_cast<int>(rd.frame_t.size()) * rd.residuals_per_frame));
-  }
-
-  std::unique_ptr<ceres::CostFunction> prior(
-      new ceres::AutoDiffCostFunction<BasePrior, kBase, kBase>(
-          new BasePrior{options.base_prior_sigma}));
-  ceres::Solver::Summary summary;
-  for (int round = 0; round < options.irls_rounds; ++round) {
-    ceres::Problem::Options problem_options;
-    problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    for (size_t r = 0; r < runs.size(); ++r)
-      problem.AddResidualBlock(costs[r].get(), nullptr, base.data(), starts[r].data(),
-                               fx.values.data());
-    if (options.base_prior_sigma > 0.0)
-      problem.AddResidualBlock(prior.get(), nullptr, base.data());
-    std::vector<int> constant;
-    for (int i = 0; i < kFx; ++i)
-      if (!active[i]) constant.push_back(i);
-    if (static_cast<int>(constant.size()) == kFx)
-      problem.SetParameterBlockConstant(fx.values.data());
-    else if (!constant.empty())
-      problem.SetManifold(fx.values.data(), new ceres::SubsetManifold(kFx, constant));
-    ceres::Solver::Options solver_options;
-    solver_options.linear_solver_type = ceres::DENSE_QR;
-    solver_options.max_num_iterations = options.max_solver_iterations;
-    solver_options.function_tolerance = 1e-10;
-    solver_options.parameter_tolerance = 1e-10;
-    solver_options.num_threads = 1;
-    ceres::Solve(solver_options, &problem, &summary);
-    if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {
-      result.status = TrajectoryFitResult::Status::kNoConvergence;
-      result.message = summary.message;
-      return result;
-    }
-    if (options.huber_threshold <= 0.0 || round + 1 == options.irls_rounds) break;
-    // Reweight: Huber on each frame's whitened error norm, at a threshold
-    // in robust standard deviations of the current errors.
-    std::vector<std::vector<double>> norms(runs.size());
-    std::vector<double> components;
-    for (size_t r = 0; r < runs.size(); ++r) {
-      RunData& rd = runs[r];
-      const int m = rd.residuals_per_frame;
-      std::vector<double> res(rd.frame_t.size() * m);
-      const double* params[] = {base.data(), starts[r].data(), fx.values.data()};
-      costs[r]->Evaluate(params, res.data(), nullptr);
-      for (size_t j = 0; j < rd.frame_t.size(); ++j) {
-        double sq = 0.0;
-        for (int c = 0; c < m; ++c) {
-          const double e = res[m * j + c] / rd.sqrt_w[j];
-          sq += e * e;
-          components.push_back(std::abs(e));
-        }
-        norms[r].push_back(std::sqrt(sq));
-      }
-    }
-    const double robust_sigma = std::max(1.4826 * Median(components), 1e-12);
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const double threshold =
-          options.huber_threshold * robust_sigma * std::sqrt(double(runs[r].residuals_per_frame));
-      for (size_t j = 0; j < runs[r].frame_t.size(); ++j)
-        runs[r].sqrt_w[j] = norms[r][j] <= threshold ? 1.0 : std::sqrt(threshold / norms[r][j]);
-    }
-  }
-
-  // Residuals, gap and the full Jacobian.
-  const int n_cols = kBase + kFx + 3 * static_cast<int>(runs.size());
-  int n_rows = 0;
-  for (const RunData& rd : runs) n_rows += static_cast<int>(rd.frame_t.size()) * rd.residuals_per_frame;
-  result.jacobian = Eigen::MatrixXd::Zero(n_rows, n_cols);
-  Eigen::VectorXd whitened(n_rows);
-  double sum_sq_gap = 0.0, sum_sq_noise = 0.0, lag_num = 0.0, lag_den = 0.0;
-  int row = 0;
-  for (size_t r = 0; r < runs.size(); ++r) {
-    const RunData& rd = runs[r];
-    const int m = rd.residuals_per_frame;
-    const int rows = static_cast<int>(rd.frame_t.size()) * m;
-    std::vector<double> res(rows);
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jb(rows, kBase),
-        js(rows, 3), jf(rows, kFx);
-    const double* params[] = {base.data(), starts[r].data(), fx.values.data()};
-    double* jacobians[] = {jb.data(), js.data(), jf.data()};
-    costs[r]->Evaluate(params, res.data(), jacobians);
-    result.jacobian.block(row, 0, rows, kBase) = jb;
-    result.jacobian.block(row, kBase, rows, kFx) = jf;
-    result.jacobian.block(row, kBase + kFx + 3 * static_cast<int>(r), rows, 3) = js;
-    for (int i = 0; i < rows; ++i) whitened[row + i] = res[i];
-    // Lag-one autocorrelation per residual component along the run.
-    for (int c = 0; c < m; ++c)
-      for (size_t j = 0; j + 1 < rd.frame_t.size(); ++j) {
-        lag_num += res[m * j + c] * res[m * (j + 1) + c];
-        lag_den += res[m * j + c] * res[m * j + c];
-      }
-    // The frames against the model, unweighted, for the report.
-    std::vector<double> xs, ys, hs;
-    DeadReckon(rd, constants, base.data(), starts[r].data(), fx.values.data(), &xs, &ys, &hs);
-    for (size_t j = 0; j < rd.frame_t.size(); ++j) {
-      double px, py, ph;
-      PredictFrame(rd, constants, xs, ys, hs, fx.values.data(), rd.frame_t[j], &px, &py, &ph);
-      FrameResidual fr;
-      fr.run = rd.run;
-      fr.t_s = rd.frame_t[j];
-      const double tt = rd.frame_t[j] + fx.latency_s();
-      const size_t k = std::min<size_t>(
-          std::upper_bound(rd.t.begin(), rd.t.end(), tt) - rd.t.begin(), rd.t.size() - 1);
-      fr.motion = rd.kind[k];
-      fr.measured_m = {rd.zx[j], rd.zy[j]};
-      fr.error_m = {px - rd.zx[j], py - rd.zy[j]};
-      fr.heading_error_rad = WrapAngle(ph - rd.zh[j]);
-      fr.measured_heading_rad = rd.zh[j];
-      fr.weight = rd.sqrt_w[j] * rd.sqrt_w[j];
-      sum_sq_gap += fr.error_m.squaredNorm();
-      sum_sq_noise += 2.0 * rd.sigma_p[j] * rd.sigma_p[j];
-      result.residuals.push_back(fr);
-    }
-    result.start_poses[rd.run] = Pose2::FromXYHeading(starts[r][0], starts[r][1], starts[r][2]);
-    row += rows;
-  }
+    result.start_poses[runs[r].run] = Pose2::FromXYHeading(
+        params.start_poses[r][0], params.start_poses[r][1], params.start_poses[r][2]);
   result.n_frames = static_cast<int>(result.residuals.size());
-  result.gap_m = std::sqrt(sum_sq_gap / result.n_frames);
-  result.noise_floor_m = std::sqrt(sum_sq_noise / result.n_frames);
-  result.weighted_sse = whitened.squaredNorm();
-  result.scales.r_left = base[0];
-  result.scales.r_right = base[1];
-  result.scales.Eb = base[2];
-  result.effects = fx;
+  result.gap_m = frames.gap_m;
+  result.noise_floor_m = frames.noise_floor_m;
+  result.weighted_sse = linearization.whitened_residuals.squaredNorm();
+  result.scales.r_left = params.base_scales[0];
+  result.scales.r_right = params.base_scales[1];
+  result.scales.Eb = params.base_scales[2];
+  result.effects = params.effects;
 
   // Identifiability and covariance over the fitted columns.
-  std::vector<int> cols;
-  std::vector<std::string> col_names = {"r_left", "r_right", "Eb"};
-  for (int i = 0; i < kBase; ++i) cols.push_back(i);
-  for (Effect e : options.effects) {
-    const std::vector<int> idx = EffectParamIndices(e);
-    const std::vector<std::string> names = EffectParamNames(e);
-    for (size_t k = 0; k < idx.size(); ++k) {
-      cols.push_back(kBase + idx[k]);
-      col_names.push_back(std::string(ToString(e)) + "." + names[k]);
-    }
-  }
-  for (size_t r = 0; r < runs.size(); ++r)
-    for (int c = 0; c < 3; ++c) {
-      cols.push_back(kBase + kFx + 3 * static_cast<int>(r) + c);
-      col_names.push_back(session.runs[runs[r].run].name + ".start_" + "xyh"[c]);
-    }
-  const int p = static_cast<int>(cols.size());
-  result.n_parameters = p;
-  Eigen::MatrixXd J(n_rows, p);
-  for (int c = 0; c < p; ++c) J.col(c) = result.jacobian.col(cols[c]);
-  Eigen::VectorXd norms = J.colwise().norm();
-  for (int c = 0; c < p; ++c) norms[c] = norms[c] > 0.0 ? norms[c] : 1.0;
-  const Eigen::MatrixXd Jn = J * norms.cwiseInverse().asDiagonal();
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jn, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const Eigen::VectorXd s = svd.singularValues();
-  const Eigen::MatrixXd V = svd.matrixV();
-  const Eigen::MatrixXd& U = svd.matrixU();
-  result.condition_number = s[p - 1] > 0.0 ? s[0] / s[p - 1] : INFINITY;
-  Eigen::MatrixXd cov_n = Eigen::MatrixXd::Zero(p, p);
-  // The pseudo-inverse of J (normalised), p x N: how each whitened residual
-  // moves the estimate.
-  Eigen::MatrixXd pinv_n = Eigen::MatrixXd::Zero(p, n_rows);
-  std::vector<Eigen::VectorXd> null_vectors;
-  for (int i = 0; i < p; ++i) {
-    if (s[i] > options.rank_tolerance * s[0]) {
-      cov_n += V.col(i) * V.col(i).transpose() / (s[i] * s[i]);
-      pinv_n += V.col(i) * U.col(i).transpose() / s[i];
-    } else {
-      null_vectors.push_back(V.col(i));
-    }
-  }
-  const int dof = std::max(1, n_rows - (p - static_cast<int>(null_vectors.size())));
-  const double rho = lag_den > 0.0 ? std::clamp(lag_num / lag_den, 0.0, 0.95) : 0.0;
-  result.lag1_autocorrelation = rho;
-  // Camera noise: the stated sigmas, scaled up when the residuals say they
-  // are larger (never down: a fit is not more certain than its sensor).
-  result.variance_factor = std::max(1.0, result.weighted_sse / dof);
-  const Eigen::MatrixXd pinv = norms.cwiseInverse().asDiagonal() * pinv_n;
-  Eigen::MatrixXd cov =
-      norms.cwiseInverse().asDiagonal() * cov_n * norms.cwiseInverse().asDiagonal() *
-      result.variance_factor;
-  // Wheel noise: the ground travel of each wheel random-walks about the
-  // ticks (sigma^2 per metre). A travel error at step k moves every later
-  // pose rigidly (translation, and rotation about the pose at k); its effect
-  // on the estimate is pinv * dr/dw. Suffix sums over the frames make this
-  // O(steps * p) per run.
-  if (options.wheel_sigma_m_per_sqrt_m > 0.0) {
-    const double q = options.wheel_sigma_m_per_sqrt_m * options.wheel_sigma_m_per_sqrt_m;
-    const double true_track = base[2] * constants.track_m;
-    int row0 = 0;
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const RunData& rd = runs[r];
-      const int m = rd.residuals_per_frame;
-      std::vector<double> xs, ys, hs;
-      DeadReckon(rd, constants, base.data(), starts[r].data(), fx.values.data(), &xs, &ys, &hs);
-      Eigen::VectorXd sx = Eigen::VectorXd::Zero(p), sy = sx, sh = sx, sxy = sx, syx = sx;
-      int j = static_cast<int>(rd.frame_t.size()) - 1;
-      for (int k = static_cast<int>(rd.t.size()) - 1; k >= 1; --k) {
-        // Frames at or after the end of step k feel its noise.
-        for (; j >= 0 && rd.frame_t[j] + fx.latency_s() >= rd.t[k]; --j) {
-          const double g = rd.sqrt_w[j] / rd.sigma_p[j];
-          const Eigen::VectorXd ax = pinv.col(row0 + m * j) * g;
-          const Eigen::VectorXd ay = pinv.col(row0 + m * j + 1) * g;
-          sx += ax;
-          sy += ay;
-          sxy += ax * rd.zy[j];
-          syx += ay * rd.zx[j];
-          if (m == 3) sh += pinv.col(row0 + m * j + 2) * (rd.sqrt_w[j] / rd.sigma_h[j]);
-        }
-        const double left = std::abs(rd.dl[k] * constants.left_m_per_tick * base[0]);
-        const double right = std::abs(rd.dr[k] * constants.right_m_per_tick * base[1]);
-        if (left == 0.0 && right == 0.0) continue;
-        const Eigen::VectorXd gx = sx, gy = sy;
-        const Eigen::VectorXd gh = sh - (sxy - ys[k] * sx) + (syx - xs[k] * sy);
-        const double c = std::cos(hs[k]) / 2.0, sn = std::sin(hs[k]) / 2.0;
-        const Eigen::VectorXd g_left = gx * c + gy * sn - gh / true_track;
-        const Eigen::VectorXd g_right = gx * c + gy * sn + gh / true_track;
-        cov += q * left * g_left * g_left.transpose() + q * right * g_right * g_right.transpose();
-      }
-      row0 += static_cast<int>(rd.frame_t.size()) * m;
-    }
-  }
-  // What the wheel noise alone leaves of the gap once the fit has absorbed
-  // what it can (start poses, scales): seeded Monte Carlo of the same random
-  // walk, linearised: a travel error at step k moves every later frame
-  // rigidly (translation along the heading, rotation about the pose at k);
-  // the fit removes its projection on J. Explain's `unexplained` needs it:
-  // with a precise camera the wheel noise, not the camera, sets the floor.
-  if (options.wheel_sigma_m_per_sqrt_m > 0.0 && options.wheel_noise_draws > 0) {
-    std::mt19937 rng(20261123);
-    std::normal_distribution<double> normal(0.0, 1.0);
-    const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
-    const double true_track = base[2] * constants.track_m;
-    double sum_sq = 0.0;
-    for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
-      Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);
-      int row0 = 0;
-      for (size_t r = 0; r < runs.size(); ++r) {
-        const RunData& rd = runs[r];
-        const int m = rd.residuals_per_frame;
-        std::vector<double> xs, ys, hs;
-        DeadReckon(rd, constants, base.data(), starts[r].data(), fx.values.data(), &xs, &ys, &hs);
-        // Displacement of a later point p: c + theta * (-p.y, p.x).
-        double cx = 0.0, cy = 0.0, theta = 0.0;
-        size_t j = 0;
-        auto assign_until = [&](double t) {
-          for (; j < rd.frame_t.size() && rd.frame_t[j] + fx.latency_s() < t; ++j) {
-            const double g = rd.sqrt_w[j] / rd.sigma_p[j];
-            delta[row0 + m * j] = (cx - theta * rd.zy[j]) * g;
-            delta[row0 + m * j + 1] = (cy + theta * rd.zx[j]) * g;
-            if (m == 3) delta[row0 + m * j + 2] = theta * rd.sqrt_w[j] / rd.sigma_h[j];
-          }
-        };
-        for (size_t k = 1; k < rd.t.size(); ++k) {
-          assign_until(rd.t[k]);
-          const double left = std::abs(rd.dl[k] * constants.left_m_per_tick * base[0]);
-          const double right = std::abs(rd.dr[k] * constants.right_m_per_tick * base[1]);
-          if (left == 0.0 && right == 0.0) continue;
-          const double el = sigma_w * std::sqrt(left) * normal(rng);
-          const double er = sigma_w * std::sqrt(right) * normal(rng);
-          const double ds = 0.5 * (el + er), dtheta = (er - el) / true_track;
-          cx += ds * std::cos(hs[k]) + dtheta * ys[k];
-          cy += ds * std::sin(hs[k]) - dtheta * xs[k];
-          theta += dtheta;
-        }
-        assign_until(INFINITY);
-        row0 += static_cast<int>(rd.frame_t.size()) * m;
-      }
-      const Eigen::VectorXd left_over = delta - J * (pinv * delta);
-      row0 = 0;
-      for (const RunData& rd : runs) {
-        const int m = rd.residuals_per_frame;
-        for (size_t j = 0; j < rd.frame_t.size(); ++j) {
-          const double g = rd.sqrt_w[j] / rd.sigma_p[j];
-          sum_sq += (left_over[row0 + m * j] * left_over[row0 + m * j] +
-                     left_over[row0 + m * j + 1] * left_over[row0 + m * j + 1]) /
-                    (g * g);
-        }
-        row0 += static_cast<int>(rd.frame_t.size()) * m;
-      }
-    }
-    result.wheel_noise_gap_m = std::sqrt(sum_sq / (options.wheel_noise_draws * result.n_frames));
-  }
-  // The camera's length scale: a common factor (1 + e) on every measured
-  // position moves the estimate by pinv * (z / sigma) e.
-  if (session.camera_scale_sigma > 0.0) {
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_rows);
-    int row0 = 0;
-    for (const RunData& rd : runs) {
-      const int m = rd.residuals_per_frame;
-      for (size_t j = 0; j < rd.frame_t.size(); ++j) {
-        const double g = rd.sqrt_w[j] / rd.sigma_p[j];
-        b[row0 + m * j] = rd.zx[j] * g;
-        b[row0 + m * j + 1] = rd.zy[j] * g;
-      }
-      row0 += static_cast<int>(rd.frame_t.size()) * m;
-    }
-    const Eigen::VectorXd v = pinv * b;
-    cov += session.camera_scale_sigma * session.camera_scale_sigma * v * v.transpose();
-  }
-  // The effect block's covariance (for significance tests of candidates).
-  result.effect_covariance.setZero();
-  {
-    std::vector<int> fx_index;  // column c of cov -> EffectParams index
-    for (Effect e : options.effects)
-      for (int idx : EffectParamIndices(e)) fx_index.push_back(idx);
-    for (size_t a = 0; a < fx_index.size(); ++a)
-      for (size_t b = 0; b < fx_index.size(); ++b)
-        result.effect_covariance(fx_index[a], fx_index[b]) = cov(kBase + a, kBase + b);
-  }
-  // A direction in parameter space is estimable when it is orthogonal to
-  // every null vector (in the normalised coordinates).
-  auto estimable = [&](const Eigen::VectorXd& gradient) {
-    const Eigen::VectorXd g = gradient.cwiseQuotient(norms);  // to normalised coordinates
-    if (g.norm() == 0.0) return true;
-    for (const Eigen::VectorXd& v : null_vectors)
-      if (std::abs(g.normalized().dot(v)) > 0.02) return false;
-    return true;
-  };
-  for (const Eigen::VectorXd& v : null_vectors) {
-    std::vector<int> order(p);
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return std::abs(v[a]) > std::abs(v[b]); });
-    std::ostringstream os;
-    os << "the combination";
-    for (int k = 0; k < std::min(p, 4); ++k) {
-      if (std::abs(v[order[k]]) < 0.1) break;
-      os << " " << (v[order[k]] >= 0 ? "+" : "-") << Fixed(std::abs(v[order[k]]), 2) << " "
-         << col_names[order[k]];
-    }
-    os << " (normalised) does not change what was measured";
-    result.unidentifiable.push_back(os.str());
-  }
-  auto estimate = [&](const std::string& name, double value, const Eigen::VectorXd& gradient) {
-    ParameterEstimate e;
-    e.name = name;
-    e.value = value;
-    e.identifiable = estimable(gradient);
-    e.sigma = std::sqrt(std::max(0.0, gradient.dot(cov * gradient)));
-    result.parameters.push_back(e);
-  };
-  // Ed = r_r / r_l; Es = (r_l D_L + r_r D_R) / (D_L + D_R); Eb.
-  const double dl = session.believed.left_wheel_diameter_m,
-               dr = session.believed.right_wheel_diameter_m;
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
-  g[0] = -base[1] / (base[0] * base[0]);
-  g[1] = 1.0 / base[0];
-  estimate("Ed", base[1] / base[0], g);
-  g.setZero();
-  g[0] = dl / (dl + dr);
-  g[1] = dr / (dl + dr);
-  estimate("Es", (base[0] * dl + base[1] * dr) / (dl + dr), g);
-  g.setZero();
-  g[2] = 1.0;
-  estimate("Eb", base[2], g);
-  // The turn gain Eb / Es (what UMBMark measures; free of the camera's scale).
-  {
-    const double es = (base[0] * dl + base[1] * dr) / (dl + dr);
-    g.setZero();
-    g[0] = -base[2] / (es * es) * dl / (dl + dr);
-    g[1] = -base[2] / (es * es) * dr / (dl + dr);
-    g[2] = 1.0 / es;
-    estimate("turn_gain", base[2] / es, g);
-  }
-  // A ratio whose uncertainty spans more than its plausible range is not
-  // determined by these data, whatever the rank test says (a nearly flat
-  // direction just above the tolerance).
-  for (ParameterEstimate& e : result.parameters)
-    if (e.identifiable && e.sigma > options.max_ratio_sigma) {
-      e.identifiable = false;
-      result.unidentifiable.push_back(e.name + ": sigma " + Fixed(e.sigma, 4) +
-                                      " exceeds the plausible range of a ratio (" +
-                                      Fixed(options.max_ratio_sigma, 3) + ")");
-    }
-  int c = kBase;
-  for (Effect e : options.effects) {
-    const std::string prefix = std::string(ToString(e)) + ".";
-    if (e == Effect::kCarpetDrift) {
-      const double a = fx.values[EffectParams::kDriftA], b = fx.values[EffectParams::kDriftB];
-      const double rate = std::hypot(a, b);
-      g.setZero();
-      if (rate > 0.0) {
-        g[c] = -b / (rate * rate);
-        g[c + 1] = a / (rate * rate);
-      }
-      estimate(prefix + "grain_rad", std::atan2(b, a), g);
-      g.setZero();
-      if (rate > 0.0) {
-        g[c] = a / rate;
-        g[c + 1] = b / rate;
-      }
-      estimate(prefix + "rate_m_per_m", rate, g);
-      c += 2;
-      continue;
-    }
-    const std::vector<int> idx = EffectParamIndices(e);
-    const std::vector<std::string> names = EffectParamNames(e);
-    for (size_t k = 0; k < idx.size(); ++k, ++c) {
-      g.setZero();
-      g[c] = 1.0;
-      estimate(prefix + names[k], fx.values[idx[k]], g);
-    }
-  }
+  const FittedColumns columns = SelectFittedColumns(session, runs, options);
+  result.n_parameters = static_cast<int>(columns.index.size());
+  const Eigen::MatrixXd J_fitted = FittedJacobian(result.jacobian, columns);
+  const Identifiability identifiability = AnalyseIdentifiability(J_fitted, options.rank_tolerance);
+  result.condition_number = identifiability.condition_number;
+  const ParameterCovariance covariance =
+      ComputeCovariance(session, runs, constants, params, options, identifiability,
+                        linearization, result.weighted_sse);
+  result.lag1_autocorrelation = covariance.lag1_autocorrelation;
+  result.variance_factor = covariance.variance_factor;
+  result.wheel_noise_gap_m =
+      WheelNoiseGap(runs, constants, params, options, J_fitted, covariance.pinv, result.n_frames);
 
-  result.status = TrajectoryFitResult::Status::kOk;
-  if (!summary.IsSolutionUsable()) {
-    result.status = TrajectoryFitResult::Status::kNoConvergence;
-    result.message = summary.message;
+  // Derived estimates.
+  result.effect_covariance = EffectBlockCovariance(covariance.covariance, options.effects);
+  result.unidentifiable = DescribeNullVectors(identifiability, columns.names);
+  result.parameters = DeriveEstimates(session.believed, params, options, identifiability,
+                                      covariance.covariance, &result.unidentifiable);
+
+  result.status = StatusCode::kOk;
+  if (!solved.solution_usable) {
+    result.status = StatusCode::kNoConvergence;
+    result.message = solved.message;
   } else if (!result.unidentifiable.empty()) {
     result.message = std::to_string(result.unidentifiable.size()) +
                      " parameter combination(s) not identifiable from these data";
@@ -943,37 +1137,42 @@ std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParam
                                         const std::optional<FloorCamera>& camera,
                                         const Pose2& start, const std::vector<double>& stamps_s,
                                         int left_direction0, int right_direction0) {
+  using namespace internal;
   RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
-  if (rd.t.size() < 2) return {};
+  if (rd.t_s.size() < 2) return {};
   const ModelConstants constants = ConstantsOf(believed, camera);
   MarkArcs(constants, &rd);
-  const double base[kBase] = {scales.r_left, scales.r_right, scales.Eb};
-  const double start_xyh[3] = {start.x(), start.y(), start.heading()};
-  std::vector<double> xs, ys, hs;
-  DeadReckon(rd, constants, base, start_xyh, effects.values.data(), &xs, &ys, &hs);
+  const double base_scales[kBaseParams] = {scales.r_left, scales.r_right, scales.Eb};
+  const double start_xyh[kStartPoseParams] = {start.x(), start.y(), start.heading()};
+  std::vector<double> xs_m, ys_m, headings_rad;
+  DeadReckon(rd, constants, base_scales, start_xyh, effects.values.data(), &xs_m, &ys_m,
+             &headings_rad);
   std::vector<Pose2> poses;
   poses.reserve(stamps_s.size());
-  for (double stamp : stamps_s) {
-    double px, py, ph;
-    PredictFrame(rd, constants, xs, ys, hs, effects.values.data(), stamp, &px, &py, &ph);
-    poses.push_back(Pose2::FromXYHeading(px, py, ph));
+  for (double stamp_s : stamps_s) {
+    double px_m, py_m, ph_rad;
+    PredictFrame(rd, constants, xs_m, ys_m, headings_rad, effects.values.data(), stamp_s, &px_m,
+                 &py_m, &ph_rad);
+    poses.push_back(Pose2::FromXYHeading(px_m, py_m, ph_rad));
   }
   return poses;
 }
 
 std::vector<double> ArcCurvatures(const MeasuredRun& run, const WheelParams& believed) {
   int left_direction = 1, right_direction = 1;
-  RunData rd = ExtractTelemetry(run, 0, &left_direction, &right_direction);
-  MarkArcs(ConstantsOf(believed, std::nullopt), &rd);
-  return rd.curvature;
+  internal::RunData rd = internal::ExtractTelemetry(run, 0, &left_direction, &right_direction);
+  internal::MarkArcs(internal::ConstantsOf(believed, std::nullopt), &rd);
+  return rd.curvature_per_m;
 }
 
 void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right_direction) {
-  ExtractTelemetry(run, 0, left_direction, right_direction);
+  internal::ExtractTelemetry(run, 0, left_direction, right_direction);
 }
 
 AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
                           double alias_tolerance) {
+  constexpr int kBase = internal::kBaseParams;
+  constexpr int kFx = internal::kEffectParams;
   AliasReport report;
   report.effect = candidate;
   report.distinguishing_runs = DistinguishingRuns(candidate);

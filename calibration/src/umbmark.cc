@@ -11,13 +11,12 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <ceres/ceres.h>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/statistics.h"
 
 namespace odocal::calibration {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::string Fmt(double value, int precision = 3) {
   std::ostringstream os;
@@ -283,6 +282,8 @@ bool UmbmarkOptions::IsValid(std::string* why) const {
     return fail("default sigmas must be positive");
   if (!(min_position_sigma_m > 0.0) || !(min_heading_sigma_rad > 0.0))
     return fail("sigma floors must be positive");
+  std::string solver_why;
+  if (!solver.IsValid(&solver_why)) return fail(solver_why);
   return true;
 }
 
@@ -307,7 +308,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   UmbmarkSummary summary;
   std::string why;
   if (!input.IsValid(&why) || !options.IsValid(&why)) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
@@ -320,14 +321,14 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   const std::optional<FirstOrderEstimate> from_x =
       FirstOrderFromX(summary.cw.x_m, summary.ccw.x_m, L, b, &why);
   if (!from_x) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
   const std::optional<FirstOrderEstimate> from_y =
       FirstOrderFromY(summary.cw.y_m, summary.ccw.y_m, L, b, &why);
   if (!from_y) {
-    summary.status = UmbmarkSummary::Status::kInvalidInput;
+    summary.status = StatusCode::kInvalidArgument;
     summary.message = why;
     return summary;
   }
@@ -374,14 +375,11 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   problem.SetParameterUpperBound(&eb, 0, 2.0);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.function_tolerance = 1e-16;
-  solver_options.gradient_tolerance = 1e-20;
-  solver_options.parameter_tolerance = 1e-14;
-  solver_options.max_num_iterations = 100;
+  ApplyTo(options.solver, &solver_options);
   ceres::Solver::Summary solver_summary;
   ceres::Solve(solver_options, &problem, &solver_summary);
   if (!solver_summary.IsSolutionUsable()) {
-    summary.status = UmbmarkSummary::Status::kNoConvergence;
+    summary.status = StatusCode::kNoConvergence;
     summary.message = "coupled fit did not converge: " + solver_summary.message;
     return summary;
   }
@@ -399,7 +397,7 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   summary.turn_scale = eb / options.mean_scale;
   summary.c_left = CorrectionLeft(ed);
   summary.c_right = CorrectionRight(ed);
-  summary.status = UmbmarkSummary::Status::kOk;
+  summary.status = StatusCode::kOk;
   summary.message = "ok";
   return summary;
 }

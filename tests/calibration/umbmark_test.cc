@@ -244,7 +244,7 @@ TEST(UmbmarkInput, BadInputIsNamed) {
     std::string w;
     EXPECT_FALSE(in.IsValid(&w));
     EXPECT_NE(w.find(field), std::string::npos) << w;
-    EXPECT_EQ(EstimateUmbmark(in).status, UmbmarkSummary::Status::kInvalidInput);
+    EXPECT_EQ(EstimateUmbmark(in).status, odocal::StatusCode::kInvalidArgument);
   };
   UmbmarkInput bad = input;
   bad.side_m = 0.0;

@@ -116,7 +116,7 @@ TEST(ParamFiles, Ros2FileWithOtherControllerParametersIsAccepted) {
 // `fitted_on` is the session's believed set (explain.json states it).
 std::string ExplainJsonText(double ed, double es, double eb, const WheelParams& fitted_on) {
   calibration::ExplainResult r;
-  r.status = calibration::ExplainResult::Status::kOk;
+  r.status = odocal::StatusCode::kOk;
   auto add = [&](const std::string& name, double value) {
     calibration::ParameterEstimate p;
     p.name = name;

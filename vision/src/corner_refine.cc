@@ -10,7 +10,8 @@ namespace odocal::vision {
 
 bool CornerRefineOptions::IsValid(std::string* why) const {
   if (!(sample_step_px > 0.0) || !(end_margin >= 0.0 && end_margin < 0.5) ||
-      !(max_half_width_px > 0.5) || !(min_cell_px > 0.0) || width_at_border < 3) {
+      !(max_half_width_px > 0.5) || !(min_cell_px > 0.0) || width_at_border < 3 ||
+      !edge_model_solver.IsValid(nullptr) || !model_free_solver.IsValid(nullptr)) {
     if (why) *why = "corner refinement options out of range";
     return false;
   }

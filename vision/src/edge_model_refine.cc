@@ -68,6 +68,7 @@ using FittedLine = internal::EdgeLine;
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                   const CameraModel* camera, double half_width, double end_margin,
+                                  const SolverSettings& settings,
                                   double* rms) {
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
@@ -89,9 +90,7 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
       nullptr, p);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = 25;
-  options.function_tolerance = 1e-10;
-  options.parameter_tolerance = 1e-10;
+  ApplyTo(settings, &options);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
@@ -118,7 +117,7 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
   for (int k = 0; k < 4; ++k) {
     double rms = 0.0;
     const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
-                              half_width, options.end_margin, &rms);
+                              half_width, options.end_margin, options.edge_model_solver, &rms);
     if (!line) {
       result.message = "edge " + std::to_string(k) + " could not be fitted";
       return result;

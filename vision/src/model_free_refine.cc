@@ -156,9 +156,7 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
   problem.SetParameterUpperBound(shared, 3, std::log(4.0));
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
-  solver.max_num_iterations = 50;
-  solver.function_tolerance = 1e-10;
-  solver.parameter_tolerance = 1e-10;
+  ApplyTo(options.model_free_solver, &solver);
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable()) {

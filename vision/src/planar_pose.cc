@@ -115,8 +115,8 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
 }
 
 bool CameraPlaneOptions::IsValid(std::string* why) const {
-  if (max_iterations < 1 || !(huber_px >= 0.0) || min_views < 1) {
-    if (why) *why = "camera-plane options: max_iterations >= 1, huber_px >= 0, min_views >= 1";
+  if (!solver.IsValid(nullptr) || !(huber_px >= 0.0) || min_views < 1) {
+    if (why) *why = "camera-plane options: valid solver settings, huber_px >= 0, min_views >= 1";
     return false;
   }
   return true;
@@ -212,10 +212,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = 1e-12;
-  solver_options.parameter_tolerance = 1e-12;
-  solver_options.num_threads = 1;
+  ApplyTo(options.solver, &solver_options);
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) {

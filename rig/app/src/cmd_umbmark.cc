@@ -68,7 +68,7 @@ void RegisterUmbmarkCommand(CLI::App& app) {
     std::string why;
     if (!input.IsValid(&why)) Fail("umbmark", kExitBadInput, why);
     const calibration::UmbmarkSummary summary = calibration::EstimateUmbmark(input);
-    if (summary.status == calibration::UmbmarkSummary::Status::kInvalidInput)
+    if (summary.status == odocal::StatusCode::kInvalidArgument)
       Fail("umbmark", kExitBadInput, summary.message);
     if (!summary.ok()) Fail("umbmark", kExitFailure, summary.message);
     nlohmann::json doc = report::UmbmarkJson(input, summary);

@@ -28,6 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
+
 namespace odocal::calibration {
 
 struct BlandAltmanOptions {
@@ -45,8 +47,7 @@ struct Interval {
 };
 
 struct BlandAltmanResult {
-  enum class Status { kOk, kInvalidInput };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   int n = 0;
@@ -64,7 +65,7 @@ struct BlandAltmanResult {
   std::vector<int> outliers;        // indices outside the others' prediction interval
   std::vector<int> outside_limits;  // indices outside [lower_limit, upper_limit]
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   // The error of a single test reading at the given confidence: |bias| + z sd
   // (how far one tape reading may be from the reference).
   double error_bound() const;

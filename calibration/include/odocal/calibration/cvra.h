@@ -31,17 +31,17 @@
 #include <optional>
 #include <string>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/robot_model.h"
 
 namespace odocal::calibration {
 
 struct CvraResult {
-  enum class Status { kOk, kInvalidInput };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
   double value = 1.0;                 // the estimated factor (Ed, scale or g)
   std::optional<double> sigma;        // when repeated measurements were given
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
 };
 
 // 1a. Wall-referenced: `mean_travel_m` is D, the mean of the two wheels'

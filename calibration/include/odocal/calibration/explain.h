@@ -77,6 +77,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/replay.h"
 #include "odocal/calibration/trajectory_fit.h"
@@ -201,8 +202,7 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
                                   const ExplainOptions& options = {});
 
 struct ExplainResult {
-  enum class Status { kOk, kInvalidInput, kNoConvergence };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   TrajectoryFitResult base;
@@ -220,7 +220,7 @@ struct ExplainResult {
   double gap_before_m() const { return base.gap_m; }
   double gap_after_m() const { return final_fit.gap_m; }
   std::vector<std::string> EffectsAdded() const;
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
 };
 

@@ -73,6 +73,8 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/solver_settings.h"
+#include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/robot_model.h"
@@ -149,7 +151,10 @@ struct TrajectoryFitOptions {
   // frame errors (1.4826 MAD); 0 turns the robust loss off.
   double huber_threshold = 3.0;
   int irls_rounds = 3;
-  int max_solver_iterations = 100;
+  // Each IRLS round's solve (Ceres, dense QR): at most 100 iterations, and
+  // tolerances tight enough that the fitted ratios settle to ~1e-10.
+  SolverSettings solver{.max_iterations = 100, .function_tolerance = 1e-10,
+                        .parameter_tolerance = 1e-10};
   // A normalised singular value below this (relative to the largest) marks a
   // parameter combination the data cannot determine.
   double rank_tolerance = 1e-5;
@@ -193,8 +198,7 @@ struct ParameterEstimate {
 };
 
 struct TrajectoryFitResult {
-  enum class Status { kOk, kInvalidInput, kNoConvergence };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   TrajectoryFitOptions options;
@@ -244,7 +248,7 @@ struct TrajectoryFitResult {
   // (EffectParams order), then 3 per used run. For aliasing tests.
   Eigen::MatrixXd jacobian;
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
 };
 

@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/solver_settings.h"
+#include "odocal/base/status.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 
@@ -69,6 +71,11 @@ struct UmbmarkOptions {
   // Floors on the standard errors learned from the spread of repeated runs.
   double min_position_sigma_m = 1e-6;
   double min_heading_sigma_rad = 1e-7;
+  // The coupled fit of Ed and Eb (two parameters, Ceres with dense QR): run to
+  // the limits of double precision, since the answer is a ratio near 1 and
+  // the problem is tiny.
+  SolverSettings solver{.max_iterations = 100, .function_tolerance = 1e-16,
+                        .gradient_tolerance = 1e-20, .parameter_tolerance = 1e-14};
 
   bool IsValid(std::string* why) const;
 };
@@ -120,8 +127,7 @@ struct CoupledEstimate {
 };
 
 struct UmbmarkSummary {
-  enum class Status { kOk, kInvalidInput, kNoConvergence };
-  Status status = Status::kInvalidInput;
+  StatusCode status = StatusCode::kInvalidArgument;
   std::string message;
 
   CentreOfGravity cw;
@@ -137,7 +143,7 @@ struct UmbmarkSummary {
   double c_left = 1.0;             // multiply left wheel travel per tick (diameter) by this
   double c_right = 1.0;
 
-  bool ok() const { return status == Status::kOk; }
+  bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
 };
 

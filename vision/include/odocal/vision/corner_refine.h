@@ -19,6 +19,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/solver_settings.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -37,6 +38,14 @@ struct CornerRefineOptions {
   double min_cell_px = 3.0;
   // Tag bits across the black border (8 for tag36h11).
   int width_at_border = 8;
+  // Ceres (dense QR) on each edge's profile model (RefineTagCornersByEdgeModel):
+  // 5 parameters from a start near the answer; 25 iterations are plenty.
+  SolverSettings edge_model_solver{.max_iterations = 25, .function_tolerance = 1e-10,
+                                   .parameter_tolerance = 1e-10};
+  // Ceres (dense QR) on the four edges with their shared blur and tone curve
+  // (RefineTagCornersModelFree): more parameters, bounded, so more iterations.
+  SolverSettings model_free_solver{.max_iterations = 50, .function_tolerance = 1e-10,
+                                   .parameter_tolerance = 1e-10};
 
   bool IsValid(std::string* why) const;
 };

@@ -32,6 +32,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/solver_settings.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/tag.h"
@@ -56,7 +57,9 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
                                 const TagCorners& corners_px);
 
 struct CameraPlaneOptions {
-  int max_iterations = 100;
+  // The bundle adjustment of the camera and the views (Ceres, dense Schur).
+  SolverSettings solver{.max_iterations = 100, .function_tolerance = 1e-12,
+                        .parameter_tolerance = 1e-12};
   // Huber loss scale on corner residuals (px); 0 = plain least squares.
   double huber_px = 1.0;
   int min_views = 3;

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+// The sessions come from the virtual robot and the stand-in camera, which
+// live in rig (Simulate, MeasureWithStandInCamera): hence the rig link.
 #include "explain_fixtures.h"
 
 namespace odocal::testing {

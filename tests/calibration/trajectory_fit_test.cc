@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+// The sessions come from the virtual robot and the stand-in camera, which
+// live in rig (Simulate, MeasureWithStandInCamera): hence the rig link.
 #include "explain_fixtures.h"
 
 namespace odocal::testing {
@@ -167,7 +169,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   calibration::MeasuredSession empty;
   empty.believed = test_util::NominalParams();
   auto fit = FitTrajectory(empty);
-  EXPECT_EQ(fit.status, calibration::TrajectoryFitResult::Status::kInvalidInput);
+  EXPECT_EQ(fit.status, odocal::StatusCode::kInvalidArgument);
   EXPECT_FALSE(fit.message.empty());
   TrajectoryFitOptions bad;
   bad.rank_tolerance = 0.0;

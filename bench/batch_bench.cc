@@ -1,4 +1,4 @@
-// Batch throughput and accuracy on one recorded session (issue 3).
+// Batch throughput and accuracy on one recorded session.
 //
 //   ./build/odocal simulate --scenario sample_data/scenarios/standard_1080p.yaml --out /tmp/std
 //   ./build/bench/batch_bench /tmp/std

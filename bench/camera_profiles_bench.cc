@@ -1,4 +1,4 @@
-// Rest-pose accuracy on images odocal did not design (issue 12 "must show"):
+// Rest-pose accuracy on images odocal did not design:
 // for each camera preset (image_formation.h) and a standard scene -- the
 // issue's standard camera (1920x1080, fx 1400, k1 -0.12, 2 m high, pitch 3
 // deg), the 80 mm tag at 150 mm resting at `places` places and headings,

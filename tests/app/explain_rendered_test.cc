@@ -1,4 +1,4 @@
-// Explain on rendered, camera-measured video (issue 6 §4): each effect hidden
+// Explain on rendered, camera-measured video: each effect hidden
 // at a realistic magnitude in a session the virtual camera renders and the
 // camera pipeline measures from its H.264 videos; the real binary runs
 // `simulate` then `explain SESSION.yaml` (which reads session.yaml, the

@@ -1,4 +1,4 @@
-// The camera replaces the tape measure (issue 3): rendered sessions with
+// The camera replaces the tape measure: rendered sessions with
 // exact truth, measured by the real odocal binary from their H.264 videos.
 // Small sensors at the standard condition's pixel scale (fx = 1400, the
 // 80 mm tag ~60 px wide) keep the clips short; the full 1080p figures are in

@@ -1,4 +1,4 @@
-// Issue 12 in rig/: the scenario's camera image-formation keys, and rests
+// Real cameras in the measurement: the scenario's camera image-formation keys, and rests
 // whose images cannot support a number get a fatal flag and no value.
 #include <cmath>
 #include <fstream>

@@ -1,4 +1,4 @@
-// The hands-off station (issue 5 §1, §5): the virtual robot behind the
+// The hands-off station: the virtual robot behind the
 // firmware library on a real pseudo-terminal, the virtual camera rendering it
 // live, the whole loop in-process so the test can see the truth, plus the
 // failure paths, each injected with an existing seam (a MotionBackend, a

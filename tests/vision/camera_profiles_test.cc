@@ -1,4 +1,4 @@
-// Images odocal did not design (issue 12): the camera simulator's parts, the
+// Images odocal did not design: the camera simulator's parts, the
 // PSF- and tone-free corner refinement measured on images formed by PSFs and
 // tone curves it does not invert, and bad frames that must be flagged.
 // Small images (640x480), so each test takes a few seconds.

@@ -10,7 +10,7 @@
 namespace odocal::vision::testing {
 
 // 1920x1080, fx = fy = 1400, distortion [-0.12, 0.05, 0, 0, 0], 2000 mm high,
-// pitch 3 deg (issue 3 §2 scenario keys).
+// pitch 3 deg (the standard scenario keys).
 inline Intrinsics StandardIntrinsics() {
   return Intrinsics{1920, 1080, 1400.0, 1400.0, 960.0, 540.0, {-0.12, 0.05, 0.0, 0.0, 0.0}};
 }

@@ -11,6 +11,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/cvra.h"
 #include "odocal/calibration/statistics.h"
@@ -27,7 +28,6 @@
 namespace odocal::app {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 bool Usable(const calibration::MeasuredRun& m) {
   if (!m.return_error) return false;

@@ -7,6 +7,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/cvra.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/statistics.h"
@@ -15,7 +16,6 @@
 namespace odocal::app {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
 
 // One estimate per measured run: their mean, and the standard error of the
 // mean when there are several.

@@ -15,6 +15,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/bland_altman.h"
 #include "odocal/config/files.h"
 #include "odocal/config/manual_csv.h"
@@ -27,7 +28,6 @@
 namespace odocal::app {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 struct Pair {
   const config::ManualReading* reading;

@@ -117,7 +117,7 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
     if (crf < 0 || crf > 51) Fail(node["crf"], "camera.crf", "must be 0 to 51 (x264 CRF)");
     c.crf = static_cast<int>(crf);
   }
-  // Image formation of a real camera (issue 12, vision/image_formation.h):
+  // Image formation of a real camera (vision/image_formation.h):
   // a named profile, then any part given here on top of it. Without any of
   // these keys the renderer and the video are exactly as before.
   vision::ImageFormationOptions& f = c.render.formation;

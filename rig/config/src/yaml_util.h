@@ -10,13 +10,13 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::config::yaml_util {
 
-constexpr double kDegToRad = M_PI / 180.0;
 
 struct YamlError : std::runtime_error {
   using std::runtime_error::runtime_error;

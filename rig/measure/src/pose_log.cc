@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
 
 namespace odocal::measure {
@@ -14,8 +15,6 @@ namespace {
 
 using calibration::Pose2;
 
-constexpr double kDegToRad = M_PI / 180.0;
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::string Trim(const std::string& s) {
   const size_t b = s.find_first_not_of(" \t\r");

@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 
+#include "odocal/base/units.h"
 #include "odocal/report/json.h"
 #include "svg_plot.h"
 
@@ -16,7 +17,6 @@ using calibration::EffectParams;
 using nlohmann::json;
 using svg::Escape;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr const char* kMeasured = "#222";
 // Sets in this order; the nominal set first, in grey.
 constexpr const char* kPalette[] = {"#7f7f7f", "#1f77b4", "#2ca02c", "#d62728",

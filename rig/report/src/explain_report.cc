@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/report/json.h"
 #include "svg_plot.h"
@@ -14,7 +15,6 @@ namespace {
 
 using calibration::ParameterEstimate;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 // An effect parameter at the edge: the scenario's key and its unit scale.
 std::pair<std::string, double> EdgeName(const std::string& name) {

@@ -7,10 +7,11 @@
 #include <iomanip>
 #include <sstream>
 
+#include "odocal/base/units.h"
+
 namespace odocal::report {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 nlohmann::json OrNull(const std::optional<double>& value, double scale = 1.0) {
   return value ? nlohmann::json(*value * scale) : nlohmann::json(nullptr);

@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include "odocal/base/parallel.h"
+#include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/media/video.h"
 #include "odocal/sim/trajectory.h"
@@ -15,7 +16,6 @@
 namespace odocal::simulation {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim::RunRecord& run,
                                      const std::string& name, const std::string& dir,

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/config/session.h"
 #include "odocal/report/json.h"
@@ -14,7 +15,6 @@
 namespace odocal::simulation {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 std::string TelemetryCsv(const sim::RunRecord& run) {
   std::string csv = "t_s,left_ticks,right_ticks,x_mm,y_mm,heading_deg,moving\n";

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/rest.h"
 
 namespace odocal::simulation {
@@ -15,7 +16,6 @@ namespace {
 
 using calibration::Pose2;
 
-constexpr double kDegToRad = M_PI / 180.0;
 
 // The true pose at time t, linear between samples (heading unwrapped).
 Pose2 Interpolate(const SimulatedRunRecord& run, double t) {

@@ -1,7 +1,7 @@
 // Board renderer: images of a planar calibration board (chessboard, or any
 // pattern of black and white cells such as a ChArUco board) seen by a camera
 // with lens distortion, with the exact pixels of its corners — the golden
-// data the camera-calibration tests run on (issue 3 §1).
+// data the camera-calibration tests run on.
 //
 // Frames:
 //   board   x along the pattern's columns, y along its rows, z = x cross y

@@ -1,5 +1,5 @@
 // CameraModel: the overhead camera — pinhole intrinsics, OpenCV lens
-// distortion and the camera's pose over the floor (issue 3 §1).
+// distortion and the camera's pose over the floor.
 //
 // Frames:
 //   world   REP-103: x forward, y left, z up; the floor is z = 0.

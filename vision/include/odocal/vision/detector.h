@@ -1,7 +1,7 @@
 // TagDetector: libapriltag behind an odocal interface, with its pixel
 // convention converted once, here, to OpenCV's (pixel centres at integers).
 // TagTracker: region-of-interest detection around the predicted tag, with a
-// full-frame search only to (re)acquire (issue 3 §3).
+// full-frame search only to (re)acquire.
 //
 // Pixels: every corner this header returns is in OpenCV's convention, with
 // lens distortion still in it (undistort with CameraModel). Corner order is

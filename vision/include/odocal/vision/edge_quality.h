@@ -1,6 +1,5 @@
-// Corner refinement that assumes neither the camera's PSF nor its tone curve
-// (issue 12 §2), and the image quality that says whether a measurement can
-// be trusted.
+// Corner refinement that assumes neither the camera's PSF nor its tone curve,
+// and the image quality that says whether a measurement can be trusted.
 //
 // Why: RefineTagCornersByEdgeModel fits a Gaussian-blurred edge in linear
 // light. A real camera blurs by a defocus disk (or disk + Gaussian), encodes

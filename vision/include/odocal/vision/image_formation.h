@@ -1,4 +1,4 @@
-// Image formation of a real camera, for the renderer (issue 12 §1): the
+// Image formation of a real camera, for the renderer: the
 // parts of a camera that odocal's own edge model does not assume. Every part
 // is optional and off by default, so a RenderOptions without them renders
 // exactly what it did before (Gaussian blur, additive noise, 8 bits).
@@ -79,7 +79,7 @@ struct ImageFormationOptions {
   bool IsValid(std::string* why) const;
 };
 
-// The named presets of issue 12: "machine-vision", "webcam", "phone".
+// The named presets: "machine-vision", "webcam", "phone".
 std::optional<ImageFormationOptions> ImageFormationPreset(const std::string& name);
 std::vector<std::string> ImageFormationPresetNames();
 

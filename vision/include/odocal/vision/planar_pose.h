@@ -1,4 +1,4 @@
-// Planar tag pose and the camera's pose over the tag plane (issue 3 §3).
+// Planar tag pose and the camera's pose over the tag plane.
 //
 // The tag moves in one horizontal plane, z = tag height above the floor, so a
 // measurement needs only (x, y, heading) of the tag in that plane, not a 6-DoF

@@ -1,4 +1,4 @@
-// Renderer: the virtual overhead camera (issue 3 §2). Turns the robot's true
+// Renderer: the virtual overhead camera. Turns the robot's true
 // pose into the 8-bit grey frame a real camera would record, with exact
 // ground truth: the tag's true corner pixels and planar pose.
 //

@@ -1,5 +1,5 @@
 // Camera files: the intrinsics of a camera (pinhole + OpenCV k1 k2 p1 p2 k3
-// distortion) as the two YAML layouts operators already have (issue 3 §1).
+// distortion) as the two YAML layouts operators already have.
 //
 //   OpenCV FileStorage YAML   what cv::FileStorage writes: a `%YAML:1.0`
 //     header, `camera_matrix` and `distortion_coefficients` as

@@ -35,7 +35,7 @@ struct CameraScenario {
   int crf = 6;
   // The tag as printed is tag_print_scale x the size the operator states
   // (tag.size_mm): the renderer draws the printed one, the session file keeps
-  // the stated one (issue 12; `camera.tag.print_scale`).
+  // the stated one (`camera.tag.print_scale`).
   double tag_print_scale = 1.0;
 };
 

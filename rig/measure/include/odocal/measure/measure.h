@@ -44,7 +44,7 @@ struct MeasureOptions {
   bool exact_rest_refinement = true;
   // ... by the edge model that assumes neither the PSF nor a power-law tone
   // curve (vision/edge_quality.h), which also reports each frame's image
-  // quality; false: the Gaussian edge model of the renderer (issue 3).
+  // quality; false: the Gaussian edge model of the renderer.
   bool model_free_rest_refinement = true;
   // When a rest frame's image cannot support the stated sigma (overexposed,
   // low contrast, defocused, an edge that is not straight). A rest keeps its
@@ -74,7 +74,7 @@ struct MeasureOptions {
 // Flags that leave a run without a return error.
 bool IsFatalFlag(const std::string& flag);
 
-// The image quality of one refined rest frame, and of a rest (issue 12):
+// The image quality of one refined rest frame, and of a rest:
 // what the user reads to judge the camera (report.json "quality").
 struct FrameQuality {
   double t_s = 0.0;

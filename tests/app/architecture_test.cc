@@ -1,0 +1,168 @@
+// The architecture as written down agrees with the build: the module graph CMake links
+// (build/module_graph.txt, written at configure time) against
+//   - what each module's sources really include (a module links what it includes, no more),
+//   - README's layout table and docs/architecture.md's module table (so they cannot drift),
+//   - the rules that make the layering: calibration is pure math, dependencies point upward.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "odocal/test_util/test_util.h"
+
+namespace odocal {
+namespace {
+
+namespace fs = std::filesystem;
+using Graph = std::map<std::string, std::set<std::string>>;
+
+// Where each module's code lives.
+const std::map<std::string, std::string>& ModuleDirs() {
+  static const std::map<std::string, std::string> dirs = {
+      {"base", "base"},           {"calibration", "calibration"}, {"robot_link", "robot_link"},
+      {"sim", "sim"},             {"vision", "vision"},           {"config", "rig/config"},
+      {"media", "rig/media"},     {"measure", "rig/measure"},     {"report", "rig/report"},
+      {"simulation", "rig/simulation"}, {"station", "rig/station"}, {"app", "rig/app"}};
+  return dirs;
+}
+
+Graph ReadGraph() {
+  Graph g;
+  std::istringstream in(test_util::Slurp(ODOCAL_MODULE_GRAPH));
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::istringstream deps(line.substr(colon + 1));
+    std::set<std::string>& d = g[line.substr(0, colon)];
+    for (std::string m; deps >> m;) d.insert(m);
+  }
+  return g;
+}
+
+// The odocal modules a folder's sources include ("odocal/<module>/...").
+std::set<std::string> IncludedModules(const std::string& dir, std::set<std::string>* third_party) {
+  static const std::regex kOdocal(R"re(#include\s+"odocal/(\w+)/)re");
+  static const std::regex kAngle(R"re(#include\s+<([\w\-]+)[/.>])re");
+  std::set<std::string> used;
+  for (const auto& e : fs::recursive_directory_iterator(test_util::SourceDir() + "/" + dir)) {
+    const std::string ext = e.path().extension();
+    if (!e.is_regular_file() || (ext != ".h" && ext != ".cc" && ext != ".c")) continue;
+    const std::string text = test_util::Slurp(e.path());
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), kOdocal); it != std::sregex_iterator(); ++it)
+      used.insert((*it)[1]);
+    if (third_party) {
+      for (auto it = std::sregex_iterator(text.begin(), text.end(), kAngle); it != std::sregex_iterator(); ++it)
+        third_party->insert((*it)[1]);
+    }
+  }
+  return used;
+}
+
+// Rows of a markdown table whose first cell is a module in backticks: module -> the
+// comma-separated names of the cell headed "uses".
+std::map<std::string, std::set<std::string>> ModuleTable(const std::string& path) {
+  std::map<std::string, std::set<std::string>> rows;
+  std::istringstream in(test_util::Slurp(test_util::SourceDir() + "/" + path));
+  std::string line;
+  int uses_column = -1;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] != '|') {
+      uses_column = line.empty() ? uses_column : -1;
+      continue;
+    }
+    std::vector<std::string> cells;
+    std::stringstream cs(line.substr(1));
+    for (std::string c; std::getline(cs, c, '|');) {
+      c.erase(0, c.find_first_not_of(' '));
+      c.erase(c.find_last_not_of(' ') + 1);
+      cells.push_back(c);
+    }
+    if (uses_column < 0) {
+      for (size_t i = 0; i < cells.size(); ++i)
+        if (cells[i] == "uses") uses_column = static_cast<int>(i);
+      continue;
+    }
+    static const std::regex kName(R"(^`(\w+)`)");
+    std::smatch m;
+    if (static_cast<int>(cells.size()) <= uses_column || !std::regex_search(cells[0], m, kName)) continue;
+    std::set<std::string>& deps = rows[m[1]];
+    std::stringstream ds(cells[uses_column]);
+    for (std::string d; std::getline(ds, d, ',');) {
+      d.erase(0, d.find_first_not_of(" `"));
+      d.erase(d.find_last_not_of(" `") + 1);
+      if (!d.empty() && d != "—") deps.insert(d);
+    }
+  }
+  return rows;
+}
+
+std::string Join(const std::set<std::string>& s) {
+  std::string out;
+  for (const std::string& x : s) out += (out.empty() ? "" : ", ") + x;
+  return out.empty() ? "—" : out;
+}
+
+TEST(Architecture, EveryModuleLinksExactlyTheModulesItIncludes) {
+  const Graph graph = ReadGraph();
+  ASSERT_EQ(graph.size(), ModuleDirs().size()) << "module_graph.txt and ModuleDirs() disagree";
+  for (const auto& [module, dir] : ModuleDirs()) {
+    ASSERT_TRUE(graph.count(module)) << module << " is not in the build's module graph";
+    std::set<std::string> included = IncludedModules(dir, nullptr);
+    included.erase(module);
+    included.erase("test_util");
+    EXPECT_EQ(Join(included), Join(graph.at(module)))
+        << module << " (" << dir << "): the modules its code includes (left) and links (right)";
+  }
+}
+
+TEST(Architecture, DependenciesPointUpTheLayers) {
+  // The order of CMakeLists.txt and docs/architecture.md: a module uses only those before it.
+  const std::vector<std::string> order = {"base",   "calibration", "robot_link", "sim",
+                                          "vision", "config",      "media",      "measure",
+                                          "report", "simulation",  "station",    "app"};
+  const Graph graph = ReadGraph();
+  for (size_t i = 0; i < order.size(); ++i) {
+    for (const std::string& dep : graph.at(order[i])) {
+      const auto at = std::find(order.begin(), order.end(), dep) - order.begin();
+      EXPECT_LT(static_cast<size_t>(at), i) << order[i] << " uses " << dep << ", which comes after it";
+    }
+  }
+}
+
+TEST(Architecture, CalibrationIsPureMath) {
+  std::set<std::string> third_party;
+  const std::set<std::string> used = IncludedModules("calibration", &third_party);
+  EXPECT_THAT(used, ::testing::IsSubsetOf(std::set<std::string>{"base", "calibration"}));
+  for (const char* io : {"opencv2", "fstream", "filesystem", "yaml-cpp", "nlohmann", "iostream"})
+    EXPECT_FALSE(third_party.count(io)) << "calibration includes <" << io << ">";
+  // And vision reads no files and starts no process.
+  third_party.clear();
+  IncludedModules("vision", &third_party);
+  for (const char* io : {"fstream", "spawn", "yaml-cpp"})
+    EXPECT_FALSE(third_party.count(io)) << "vision includes <" << io << ">";
+}
+
+TEST(Architecture, ReadmeAndArchitectureDocTablesMatchTheBuild) {
+  const Graph graph = ReadGraph();
+  for (const char* doc : {"README.md", "docs/architecture.md"}) {
+    const auto table = ModuleTable(doc);
+    EXPECT_EQ(table.size(), graph.size()) << doc << ": one row per module";
+    for (const auto& [module, deps] : graph) {
+      ASSERT_TRUE(table.count(module)) << doc << " has no row for `" << module << "`";
+      EXPECT_EQ(Join(table.at(module)), Join(deps))
+          << doc << ", row `" << module << "`: the `uses` cell (left) and the build (right)";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace odocal

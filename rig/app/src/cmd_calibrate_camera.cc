@@ -96,17 +96,126 @@ struct ImageOutcome {
 
 }  // namespace
 
+struct CalibrateCameraArgs {
+  std::vector<std::string> images;
+  std::string board;
+  std::string out;
+  std::string format = "opencv";
+  std::string camera_name = "camera";
+  bool fix_k3 = false;
+  bool json = false;
+};
+
+void RunCalibrateCamera(const CalibrateCameraArgs& args) {
+  // Every unreadable image is reported once, by us, in one line.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  const vision::CalibrationBoard board = ParseBoard(args.board);
+  const auto format = config::ParseCameraFileFormat(args.format);
+  if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
+
+  std::vector<ImageOutcome> outcomes;
+  std::vector<vision::BoardDetection> views;
+  std::vector<size_t> view_image;  // views[i] came from outcomes[view_image[i]]
+  cv::Size size;
+  for (const std::string& path : args.images) {
+    ImageOutcome o;
+    o.path = path;
+    const cv::Mat image =
+        std::filesystem::is_regular_file(path) ? cv::imread(path, cv::IMREAD_GRAYSCALE) : cv::Mat();
+    if (image.empty()) {
+      o.reason = !std::filesystem::exists(path)       ? "no such file"
+                 : std::filesystem::is_directory(path) ? "is a directory"
+                                                       : "cannot be read as an image";
+    } else if (!size.empty() && image.size() != size) {
+      o.reason = "size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                 " differs from the first image's " + std::to_string(size.width) + "x" +
+                 std::to_string(size.height);
+    } else {
+      size = image.size();
+      vision::BoardDetection d = vision::DetectBoard(image, board);
+      if (d.found) {
+        o.used = true;
+        o.corners = static_cast<int>(d.image_points.size());
+        views.push_back(std::move(d));
+        view_image.push_back(outcomes.size());
+      } else {
+        o.reason = d.message;
+      }
+    }
+    if (!o.used) std::cerr << "odocal " << kCommand << ": skipping " << path << ": " << o.reason << "\n";
+    outcomes.push_back(o);
+  }
+
+  vision::CameraCalibrationOptions options;
+  options.fix_k3 = args.fix_k3;
+  if (static_cast<int>(views.size()) < options.min_views) {
+    Fail(kCommand, kExitFailure,
+         "only " + std::to_string(views.size()) + " of " + std::to_string(outcomes.size()) +
+             " images show the board; need at least " + std::to_string(options.min_views) +
+             " (no camera file written)");
+  }
+  const vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
+  if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
+  for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
+
+  config::CameraFile file;
+  file.intrinsics = result.intrinsics;
+  file.camera_name = args.camera_name;
+  file.rms_reprojection_error_px = result.rms_reprojection_error_px;
+  file.per_view_reprojection_errors_px = result.per_view_rms_px;
+  if (const auto error = config::WriteCameraFile(args.out, file, *format)) Fail(kCommand, kExitFailure, *error);
+
+  const vision::Intrinsics& in = result.intrinsics;
+  if (args.json) {
+    nlohmann::json images = nlohmann::json::array();
+    for (const ImageOutcome& o : outcomes) {
+      if (o.used) {
+        images.push_back({{"path", o.path}, {"used", true}, {"corners", o.corners}, {"rms_px", o.rms_px}});
+      } else {
+        images.push_back({{"path", o.path}, {"used", false}, {"reason", o.reason}});
+      }
+    }
+    const nlohmann::json doc = {
+        {"out", args.out},
+        {"format", config::CameraFileFormatName(*format)},
+        {"image_width", in.width},
+        {"image_height", in.height},
+        {"fx", in.fx}, {"fy", in.fy}, {"cx", in.cx}, {"cy", in.cy},
+        {"distortion", {in.distortion[0], in.distortion[1], in.distortion[2], in.distortion[3], in.distortion[4]}},
+        {"sigma", {{"fx", result.sigma[0]}, {"fy", result.sigma[1]}, {"cx", result.sigma[2]},
+                   {"cy", result.sigma[3]}, {"k1", result.sigma[4]}, {"k2", result.sigma[5]},
+                   {"p1", result.sigma[6]}, {"p2", result.sigma[7]}, {"k3", result.sigma[8]}}},
+        {"rms_reprojection_error_px", result.rms_reprojection_error_px},
+        {"views_used", result.views},
+        {"corners_used", result.corners},
+        {"images", images},
+    };
+    std::cout << doc.dump(2) << std::endl;
+    return;
+  }
+  std::cout << "Camera calibration  " << in.width << "x" << in.height << ", " << result.views
+            << " of " << outcomes.size() << " images, " << result.corners << " corners\n\n";
+  std::cout << "  fx " << std::setw(12) << Fixed(in.fx, 3) << "  +/- " << Fixed(result.sigma[0], 3) << " px\n"
+            << "  fy " << std::setw(12) << Fixed(in.fy, 3) << "  +/- " << Fixed(result.sigma[1], 3) << " px\n"
+            << "  cx " << std::setw(12) << Fixed(in.cx, 3) << "  +/- " << Fixed(result.sigma[2], 3) << " px\n"
+            << "  cy " << std::setw(12) << Fixed(in.cy, 3) << "  +/- " << Fixed(result.sigma[3], 3) << " px\n";
+  const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
+  for (int i = 0; i < 5; ++i) {
+    std::cout << "  " << names[i] << " " << std::setw(12) << Fixed(in.distortion[i], 6) << "  +/- "
+              << Fixed(result.sigma[4 + i], 6) << "\n";
+  }
+  std::cout << "\n  RMS reprojection error " << Fixed(result.rms_reprojection_error_px, 4) << " px\n\n";
+  for (const ImageOutcome& o : outcomes) {
+    std::cout << "  " << o.path << ": "
+              << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners"
+                         : "skipped (" + o.reason + ")")
+              << "\n";
+  }
+  std::cout << "\n  wrote " << args.out << " (" << config::CameraFileFormatName(*format) << ")\n";
+}
+
 void RegisterCalibrateCameraCommand(CLI::App& app) {
-  struct Args {
-    std::vector<std::string> images;
-    std::string board;
-    std::string out;
-    std::string format = "opencv";
-    std::string camera_name = "camera";
-    bool fix_k3 = false;
-    bool json = false;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CalibrateCameraArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate-camera",
       "Camera intrinsics (fx fy cx cy, k1 k2 p1 p2 k3) from images of a calibration board.\n"
@@ -122,113 +231,7 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   cmd->add_option("--camera-name", args->camera_name, "camera_name in ROS files (default: camera)");
   cmd->add_flag("--fix-k3", args->fix_k3, "Keep k3 = 0 (lenses with a modest field of view)");
   cmd->add_flag("--json", args->json, "Print one JSON object");
-  cmd->callback([args]() {
-    // Every unreadable image is reported once, by us, in one line.
-    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-    const vision::CalibrationBoard board = ParseBoard(args->board);
-    const auto format = config::ParseCameraFileFormat(args->format);
-    if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args->format + "'");
-
-    std::vector<ImageOutcome> outcomes;
-    std::vector<vision::BoardDetection> views;
-    std::vector<size_t> view_image;  // views[i] came from outcomes[view_image[i]]
-    cv::Size size;
-    for (const std::string& path : args->images) {
-      ImageOutcome o;
-      o.path = path;
-      const cv::Mat image =
-          std::filesystem::is_regular_file(path) ? cv::imread(path, cv::IMREAD_GRAYSCALE) : cv::Mat();
-      if (image.empty()) {
-        o.reason = !std::filesystem::exists(path)       ? "no such file"
-                   : std::filesystem::is_directory(path) ? "is a directory"
-                                                         : "cannot be read as an image";
-      } else if (!size.empty() && image.size() != size) {
-        o.reason = "size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                   " differs from the first image's " + std::to_string(size.width) + "x" +
-                   std::to_string(size.height);
-      } else {
-        size = image.size();
-        vision::BoardDetection d = vision::DetectBoard(image, board);
-        if (d.found) {
-          o.used = true;
-          o.corners = static_cast<int>(d.image_points.size());
-          views.push_back(std::move(d));
-          view_image.push_back(outcomes.size());
-        } else {
-          o.reason = d.message;
-        }
-      }
-      if (!o.used) std::cerr << "odocal " << kCommand << ": skipping " << path << ": " << o.reason << "\n";
-      outcomes.push_back(o);
-    }
-
-    vision::CameraCalibrationOptions options;
-    options.fix_k3 = args->fix_k3;
-    if (static_cast<int>(views.size()) < options.min_views) {
-      Fail(kCommand, kExitFailure,
-           "only " + std::to_string(views.size()) + " of " + std::to_string(outcomes.size()) +
-               " images show the board; need at least " + std::to_string(options.min_views) +
-               " (no camera file written)");
-    }
-    const vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
-    if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
-    for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
-
-    config::CameraFile file;
-    file.intrinsics = result.intrinsics;
-    file.camera_name = args->camera_name;
-    file.rms_reprojection_error_px = result.rms_reprojection_error_px;
-    file.per_view_reprojection_errors_px = result.per_view_rms_px;
-    if (const auto error = config::WriteCameraFile(args->out, file, *format)) Fail(kCommand, kExitFailure, *error);
-
-    const vision::Intrinsics& in = result.intrinsics;
-    if (args->json) {
-      nlohmann::json images = nlohmann::json::array();
-      for (const ImageOutcome& o : outcomes) {
-        if (o.used) {
-          images.push_back({{"path", o.path}, {"used", true}, {"corners", o.corners}, {"rms_px", o.rms_px}});
-        } else {
-          images.push_back({{"path", o.path}, {"used", false}, {"reason", o.reason}});
-        }
-      }
-      const nlohmann::json doc = {
-          {"out", args->out},
-          {"format", config::CameraFileFormatName(*format)},
-          {"image_width", in.width},
-          {"image_height", in.height},
-          {"fx", in.fx}, {"fy", in.fy}, {"cx", in.cx}, {"cy", in.cy},
-          {"distortion", {in.distortion[0], in.distortion[1], in.distortion[2], in.distortion[3], in.distortion[4]}},
-          {"sigma", {{"fx", result.sigma[0]}, {"fy", result.sigma[1]}, {"cx", result.sigma[2]},
-                     {"cy", result.sigma[3]}, {"k1", result.sigma[4]}, {"k2", result.sigma[5]},
-                     {"p1", result.sigma[6]}, {"p2", result.sigma[7]}, {"k3", result.sigma[8]}}},
-          {"rms_reprojection_error_px", result.rms_reprojection_error_px},
-          {"views_used", result.views},
-          {"corners_used", result.corners},
-          {"images", images},
-      };
-      std::cout << doc.dump(2) << std::endl;
-      return;
-    }
-    std::cout << "Camera calibration  " << in.width << "x" << in.height << ", " << result.views
-              << " of " << outcomes.size() << " images, " << result.corners << " corners\n\n";
-    std::cout << "  fx " << std::setw(12) << Fixed(in.fx, 3) << "  +/- " << Fixed(result.sigma[0], 3) << " px\n"
-              << "  fy " << std::setw(12) << Fixed(in.fy, 3) << "  +/- " << Fixed(result.sigma[1], 3) << " px\n"
-              << "  cx " << std::setw(12) << Fixed(in.cx, 3) << "  +/- " << Fixed(result.sigma[2], 3) << " px\n"
-              << "  cy " << std::setw(12) << Fixed(in.cy, 3) << "  +/- " << Fixed(result.sigma[3], 3) << " px\n";
-    const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
-    for (int i = 0; i < 5; ++i) {
-      std::cout << "  " << names[i] << " " << std::setw(12) << Fixed(in.distortion[i], 6) << "  +/- "
-                << Fixed(result.sigma[4 + i], 6) << "\n";
-    }
-    std::cout << "\n  RMS reprojection error " << Fixed(result.rms_reprojection_error_px, 4) << " px\n\n";
-    for (const ImageOutcome& o : outcomes) {
-      std::cout << "  " << o.path << ": "
-                << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners"
-                           : "skipped (" + o.reason + ")")
-                << "\n";
-    }
-    std::cout << "\n  wrote " << args->out << " (" << config::CameraFileFormatName(*format) << ")\n";
-  });
+  cmd->callback([args]() { RunCalibrateCamera(*args); });
 }
 
 }  // namespace odocal::app

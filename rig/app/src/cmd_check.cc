@@ -24,13 +24,61 @@
 
 namespace odocal::app {
 
+struct CheckArgs {
+  std::string session;
+  std::vector<std::string> params;
+  std::string out;
+};
+
+void RunCheck(const CheckArgs& args) {
+  // Everything the user typed is checked before the videos are measured.
+  std::string error;
+  std::vector<config::ParamSpec> specs;
+  std::set<std::string> names = {"nominal"};
+  for (const std::string& text : args.params) {
+    std::optional<config::ParamSpec> spec = config::ParseParamSpec(text, &error);
+    if (!spec) Fail("check", kExitBadInput, error);
+    if (!names.insert(spec->name).second)
+      Fail("check", kExitBadInput,
+           "--params " + text + ": a set named '" + spec->name +
+               "' is already given (nominal is the session's own); name it with NAME=FILE");
+    specs.push_back(*spec);
+  }
+  std::optional<config::Session> session = config::LoadSession(args.session, &error);
+  if (!session) Fail("check", kExitBadInput, error);
+  std::vector<config::ReplaySet> sets = {config::NominalReplaySet()};
+  for (const config::ParamSpec& spec : specs) {
+    std::optional<config::ReplaySet> set = config::ReadReplaySet(spec, session->nominal, &error);
+    if (!set) Fail("check", kExitBadInput, error);
+    sets.push_back(*set);
+  }
+  if (auto e = config::EnsureDirectory(args.out)) Fail("check", kExitFailure, *e);
+
+  const auto measured =
+      measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), &error);
+  if (!measured) Fail("check", kExitFailure, error);
+  const measure::SessionMeasurement& sm = measured->front();
+  calibration::MeasuredSession ms = sm.ToMeasuredSession();
+  ms.camera = measure::FloorCameraOf(sm);
+
+  const report::CheckResult result = report::RunCheck(ms, sets);
+  const nlohmann::json j = report::CheckJson(args.session, ms, result);
+  std::fputs(report::CheckTable(j).c_str(), stdout);
+  if (auto e = config::WriteFileAtomically(args.out + "/check.json", j.dump(2) + "\n"))
+    Fail("check", kExitFailure, *e);
+  if (auto e = config::WriteFileAtomically(args.out + "/report.html", report::CheckHtml(j)))
+    Fail("check", kExitFailure, *e);
+  std::printf("wrote %s/check.json and report.html\n", args.out.c_str());
+  if (result.Replayed() == 0)
+    Fail("check", kExitFailure,
+         "no run could be replayed (" +
+             (j["not_replayed"].empty() ? std::string("the session has no runs")
+                                        : j["not_replayed"][0]["reason"].get<std::string>()) +
+             ")");
+}
+
 void RegisterCheckCommand(CLI::App& app) {
-  struct Args {
-    std::string session;
-    std::vector<std::string> params;
-    std::string out;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CheckArgs>();
   CLI::App* cmd = app.add_subcommand(
       "check", "Replay every run with parameter sets and compare with the camera: does a "
                "calibration hold on runs it never saw?");
@@ -43,52 +91,7 @@ void RegisterCheckCommand(CLI::App& app) {
       ->allow_extra_args(false);
   cmd->add_option("--out", args->out, "Output directory (created): check.json, report.html")
       ->required();
-  cmd->callback([args]() {
-    // Everything the user typed is checked before the videos are measured.
-    std::string error;
-    std::vector<config::ParamSpec> specs;
-    std::set<std::string> names = {"nominal"};
-    for (const std::string& text : args->params) {
-      std::optional<config::ParamSpec> spec = config::ParseParamSpec(text, &error);
-      if (!spec) Fail("check", kExitBadInput, error);
-      if (!names.insert(spec->name).second)
-        Fail("check", kExitBadInput,
-             "--params " + text + ": a set named '" + spec->name +
-                 "' is already given (nominal is the session's own); name it with NAME=FILE");
-      specs.push_back(*spec);
-    }
-    std::optional<config::Session> session = config::LoadSession(args->session, &error);
-    if (!session) Fail("check", kExitBadInput, error);
-    std::vector<config::ReplaySet> sets = {config::NominalReplaySet()};
-    for (const config::ParamSpec& spec : specs) {
-      std::optional<config::ReplaySet> set = config::ReadReplaySet(spec, session->nominal, &error);
-      if (!set) Fail("check", kExitBadInput, error);
-      sets.push_back(*set);
-    }
-    if (auto e = config::EnsureDirectory(args->out)) Fail("check", kExitFailure, *e);
-
-    const auto measured =
-        measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), &error);
-    if (!measured) Fail("check", kExitFailure, error);
-    const measure::SessionMeasurement& sm = measured->front();
-    calibration::MeasuredSession ms = sm.ToMeasuredSession();
-    ms.camera = measure::FloorCameraOf(sm);
-
-    const report::CheckResult result = report::RunCheck(ms, sets);
-    const nlohmann::json j = report::CheckJson(args->session, ms, result);
-    std::fputs(report::CheckTable(j).c_str(), stdout);
-    if (auto e = config::WriteFileAtomically(args->out + "/check.json", j.dump(2) + "\n"))
-      Fail("check", kExitFailure, *e);
-    if (auto e = config::WriteFileAtomically(args->out + "/report.html", report::CheckHtml(j)))
-      Fail("check", kExitFailure, *e);
-    std::printf("wrote %s/check.json and report.html\n", args->out.c_str());
-    if (result.Replayed() == 0)
-      Fail("check", kExitFailure,
-           "no run could be replayed (" +
-               (j["not_replayed"].empty() ? std::string("the session has no runs")
-                                          : j["not_replayed"][0]["reason"].get<std::string>()) +
-               ")");
-  });
+  cmd->callback([args]() { RunCheck(*args); });
 }
 
 }  // namespace odocal::app

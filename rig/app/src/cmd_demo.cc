@@ -47,90 +47,93 @@ std::optional<calibration::UmbmarkInput> UmbmarkFrom(const simulation::Simulatio
 
 }  // namespace
 
-void RegisterDemoCommand(CLI::App& app) {
-  struct Args {
-    std::string scenario;
-    std::string out;
-    report::ExportRequests exports;
+struct DemoArgs {
+  std::string scenario;
+  std::string out;
+  report::ExportRequests exports;
+};
+
+void RunDemo(const DemoArgs& args) {
+  const std::string name = "demo";
+  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
+  std::string error;
+  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
+  if (!scenario) Fail(name, kExitBadInput, error);
+  const calibration::WheelParams& nominal = scenario->robot.nominal;
+
+  const simulation::SimulationResult before = simulation::Simulate(*scenario);
+  const auto input_before = UmbmarkFrom(before, nominal.track_m, &error);
+  if (!input_before) Fail(name, kExitBadInput, args.scenario + ": " + error);
+  const calibration::UmbmarkSummary estimate = calibration::EstimateUmbmark(*input_before);
+  if (!estimate.ok()) Fail(name, kExitFailure, estimate.message);
+  const calibration::WheelParams corrected =
+      calibration::ApplyUmbmarkCorrection(nominal, estimate.coupled.Ed, estimate.coupled.Eb);
+
+  config::Scenario again = *scenario;
+  again.robot.seed = scenario->seed + 1;  // new runs, new noise
+  const simulation::SimulationResult after = simulation::Simulate(again, corrected);
+  const auto input_after = UmbmarkFrom(after, corrected.track_m, &error);
+  const calibration::UmbmarkSummary verify = calibration::EstimateUmbmark(*input_after);
+  if (!verify.ok()) Fail(name, kExitFailure, "verification: " + verify.message);
+  const double improvement = estimate.emax_syst_m / verify.emax_syst_m;
+
+  if (auto e = simulation::WriteSimulation(*scenario, before, args.out + "/round1")) Fail(name, kExitFailure, *e);
+  if (auto e = simulation::WriteSimulation(again, after, args.out + "/round2")) Fail(name, kExitFailure, *e);
+  const nlohmann::json report = {
+      {"command", "demo"},
+      {"scenario", args.scenario},
+      {"measurement", "simulator truth (ideal measurement)"},
+      {"truth", {{"Ed", before.truth.Ed}, {"Eb", before.truth.Eb}, {"Es", before.truth.Es}}},
+      {"iterations",
+       {{{"emax_syst_mm", estimate.emax_syst_m * 1e3},
+         {"umbmark", report::UmbmarkJson(*input_before, estimate)},
+         {"estimate", {{"Ed", estimate.coupled.Ed}, {"Eb", estimate.coupled.Eb}}},
+         {"pushed", report::WheelParamsJson(corrected)}},
+        {{"emax_syst_mm", verify.emax_syst_m * 1e3},
+         {"umbmark", report::UmbmarkJson(*input_after, verify)},
+         {"estimate", {{"Ed", verify.coupled.Ed}, {"Eb", verify.coupled.Eb}}}}}},
+      {"robot_params_final", report::WheelParamsJson(corrected)},
+      {"ros2", report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected))},
+      {"improvement", improvement},
   };
-  auto args = std::make_shared<Args>();
+  if (auto e = config::WriteFileAtomically(args.out + "/report.json", report.dump(2) + "\n"))
+    Fail(name, kExitFailure, *e);
+  if (auto e = report::WriteReportHtml(report, "odocal demo", args.out + "/report.html"))
+    Fail(name, kExitFailure, *e);
+  if (auto e = report::WriteExports(args.exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+
+  std::printf("odocal demo: %zu UMBMark squares of %.0f mm on a virtual robot\n",
+              input_before->cw.size() + input_before->ccw.size(), input_before->side_m * 1e3);
+  std::printf("  (return errors from the simulator's truth: an ideal measurement)\n\n");
+  // UMBMark sees the turn gain b_true / (b_nominal Es): the Eb it can
+  // measure when the distance scale is not calibrated (docs/calibration.md).
+  std::printf("                 truth        estimate\n");
+  std::printf("  Ed          %.6f   %.6f", before.truth.Ed, estimate.coupled.Ed);
+  if (estimate.coupled.sigma_Ed) std::printf(" +/- %.6f", *estimate.coupled.sigma_Ed);
+  std::printf("\n  Eb / Es     %.6f   %.6f", before.truth.Eb / before.truth.Es, estimate.coupled.Eb);
+  if (estimate.coupled.sigma_Eb) std::printf(" +/- %.6f", *estimate.coupled.sigma_Eb);
+  std::printf("\n  (Eb %.6f, Es %.6f: UMBMark measures the turn gain Eb / Es)\n", before.truth.Eb,
+              before.truth.Es);
+  std::printf("\n  parameters   nominal -> corrected (true)\n");
+  std::printf("  D_L [mm]     %.4f -> %.4f (%.4f)\n", nominal.left_wheel_diameter_m * 1e3,
+              corrected.left_wheel_diameter_m * 1e3, scenario->robot.truth.left_wheel_diameter_m * 1e3);
+  std::printf("  D_R [mm]     %.4f -> %.4f (%.4f)\n", nominal.right_wheel_diameter_m * 1e3,
+              corrected.right_wheel_diameter_m * 1e3, scenario->robot.truth.right_wheel_diameter_m * 1e3);
+  std::printf("  track [mm]   %.3f -> %.3f (%.3f)\n\n", nominal.track_m * 1e3,
+              corrected.track_m * 1e3, scenario->robot.truth.track_m * 1e3);
+  std::printf("  E_max,syst   %.2f mm before, %.2f mm after: %.0fx smaller\n",
+              estimate.emax_syst_m * 1e3, verify.emax_syst_m * 1e3, improvement);
+  std::printf("\nreport: %s/report.json, %s/report.html\n", args.out.c_str(), args.out.c_str());
+}
+
+void RegisterDemoCommand(CLI::App& app) {
+  auto args = std::make_shared<DemoArgs>();
   CLI::App* cmd = app.add_subcommand(
       "demo", "Calibrate a mis-calibrated virtual robot with UMBMark and show the improvement");
   cmd->add_option("--scenario", args->scenario, "Scenario file (YAML)")->required();
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
   AddExportOption(cmd, &args->exports);
-  cmd->callback([args]() {
-    const std::string name = "demo";
-    if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
-    std::string error;
-    const std::optional<config::Scenario> scenario = config::LoadScenario(args->scenario, &error);
-    if (!scenario) Fail(name, kExitBadInput, error);
-    const calibration::WheelParams& nominal = scenario->robot.nominal;
-
-    const simulation::SimulationResult before = simulation::Simulate(*scenario);
-    const auto input_before = UmbmarkFrom(before, nominal.track_m, &error);
-    if (!input_before) Fail(name, kExitBadInput, args->scenario + ": " + error);
-    const calibration::UmbmarkSummary estimate = calibration::EstimateUmbmark(*input_before);
-    if (!estimate.ok()) Fail(name, kExitFailure, estimate.message);
-    const calibration::WheelParams corrected =
-        calibration::ApplyUmbmarkCorrection(nominal, estimate.coupled.Ed, estimate.coupled.Eb);
-
-    config::Scenario again = *scenario;
-    again.robot.seed = scenario->seed + 1;  // new runs, new noise
-    const simulation::SimulationResult after = simulation::Simulate(again, corrected);
-    const auto input_after = UmbmarkFrom(after, corrected.track_m, &error);
-    const calibration::UmbmarkSummary verify = calibration::EstimateUmbmark(*input_after);
-    if (!verify.ok()) Fail(name, kExitFailure, "verification: " + verify.message);
-    const double improvement = estimate.emax_syst_m / verify.emax_syst_m;
-
-    if (auto e = simulation::WriteSimulation(*scenario, before, args->out + "/round1")) Fail(name, kExitFailure, *e);
-    if (auto e = simulation::WriteSimulation(again, after, args->out + "/round2")) Fail(name, kExitFailure, *e);
-    const nlohmann::json report = {
-        {"command", "demo"},
-        {"scenario", args->scenario},
-        {"measurement", "simulator truth (ideal measurement)"},
-        {"truth", {{"Ed", before.truth.Ed}, {"Eb", before.truth.Eb}, {"Es", before.truth.Es}}},
-        {"iterations",
-         {{{"emax_syst_mm", estimate.emax_syst_m * 1e3},
-           {"umbmark", report::UmbmarkJson(*input_before, estimate)},
-           {"estimate", {{"Ed", estimate.coupled.Ed}, {"Eb", estimate.coupled.Eb}}},
-           {"pushed", report::WheelParamsJson(corrected)}},
-          {{"emax_syst_mm", verify.emax_syst_m * 1e3},
-           {"umbmark", report::UmbmarkJson(*input_after, verify)},
-           {"estimate", {{"Ed", verify.coupled.Ed}, {"Eb", verify.coupled.Eb}}}}}},
-        {"robot_params_final", report::WheelParamsJson(corrected)},
-        {"ros2", report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected))},
-        {"improvement", improvement},
-    };
-    if (auto e = config::WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
-      Fail(name, kExitFailure, *e);
-    if (auto e = report::WriteReportHtml(report, "odocal demo", args->out + "/report.html"))
-      Fail(name, kExitFailure, *e);
-    if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
-
-    std::printf("odocal demo: %zu UMBMark squares of %.0f mm on a virtual robot\n",
-                input_before->cw.size() + input_before->ccw.size(), input_before->side_m * 1e3);
-    std::printf("  (return errors from the simulator's truth: an ideal measurement)\n\n");
-    // UMBMark sees the turn gain b_true / (b_nominal Es): the Eb it can
-    // measure when the distance scale is not calibrated (docs/calibration.md).
-    std::printf("                 truth        estimate\n");
-    std::printf("  Ed          %.6f   %.6f", before.truth.Ed, estimate.coupled.Ed);
-    if (estimate.coupled.sigma_Ed) std::printf(" +/- %.6f", *estimate.coupled.sigma_Ed);
-    std::printf("\n  Eb / Es     %.6f   %.6f", before.truth.Eb / before.truth.Es, estimate.coupled.Eb);
-    if (estimate.coupled.sigma_Eb) std::printf(" +/- %.6f", *estimate.coupled.sigma_Eb);
-    std::printf("\n  (Eb %.6f, Es %.6f: UMBMark measures the turn gain Eb / Es)\n", before.truth.Eb,
-                before.truth.Es);
-    std::printf("\n  parameters   nominal -> corrected (true)\n");
-    std::printf("  D_L [mm]     %.4f -> %.4f (%.4f)\n", nominal.left_wheel_diameter_m * 1e3,
-                corrected.left_wheel_diameter_m * 1e3, scenario->robot.truth.left_wheel_diameter_m * 1e3);
-    std::printf("  D_R [mm]     %.4f -> %.4f (%.4f)\n", nominal.right_wheel_diameter_m * 1e3,
-                corrected.right_wheel_diameter_m * 1e3, scenario->robot.truth.right_wheel_diameter_m * 1e3);
-    std::printf("  track [mm]   %.3f -> %.3f (%.3f)\n\n", nominal.track_m * 1e3,
-                corrected.track_m * 1e3, scenario->robot.truth.track_m * 1e3);
-    std::printf("  E_max,syst   %.2f mm before, %.2f mm after: %.0fx smaller\n",
-                estimate.emax_syst_m * 1e3, verify.emax_syst_m * 1e3, improvement);
-    std::printf("\nreport: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
-  });
+  cmd->callback([args]() { RunDemo(*args); });
 }
 
 }  // namespace odocal::app

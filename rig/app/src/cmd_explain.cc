@@ -69,19 +69,81 @@ std::optional<calibration::MeasuredSession> WithTelemetryOrFail(const std::strin
 
 }  // namespace
 
+struct ExplainArgs {
+  std::string session;
+  std::string out;
+  double sigma_mm = 1.0;
+  double sigma_deg = 0.3;
+  double fps = 30.0;
+  std::uint64_t seed = 1;
+  double home_radius_mm = 0.0;
+  std::string camera_centre_mm = "1000,0";
+  double camera_height_mm = 2500.0;
+};
+
+void RunExplain(const ExplainArgs& args) {
+  simulation::StandInCameraOptions camera;
+  camera.sigma_position_m = args.sigma_mm * 1e-3;
+  camera.sigma_heading_rad = args.sigma_deg * M_PI / 180.0;
+  camera.fps = args.fps;
+  camera.seed = args.seed;
+  if (args.home_radius_mm != 0.0) camera.home_radius_m = args.home_radius_mm * 1e-3;
+  const auto centre = ParseNumberList(args.camera_centre_mm);
+  if (!centre || centre->size() != 2)
+    Fail("explain", kExitBadInput, "--camera-centre-mm: expected X,Y in millimetres");
+  camera.camera = calibration::FloorCamera::Overhead(
+      Eigen::Vector2d((*centre)[0] * 1e-3, (*centre)[1] * 1e-3), args.camera_height_mm * 1e-3);
+  std::string error;
+  if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
+  std::optional<calibration::MeasuredSession> session;
+  nlohmann::json input;
+  if (std::filesystem::is_directory(args.session)) {
+    session = simulation::LoadSimulatedSession(args.session, camera, &error);
+    if (!session) Fail("explain", kExitBadInput, error);
+    input = {{"session", args.session},
+             {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
+                        "pipeline)"},
+             {"camera_sigma_mm", args.sigma_mm},
+             {"fps", args.fps},
+             {"seed", args.seed}};
+  } else {
+    session = MeasureSessionForExplain(args.session, 0.0, &error);
+    if (!session) Fail("explain", kExitBadInput, error);
+    input = {{"session", args.session},
+             {"camera", session->camera ? "camera pipeline (videos measured)"
+                                        : "pose logs (tracker; no camera)"}};
+  }
+  const calibration::ExplainResult result = calibration::Explain(*session);
+  if (!result.ok()) Fail("explain", kExitFailure, result.message);
+  std::fputs(result.BriefReport().c_str(), stdout);
+  nlohmann::json j = report::ExplainJson(*session, result);
+  j["input"] = input;
+  // A lens error found in videos is a camera-model error: correct k1,
+  // measure the videos again (the plane estimate absorbed part of the
+  // error, chiefly the camera height, i.e. every distance) and explain again.
+  const std::vector<std::string> added = result.EffectsAdded();
+  if (!std::filesystem::is_directory(args.session) &&
+      std::find(added.begin(), added.end(), "lens_distortion") != added.end()) {
+    const double dk1 = result.final_fit.effects.k1_delta();
+    std::printf("camera refit: k1 %+.5f, measuring the videos again\n", dk1);
+    const auto remeasured = MeasureSessionForExplain(args.session, dk1, &error);
+    if (!remeasured) Fail("explain", kExitFailure, "camera refit: " + error);
+    const calibration::ExplainResult refit = calibration::Explain(*remeasured);
+    if (!refit.ok()) Fail("explain", kExitFailure, "camera refit: " + refit.message);
+    j["camera_refit"] = report::CameraRefitJson(dk1, *remeasured, refit);
+    std::printf("camera refit (k1 corrected by %+.5f):\n", dk1);
+    std::fputs(refit.BriefReport().c_str(), stdout);
+  }
+  if (auto e = config::EnsureDirectory(args.out)) Fail("explain", kExitFailure, *e);
+  if (auto e = config::WriteFileAtomically(args.out + "/explain.json", j.dump(2) + "\n"))
+    Fail("explain", kExitFailure, *e);
+  if (auto e = config::WriteFileAtomically(args.out + "/explain.html", report::ExplainHtml(*session, result)))
+    Fail("explain", kExitFailure, *e);
+  std::printf("wrote %s/explain.json and explain.html\n", args.out.c_str());
+}
+
 void RegisterExplainCommand(CLI::App& app) {
-  struct Args {
-    std::string session;
-    std::string out;
-    double sigma_mm = 1.0;
-    double sigma_deg = 0.3;
-    double fps = 30.0;
-    std::uint64_t seed = 1;
-    double home_radius_mm = 0.0;
-    std::string camera_centre_mm = "1000,0";
-    double camera_height_mm = 2500.0;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<ExplainArgs>();
   CLI::App* cmd = app.add_subcommand(
       "explain", "Fit the whole trajectory, find the effect the model misses, refit, report");
   cmd->add_option("session", args->session,
@@ -102,66 +164,7 @@ void RegisterExplainCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--camera-height-mm", args->camera_height_mm, "Camera height above the floor")
       ->capture_default_str();
-  cmd->callback([args]() {
-    simulation::StandInCameraOptions camera;
-    camera.sigma_position_m = args->sigma_mm * 1e-3;
-    camera.sigma_heading_rad = args->sigma_deg * M_PI / 180.0;
-    camera.fps = args->fps;
-    camera.seed = args->seed;
-    if (args->home_radius_mm != 0.0) camera.home_radius_m = args->home_radius_mm * 1e-3;
-    const auto centre = ParseNumberList(args->camera_centre_mm);
-    if (!centre || centre->size() != 2)
-      Fail("explain", kExitBadInput, "--camera-centre-mm: expected X,Y in millimetres");
-    camera.camera = calibration::FloorCamera::Overhead(
-        Eigen::Vector2d((*centre)[0] * 1e-3, (*centre)[1] * 1e-3), args->camera_height_mm * 1e-3);
-    std::string error;
-    if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
-    std::optional<calibration::MeasuredSession> session;
-    nlohmann::json input;
-    if (std::filesystem::is_directory(args->session)) {
-      session = simulation::LoadSimulatedSession(args->session, camera, &error);
-      if (!session) Fail("explain", kExitBadInput, error);
-      input = {{"session", args->session},
-               {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
-                          "pipeline)"},
-               {"camera_sigma_mm", args->sigma_mm},
-               {"fps", args->fps},
-               {"seed", args->seed}};
-    } else {
-      session = MeasureSessionForExplain(args->session, 0.0, &error);
-      if (!session) Fail("explain", kExitBadInput, error);
-      input = {{"session", args->session},
-               {"camera", session->camera ? "camera pipeline (videos measured)"
-                                          : "pose logs (tracker; no camera)"}};
-    }
-    const calibration::ExplainResult result = calibration::Explain(*session);
-    if (!result.ok()) Fail("explain", kExitFailure, result.message);
-    std::fputs(result.BriefReport().c_str(), stdout);
-    nlohmann::json j = report::ExplainJson(*session, result);
-    j["input"] = input;
-    // A lens error found in videos is a camera-model error: correct k1,
-    // measure the videos again (the plane estimate absorbed part of the
-    // error, chiefly the camera height, i.e. every distance) and explain again.
-    const std::vector<std::string> added = result.EffectsAdded();
-    if (!std::filesystem::is_directory(args->session) &&
-        std::find(added.begin(), added.end(), "lens_distortion") != added.end()) {
-      const double dk1 = result.final_fit.effects.k1_delta();
-      std::printf("camera refit: k1 %+.5f, measuring the videos again\n", dk1);
-      const auto remeasured = MeasureSessionForExplain(args->session, dk1, &error);
-      if (!remeasured) Fail("explain", kExitFailure, "camera refit: " + error);
-      const calibration::ExplainResult refit = calibration::Explain(*remeasured);
-      if (!refit.ok()) Fail("explain", kExitFailure, "camera refit: " + refit.message);
-      j["camera_refit"] = report::CameraRefitJson(dk1, *remeasured, refit);
-      std::printf("camera refit (k1 corrected by %+.5f):\n", dk1);
-      std::fputs(refit.BriefReport().c_str(), stdout);
-    }
-    if (auto e = config::EnsureDirectory(args->out)) Fail("explain", kExitFailure, *e);
-    if (auto e = config::WriteFileAtomically(args->out + "/explain.json", j.dump(2) + "\n"))
-      Fail("explain", kExitFailure, *e);
-    if (auto e = config::WriteFileAtomically(args->out + "/explain.html", report::ExplainHtml(*session, result)))
-      Fail("explain", kExitFailure, *e);
-    std::printf("wrote %s/explain.json and explain.html\n", args->out.c_str());
-  });
+  cmd->callback([args]() { RunExplain(*args); });
 }
 
 }  // namespace odocal::app

@@ -259,48 +259,51 @@ bool IsSet(const fs::path& dir) {
 
 }  // namespace
 
+struct ImportArgs {
+  std::string dir;
+  std::string out;
+};
+
+void RunImport(const ImportArgs& args) {
+  const std::string name = "import optiodom";
+  fs::path dir = fs::path(args.dir).lexically_normal();
+  if (dir.filename().empty()) dir = dir.parent_path();  // a trailing slash
+  if (!fs::is_directory(dir)) Fail(name, kExitBadInput, args.dir + ": no such directory");
+  std::vector<fs::path> sets;
+  if (IsSet(dir)) {
+    sets.push_back(dir);
+  } else {
+    for (const auto& entry : fs::recursive_directory_iterator(dir))
+      if (entry.is_directory() && IsSet(entry.path())) sets.push_back(entry.path());
+    std::sort(sets.begin(), sets.end());
+  }
+  if (sets.empty())
+    Fail(name, kExitBadInput,
+         args.dir + ": no OptiOdom set found (a folder <set> holding <set>_metadata.csv)");
+  const bool one = sets.size() == 1 && sets.front() == dir;
+  int total = 0;
+  for (const fs::path& set : sets) {
+    const std::string category = set.parent_path().filename().string();
+    const fs::path out = one ? fs::path(args.out) : fs::path(args.out) / category / set.filename();
+    std::string error;
+    const auto runs = ImportSet(set, category, out, &error);
+    if (!runs) Fail(name, kExitBadInput, error);
+    total += *runs;
+    std::printf("%s/%s: %d runs -> %s\n", category.c_str(), set.filename().c_str(), *runs,
+                (out / "session.yaml").c_str());
+  }
+  std::printf("imported %zu set%s, %d runs\n", sets.size(), sets.size() == 1 ? "" : "s", total);
+}
+
 void RegisterImportCommand(CLI::App& app) {
-  struct Args {
-    std::string dir;
-    std::string out;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<ImportArgs>();
   CLI::App* cmd = app.add_subcommand("import", "Convert recorded data sets into sessions");
   cmd->require_subcommand(1);
   CLI::App* optiodom = cmd->add_subcommand(
       "optiodom", "OptiOdom sets (diff/<category>/<set>/) -> pose-log session.yaml files");
   optiodom->add_option("dir", args->dir, "One set, or any folder above sets")->required();
   optiodom->add_option("--out", args->out, "Output directory (created)")->required();
-  optiodom->callback([args]() {
-    const std::string name = "import optiodom";
-    fs::path dir = fs::path(args->dir).lexically_normal();
-    if (dir.filename().empty()) dir = dir.parent_path();  // a trailing slash
-    if (!fs::is_directory(dir)) Fail(name, kExitBadInput, args->dir + ": no such directory");
-    std::vector<fs::path> sets;
-    if (IsSet(dir)) {
-      sets.push_back(dir);
-    } else {
-      for (const auto& entry : fs::recursive_directory_iterator(dir))
-        if (entry.is_directory() && IsSet(entry.path())) sets.push_back(entry.path());
-      std::sort(sets.begin(), sets.end());
-    }
-    if (sets.empty())
-      Fail(name, kExitBadInput,
-           args->dir + ": no OptiOdom set found (a folder <set> holding <set>_metadata.csv)");
-    const bool one = sets.size() == 1 && sets.front() == dir;
-    int total = 0;
-    for (const fs::path& set : sets) {
-      const std::string category = set.parent_path().filename().string();
-      const fs::path out = one ? fs::path(args->out) : fs::path(args->out) / category / set.filename();
-      std::string error;
-      const auto runs = ImportSet(set, category, out, &error);
-      if (!runs) Fail(name, kExitBadInput, error);
-      total += *runs;
-      std::printf("%s/%s: %d runs -> %s\n", category.c_str(), set.filename().c_str(), *runs,
-                  (out / "session.yaml").c_str());
-    }
-    std::printf("imported %zu set%s, %d runs\n", sets.size(), sets.size() == 1 ? "" : "s", total);
-  });
+  optiodom->callback([args]() { RunImport(*args); });
 }
 
 }  // namespace odocal::app

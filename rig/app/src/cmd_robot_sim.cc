@@ -26,50 +26,53 @@ void OnSignal(int) { g_stop = 1; }
 
 }  // namespace
 
+struct RobotSimArgs {
+  std::string scenario;
+  std::string storage = "odocal_robot_params.bin";
+  double time_scale = 1.0;
+  double seconds = 0.0;
+};
+
+void RunRobotSim(const RobotSimArgs& args) {
+  const std::string name = "robot-sim";
+  std::string error;
+  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
+  if (!scenario) Fail(name, kExitBadInput, error);
+  if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
+    Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
+  sim::SimMotionBackend backend(scenario->robot);
+  robot_link::FirmwareHostOptions options;
+  options.storage_path = args.storage;
+  options.time_scale = args.time_scale;
+  const std::optional<robot_link::ParamSet> defaults =
+      robot_link::ToParamSet(scenario->robot.nominal, &error);
+  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
+  options.robot.defaults = *defaults;
+  auto host = robot_link::FirmwareHost::Start(options, backend);
+  if (!host.ok()) Fail(name, kExitFailure, host.message);
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  std::cout << (*host.value)->device_path() << std::endl;
+  std::cerr << "robot-sim: serving the virtual robot of " << args.scenario << " on "
+            << (*host.value)->device_path() << " (Ctrl-C to stop)" << std::endl;
+  const auto start = std::chrono::steady_clock::now();
+  while (!g_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (args.seconds > 0.0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > args.seconds)
+      break;
+  }
+}
+
 void RegisterRobotSimCommand(CLI::App& app) {
-  struct Args {
-    std::string scenario;
-    std::string storage = "odocal_robot_params.bin";
-    double time_scale = 1.0;
-    double seconds = 0.0;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<RobotSimArgs>();
   CLI::App* cmd = app.add_subcommand(
       "robot-sim", "Serve the scenario's virtual robot on a pseudo-terminal; prints the device path");
   cmd->add_option("--scenario", args->scenario, "Scenario file (YAML)")->required();
   cmd->add_option("--storage", args->storage, "Parameter storage file (the robot's flash)");
   cmd->add_option("--time-scale", args->time_scale, "Robot seconds per wall-clock second");
   cmd->add_option("--seconds", args->seconds, "Stop after this many wall-clock seconds (0: until Ctrl-C)");
-  cmd->callback([args]() {
-    const std::string name = "robot-sim";
-    std::string error;
-    const std::optional<config::Scenario> scenario = config::LoadScenario(args->scenario, &error);
-    if (!scenario) Fail(name, kExitBadInput, error);
-    if (!(args->time_scale > 0.0) || args->time_scale > 1000.0)
-      Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
-    sim::SimMotionBackend backend(scenario->robot);
-    robot_link::FirmwareHostOptions options;
-    options.storage_path = args->storage;
-    options.time_scale = args->time_scale;
-    const std::optional<robot_link::ParamSet> defaults =
-        robot_link::ToParamSet(scenario->robot.nominal, &error);
-    if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
-    options.robot.defaults = *defaults;
-    auto host = robot_link::FirmwareHost::Start(options, backend);
-    if (!host.ok()) Fail(name, kExitFailure, host.message);
-    std::signal(SIGINT, OnSignal);
-    std::signal(SIGTERM, OnSignal);
-    std::cout << (*host.value)->device_path() << std::endl;
-    std::cerr << "robot-sim: serving the virtual robot of " << args->scenario << " on "
-              << (*host.value)->device_path() << " (Ctrl-C to stop)" << std::endl;
-    const auto start = std::chrono::steady_clock::now();
-    while (!g_stop) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (args->seconds > 0.0 &&
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > args->seconds)
-        break;
-    }
-  });
+  cmd->callback([args]() { RunRobotSim(*args); });
 }
 
 }  // namespace odocal::app

@@ -16,50 +16,53 @@
 
 namespace odocal::app {
 
+struct SimulateArgs {
+  std::string scenario;
+  std::string out;
+};
+
+void RunSimulate(const SimulateArgs& args) {
+  std::string error;
+  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
+  if (!scenario) Fail("simulate", kExitBadInput, error);
+  const simulation::SimulationResult result = simulation::Simulate(*scenario);
+  if (auto dir_error = config::EnsureDirectory(args.out)) Fail("simulate", kExitFailure, *dir_error);
+  std::vector<simulation::RecordedRun> recorded;
+  if (scenario->camera) {
+    if (auto record_error = simulation::RecordRuns(*scenario, result, args.out, isatty(2), &recorded))
+      Fail("simulate", kExitFailure, *record_error);
+  }
+  if (auto write_error =
+          simulation::WriteSimulation(*scenario, result, args.out, scenario->camera ? &recorded : nullptr))
+    Fail("simulate", kExitFailure, *write_error);
+  std::printf("simulated %zu runs: Ed %.6f  Eb %.6f  Es %.6f (truth, relative to nominal)\n",
+              result.runs.size(), result.truth.Ed, result.truth.Eb, result.truth.Es);
+  std::printf("  %-24s %12s %12s %12s\n", "run", "x [mm]", "y [mm]", "theta [deg]");
+  for (size_t i = 0; i < result.runs.size(); ++i) {
+    const calibration::Pose2 e = result.runs[i].TrueEndInStartFrame();
+    std::printf("  %-24s %12.3f %12.3f %12.5f\n", result.run_names[i].c_str(), e.x() * 1e3,
+                e.y() * 1e3, e.heading() * 180.0 / M_PI);
+  }
+  if (scenario->camera) {
+    int frames = 0, visible = 0;
+    for (const simulation::RecordedRun& r : recorded) {
+      frames += r.frames_written;
+      visible += r.frames_visible;
+    }
+    std::printf("recorded %d frames (tag in view in %d) to %zu videos\n", frames, visible,
+                recorded.size());
+    std::printf("wrote %s/session.yaml (what the operator knows)\n", args.out.c_str());
+  }
+  std::printf("wrote %s/truth.json\n", args.out.c_str());
+}
+
 void RegisterSimulateCommand(CLI::App& app) {
-  struct Args {
-    std::string scenario;
-    std::string out;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<SimulateArgs>();
   CLI::App* cmd = app.add_subcommand(
       "simulate", "Run a scenario on the virtual robot; write truth.json and telemetry");
   cmd->add_option("--scenario", args->scenario, "Scenario file (YAML)")->required();
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
-  cmd->callback([args]() {
-    std::string error;
-    const std::optional<config::Scenario> scenario = config::LoadScenario(args->scenario, &error);
-    if (!scenario) Fail("simulate", kExitBadInput, error);
-    const simulation::SimulationResult result = simulation::Simulate(*scenario);
-    if (auto dir_error = config::EnsureDirectory(args->out)) Fail("simulate", kExitFailure, *dir_error);
-    std::vector<simulation::RecordedRun> recorded;
-    if (scenario->camera) {
-      if (auto record_error = simulation::RecordRuns(*scenario, result, args->out, isatty(2), &recorded))
-        Fail("simulate", kExitFailure, *record_error);
-    }
-    if (auto write_error =
-            simulation::WriteSimulation(*scenario, result, args->out, scenario->camera ? &recorded : nullptr))
-      Fail("simulate", kExitFailure, *write_error);
-    std::printf("simulated %zu runs: Ed %.6f  Eb %.6f  Es %.6f (truth, relative to nominal)\n",
-                result.runs.size(), result.truth.Ed, result.truth.Eb, result.truth.Es);
-    std::printf("  %-24s %12s %12s %12s\n", "run", "x [mm]", "y [mm]", "theta [deg]");
-    for (size_t i = 0; i < result.runs.size(); ++i) {
-      const calibration::Pose2 e = result.runs[i].TrueEndInStartFrame();
-      std::printf("  %-24s %12.3f %12.3f %12.5f\n", result.run_names[i].c_str(), e.x() * 1e3,
-                  e.y() * 1e3, e.heading() * 180.0 / M_PI);
-    }
-    if (scenario->camera) {
-      int frames = 0, visible = 0;
-      for (const simulation::RecordedRun& r : recorded) {
-        frames += r.frames_written;
-        visible += r.frames_visible;
-      }
-      std::printf("recorded %d frames (tag in view in %d) to %zu videos\n", frames, visible,
-                  recorded.size());
-      std::printf("wrote %s/session.yaml (what the operator knows)\n", args->out.c_str());
-    }
-    std::printf("wrote %s/truth.json\n", args->out.c_str());
-  });
+  cmd->callback([args]() { RunSimulate(*args); });
 }
 
 }  // namespace odocal::app

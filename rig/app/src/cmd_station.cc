@@ -95,17 +95,108 @@ void Finish(const station::StationSetup& setup, const station::StationOptions& o
 
 }  // namespace
 
+struct StationArgs {
+  std::string scenario;
+  std::string config;
+  std::string out = "odocal-station";
+  int max_rounds = 3;
+  double time_scale = 20.0;
+  int rest_frames = 12;
+  report::ExportRequests exports;
+  bool max_rounds_given = false;  // --max-rounds on the command line (else the station file's)
+};
+
+void RunStation(const StationArgs& args) {
+  if (auto e = report::CheckExports(args.exports)) Fail("station", kExitBadInput, *e);
+  const std::string name = "station";
+  if (args.scenario.empty() == args.config.empty())
+    Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
+  std::signal(SIGINT, OnStationSignal);
+  std::signal(SIGTERM, OnStationSignal);
+  station::StationOptions options;
+  options.max_rounds = args.max_rounds;
+  options.rest_frames = args.rest_frames;
+  station::StationSetup setup;
+  setup.stop_requested = &g_stop;
+  setup.progress = Progress;
+  std::string error;
+
+  if (!args.scenario.empty()) {
+    const std::optional<config::Scenario> s = config::LoadScenario(args.scenario, &error);
+    if (!s) Fail(name, kExitBadInput, error);
+    if (!s->camera || !s->tag)
+      Fail(name, kExitBadInput, args.scenario + ": the station needs the scenario's camera: and tag:");
+    if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
+      Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
+    for (const calibration::RunSpec& spec : s->runs)
+      if (spec.procedure == calibration::Procedure::kUmbmark) setup.plan.push_back(spec);
+    if (setup.plan.size() != s->runs.size())
+      Progress("only the scenario's UMBMark squares are driven; its other runs are skipped");
+    sim::SimMotionBackend backend(s->robot);
+    robot_link::FirmwareHostOptions host_options;
+    host_options.time_scale = args.time_scale;
+    const std::optional<robot_link::ParamSet> defaults =
+        robot_link::ToParamSet(s->robot.nominal, &error);
+    if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
+    host_options.robot.defaults = *defaults;
+    const calibration::WheelParams& n = s->robot.nominal;
+    auto host = robot_link::FirmwareHost::Start(host_options, backend);
+    if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);
+    auto port = robot_link::SerialTransport::Open((*host.value)->device_path());
+    if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
+    auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
+    if (!camera) Fail(name, kExitFailure, error);
+    char scale[64];
+    std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args.time_scale);
+    Progress("virtual robot on " + (*host.value)->device_path() + scale);
+    setup.transport = port.value->get();
+    setup.camera = camera.get();
+    setup.intrinsics = s->camera->intrinsics;
+    // The operator's guess is where the camera was hung; the station
+    // refines its tilt and height from the views.
+    setup.mount_guess = s->camera->mount;
+    setup.tag = *s->tag;
+    const calibration::WheelParams& t = s->robot.truth;
+    const double Ed = (t.right_wheel_diameter_m / t.left_wheel_diameter_m) /
+                      (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
+    const double Eb = t.track_m / n.track_m;
+    const double Es = (t.left_wheel_diameter_m + t.right_wheel_diameter_m) /
+                      (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
+    Finish(setup, options, args.out,
+           {{"scenario", args.scenario},
+            {"truth", {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}}}},
+           args.exports);
+    return;
+  }
+
+  const std::optional<config::StationConfig> c = config::LoadStationConfig(args.config, &error);
+  if (!c) Fail(name, kExitBadInput, error);
+  if (!args.max_rounds_given) options.max_rounds = c->max_rounds;
+  options.rest_flush_frames = c->flush_frames;
+  options.settle_s = c->settle_s;
+  const std::optional<config::CameraFile> camera_file = config::ReadCameraFile(c->camera_file, &error);
+  if (!camera_file) Fail(name, kExitBadInput, error);
+  robot_link::SerialOptions serial;
+  serial.baud = c->baud;
+  auto port = robot_link::SerialTransport::Open(c->port, serial);
+  if (!port) Fail(name, kExitBadInput, "robot: " + port.message);
+  auto camera = media::CaptureSource::Open(c->camera_device, &error);
+  if (!camera) Fail(name, kExitBadInput, error);
+  for (int i = 0; i < c->runs_per_direction; ++i) {
+    setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * 1e-3));
+    setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * 1e-3));
+  }
+  setup.transport = port.value->get();
+  setup.client.reply_timeout = std::chrono::milliseconds(c->timeout_ms);
+  setup.camera = camera.get();
+  setup.intrinsics = camera_file->intrinsics;
+  setup.mount_guess = c->mount_guess;
+  setup.tag = c->tag;
+  Finish(setup, options, args.out, {{"config", args.config}}, args.exports);
+}
+
 void RegisterStationCommand(CLI::App& app) {
-  struct Args {
-    std::string scenario;
-    std::string config;
-    std::string out = "odocal-station";
-    int max_rounds = 3;
-    double time_scale = 20.0;
-    int rest_frames = 12;
-    report::ExportRequests exports;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<StationArgs>();
   CLI::App* cmd = app.add_subcommand(
       "station", "Hands-off calibration: drive the squares, measure with the camera, push, verify");
   auto* scenario = cmd->add_option("--scenario", args->scenario,
@@ -124,92 +215,8 @@ void RegisterStationCommand(CLI::App& app) {
       "or camera lost, 5 run not completed, 7 push refused, 1 estimate failed, 130 interrupted.");
   AddExportOption(cmd, &args->exports);
   cmd->callback([args, rounds]() {
-    if (auto e = report::CheckExports(args->exports)) Fail("station", kExitBadInput, *e);
-    const std::string name = "station";
-    if (args->scenario.empty() == args->config.empty())
-      Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
-    std::signal(SIGINT, OnStationSignal);
-    std::signal(SIGTERM, OnStationSignal);
-    station::StationOptions options;
-    options.max_rounds = args->max_rounds;
-    options.rest_frames = args->rest_frames;
-    station::StationSetup setup;
-    setup.stop_requested = &g_stop;
-    setup.progress = Progress;
-    std::string error;
-
-    if (!args->scenario.empty()) {
-      const std::optional<config::Scenario> s = config::LoadScenario(args->scenario, &error);
-      if (!s) Fail(name, kExitBadInput, error);
-      if (!s->camera || !s->tag)
-        Fail(name, kExitBadInput, args->scenario + ": the station needs the scenario's camera: and tag:");
-      if (!(args->time_scale > 0.0) || args->time_scale > 1000.0)
-        Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
-      for (const calibration::RunSpec& spec : s->runs)
-        if (spec.procedure == calibration::Procedure::kUmbmark) setup.plan.push_back(spec);
-      if (setup.plan.size() != s->runs.size())
-        Progress("only the scenario's UMBMark squares are driven; its other runs are skipped");
-      sim::SimMotionBackend backend(s->robot);
-      robot_link::FirmwareHostOptions host_options;
-      host_options.time_scale = args->time_scale;
-      const std::optional<robot_link::ParamSet> defaults =
-          robot_link::ToParamSet(s->robot.nominal, &error);
-      if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
-      host_options.robot.defaults = *defaults;
-      const calibration::WheelParams& n = s->robot.nominal;
-      auto host = robot_link::FirmwareHost::Start(host_options, backend);
-      if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);
-      auto port = robot_link::SerialTransport::Open((*host.value)->device_path());
-      if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
-      auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
-      if (!camera) Fail(name, kExitFailure, error);
-      char scale[64];
-      std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args->time_scale);
-      Progress("virtual robot on " + (*host.value)->device_path() + scale);
-      setup.transport = port.value->get();
-      setup.camera = camera.get();
-      setup.intrinsics = s->camera->intrinsics;
-      // The operator's guess is where the camera was hung; the station
-      // refines its tilt and height from the views.
-      setup.mount_guess = s->camera->mount;
-      setup.tag = *s->tag;
-      const calibration::WheelParams& t = s->robot.truth;
-      const double Ed = (t.right_wheel_diameter_m / t.left_wheel_diameter_m) /
-                        (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
-      const double Eb = t.track_m / n.track_m;
-      const double Es = (t.left_wheel_diameter_m + t.right_wheel_diameter_m) /
-                        (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
-      Finish(setup, options, args->out,
-             {{"scenario", args->scenario},
-              {"truth", {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}}}},
-             args->exports);
-      return;
-    }
-
-    const std::optional<config::StationConfig> c = config::LoadStationConfig(args->config, &error);
-    if (!c) Fail(name, kExitBadInput, error);
-    if (rounds->count() == 0) options.max_rounds = c->max_rounds;
-    options.rest_flush_frames = c->flush_frames;
-    options.settle_s = c->settle_s;
-    const std::optional<config::CameraFile> camera_file = config::ReadCameraFile(c->camera_file, &error);
-    if (!camera_file) Fail(name, kExitBadInput, error);
-    robot_link::SerialOptions serial;
-    serial.baud = c->baud;
-    auto port = robot_link::SerialTransport::Open(c->port, serial);
-    if (!port) Fail(name, kExitBadInput, "robot: " + port.message);
-    auto camera = media::CaptureSource::Open(c->camera_device, &error);
-    if (!camera) Fail(name, kExitBadInput, error);
-    for (int i = 0; i < c->runs_per_direction; ++i) {
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * 1e-3));
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * 1e-3));
-    }
-    setup.transport = port.value->get();
-    setup.client.reply_timeout = std::chrono::milliseconds(c->timeout_ms);
-    setup.camera = camera.get();
-    setup.intrinsics = camera_file->intrinsics;
-    setup.mount_guess = c->mount_guess;
-    setup.tag = c->tag;
-    Finish(setup, options, args->out, {{"config", args->config}}, args->exports);
+    args->max_rounds_given = rounds->count() > 0;
+    RunStation(*args);
   });
 }
 

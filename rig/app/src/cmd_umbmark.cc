@@ -32,17 +32,67 @@ std::vector<calibration::ReturnError> ParseRuns(const std::vector<std::string>& 
 
 }  // namespace
 
+struct UmbmarkArgs {
+  double side_mm = 0.0;
+  double track_mm = 0.0;
+  std::vector<std::string> cw, ccw;
+  bool json = false;
+  double left_mm = 0.0, right_mm = 0.0;
+  double ticks_per_rev = 0.0;
+  report::ExportRequests exports;
+};
+
+void RunUmbmark(const UmbmarkArgs& args) {
+  if (auto e = report::CheckExports(args.exports)) Fail("umbmark", kExitBadInput, *e);
+  calibration::UmbmarkInput input;
+  input.side_m = args.side_mm * 1e-3;
+  input.track_m = args.track_mm * 1e-3;
+  input.cw = ParseRuns(args.cw, "--cw");
+  input.ccw = ParseRuns(args.ccw, "--ccw");
+  std::string why;
+  if (!input.IsValid(&why)) Fail("umbmark", kExitBadInput, why);
+  const calibration::UmbmarkSummary summary = calibration::EstimateUmbmark(input);
+  if (summary.status == odocal::StatusCode::kInvalidArgument)
+    Fail("umbmark", kExitBadInput, summary.message);
+  if (!summary.ok()) Fail("umbmark", kExitFailure, summary.message);
+  nlohmann::json doc = report::UmbmarkJson(input, summary);
+  const bool have_wheels = args.left_mm > 0.0 && args.right_mm > 0.0;
+  if ((args.left_mm != 0.0 || args.right_mm != 0.0) && !have_wheels)
+    Fail("umbmark", kExitBadInput,
+         "--left-diameter-mm and --right-diameter-mm go together and must be positive");
+  std::optional<calibration::WheelParams> corrected_params;
+  calibration::WheelParams nominal_params;
+  if (have_wheels) {
+    calibration::WheelParams nominal;
+    nominal.left_wheel_diameter_m = args.left_mm * 1e-3;
+    nominal.right_wheel_diameter_m = args.right_mm * 1e-3;
+    nominal.track_m = input.track_m;
+    nominal.ticks_per_rev = args.ticks_per_rev;
+    const calibration::WheelParams corrected = calibration::ApplyUmbmarkCorrection(
+        nominal, summary.coupled.Ed, summary.coupled.Eb);
+    doc["corrected"] = report::WheelParamsJson(corrected);
+    doc["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+    nominal_params = nominal;
+    corrected_params = corrected;
+  }
+  if (!args.exports.raw.empty() && !have_wheels)
+    Fail("umbmark", kExitBadInput,
+         "--export needs the nominal wheels: --left-diameter-mm, --right-diameter-mm (and --ticks-per-rev)");
+  if (auto e = report::WriteExports(args.exports, nominal_params, corrected_params))
+    Fail("umbmark", kExitFailure, *e);
+  if (args.json) {
+    std::cout << doc.dump(2) << std::endl;
+  } else {
+    std::cout << report::UmbmarkTable(input, summary);
+    if (have_wheels) {
+      std::cout << "\n  corrected parameters " << doc["corrected"].dump() << "\n"
+                << "  ROS 2 multipliers    " << doc["ros2"].dump() << "\n";
+    }
+  }
+}
+
 void RegisterUmbmarkCommand(CLI::App& app) {
-  struct Args {
-    double side_mm = 0.0;
-    double track_mm = 0.0;
-    std::vector<std::string> cw, ccw;
-    bool json = false;
-    double left_mm = 0.0, right_mm = 0.0;
-    double ticks_per_rev = 0.0;
-    report::ExportRequests exports;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<UmbmarkArgs>();
   CLI::App* cmd = app.add_subcommand(
       "umbmark",
       "UMBMark estimate from return errors measured any way (tape, camera, log).\n"
@@ -58,54 +108,7 @@ void RegisterUmbmarkCommand(CLI::App& app) {
   cmd->add_option("--ticks-per-rev", args->ticks_per_rev, "Encoder ticks per wheel revolution");
   cmd->add_flag("--json", args->json, "Print one JSON object");
   AddExportOption(cmd, &args->exports);
-  cmd->callback([args]() {
-    if (auto e = report::CheckExports(args->exports)) Fail("umbmark", kExitBadInput, *e);
-    calibration::UmbmarkInput input;
-    input.side_m = args->side_mm * 1e-3;
-    input.track_m = args->track_mm * 1e-3;
-    input.cw = ParseRuns(args->cw, "--cw");
-    input.ccw = ParseRuns(args->ccw, "--ccw");
-    std::string why;
-    if (!input.IsValid(&why)) Fail("umbmark", kExitBadInput, why);
-    const calibration::UmbmarkSummary summary = calibration::EstimateUmbmark(input);
-    if (summary.status == odocal::StatusCode::kInvalidArgument)
-      Fail("umbmark", kExitBadInput, summary.message);
-    if (!summary.ok()) Fail("umbmark", kExitFailure, summary.message);
-    nlohmann::json doc = report::UmbmarkJson(input, summary);
-    const bool have_wheels = args->left_mm > 0.0 && args->right_mm > 0.0;
-    if ((args->left_mm != 0.0 || args->right_mm != 0.0) && !have_wheels)
-      Fail("umbmark", kExitBadInput,
-           "--left-diameter-mm and --right-diameter-mm go together and must be positive");
-    std::optional<calibration::WheelParams> corrected_params;
-    calibration::WheelParams nominal_params;
-    if (have_wheels) {
-      calibration::WheelParams nominal;
-      nominal.left_wheel_diameter_m = args->left_mm * 1e-3;
-      nominal.right_wheel_diameter_m = args->right_mm * 1e-3;
-      nominal.track_m = input.track_m;
-      nominal.ticks_per_rev = args->ticks_per_rev;
-      const calibration::WheelParams corrected = calibration::ApplyUmbmarkCorrection(
-          nominal, summary.coupled.Ed, summary.coupled.Eb);
-      doc["corrected"] = report::WheelParamsJson(corrected);
-      doc["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
-      nominal_params = nominal;
-      corrected_params = corrected;
-    }
-    if (!args->exports.raw.empty() && !have_wheels)
-      Fail("umbmark", kExitBadInput,
-           "--export needs the nominal wheels: --left-diameter-mm, --right-diameter-mm (and --ticks-per-rev)");
-    if (auto e = report::WriteExports(args->exports, nominal_params, corrected_params))
-      Fail("umbmark", kExitFailure, *e);
-    if (args->json) {
-      std::cout << doc.dump(2) << std::endl;
-    } else {
-      std::cout << report::UmbmarkTable(input, summary);
-      if (have_wheels) {
-        std::cout << "\n  corrected parameters " << doc["corrected"].dump() << "\n"
-                  << "  ROS 2 multipliers    " << doc["ros2"].dump() << "\n";
-      }
-    }
-  });
+  cmd->callback([args]() { RunUmbmark(*args); });
 }
 
 }  // namespace odocal::app

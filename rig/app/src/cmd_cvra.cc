@@ -63,14 +63,37 @@ void PositiveOrFail(const std::string& command, const std::string& flag, double 
     Fail(command, kExitBadInput, flag + " must be a positive number");
 }
 
+struct CvraRatioArgs {
+  std::string reference;
+  double distance_mm = 0.0, track_mm = 0.0;
+  std::vector<double> heading_deg;
+  bool json = false;
+};
+
+void RunCvraRatio(const CvraRatioArgs& args) {
+  const std::string name = "cvra ratio";
+  const calibration::Reference ref = ReferenceOrFail(name, args.reference);
+  PositiveOrFail(name, "--distance-mm", args.distance_mm);
+  PositiveOrFail(name, "--track-mm", args.track_mm);
+  std::vector<calibration::CvraResult> results;
+  for (double h : args.heading_deg) {
+    const double d = args.distance_mm * 1e-3, b = args.track_mm * 1e-3;
+    results.push_back(ref == calibration::Reference::kWall
+                          ? calibration::WheelRatioFromWall(d, h * kDegToRad, b)
+                          : calibration::WheelRatioFromCamera(d, h * kDegToRad, b));
+  }
+  nlohmann::json doc = Combine(name, "Ed", results);
+  const double ed = doc["Ed"];
+  doc["procedure"] = "ratio";
+  doc["reference"] = args.reference;
+  doc["gain_factor"] = calibration::WheelGainFactor(ed);
+  doc["c_left"] = calibration::CorrectionLeft(ed);
+  doc["c_right"] = calibration::CorrectionRight(ed);
+  Print(doc, args.json, "Ed");
+}
+
 void RegisterRatio(CLI::App* cvra) {
-  struct Args {
-    std::string reference;
-    double distance_mm = 0.0, track_mm = 0.0;
-    std::vector<double> heading_deg;
-    bool json = false;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CvraRatioArgs>();
   CLI::App* cmd = cvra->add_subcommand(
       "ratio",
       "Wheel-diameter ratio Ed from out-and-back runs (forward, +180, forward, -180, ...).\n"
@@ -84,37 +107,43 @@ void RegisterRatio(CLI::App* cvra) {
                   "One run's heading [deg]; repeat the flag for more runs")->required();
   cmd->add_option("--track-mm", args->track_mm, "Track the robot used [mm]")->required();
   cmd->add_flag("--json", args->json, "Print one JSON object");
-  cmd->callback([args]() {
-    const std::string name = "cvra ratio";
-    const calibration::Reference ref = ReferenceOrFail(name, args->reference);
-    PositiveOrFail(name, "--distance-mm", args->distance_mm);
-    PositiveOrFail(name, "--track-mm", args->track_mm);
-    std::vector<calibration::CvraResult> results;
-    for (double h : args->heading_deg) {
-      const double d = args->distance_mm * 1e-3, b = args->track_mm * 1e-3;
-      results.push_back(ref == calibration::Reference::kWall
-                            ? calibration::WheelRatioFromWall(d, h * kDegToRad, b)
-                            : calibration::WheelRatioFromCamera(d, h * kDegToRad, b));
-    }
-    nlohmann::json doc = Combine(name, "Ed", results);
-    const double ed = doc["Ed"];
-    doc["procedure"] = "ratio";
-    doc["reference"] = args->reference;
-    doc["gain_factor"] = calibration::WheelGainFactor(ed);
-    doc["c_left"] = calibration::CorrectionLeft(ed);
-    doc["c_right"] = calibration::CorrectionRight(ed);
-    Print(doc, args->json, "Ed");
-  });
+  cmd->callback([args]() { RunCvraRatio(*args); });
+}
+
+struct CvraScaleArgs {
+  double asked_mm = 0.0;
+  std::vector<std::string> ends;
+  std::vector<double> real_mm;
+  bool json = false;
+};
+
+void RunCvraScale(const CvraScaleArgs& args) {
+  const std::string name = "cvra scale";
+  PositiveOrFail(name, "--asked-mm", args.asked_mm);
+  if (args.real_mm.empty() == args.ends.empty())
+    Fail(name, kExitBadInput, "give either --real-mm or --end for each run (not both, not neither)");
+  std::vector<calibration::CvraResult> results;
+  const double asked = args.asked_mm * 1e-3;
+  for (double real : args.real_mm)
+    results.push_back(calibration::ScaleFromStraight(asked, real * 1e-3, 0.0, 0.0));
+  for (size_t i = 0; i < args.ends.size(); ++i) {
+    const auto v = ParseNumberList(args.ends[i]);
+    if (!v || v->size() != 3)
+      Fail(name, kExitBadInput, "--end #" + std::to_string(i + 1) + ": '" + args.ends[i] +
+                                    "' is not X,Y,THETA (mm, mm, degrees)");
+    results.push_back(calibration::ScaleFromStraight(asked, (*v)[0] * 1e-3, (*v)[1] * 1e-3,
+                                                     (*v)[2] * kDegToRad));
+  }
+  nlohmann::json doc = Combine(name, "scale", results);
+  const double scale = doc["scale"];
+  doc["procedure"] = "scale";
+  doc["diameter_factor"] = scale;
+  doc["ticks_per_mm_factor"] = 1.0 / scale;
+  Print(doc, args.json, "scale");
 }
 
 void RegisterScale(CLI::App* cvra) {
-  struct Args {
-    double asked_mm = 0.0;
-    std::vector<std::string> ends;
-    std::vector<double> real_mm;
-    bool json = false;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CvraScaleArgs>();
   CLI::App* cmd = cvra->add_subcommand(
       "scale",
       "Travel scale from straight runs: the robot drove until odometry said --asked-mm.\n"
@@ -126,42 +155,45 @@ void RegisterScale(CLI::App* cvra) {
   cmd->add_option("--real-mm", args->real_mm, "One run's real distance [mm]; repeatable");
   cmd->add_option("--end", args->ends, "One run's true end X,Y,THETA; repeatable");
   cmd->add_flag("--json", args->json, "Print one JSON object");
-  cmd->callback([args]() {
-    const std::string name = "cvra scale";
-    PositiveOrFail(name, "--asked-mm", args->asked_mm);
-    if (args->real_mm.empty() == args->ends.empty())
-      Fail(name, kExitBadInput, "give either --real-mm or --end for each run (not both, not neither)");
-    std::vector<calibration::CvraResult> results;
-    const double asked = args->asked_mm * 1e-3;
-    for (double real : args->real_mm)
-      results.push_back(calibration::ScaleFromStraight(asked, real * 1e-3, 0.0, 0.0));
-    for (size_t i = 0; i < args->ends.size(); ++i) {
-      const auto v = ParseNumberList(args->ends[i]);
-      if (!v || v->size() != 3)
-        Fail(name, kExitBadInput, "--end #" + std::to_string(i + 1) + ": '" + args->ends[i] +
-                                      "' is not X,Y,THETA (mm, mm, degrees)");
-      results.push_back(calibration::ScaleFromStraight(asked, (*v)[0] * 1e-3, (*v)[1] * 1e-3,
-                                                       (*v)[2] * kDegToRad));
-    }
-    nlohmann::json doc = Combine(name, "scale", results);
-    const double scale = doc["scale"];
-    doc["procedure"] = "scale";
-    doc["diameter_factor"] = scale;
-    doc["ticks_per_mm_factor"] = 1.0 / scale;
-    Print(doc, args->json, "scale");
-  });
+  cmd->callback([args]() { RunCvraScale(*args); });
+}
+
+struct CvraTrackArgs {
+  std::string reference;
+  std::string direction = "ccw";
+  int turns = 0;
+  double track_mm = 0.0;
+  std::vector<double> heading_deg;
+  bool json = false;
+};
+
+void RunCvraTrack(const CvraTrackArgs& args) {
+  const std::string name = "cvra track";
+  const calibration::Reference ref = ReferenceOrFail(name, args.reference);
+  const auto direction = calibration::ParseDirection(args.direction);
+  if (!direction)
+    Fail(name, kExitBadInput, "--direction: expected cw or ccw, got '" + args.direction + "'");
+  if (args.turns <= 0) Fail(name, kExitBadInput, "--turns must be a positive integer");
+  const double believed =
+      (*direction == calibration::Direction::kCcw ? 1.0 : -1.0) * 2.0 * M_PI * args.turns;
+  std::vector<calibration::CvraResult> results;
+  for (double h : args.heading_deg) {
+    results.push_back(ref == calibration::Reference::kWall
+                          ? calibration::TrackFromWall(believed, h * kDegToRad)
+                          : calibration::TrackFromCamera(believed, h * kDegToRad));
+  }
+  nlohmann::json doc = Combine(name, "track_factor", results);
+  doc["procedure"] = "track";
+  doc["reference"] = args.reference;
+  if (args.track_mm != 0.0) {
+    PositiveOrFail(name, "--track-mm", args.track_mm);
+    doc["track_corrected_mm"] = args.track_mm * doc["track_factor"].get<double>();
+  }
+  Print(doc, args.json, "track_factor");
 }
 
 void RegisterTrack(CLI::App* cvra) {
-  struct Args {
-    std::string reference;
-    std::string direction = "ccw";
-    int turns = 0;
-    double track_mm = 0.0;
-    std::vector<double> heading_deg;
-    bool json = false;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CvraTrackArgs>();
   CLI::App* cmd = cvra->add_subcommand(
       "track",
       "Track from N in-place turns.\n"
@@ -174,30 +206,7 @@ void RegisterTrack(CLI::App* cvra) {
       ->required();
   cmd->add_option("--track-mm", args->track_mm, "Track the robot used [mm], to print the new one");
   cmd->add_flag("--json", args->json, "Print one JSON object");
-  cmd->callback([args]() {
-    const std::string name = "cvra track";
-    const calibration::Reference ref = ReferenceOrFail(name, args->reference);
-    const auto direction = calibration::ParseDirection(args->direction);
-    if (!direction)
-      Fail(name, kExitBadInput, "--direction: expected cw or ccw, got '" + args->direction + "'");
-    if (args->turns <= 0) Fail(name, kExitBadInput, "--turns must be a positive integer");
-    const double believed =
-        (*direction == calibration::Direction::kCcw ? 1.0 : -1.0) * 2.0 * M_PI * args->turns;
-    std::vector<calibration::CvraResult> results;
-    for (double h : args->heading_deg) {
-      results.push_back(ref == calibration::Reference::kWall
-                            ? calibration::TrackFromWall(believed, h * kDegToRad)
-                            : calibration::TrackFromCamera(believed, h * kDegToRad));
-    }
-    nlohmann::json doc = Combine(name, "track_factor", results);
-    doc["procedure"] = "track";
-    doc["reference"] = args->reference;
-    if (args->track_mm != 0.0) {
-      PositiveOrFail(name, "--track-mm", args->track_mm);
-      doc["track_corrected_mm"] = args->track_mm * doc["track_factor"].get<double>();
-    }
-    Print(doc, args->json, "track_factor");
-  });
+  cmd->callback([args]() { RunCvraTrack(*args); });
 }
 
 }  // namespace

@@ -61,20 +61,20 @@ TEST(CliExplain, NamesTheHiddenEffectsAndWritesTheReports) {
   page << html.rdbuf();
   EXPECT_EQ(page.str().rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_GE(static_cast<int>(page.str().find("<svg")), 0);
-  EXPECT_EQ(page.str().find("src="), std::string::npos) << "self-contained";
+  EXPECT_THAT(page.str(), ::testing::Not(::testing::HasSubstr("src="))) << "self-contained";
 }
 
 TEST(CliExplain, BadInputIsOneClearLine) {
   const std::string out = test_util::MakeTempDir("odocal_explain_bad_");
   auto r = RunCommand(Odocal("explain /nonexistent/dir --out " + out));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("odocal explain: /nonexistent/dir"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("odocal explain: /nonexistent/dir")) << r.err;
   r = RunCommand(Odocal("explain " + out + " --out " + out));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("truth.json"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("truth.json")) << r.err;
   r = RunCommand(Odocal("explain " + out + " --out " + out + " --camera-centre-mm 1"));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("--camera-centre-mm"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--camera-centre-mm")) << r.err;
 }
 
 }  // namespace

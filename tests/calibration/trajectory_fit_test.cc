@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 // The sessions come from the virtual robot and the stand-in camera, which
@@ -47,7 +48,7 @@ TEST(TrajectoryFit, ReportsWhatSpinsAtHomeCannotTell) {
   ASSERT_TRUE(fit.ok()) << fit.message;
   std::printf("%s", fit.BriefReport().c_str());
   ASSERT_EQ(fit.unidentifiable.size(), 1u);
-  EXPECT_NE(fit.unidentifiable[0].find("Eb"), std::string::npos);
+  EXPECT_THAT(fit.unidentifiable[0], ::testing::HasSubstr("Eb"));
   EXPECT_FALSE(fit.Find("Eb")->identifiable);
   EXPECT_FALSE(fit.Find("Es")->identifiable);
   EXPECT_TRUE(fit.Find("Ed")->identifiable) << "Ed is a ratio, untouched by the common scale";
@@ -175,7 +176,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   bad.rank_tolerance = 0.0;
   std::string why;
   EXPECT_FALSE(bad.IsValid(&why));
-  EXPECT_NE(why.find("rank_tolerance"), std::string::npos);
+  EXPECT_THAT(why, ::testing::HasSubstr("rank_tolerance"));
   bad = {};
   bad.effects = {calibration::Effect::kTurnSlip, calibration::Effect::kTurnSlip};
   EXPECT_FALSE(bad.IsValid(&why));
@@ -186,7 +187,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   lens.effects = {calibration::Effect::kLensDistortion};
   fit = FitTrajectory(no_camera, lens);
   EXPECT_FALSE(fit.ok());
-  EXPECT_NE(fit.message.find("geometry"), std::string::npos);
+  EXPECT_THAT(fit.message, ::testing::HasSubstr("geometry"));
 }
 
 }  // namespace

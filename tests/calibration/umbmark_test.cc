@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/corrections.h"
@@ -79,7 +80,7 @@ TEST(UmbmarkFirstOrder, BetaSoLargeThatRIsMeaninglessIsRejected) {
   // 3 m of x error on a 2 m square: beta ~ 0.75 rad, R ~ 2.7 m is fine; 40 m is not.
   EXPECT_TRUE(FirstOrderFromX(-3.0, 3.0, kSide, kTrack, &why));
   EXPECT_FALSE(FirstOrderFromX(-40.0, 40.0, kSide, kTrack, &why));
-  EXPECT_NE(why.find("beta"), std::string::npos) << why;
+  EXPECT_THAT(why, ::testing::HasSubstr("beta")) << why;
 }
 
 // The acceptance: random Ed in [0.995, 1.005], Eb in [0.97, 1.03],
@@ -243,7 +244,7 @@ TEST(UmbmarkInput, BadInputIsNamed) {
   auto expect_invalid = [](UmbmarkInput in, const std::string& field) {
     std::string w;
     EXPECT_FALSE(in.IsValid(&w));
-    EXPECT_NE(w.find(field), std::string::npos) << w;
+    EXPECT_THAT(w, ::testing::HasSubstr(field)) << w;
     EXPECT_EQ(EstimateUmbmark(in).status, odocal::StatusCode::kInvalidArgument);
   };
   UmbmarkInput bad = input;

@@ -203,14 +203,14 @@ TEST(ParamFiles, NameEqualsFileNamesTheSet) {
   EXPECT_EQ(plain->path, "out/a=b/set.yaml");
   EXPECT_EQ(plain->name, "set");
   EXPECT_FALSE(config::ParseParamSpec("name=", &error));
-  EXPECT_NE(error.find("name="), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("name=")) << error;
 }
 
 void ExpectFails(const std::string& path, const std::vector<std::string>& words) {
   std::string error;
   EXPECT_FALSE(Read(path, &error)) << path;
   EXPECT_EQ(error.rfind(path, 0), 0u) << "names the file first: " << error;
-  for (const std::string& w : words) EXPECT_NE(error.find(w), std::string::npos) << error;
+  for (const std::string& w : words) EXPECT_THAT(error, ::testing::HasSubstr(w)) << error;
 }
 
 TEST(ParamFiles, BadFilesNameTheFileAndTheKey) {

@@ -259,14 +259,14 @@ TEST_F(CameraBadInput, MissingVideoNamesTheKey) {
   const std::string dir = Variant("missing", [](const std::string& d) { fs::remove(Video(d)); });
   const CommandResult r = Batch(dir);
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("runs[0].video"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("runs[0].video")) << r.err;
 }
 
 TEST_F(CameraBadInput, EmptyCorruptAndTruncatedVideosAreFlagged) {
   const std::string empty = Variant("empty", [](const std::string& d) { std::ofstream(Video(d), std::ios::trunc); });
   CommandResult r = Batch(empty);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(empty).find("video_unreadable"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(empty), ::testing::HasSubstr("video_unreadable")) << r.err;
 
   const std::string corrupt = Variant("corrupt", [](const std::string& d) {
     std::mt19937 rng(4);
@@ -275,26 +275,26 @@ TEST_F(CameraBadInput, EmptyCorruptAndTruncatedVideosAreFlagged) {
   });
   r = Batch(corrupt);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(corrupt).find("video_unreadable"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(corrupt), ::testing::HasSubstr("video_unreadable")) << r.err;
 
   const std::string truncated = Variant("truncated", [](const std::string& d) {
     fs::resize_file(Video(d), fs::file_size(Video(d)) / 3);
   });
   r = Batch(truncated);
   EXPECT_EQ(r.exit_code, 1) << "the end of the run is missing";
-  EXPECT_NE(Flags(truncated).find("no_end_rest"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(truncated), ::testing::HasSubstr("no_end_rest")) << r.err;
 }
 
 TEST_F(CameraBadInput, WrongTagIdOrFamilyIsNamed) {
   const std::string id = Variant("id", [](const std::string& d) { ReplaceInSession(d, "id: 5", "id: 7"); });
   CommandResult r = Batch(id);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(id).find("wrong_tag_id"), std::string::npos);
+  EXPECT_THAT(Flags(id), ::testing::HasSubstr("wrong_tag_id"));
   const std::string family =
       Variant("family", [](const std::string& d) { ReplaceInSession(d, "tag36h11", "tag25h9"); });
   r = Batch(family);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(family).find("tag_never_seen"), std::string::npos);
+  EXPECT_THAT(Flags(family), ::testing::HasSubstr("tag_never_seen"));
 }
 
 TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
@@ -330,7 +330,7 @@ TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
   });
   const CommandResult r = Batch(dir);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(dir).find("duplicate_tag_id"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(dir), ::testing::HasSubstr("duplicate_tag_id")) << r.err;
 }
 
 TEST(CameraNoRest, ARunWithoutRestsHasNoReturnError) {
@@ -344,7 +344,7 @@ TEST(CameraNoRest, ARunWithoutRestsHasNoReturnError) {
   EXPECT_EQ(r.exit_code, 1);
   const nlohmann::json report = ReadJson(out + "/report.json");
   EXPECT_TRUE(report["runs"][0]["return_error"].is_null());
-  EXPECT_NE(report["runs"][0]["flags"].dump().find("no_start_rest"), std::string::npos);
+  EXPECT_THAT(report["runs"][0]["flags"].dump(), ::testing::HasSubstr("no_start_rest"));
 }
 
 }  // namespace

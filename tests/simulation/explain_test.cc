@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "explain_fixtures.h"
@@ -197,7 +198,7 @@ TEST(Explain, SlipAtOneTurnRateIsReportedAsAliasedWithTheTrack) {
   ASSERT_NE(slip, nullptr) << "turn_slip must be reported as indistinguishable";
   EXPECT_LT(slip->separation, 0.01);
   EXPECT_NE(std::find(slip->looks_like.begin(), slip->looks_like.end(), "Eb"), slip->looks_like.end());
-  EXPECT_NE(slip->distinguishing_runs.find("two different turn rates"), std::string::npos);
+  EXPECT_THAT(slip->distinguishing_runs, ::testing::HasSubstr("two different turn rates"));
   // ...and the track it fitted carries the slip: 1 - 0.03 * 60 deg/s is a
   // turn gain of 0.969, i.e. Eb about 1.015 / 0.969.
   EXPECT_GT(r.final_fit.Find("Eb")->value, s.truth.Eb + 0.02);
@@ -368,7 +369,7 @@ TEST(CrossValidation, ASingleRunFallsBackToTheOtherGates) {
   std::printf("%s", r.BriefReport().c_str());
   ASSERT_EQ(r.EffectsAdded(), std::vector<std::string>{"tag_offset"});
   EXPECT_FALSE(r.steps[0].cross_validation.possible());
-  EXPECT_NE(r.steps[0].cross_validation.note.find("one run"), std::string::npos);
+  EXPECT_THAT(r.steps[0].cross_validation.note, ::testing::HasSubstr("one run"));
 }
 
 // A drift on one run only (a patch of carpet the others did not cross) is

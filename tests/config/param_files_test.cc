@@ -68,8 +68,7 @@ TEST(ParamFiles, FirmwareExportGivesTheRatiosToTheNominalSet) {
   ExpectScales(*set, 69.95 / 70.0, 70.06 / 70.0, 303.0 / 300.0);
   for (double v : set->model.effects.values) EXPECT_NEAR(v, 0.0, 1e-15);
   const WheelParams back = set->Equivalent(Nominal());
-  EXPECT_NEAR(back.left_wheel_diameter_m, 0.06995, 1e-12);
-  EXPECT_NEAR(back.track_m, 0.303, 1e-12);
+  EXPECT_THAT(back, test_util::IsNearWheelParams(Corrected(), 1e-9));  // 1e-12 m
 }
 
 TEST(ParamFiles, FirmwareTicksPerRevCountsInTheMetresPerTick) {

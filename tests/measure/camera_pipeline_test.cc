@@ -9,9 +9,11 @@
 #include <random>
 #include <sstream>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "odocal/calibration/umbmark.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/measure.h"
 #include "odocal/media/video.h"
@@ -103,18 +105,17 @@ TEST_F(CameraAccuracy, ReturnErrorsMatchRenderedTruth) {
     const nlohmann::json& m = report["runs"][i];
     ASSERT_FALSE(m["return_error"].is_null()) << m.dump();
     EXPECT_TRUE(m["flags"].empty()) << m.dump();
-    const double dx = m["return_error"]["x_mm"].get<double>() -
-                      (t["x_mm"].get<double>() - o["x_mm"].get<double>());
-    const double dy = m["return_error"]["y_mm"].get<double>() -
-                      (t["y_mm"].get<double>() - o["y_mm"].get<double>());
-    const double dth =
-        m["return_error"]["theta_deg"].get<double>() -
-        std::remainder(t["theta_deg"].get<double>() - o["heading_deg"].get<double>(), 360.0);
+    const calibration::ReturnError measured = calibration::ReturnError::FromMmDeg(
+        m["return_error"]["x_mm"].get<double>(), m["return_error"]["y_mm"].get<double>(),
+        m["return_error"]["theta_deg"].get<double>());
+    const calibration::ReturnError expected = calibration::ReturnError::FromMmDeg(
+        t["x_mm"].get<double>() - o["x_mm"].get<double>(), t["y_mm"].get<double>() - o["y_mm"].get<double>(),
+        t["theta_deg"].get<double>() - o["heading_deg"].get<double>());
     std::printf("%-24s error vs truth: x %+.4f mm, y %+.4f mm, theta %+.5f deg\n",
-                m["name"].get<std::string>().c_str(), dx, dy, dth);
-    EXPECT_LE(std::abs(dx), 0.15) << m["name"];
-    EXPECT_LE(std::abs(dy), 0.15) << m["name"];
-    EXPECT_LE(std::abs(dth), 0.01) << m["name"];
+                m["name"].get<std::string>().c_str(), (measured.x_m - expected.x_m) * 1e3,
+                (measured.y_m - expected.y_m) * 1e3,
+                calibration::WrapAngle(*measured.heading_rad - *expected.heading_rad) * 180.0 / M_PI);
+    EXPECT_THAT(measured, test_util::IsNearReturnError(expected, 0.15, 0.01)) << m["name"];
     // Every number comes with its quality.
     EXPECT_GT(m["sigma"]["x_mm"].get<double>(), 0.0);
   }

@@ -174,7 +174,10 @@ TEST(StationEndToEnd, CalibratesAMisCalibratedVirtualRobotInAtMostTwoRounds) {
   ASSERT_TRUE(r.params_final);
   EXPECT_TRUE(r.params_final->SameBits(*first.pushed));
   EXPECT_TRUE(vs->ReadBack().SameBits(*first.pushed));
-  EXPECT_NEAR(vs->backend->BelievedParams().track_m * 1e3, first.pushed->track_mm, 1e-9);
+  const calibration::WheelParams pushed{first.pushed->left_wheel_diameter_mm * 1e-3,
+                                        first.pushed->right_wheel_diameter_mm * 1e-3,
+                                        first.pushed->track_mm * 1e-3, 0.0};
+  EXPECT_THAT(vs->backend->BelievedParams(), test_util::IsNearWheelParams(pushed, 1e-9));
   const nlohmann::json report = station::StationReportJson(r);
   for (const char* key : {"iterations", "robot_params_final", "improvement"}) EXPECT_TRUE(report.contains(key)) << key;
   for (const char* key : {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"})

@@ -3,7 +3,11 @@
 #include "odocal/calibration/umbmark.h"
 
 #include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <ostream>
 #include <random>
+#include <string>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -141,37 +145,45 @@ double EmaxAfterCorrection(const sim::RobotConfig& config, const UmbmarkSummary&
   return after.emax_syst_m;
 }
 
-TEST(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
+// The robot's wheels as measured, and how many squares each way it runs.
+struct CorrectionCase {
+  std::string name;
+  double wheel_sigma_m_per_sqrt_m = 0.0;
+  int runs_each_way = 1;
+  std::uint64_t seed_after = 1;  // of the re-simulation with the corrected set
+};
+void PrintTo(const CorrectionCase& c, std::ostream* os) { *os << c.name; }
+
+class UmbmarkCorrection : public ::testing::TestWithParam<CorrectionCase> {};
+
+TEST_P(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
   // The scenario of the issue: D_L 69.95, D_R 70.06, b 303 vs 70/70/300.
+  const CorrectionCase& c = GetParam();
   sim::RobotConfig config = test_util::ExactRobot(1.0, 1.0);
   config.truth.left_wheel_diameter_m = 0.06995;
   config.truth.right_wheel_diameter_m = 0.07006;
   config.truth.track_m = 0.303;
-  {
-    sim::VirtualRobot robot(config);
-    const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, 1));
-    ASSERT_TRUE(before.ok());
-    const double after = EmaxAfterCorrection(config, before, 1, 1);
-    EXPECT_GT(before.emax_syst_m / after, 50.0)
-        << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
-    std::cout << "noise-free: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
-              << after * 1e3 << " mm\n";
-  }
-  {
-    // With wheel noise, five runs each way; Es is 1.00079 here, which the
-    // square sees only at second order.
-    config.noise.wheel_sigma_m_per_sqrt_m = 0.05e-3;
+  if (c.wheel_sigma_m_per_sqrt_m > 0.0) {
+    config.noise.wheel_sigma_m_per_sqrt_m = c.wheel_sigma_m_per_sqrt_m;
     config.noise.random_encoder_phase = true;
-    sim::VirtualRobot robot(config);
-    const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, 5));
-    ASSERT_TRUE(before.ok());
-    const double after = EmaxAfterCorrection(config, before, 5, 99);
-    EXPECT_GT(before.emax_syst_m / after, 50.0)
-        << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
-    std::cout << "noisy, 5 runs: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
-              << after * 1e3 << " mm\n";
   }
+  sim::VirtualRobot robot(config);
+  const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, c.runs_each_way));
+  ASSERT_TRUE(before.ok());
+  const double after = EmaxAfterCorrection(config, before, c.runs_each_way, c.seed_after);
+  EXPECT_GT(before.emax_syst_m / after, 50.0)
+      << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
+  std::cout << c.name << ": E_max,syst " << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3
+            << " mm\n";
 }
+
+INSTANTIATE_TEST_SUITE_P(
+    NoiseFreeAndNoisy, UmbmarkCorrection,
+    ::testing::Values(CorrectionCase{"NoiseFree", 0.0, 1, 1},
+                      // With wheel noise, five runs each way; Es is 1.00079
+                      // here, which the square sees only at second order.
+                      CorrectionCase{"WheelNoiseFiveRuns", 0.05e-3, 5, 99}),
+    [](const ::testing::TestParamInfo<CorrectionCase>& info) { return info.param.name; });
 
 TEST(UmbmarkCoupled, MeasuresTheTurnGainUnlessTheScaleIsGiven) {
   // Es = 1.004: the square sees the turn gain Eb / Es; given the scale, Eb.

@@ -76,9 +76,11 @@ TEST(LinkPty, ConnectRunTelemetryPushRestartReadBack) {
     EXPECT_EQ(done.value->run_id, *run.value);
     EXPECT_EQ(done.value->status, RunStatus::kCompleted);
     // The fake backend's odometry is the plan: a closed square.
-    EXPECT_NEAR(done.value->x_mm, 0.0, 1e-6);
-    EXPECT_NEAR(done.value->y_mm, 0.0, 1e-6);
-    EXPECT_NEAR(std::remainder(done.value->heading_rad, 2 * M_PI), 0.0, 1e-9);
+    const calibration::ReturnError odometry_error{done.value->x_mm * 1e-3, done.value->y_mm * 1e-3,
+                                                  done.value->heading_rad};
+    // 1e-6 mm and 1e-9 rad.
+    EXPECT_THAT(odometry_error, test_util::IsNearReturnError(calibration::ReturnError{0.0, 0.0, 0.0}, 1e-6,
+                                                             1e-9 * 180.0 / M_PI));
     // 4 x 0.5 m at 0.4 m/s + 4 x 90 deg at 3 rad/s = 7.1 s of robot time,
     // 50 Hz: about 350 samples; the host must have seen a healthy share.
     EXPECT_GT(telemetry.size(), 100u);

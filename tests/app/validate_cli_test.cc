@@ -80,8 +80,14 @@ TEST(ValidateCli, RecoversTheBiasAndLimitsPutIntoTheTape) {
     EXPECT_GE(a["lower_limit_ci"][1].get<double>(), put.bias - z * put.sd) << axis;
     EXPECT_LE(a["upper_limit_ci"][0].get<double>(), put.bias + z * put.sd) << axis;
     EXPECT_GE(a["upper_limit_ci"][1].get<double>(), put.bias + z * put.sd) << axis;
-    // And the intervals are narrow enough to mean something.
+    // And the intervals are narrow enough to mean something: the bias's is
+    // 2 t sd / sqrt(n) (1.5 sd at n = 24, t = 3.77), a limit's 2 t sd
+    // sqrt(1/n + z^2 / (2 (n - 1))) (4.0 sd at n = 24).
     EXPECT_LT(a["bias_ci"][1].get<double>() - a["bias_ci"][0].get<double>(), 2.0 * put.sd) << axis;
+    EXPECT_LT(a["lower_limit_ci"][1].get<double>() - a["lower_limit_ci"][0].get<double>(), 6.0 * put.sd)
+        << axis;
+    EXPECT_LT(a["upper_limit_ci"][1].get<double>() - a["upper_limit_ci"][0].get<double>(), 6.0 * put.sd)
+        << axis;
     EXPECT_NEAR(a["z"].get<double>(), z, 1e-6);
     EXPECT_LT(a["camera_sigma_max"].get<double>(), 0.1 * put.sd) << axis;
   }

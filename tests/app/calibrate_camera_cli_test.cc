@@ -67,7 +67,8 @@ TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
                                      " --board chessboard:9x6:25 --out " + out + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // The image without a board is named, on stderr and in the report.
-  EXPECT_NE(r.err.find("skipping " + dir + "/no_board.png: chessboard 9x6 not found"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("skipping " + dir + "/no_board.png: chessboard 9x6 not found"))
+      << r.err;
   const nlohmann::json doc = nlohmann::json::parse(r.out);
   EXPECT_EQ(doc["views_used"], 12);
   ASSERT_EQ(doc["images"].size(), 13u);
@@ -111,10 +112,9 @@ TEST(CliCalibrateCamera, FewerThanThreeUsableImagesFailWithoutWritingAFile) {
   const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
                                      " --board chessboard:9x6:25 --out " + out + " --format ros");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("skipping " + dir + "/missing.png: no such file"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("odocal calibrate-camera: only 2 of 4 images show the board; need at least 3 "
-                       "(no camera file written)"),
-            std::string::npos)
+  EXPECT_THAT(r.err, ::testing::HasSubstr("skipping " + dir + "/missing.png: no such file")) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("odocal calibrate-camera: only 2 of 4 images show the board; "
+                                          "need at least 3 (no camera file written)"))
       << r.err;
   EXPECT_FALSE(std::filesystem::exists(out));
 }
@@ -127,7 +127,7 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
                                " --board chessboard:9x6:25 --out " + out +
                                " --format ros --camera-name overhead");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("RMS reprojection error"), std::string::npos) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("RMS reprojection error")) << r.out;
   std::string error;
   const auto file = config::ReadCameraFile(out, &error);
   ASSERT_TRUE(file) << error;
@@ -143,7 +143,7 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
     r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) + " " + args +
                    " --out " + dir + "/x.yaml");
     EXPECT_EQ(r.exit_code, 2) << args;
-    EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr(message)) << args << ": " << r.err;
   }
 
   // ChArUco: parsed, and chessboard photographs are skipped for want of
@@ -151,14 +151,15 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
   r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
                  " --board charuco:8x6:36:28:DICT_5X5_100 --out " + dir + "/x.yaml");
   if (r.exit_code == 2) {
-    EXPECT_NE(r.err.find("ChArUco boards are not available in this build"), std::string::npos) << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr("ChArUco boards are not available in this build")) << r.err;
   } else {
     EXPECT_EQ(r.exit_code, 1) << r.err;
-    EXPECT_NE(r.err.find("skipping " + images[0] + ": no DICT_5X5_100 markers found"), std::string::npos) << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr("skipping " + images[0] + ": no DICT_5X5_100 markers found"))
+        << r.err;
     r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
                    " --board charuco:8x6:36:28:DICT_NOPE --out " + dir + "/x.yaml");
     EXPECT_EQ(r.exit_code, 2);
-    EXPECT_NE(r.err.find("--board: unknown ArUco dictionary 'DICT_NOPE'"), std::string::npos) << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr("--board: unknown ArUco dictionary 'DICT_NOPE'")) << r.err;
   }
 }
 

@@ -68,8 +68,8 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
                         dir + "/explain/explain.json --out " + dir + "/check"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::printf("%s", r.out.c_str());
-  EXPECT_NE(r.out.find("nominal"), std::string::npos);
-  EXPECT_NE(r.out.find("truth"), std::string::npos);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("nominal"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("truth"));
 
   const nlohmann::json j = ReadJson(dir + "/check/check.json");
   ASSERT_EQ(j["sets"].size(), 5u);
@@ -136,10 +136,10 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
   size_t svgs = 0;
   for (size_t at = page.find("<svg"); at != std::string::npos; at = page.find("<svg", at + 1)) ++svgs;
   EXPECT_EQ(svgs, 3u);
-  EXPECT_EQ(page.find("src="), std::string::npos) << "self-contained";
-  EXPECT_EQ(page.find("<script"), std::string::npos);
+  EXPECT_THAT(page, ::testing::Not(::testing::HasSubstr("src="))) << "self-contained";
+  EXPECT_THAT(page, ::testing::Not(::testing::HasSubstr("<script")));
   for (const char* set : {"nominal", "corrected", "ros2", "truth", "fit"})
-    EXPECT_NE(page.find(set), std::string::npos) << set;
+    EXPECT_THAT(page, ::testing::HasSubstr(set)) << set;
 }
 
 TEST(CheckCli, RunWithoutTelemetryIsListedWithItsReason) {
@@ -155,7 +155,7 @@ TEST(CheckCli, RunWithoutTelemetryIsListedWithItsReason) {
   const auto r = RunCommand(Odocal("check " + dir + "/session.yaml --params " + dir +
                                    "/truth.yaml --out " + dir + "/check"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("not replayed"), std::string::npos) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("not replayed")) << r.out;
   const nlohmann::json j = ReadJson(dir + "/check/check.json");
   const nlohmann::json& second = j["runs"][1];
   for (const char* set : {"nominal", "truth"}) {
@@ -163,15 +163,15 @@ TEST(CheckCli, RunWithoutTelemetryIsListedWithItsReason) {
     const nlohmann::json& res = Result(second, set);
     EXPECT_FALSE(res["ok"].get<bool>());
     EXPECT_FALSE(res.contains("final_position_error_mm")) << "no silent number";
-    EXPECT_NE(res["reason"].get<std::string>().find("no telemetry"), std::string::npos) << res;
-    EXPECT_NE(res["reason"].get<std::string>().find(second["name"].get<std::string>()),
-              std::string::npos)
+    EXPECT_THAT(res["reason"].get<std::string>(), ::testing::HasSubstr("no telemetry")) << res;
+    EXPECT_THAT(res["reason"].get<std::string>(),
+                ::testing::HasSubstr(second["name"].get<std::string>()))
         << res;
   }
   EXPECT_EQ(j["not_replayed"].size(), 2u);
   EXPECT_EQ(j["summary"][1]["runs"], 1);
   EXPECT_EQ(j["summary"][1]["not_replayed"], 1);
-  EXPECT_NE(Slurp(dir + "/check/report.html").find("not replayed: "), std::string::npos);
+  EXPECT_THAT(Slurp(dir + "/check/report.html"), ::testing::HasSubstr("not replayed: "));
 }
 
 TEST(CheckCli, BadInputIsOneClearLine) {
@@ -207,7 +207,7 @@ TEST(CheckCli, BadInputIsOneClearLine) {
   for (const Case& c : cases) {
     const auto r = RunCommand(Odocal("check " + c.args));
     EXPECT_EQ(r.exit_code, c.exit_code) << c.args << "\n" << r.err;
-    for (const std::string& w : c.words) EXPECT_NE(r.err.find(w), std::string::npos) << w << "\n" << r.err;
+    for (const std::string& w : c.words) EXPECT_THAT(r.err, ::testing::HasSubstr(w)) << w << "\n" << r.err;
     // One line, nothing measured.
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }

@@ -107,7 +107,7 @@ TEST(CliUmbmark, SimulatedReturnErrorsGiveTheTruthBack) {
   EXPECT_NEAR(j["estimate"]["Ed"].get<double>(), truth["truth"]["Ed"].get<double>(), 1e-5);
   EXPECT_NEAR(j["estimate"]["Eb"].get<double>(), truth["truth"]["Eb"].get<double>(), 1e-4);
   EXPECT_NEAR(j["estimate"]["track_corrected_mm"].get<double>(), 306.0, 0.03);
-  EXPECT_TRUE(j["quality"]["uncertainty"].get<std::string>().find("none") != std::string::npos);
+  EXPECT_THAT(j["quality"]["uncertainty"].get<std::string>(), ::testing::HasSubstr("none"));
 }
 
 TEST(CliUmbmark, RepeatedRunsPrintUncertaintyAndTheTableReadsWell) {
@@ -116,10 +116,10 @@ TEST(CliUmbmark, RepeatedRunsPrintUncertaintyAndTheTableReadsWell) {
       "--ccw 139,-121 --ccw 141,-119 --ccw 138,-124 --left-diameter-mm 70 --right-diameter-mm 70 "
       "--ticks-per-rev 2048"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("E_max,syst"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("1-sigma"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("corrected parameters"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("wheel_separation_multiplier"), std::string::npos) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("E_max,syst")) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("1-sigma")) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("corrected parameters")) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("wheel_separation_multiplier")) << r.out;
 }
 
 struct BadArgs {
@@ -132,7 +132,7 @@ class CliUmbmarkErrors : public ::testing::TestWithParam<BadArgs> {};
 TEST_P(CliUmbmarkErrors, OneClearLineAndNonZeroExit) {
   const CommandResult r = RunCommand(Odocal("umbmark " + GetParam().args));
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find(GetParam().expected), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr(GetParam().expected)) << r.err;
   EXPECT_TRUE(r.out.empty()) << "no number without its quality: " << r.out;
 }
 
@@ -172,25 +172,25 @@ TEST(CliCvra, ThreeProceduresPrintTheirFactorsWithQuality) {
   EXPECT_NEAR(j["diameter_factor"].get<double>(), 1.002, 1e-12);
   EXPECT_NEAR(j["ticks_per_mm_factor"].get<double>(), 1.0 / 1.002, 1e-12);
   EXPECT_TRUE(j["sigma_scale"].is_null());
-  EXPECT_NE(j["quality"].get<std::string>().find("none"), std::string::npos);
+  EXPECT_THAT(j["quality"].get<std::string>(), ::testing::HasSubstr("none"));
 
   r = RunCommand(Odocal("cvra track --reference wall --turns 10 --heading-deg 36 --track-mm 300"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // g = 1 + delta / (2 pi N) = 1 + 0.1 / 10.
-  EXPECT_NE(r.out.find("track_factor = 1.01"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("track_corrected_mm = 303"), std::string::npos) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("track_factor = 1.01")) << r.out;
+  EXPECT_THAT(r.out, ::testing::HasSubstr("track_corrected_mm = 303")) << r.out;
 }
 
 TEST(CliCvra, BadInputNamesTheFlag) {
   CommandResult r = RunCommand(Odocal("cvra ratio --reference floor --distance-mm 1 --heading-deg 1 --track-mm 300"));
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--reference"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--reference")) << r.err;
   r = RunCommand(Odocal("cvra scale --asked-mm 2000"));
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--real-mm or --end"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--real-mm or --end")) << r.err;
   r = RunCommand(Odocal("cvra track --reference camera --turns 0 --heading-deg 1"));
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--turns"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--turns")) << r.err;
 }
 
 TEST(CliSimulate, BadScenarioIsOneLineAndWritesNothing) {
@@ -198,7 +198,7 @@ TEST(CliSimulate, BadScenarioIsOneLineAndWritesNothing) {
   const std::string out = test_util::MakeTempDir("odocal_out_") + "/sub";
   const CommandResult r = RunCommand(Odocal("simulate --scenario " + scenario + " --out " + out));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("robot.nominal: missing"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("robot.nominal: missing")) << r.err;
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
@@ -209,7 +209,7 @@ TEST(CliDemo, TheMainJobImprovesEmaxFiftyTimes) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json report = nlohmann::json::parse(ReadFile(out + "/report.json"));
   EXPECT_GT(report["improvement"].get<double>(), 50.0) << r.out;
-  EXPECT_NE(r.out.find("report: "), std::string::npos);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("report: "));
   ASSERT_EQ(report["iterations"].size(), 2u);
   EXPECT_TRUE(report["iterations"][0]["pushed"].contains("track_mm"));
 }

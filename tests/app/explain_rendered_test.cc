@@ -148,12 +148,32 @@ double ErrorOf(const Outcome& o, const nlohmann::json& fit, const std::string& k
   return std::abs(fit["parameters"][key]["value"].get<double>() - o.truth[truth_key].get<double>());
 }
 
+// The largest sigma a base parameter may have on this plan. Measured on every
+// case here (explain.json of each): Ed 3.8-4.3e-5, Eb 4.2-4.8e-4 (the camera's
+// length scale; docs/explain.md: 4.1e-4 with nothing hidden), turn gain
+// 5.8e-5 to 2.2e-4 (with turn slip). About twice the largest: a sigma beyond
+// it is a fit that lost three quarters of its information, and an interval
+// or a "within k sigma" check against it would no longer test anything.
+double MaxSigma(const std::string& key) {
+  if (key == "Ed") return 1e-4;
+  if (key == "Eb") return 1e-3;
+  if (key == "turn_gain") return 5e-4;
+  ADD_FAILURE() << "no sigma bound for " << key;
+  return 0.0;
+}
+
+void ExpectSigmaBounded(const nlohmann::json& fit, const std::string& key, const std::string& label) {
+  const nlohmann::json& p = fit["parameters"][key];
+  EXPECT_LT(p["sigma"].get<double>(), MaxSigma(key)) << label << " " << key << " " << p.dump();
+}
+
 void ExpectCovers(const nlohmann::json& fit, const std::string& key, double truth,
                   const std::string& label) {
   const nlohmann::json& p = fit["parameters"][key];
   ASSERT_TRUE(p["interval95"].is_array()) << label << " " << key << " not identifiable";
   EXPECT_LE(p["interval95"][0].get<double>(), truth) << label << " " << key << " " << p.dump();
   EXPECT_GE(p["interval95"][1].get<double>(), truth) << label << " " << key << " " << p.dump();
+  ExpectSigmaBounded(fit, key, label);
 }
 
 TEST_F(ExplainRendered, NothingHiddenNothingNamed) {
@@ -191,6 +211,10 @@ TEST_F(ExplainRendered, EachHiddenEffectIsNamedRecoveredAndClosesTheGap) {
           const double systematic = (key == "x_mm" || key == "y_mm") ? 0.05 : 0.0;
           EXPECT_LE(iv[0].get<double>() - systematic, truth) << key << " " << step.dump();
           EXPECT_GE(iv[1].get<double>() + systematic, truth) << key << " " << step.dump();
+          // ...an interval that measures: within +/-20 % of the effect's size
+          // (the widest here is lens k1's +/-7.8 %).
+          EXPECT_LT(iv[1].get<double>() - iv[0].get<double>(), 0.4 * std::abs(truth))
+              << key << " " << step.dump();
           std::printf("[figure] rendered %s: %s = %.5g [%.5g, %.5g] (truth %.5g)\n",
                       c.name.c_str(), key.c_str(), step["params"][key].get<double>(),
                       iv[0].get<double>(), iv[1].get<double>(), truth);
@@ -211,6 +235,8 @@ TEST_F(ExplainRendered, EachHiddenEffectIsNamedRecoveredAndClosesTheGap) {
     const double eb_base = ErrorOf(o, base, "Eb", "Eb"), eb_final = ErrorOf(o, final_fit, "Eb", "Eb");
     const double sigma_ed = final_fit["parameters"]["Ed"]["sigma"].get<double>();
     const double sigma_eb = final_fit["parameters"]["Eb"]["sigma"].get<double>();
+    ExpectSigmaBounded(final_fit, "Ed", c.name);
+    ExpectSigmaBounded(final_fit, "Eb", c.name);
     // Closer to the truth, or within 2 sigma of it where the hidden effect
     // hardly biases the base model (latency, backlash: base and final then
     // differ by less than a sigma).
@@ -261,6 +287,8 @@ TEST_F(ExplainRendered, CameraSideEffectsLeaveTheRobotCalibrationAlone) {
                 p["Ed"]["sigma"].get<double>());
     EXPECT_NEAR(p["turn_gain"]["value"].get<double>(), none["turn_gain"]["value"].get<double>(),
                 p["turn_gain"]["sigma"].get<double>());
+    ExpectSigmaBounded(Get(name).explain["final"], "Ed", name);
+    ExpectSigmaBounded(Get(name).explain["final"], "turn_gain", name);
   }
 }
 

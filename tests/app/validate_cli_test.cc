@@ -80,22 +80,28 @@ TEST(ValidateCli, RecoversTheBiasAndLimitsPutIntoTheTape) {
     EXPECT_GE(a["lower_limit_ci"][1].get<double>(), put.bias - z * put.sd) << axis;
     EXPECT_LE(a["upper_limit_ci"][0].get<double>(), put.bias + z * put.sd) << axis;
     EXPECT_GE(a["upper_limit_ci"][1].get<double>(), put.bias + z * put.sd) << axis;
-    // And the intervals are narrow enough to mean something.
+    // And the intervals are narrow enough to mean something: the bias's is
+    // 2 t sd / sqrt(n) (1.5 sd at n = 24, t = 3.77), a limit's 2 t sd
+    // sqrt(1/n + z^2 / (2 (n - 1))) (4.0 sd at n = 24).
     EXPECT_LT(a["bias_ci"][1].get<double>() - a["bias_ci"][0].get<double>(), 2.0 * put.sd) << axis;
+    EXPECT_LT(a["lower_limit_ci"][1].get<double>() - a["lower_limit_ci"][0].get<double>(), 6.0 * put.sd)
+        << axis;
+    EXPECT_LT(a["upper_limit_ci"][1].get<double>() - a["upper_limit_ci"][0].get<double>(), 6.0 * put.sd)
+        << axis;
     EXPECT_NEAR(a["z"].get<double>(), z, 1e-6);
     EXPECT_LT(a["camera_sigma_max"].get<double>(), 0.1 * put.sd) << axis;
   }
   const std::string verdict = report["verdict"]["text"];
-  EXPECT_NE(verdict.find("good for UMBMark when E_max,syst is above"), std::string::npos) << verdict;
+  EXPECT_THAT(verdict, ::testing::HasSubstr("good for UMBMark when E_max,syst is above")) << verdict;
   // |bias| + z sd of the worse axis, x: 1.5 + 3.29 * 2 = 8.1 mm.
   EXPECT_NEAR(report["verdict"]["error_bound_mm"].get<double>(), 1.5 + z * 2.0, 2.0);
 
   const std::string html = Slurp(dir + "/out/report.html");
-  EXPECT_NE(html.find("<svg"), std::string::npos);
-  EXPECT_NE(html.find("class='bland-altman'"), std::string::npos);
-  EXPECT_NE(html.find("class='trajectories'"), std::string::npos);
+  EXPECT_THAT(html, ::testing::HasSubstr("<svg"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='bland-altman'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='trajectories'"));
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org/2000/svg"));  // no external assets
-  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("<script")));
 }
 
 TEST(ValidateCli, AWildReadingIsFlaggedAsAnOutlier) {
@@ -161,8 +167,8 @@ TEST(ValidateCli, BadCsvFailsWithOneClearLine) {
     const auto r = RunCommand(Odocal("validate --manual " + sub + "/manual.csv " + SamplePath() +
                                      " --out " + sub + "/out"));
     EXPECT_EQ(r.exit_code, 2) << c.name << ": " << r.err;
-    EXPECT_NE(r.err.find(c.expected), std::string::npos) << c.name << ": " << r.err;
-    EXPECT_NE(r.err.find(sub + "/manual.csv"), std::string::npos) << c.name << ": " << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr(c.expected)) << c.name << ": " << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr(sub + "/manual.csv")) << c.name << ": " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.name << ": " << r.err;
     EXPECT_FALSE(std::filesystem::exists(sub + "/out/report.json")) << c.name;
   }
@@ -174,7 +180,7 @@ TEST(ValidateCli, TooFewReadingsForStatisticsFail) {
   const auto r = RunCommand(Odocal("validate --manual " + dir + "/manual.csv " + SamplePath() +
                                    " --out " + dir + "/out"));
   EXPECT_EQ(r.exit_code, 1) << r.err;
-  EXPECT_NE(r.err.find("fewer than 3 readings"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("fewer than 3 readings")) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out/report.json"));
 }
 

@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/corrections.h"
@@ -191,7 +192,7 @@ TEST(CvraAll, ThreeProceduresThenUmbmarkShowsACalibratedRobot) {
 
 TEST(CvraInput, BadNumbersAreRejectedWithTheirName) {
   EXPECT_FALSE(WheelRatioFromWall(0.0, 0.01, 0.3).ok());
-  EXPECT_NE(WheelRatioFromWall(0.0, 0.01, 0.3).message.find("distance-mm"), std::string::npos);
+  EXPECT_THAT(WheelRatioFromWall(0.0, 0.01, 0.3).message, ::testing::HasSubstr("distance-mm"));
   EXPECT_FALSE(WheelRatioFromWall(2.0, 0.01, -0.3).ok());
   EXPECT_FALSE(WheelRatioFromCamera(2.0, std::nan(""), 0.3).ok());
   EXPECT_FALSE(WheelRatioFromCamera(0.1, 3.0, 0.3).ok()) << "ratio would be negative";

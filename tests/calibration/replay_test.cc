@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 // The sessions come from the virtual robot and the stand-in camera, which
@@ -117,11 +118,11 @@ TEST(Replay, SaysWhyARunCannotBeReplayed) {
   run.camera.clear();
   RunReplay r = ReplayRun(run, s.session.believed, {});
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find(run.name), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr(run.name)) << r.message;
   run.telemetry.resize(1);
   r = ReplayRun(run, s.session.believed, {});
   EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("telemetry"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("telemetry")) << r.message;
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <Eigen/Dense>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/trajectory_fit.h"
@@ -73,12 +74,12 @@ TEST(TrajectoryFitStages, ValidateFitInputsNamesWhatIsWrong) {
   EXPECT_EQ(ValidateFitInputs(s, {}), "");
   TrajectoryFitOptions bad;
   bad.irls_rounds = 0;
-  EXPECT_NE(ValidateFitInputs(s, bad).find("options: irls_rounds"), std::string::npos);
+  EXPECT_THAT(ValidateFitInputs(s, bad), ::testing::HasSubstr("options: irls_rounds"));
   TrajectoryFitOptions lens;
   lens.effects = {Effect::kLensDistortion};
-  EXPECT_NE(ValidateFitInputs(s, lens).find("lens_distortion"), std::string::npos);
+  EXPECT_THAT(ValidateFitInputs(s, lens), ::testing::HasSubstr("lens_distortion"));
   s.believed.track_m = 0.0;
-  EXPECT_NE(ValidateFitInputs(s, {}).find("believed parameters"), std::string::npos);
+  EXPECT_THAT(ValidateFitInputs(s, {}), ::testing::HasSubstr("believed parameters"));
 }
 
 TEST(TrajectoryFitStages, ExtractRunsKeepsStepsFramesAndDirections) {
@@ -289,8 +290,8 @@ TEST(TrajectoryFitStages, IdentifiabilityFindsTheNullDirection) {
   EXPECT_GT(rank3.condition_number, 1e12);
   const std::vector<std::string> lines = DescribeNullVectors(rank3, {"a", "b", "c", "d"});
   ASSERT_EQ(lines.size(), 1u);
-  EXPECT_NE(lines[0].find("0.71 b"), std::string::npos) << lines[0];
-  EXPECT_NE(lines[0].find("0.71 d"), std::string::npos) << lines[0];
+  EXPECT_THAT(lines[0], ::testing::HasSubstr("0.71 b")) << lines[0];
+  EXPECT_THAT(lines[0], ::testing::HasSubstr("0.71 d")) << lines[0];
   // A zero column counts as norm 1 (and is a null direction of its own).
   J.col(3).setZero();
   const Identifiability zero = AnalyseIdentifiability(J, 1e-5);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 // The sessions come from the virtual robot and the stand-in camera, which
@@ -31,6 +32,11 @@ TEST(TrajectoryFit, RecoversTheBaseParametersOfACleanSession) {
     EXPECT_TRUE(p->identifiable) << name;
     EXPECT_NEAR(p->value, truth, 2.5 * p->sigma) << name;
   }
+  // ...with sigmas that measure: Ed 2.3e-5, Es 2.1e-5, Eb 8.8e-5 on this
+  // session (its BriefReport gives 1.96 sigma), bounded at about twice that.
+  EXPECT_LT(fit.Find("Ed")->sigma, 5e-5);
+  EXPECT_LT(fit.Find("Es")->sigma, 5e-5);
+  EXPECT_LT(fit.Find("Eb")->sigma, 2e-4);
   EXPECT_TRUE(fit.unidentifiable.empty());
   EXPECT_LT(fit.gap_m, 1.05 * fit.noise_floor_m);
 }
@@ -47,7 +53,7 @@ TEST(TrajectoryFit, ReportsWhatSpinsAtHomeCannotTell) {
   ASSERT_TRUE(fit.ok()) << fit.message;
   std::printf("%s", fit.BriefReport().c_str());
   ASSERT_EQ(fit.unidentifiable.size(), 1u);
-  EXPECT_NE(fit.unidentifiable[0].find("Eb"), std::string::npos);
+  EXPECT_THAT(fit.unidentifiable[0], ::testing::HasSubstr("Eb"));
   EXPECT_FALSE(fit.Find("Eb")->identifiable);
   EXPECT_FALSE(fit.Find("Es")->identifiable);
   EXPECT_TRUE(fit.Find("Ed")->identifiable) << "Ed is a ratio, untouched by the common scale";
@@ -64,6 +70,9 @@ TEST(TrajectoryFit, ReportsThatStraightsAloneCannotSeparateEdFromEb) {
   EXPECT_FALSE(fit.Find("Eb")->identifiable);
   EXPECT_TRUE(fit.Find("Es")->identifiable) << "the camera is the length reference";
   EXPECT_NEAR(fit.Find("Es")->value, s.truth.Es, 2.5 * fit.Find("Es")->sigma);
+  // ...a sigma that measures: 7.7e-5 here (docs/explain.md gives the 95 %
+  // half-width, 1.5e-4), bounded at about twice that.
+  EXPECT_LT(fit.Find("Es")->sigma, 1.5e-4);
 }
 
 TEST(TrajectoryFit, AHomeAreaCameraStillCalibratesFromRestsAndNearbyLegs) {
@@ -87,6 +96,9 @@ TEST(TrajectoryFit, AHomeAreaCameraStillCalibratesFromRestsAndNearbyLegs) {
   std::printf("[figure] sigma Eb: home area %.2e, whole floor %.2e\n", eb->sigma,
               full.Find("Eb")->sigma);
   EXPECT_GT(eb->sigma, 3.0 * full.Find("Eb")->sigma);
+  // ...but still a measurement: 6.3e-4 here (docs/explain.md), bounded at
+  // about twice that, so the 2.5 sigma check above keeps its meaning.
+  EXPECT_LT(eb->sigma, 1.3e-3);
 }
 
 // The intervals must mean what they say: over seeded sessions (wheel noise,
@@ -158,10 +170,16 @@ TEST(TrajectoryFit, HuberKeepsGrossOutliersFromMovingTheEstimate) {
   const double robust_ed = std::abs(robust.Find("Ed")->value - s.truth.Ed);
   const double plain_ed = std::abs(plain.Find("Ed")->value - s.truth.Ed);
   std::printf("[figure] %d outliers: |Ed - truth| Huber %.2e, plain %.2e; |Eb - truth| Huber "
-              "%.2e, plain %.2e\n",
-              thrown, robust_ed, plain_ed, robust_eb, plain_eb);
+              "%.2e, plain %.2e; Huber sigma Ed %.2e, Eb %.2e\n",
+              thrown, robust_ed, plain_ed, robust_eb, plain_eb, robust.Find("Ed")->sigma,
+              robust.Find("Eb")->sigma);
   EXPECT_LE(robust_eb, 2.5 * robust.Find("Eb")->sigma);
   EXPECT_LE(robust_ed, 2.5 * robust.Find("Ed")->sigma);
+  // ...sigmas no wider than the clean session's bounds (RecoversTheBase...:
+  // Huber's here are 2.3e-5 and 9.4e-5): outliers must not buy their way in
+  // by inflating the uncertainty.
+  EXPECT_LT(robust.Find("Ed")->sigma, 5e-5);
+  EXPECT_LT(robust.Find("Eb")->sigma, 2e-4);
   EXPECT_LT(robust_eb + robust_ed, plain_eb + plain_ed);
 }
 
@@ -175,7 +193,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   bad.rank_tolerance = 0.0;
   std::string why;
   EXPECT_FALSE(bad.IsValid(&why));
-  EXPECT_NE(why.find("rank_tolerance"), std::string::npos);
+  EXPECT_THAT(why, ::testing::HasSubstr("rank_tolerance"));
   bad = {};
   bad.effects = {calibration::Effect::kTurnSlip, calibration::Effect::kTurnSlip};
   EXPECT_FALSE(bad.IsValid(&why));
@@ -186,7 +204,7 @@ TEST(TrajectoryFit, RejectsBadInput) {
   lens.effects = {calibration::Effect::kLensDistortion};
   fit = FitTrajectory(no_camera, lens);
   EXPECT_FALSE(fit.ok());
-  EXPECT_NE(fit.message.find("geometry"), std::string::npos);
+  EXPECT_THAT(fit.message, ::testing::HasSubstr("geometry"));
 }
 
 }  // namespace

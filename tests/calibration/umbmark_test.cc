@@ -3,8 +3,13 @@
 #include "odocal/calibration/umbmark.h"
 
 #include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <ostream>
 #include <random>
+#include <string>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/corrections.h"
@@ -79,7 +84,7 @@ TEST(UmbmarkFirstOrder, BetaSoLargeThatRIsMeaninglessIsRejected) {
   // 3 m of x error on a 2 m square: beta ~ 0.75 rad, R ~ 2.7 m is fine; 40 m is not.
   EXPECT_TRUE(FirstOrderFromX(-3.0, 3.0, kSide, kTrack, &why));
   EXPECT_FALSE(FirstOrderFromX(-40.0, 40.0, kSide, kTrack, &why));
-  EXPECT_NE(why.find("beta"), std::string::npos) << why;
+  EXPECT_THAT(why, ::testing::HasSubstr("beta")) << why;
 }
 
 // The issue's acceptance: random Ed in [0.995, 1.005], Eb in [0.97, 1.03],
@@ -140,37 +145,45 @@ double EmaxAfterCorrection(const sim::RobotConfig& config, const UmbmarkSummary&
   return after.emax_syst_m;
 }
 
-TEST(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
+// The robot's wheels as measured, and how many squares each way it runs.
+struct CorrectionCase {
+  std::string name;
+  double wheel_sigma_m_per_sqrt_m = 0.0;
+  int runs_each_way = 1;
+  std::uint64_t seed_after = 1;  // of the re-simulation with the corrected set
+};
+void PrintTo(const CorrectionCase& c, std::ostream* os) { *os << c.name; }
+
+class UmbmarkCorrection : public ::testing::TestWithParam<CorrectionCase> {};
+
+TEST_P(UmbmarkCorrection, ReSimulatedEmaxFallsAtLeastFiftyTimes) {
   // The scenario of the issue: D_L 69.95, D_R 70.06, b 303 vs 70/70/300.
+  const CorrectionCase& c = GetParam();
   sim::RobotConfig config = test_util::ExactRobot(1.0, 1.0);
   config.truth.left_wheel_diameter_m = 0.06995;
   config.truth.right_wheel_diameter_m = 0.07006;
   config.truth.track_m = 0.303;
-  {
-    sim::VirtualRobot robot(config);
-    const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, 1));
-    ASSERT_TRUE(before.ok());
-    const double after = EmaxAfterCorrection(config, before, 1, 1);
-    EXPECT_GT(before.emax_syst_m / after, 50.0)
-        << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
-    std::cout << "noise-free: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
-              << after * 1e3 << " mm\n";
-  }
-  {
-    // With wheel noise, five runs each way; Es is 1.00079 here, which the
-    // square sees only at second order.
-    config.noise.wheel_sigma_m_per_sqrt_m = 0.05e-3;
+  if (c.wheel_sigma_m_per_sqrt_m > 0.0) {
+    config.noise.wheel_sigma_m_per_sqrt_m = c.wheel_sigma_m_per_sqrt_m;
     config.noise.random_encoder_phase = true;
-    sim::VirtualRobot robot(config);
-    const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, 5));
-    ASSERT_TRUE(before.ok());
-    const double after = EmaxAfterCorrection(config, before, 5, 99);
-    EXPECT_GT(before.emax_syst_m / after, 50.0)
-        << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
-    std::cout << "noisy, 5 runs: E_max,syst " << before.emax_syst_m * 1e3 << " mm -> "
-              << after * 1e3 << " mm\n";
   }
+  sim::VirtualRobot robot(config);
+  const UmbmarkSummary before = EstimateUmbmark(RunSquares(robot, c.runs_each_way));
+  ASSERT_TRUE(before.ok());
+  const double after = EmaxAfterCorrection(config, before, c.runs_each_way, c.seed_after);
+  EXPECT_GT(before.emax_syst_m / after, 50.0)
+      << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3 << " mm";
+  std::cout << c.name << ": E_max,syst " << before.emax_syst_m * 1e3 << " mm -> " << after * 1e3
+            << " mm\n";
 }
+
+INSTANTIATE_TEST_SUITE_P(
+    NoiseFreeAndNoisy, UmbmarkCorrection,
+    ::testing::Values(CorrectionCase{"NoiseFree", 0.0, 1, 1},
+                      // With wheel noise, five runs each way; Es is 1.00079
+                      // here, which the square sees only at second order.
+                      CorrectionCase{"WheelNoiseFiveRuns", 0.05e-3, 5, 99}),
+    [](const ::testing::TestParamInfo<CorrectionCase>& info) { return info.param.name; });
 
 TEST(UmbmarkCoupled, MeasuresTheTurnGainUnlessTheScaleIsGiven) {
   // Es = 1.004: the square sees the turn gain Eb / Es; given the scale, Eb.
@@ -195,7 +208,7 @@ TEST(UmbmarkUncertainty, IntervalsFromRepeatedRunsCoverTheTruth) {
   // learned from five runs a direction) should cover the truth 95 % of the time.
   const double Ed = 1.002, Eb = 0.985;
   int covered_ed = 0, covered_eb = 0;
-  double sum_z2 = 0.0;
+  double sum_z2_ed = 0.0, sum_z2_eb = 0.0;
   const int trials = 40;
   for (int t = 0; t < trials; ++t) {
     sim::RobotConfig config = test_util::ExactRobot(Ed, Eb);
@@ -209,18 +222,22 @@ TEST(UmbmarkUncertainty, IntervalsFromRepeatedRunsCoverTheTruth) {
     ASSERT_TRUE(s.from_x.sigma_Ed && s.from_y.sigma_Eb);
     covered_ed += std::abs(s.coupled.Ed - Ed) < *s.coupled.t95 * *s.coupled.sigma_Ed;
     covered_eb += std::abs(s.coupled.Eb - Eb) < *s.coupled.t95 * *s.coupled.sigma_Eb;
-    sum_z2 += std::pow((s.coupled.Ed - Ed) / *s.coupled.sigma_Ed, 2);
+    sum_z2_ed += std::pow((s.coupled.Ed - Ed) / *s.coupled.sigma_Ed, 2);
+    sum_z2_eb += std::pow((s.coupled.Eb - Eb) / *s.coupled.sigma_Eb, 2);
   }
   // Binomial(40, 0.95): 33..40 holds with probability > 0.99.
   EXPECT_GE(covered_ed, 33);
   EXPECT_GE(covered_eb, 33);
-  // ...and not by inflated sigmas: errors in sigmas have an RMS near
-  // sqrt(2) for Student's t with 4 degrees of freedom.
-  const double rms_z = std::sqrt(sum_z2 / trials);
-  EXPECT_GT(rms_z, 0.6);
-  EXPECT_LT(rms_z, 2.2);
+  // ...and not by inflated sigmas, for either: errors in sigmas have an RMS
+  // near sqrt(2) for Student's t with 4 degrees of freedom.
+  const double rms_z_ed = std::sqrt(sum_z2_ed / trials);
+  const double rms_z_eb = std::sqrt(sum_z2_eb / trials);
+  EXPECT_GT(rms_z_ed, 0.6);
+  EXPECT_LT(rms_z_ed, 2.2);
+  EXPECT_GT(rms_z_eb, 0.6);
+  EXPECT_LT(rms_z_eb, 2.2);
   std::cout << "95 % interval coverage over " << trials << " trials: Ed " << covered_ed << ", Eb "
-            << covered_eb << "; RMS error/sigma " << rms_z << "\n";
+            << covered_eb << "; RMS error/sigma Ed " << rms_z_ed << ", Eb " << rms_z_eb << "\n";
 }
 
 TEST(UmbmarkUncertainty, SingleRunsCarryNoInventedSigma) {
@@ -243,7 +260,7 @@ TEST(UmbmarkInput, BadInputIsNamed) {
   auto expect_invalid = [](UmbmarkInput in, const std::string& field) {
     std::string w;
     EXPECT_FALSE(in.IsValid(&w));
-    EXPECT_NE(w.find(field), std::string::npos) << w;
+    EXPECT_THAT(w, ::testing::HasSubstr(field)) << w;
     EXPECT_EQ(EstimateUmbmark(in).status, odocal::StatusCode::kInvalidArgument);
   };
   UmbmarkInput bad = input;

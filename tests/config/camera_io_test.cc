@@ -86,7 +86,7 @@ TEST(CameraIo, WritesTheRosCameraInfoLayout) {
                           "camera_matrix:", "distortion_model: plumb_bob",
                           "distortion_coefficients:", "rectification_matrix:",
                           "projection_matrix:", "rows: 3", "cols: 4"}) {
-    EXPECT_NE(text.find(key), std::string::npos) << key << "\n" << text;
+    EXPECT_THAT(text, ::testing::HasSubstr(key)) << key << "\n" << text;
   }
 }
 
@@ -222,7 +222,7 @@ TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
     const std::string path = WriteText(dir, "camera.yaml", text);
     EXPECT_FALSE(config::ParseCameraFile(text, "camera.yaml", &error)) << text;
     EXPECT_EQ(error.rfind(expected, 0), 0u) << "got: " << error << "\nfor:\n" << text;
-    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+    EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("\n"))) << error;
     // The same through the file reader, which names the path it was given.
     EXPECT_FALSE(config::ReadCameraFile(path, &error));
     EXPECT_EQ(error.rfind(path + ": ", 0), 0u) << error;
@@ -236,7 +236,7 @@ TEST(CameraIo, RefusesToWriteInvalidIntrinsicsAndLeavesNoPartialFile) {
   config::CameraFile file;  // all zero: invalid
   const auto error = config::WriteCameraFile(dir + "/camera.yaml", file, config::CameraFileFormat::kOpenCv);
   ASSERT_TRUE(error);
-  EXPECT_NE(error->find("camera.yaml: not written"), std::string::npos) << *error;
+  EXPECT_THAT(*error, ::testing::HasSubstr("camera.yaml: not written")) << *error;
   EXPECT_FALSE(std::ifstream(dir + "/camera.yaml").good());
 }
 

@@ -68,8 +68,7 @@ TEST(ParamFiles, FirmwareExportGivesTheRatiosToTheNominalSet) {
   ExpectScales(*set, 69.95 / 70.0, 70.06 / 70.0, 303.0 / 300.0);
   for (double v : set->model.effects.values) EXPECT_NEAR(v, 0.0, 1e-15);
   const WheelParams back = set->Equivalent(Nominal());
-  EXPECT_NEAR(back.left_wheel_diameter_m, 0.06995, 1e-12);
-  EXPECT_NEAR(back.track_m, 0.303, 1e-12);
+  EXPECT_THAT(back, test_util::IsNearWheelParams(Corrected(), 1e-9));  // 1e-12 m
 }
 
 TEST(ParamFiles, FirmwareTicksPerRevCountsInTheMetresPerTick) {
@@ -203,14 +202,14 @@ TEST(ParamFiles, NameEqualsFileNamesTheSet) {
   EXPECT_EQ(plain->path, "out/a=b/set.yaml");
   EXPECT_EQ(plain->name, "set");
   EXPECT_FALSE(config::ParseParamSpec("name=", &error));
-  EXPECT_NE(error.find("name="), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("name=")) << error;
 }
 
 void ExpectFails(const std::string& path, const std::vector<std::string>& words) {
   std::string error;
   EXPECT_FALSE(Read(path, &error)) << path;
   EXPECT_EQ(error.rfind(path, 0), 0u) << "names the file first: " << error;
-  for (const std::string& w : words) EXPECT_NE(error.find(w), std::string::npos) << error;
+  for (const std::string& w : words) EXPECT_THAT(error, ::testing::HasSubstr(w)) << error;
 }
 
 TEST(ParamFiles, BadFilesNameTheFileAndTheKey) {

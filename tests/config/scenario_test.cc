@@ -73,9 +73,9 @@ TEST_P(ScenarioErrors, NameTheField) {
   const std::string path = WriteTemp(text);
   std::string error;
   EXPECT_FALSE(config::LoadScenario(path, &error));
-  EXPECT_NE(error.find(c.expected), std::string::npos) << error;
-  EXPECT_NE(error.find(path), std::string::npos) << "names the file: " << error;
-  EXPECT_EQ(error.find('\n'), std::string::npos) << "one line: " << error;
+  EXPECT_THAT(error, ::testing::HasSubstr(c.expected)) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr(path)) << "names the file: " << error;
+  EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("\n"))) << "one line: " << error;
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -155,17 +155,17 @@ TEST(Scenario, LoadsACircle) {
   // A circle without its radius is named.
   text.replace(text.find("radius_mm: 320, "), 16, "");
   EXPECT_FALSE(config::LoadScenario(WriteTemp(text), &error));
-  EXPECT_NE(error.find("radius_mm"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("radius_mm")) << error;
 }
 
 TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   std::string error;
   EXPECT_FALSE(config::LoadScenario("/nonexistent/s.yaml", &error));
-  EXPECT_NE(error.find("/nonexistent/s.yaml: no such file"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("/nonexistent/s.yaml: no such file")) << error;
   EXPECT_FALSE(config::LoadScenario(WriteTemp(""), &error));
-  EXPECT_NE(error.find("empty scenario file"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("empty scenario file")) << error;
   EXPECT_FALSE(config::LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
-  EXPECT_NE(error.find("is a directory"), std::string::npos) << error;
+  EXPECT_THAT(error, ::testing::HasSubstr("is a directory")) << error;
 }
 
 // A session keeps a circle's size and direction through a write and a load.

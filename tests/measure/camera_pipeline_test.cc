@@ -9,9 +9,11 @@
 #include <random>
 #include <sstream>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "odocal/calibration/umbmark.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/measure.h"
 #include "odocal/media/video.h"
@@ -103,18 +105,17 @@ TEST_F(CameraAccuracy, ReturnErrorsMatchRenderedTruth) {
     const nlohmann::json& m = report["runs"][i];
     ASSERT_FALSE(m["return_error"].is_null()) << m.dump();
     EXPECT_TRUE(m["flags"].empty()) << m.dump();
-    const double dx = m["return_error"]["x_mm"].get<double>() -
-                      (t["x_mm"].get<double>() - o["x_mm"].get<double>());
-    const double dy = m["return_error"]["y_mm"].get<double>() -
-                      (t["y_mm"].get<double>() - o["y_mm"].get<double>());
-    const double dth =
-        m["return_error"]["theta_deg"].get<double>() -
-        std::remainder(t["theta_deg"].get<double>() - o["heading_deg"].get<double>(), 360.0);
+    const calibration::ReturnError measured = calibration::ReturnError::FromMmDeg(
+        m["return_error"]["x_mm"].get<double>(), m["return_error"]["y_mm"].get<double>(),
+        m["return_error"]["theta_deg"].get<double>());
+    const calibration::ReturnError expected = calibration::ReturnError::FromMmDeg(
+        t["x_mm"].get<double>() - o["x_mm"].get<double>(), t["y_mm"].get<double>() - o["y_mm"].get<double>(),
+        t["theta_deg"].get<double>() - o["heading_deg"].get<double>());
     std::printf("%-24s error vs truth: x %+.4f mm, y %+.4f mm, theta %+.5f deg\n",
-                m["name"].get<std::string>().c_str(), dx, dy, dth);
-    EXPECT_LE(std::abs(dx), 0.15) << m["name"];
-    EXPECT_LE(std::abs(dy), 0.15) << m["name"];
-    EXPECT_LE(std::abs(dth), 0.01) << m["name"];
+                m["name"].get<std::string>().c_str(), (measured.x_m - expected.x_m) * 1e3,
+                (measured.y_m - expected.y_m) * 1e3,
+                calibration::WrapAngle(*measured.heading_rad - *expected.heading_rad) * 180.0 / M_PI);
+    EXPECT_THAT(measured, test_util::IsNearReturnError(expected, 0.15, 0.01)) << m["name"];
     // Every number comes with its quality.
     EXPECT_GT(m["sigma"]["x_mm"].get<double>(), 0.0);
   }
@@ -259,14 +260,14 @@ TEST_F(CameraBadInput, MissingVideoNamesTheKey) {
   const std::string dir = Variant("missing", [](const std::string& d) { fs::remove(Video(d)); });
   const CommandResult r = Batch(dir);
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("runs[0].video"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("runs[0].video")) << r.err;
 }
 
 TEST_F(CameraBadInput, EmptyCorruptAndTruncatedVideosAreFlagged) {
   const std::string empty = Variant("empty", [](const std::string& d) { std::ofstream(Video(d), std::ios::trunc); });
   CommandResult r = Batch(empty);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(empty).find("video_unreadable"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(empty), ::testing::HasSubstr("video_unreadable")) << r.err;
 
   const std::string corrupt = Variant("corrupt", [](const std::string& d) {
     std::mt19937 rng(4);
@@ -275,26 +276,26 @@ TEST_F(CameraBadInput, EmptyCorruptAndTruncatedVideosAreFlagged) {
   });
   r = Batch(corrupt);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(corrupt).find("video_unreadable"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(corrupt), ::testing::HasSubstr("video_unreadable")) << r.err;
 
   const std::string truncated = Variant("truncated", [](const std::string& d) {
     fs::resize_file(Video(d), fs::file_size(Video(d)) / 3);
   });
   r = Batch(truncated);
   EXPECT_EQ(r.exit_code, 1) << "the end of the run is missing";
-  EXPECT_NE(Flags(truncated).find("no_end_rest"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(truncated), ::testing::HasSubstr("no_end_rest")) << r.err;
 }
 
 TEST_F(CameraBadInput, WrongTagIdOrFamilyIsNamed) {
   const std::string id = Variant("id", [](const std::string& d) { ReplaceInSession(d, "id: 5", "id: 7"); });
   CommandResult r = Batch(id);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(id).find("wrong_tag_id"), std::string::npos);
+  EXPECT_THAT(Flags(id), ::testing::HasSubstr("wrong_tag_id"));
   const std::string family =
       Variant("family", [](const std::string& d) { ReplaceInSession(d, "tag36h11", "tag25h9"); });
   r = Batch(family);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(family).find("tag_never_seen"), std::string::npos);
+  EXPECT_THAT(Flags(family), ::testing::HasSubstr("tag_never_seen"));
 }
 
 TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
@@ -330,7 +331,7 @@ TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
   });
   const CommandResult r = Batch(dir);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(Flags(dir).find("duplicate_tag_id"), std::string::npos) << r.err;
+  EXPECT_THAT(Flags(dir), ::testing::HasSubstr("duplicate_tag_id")) << r.err;
 }
 
 TEST(CameraNoRest, ARunWithoutRestsHasNoReturnError) {
@@ -344,7 +345,7 @@ TEST(CameraNoRest, ARunWithoutRestsHasNoReturnError) {
   EXPECT_EQ(r.exit_code, 1);
   const nlohmann::json report = ReadJson(out + "/report.json");
   EXPECT_TRUE(report["runs"][0]["return_error"].is_null());
-  EXPECT_NE(report["runs"][0]["flags"].dump().find("no_start_rest"), std::string::npos);
+  EXPECT_THAT(report["runs"][0]["flags"].dump(), ::testing::HasSubstr("no_start_rest"));
 }
 
 }  // namespace

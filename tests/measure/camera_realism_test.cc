@@ -95,7 +95,7 @@ TEST(CameraScenario, BadProfileKeysAreNamed) {
            {"  gamma: 0\n", "gamma must be in"}}) {
     std::string error;
     EXPECT_FALSE(config::LoadScenario(WriteTemp(ScenarioText(extra)), &error)) << extra;
-    EXPECT_NE(error.find(expected), std::string::npos) << error;
+    EXPECT_THAT(error, ::testing::HasSubstr(expected)) << error;
   }
 }
 

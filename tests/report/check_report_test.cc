@@ -6,6 +6,7 @@
 
 #include <cstdio>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "explain_fixtures.h"
@@ -53,15 +54,15 @@ TEST(CheckReport, ListsRunsAndSetsThatCannotBeReplayedWithTheirReason) {
                 run["name"].get<std::string>().c_str(), nominal, true_set);
     EXPECT_LT(true_set, nominal / 3.0);
     EXPECT_FALSE(run["results"][2]["ok"].get<bool>());
-    EXPECT_NE(run["results"][2]["reason"].get<std::string>().find("lens"), std::string::npos);
+    EXPECT_THAT(run["results"][2]["reason"].get<std::string>(), ::testing::HasSubstr("lens"));
   }
   for (const nlohmann::json& r : j["runs"][2]["results"]) {
     EXPECT_FALSE(r["ok"].get<bool>());
     EXPECT_FALSE(r.contains("final_position_error_mm"));
     EXPECT_EQ(r["reason"].get<std::string>().rfind("sparse: ", 0), 0u) << r["reason"];
   }
-  EXPECT_NE(j["runs"][2]["results"][0]["reason"].get<std::string>().find("valid frames"),
-            std::string::npos)
+  EXPECT_THAT(j["runs"][2]["results"][0]["reason"].get<std::string>(),
+              ::testing::HasSubstr("valid frames"))
       << j["runs"][2]["results"][0]["reason"];
   EXPECT_EQ(j["not_replayed"].size(), 5u);  // sparse x 3 sets, lens x 2 squares
 
@@ -76,11 +77,11 @@ TEST(CheckReport, ListsRunsAndSetsThatCannotBeReplayedWithTheirReason) {
   EXPECT_TRUE(j["summary"][2]["final_position_error_mm"]["max"].is_null());
 
   const std::string table = report::CheckTable(j);
-  EXPECT_NE(table.find("sparse  nominal  not replayed"), std::string::npos) << table;
+  EXPECT_THAT(table, ::testing::HasSubstr("sparse  nominal  not replayed")) << table;
   const std::string page = report::CheckHtml(j);
   EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
-  EXPECT_NE(page.find("not replayed: sparse"), std::string::npos);
-  EXPECT_EQ(page.find("src="), std::string::npos);
+  EXPECT_THAT(page, ::testing::HasSubstr("not replayed: sparse"));
+  EXPECT_THAT(page, ::testing::Not(::testing::HasSubstr("src=")));
 }
 
 }  // namespace

@@ -22,15 +22,13 @@ using test_util::Odocal;
 using test_util::ReadJson;
 using test_util::Slurp;
 
-bool Has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
-
 void ExpectSelfContained(const std::string& html) {
-  EXPECT_TRUE(Has(html, "<!DOCTYPE html>"));
-  EXPECT_TRUE(Has(html, "</html>"));
-  EXPECT_FALSE(Has(html, "<script"));
-  EXPECT_FALSE(Has(html, "<link"));
-  EXPECT_FALSE(Has(html, "<img"));
-  EXPECT_FALSE(Has(html, "https://"));
+  EXPECT_THAT(html, ::testing::HasSubstr("<!DOCTYPE html>"));
+  EXPECT_THAT(html, ::testing::HasSubstr("</html>"));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("<script")));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("<link")));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("<img")));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("https://")));
 }
 
 TEST(ReportHtml, DrawsWhatTheJsonHas) {
@@ -45,14 +43,14 @@ TEST(ReportHtml, DrawsWhatTheJsonHas) {
   };
   const std::string html = report::ReportHtml(report, "test");
   ExpectSelfContained(html);
-  EXPECT_TRUE(Has(html, "class='umbmark'"));
-  EXPECT_TRUE(Has(html, "class='convergence'"));
-  EXPECT_TRUE(Has(html, "class='trajectories'"));
-  EXPECT_FALSE(Has(html, "class='bland-altman'"));
-  EXPECT_TRUE(Has(html, "a&lt;b&gt;&amp;c"));
-  EXPECT_FALSE(Has(html, "a<b>"));
-  EXPECT_TRUE(Has(html, "11.18"));
-  EXPECT_TRUE(Has(html, "<polyline"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='umbmark'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='convergence'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='trajectories'"));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("class='bland-altman'")));
+  EXPECT_THAT(html, ::testing::HasSubstr("a&lt;b&gt;&amp;c"));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("a<b>")));
+  EXPECT_THAT(html, ::testing::HasSubstr("11.18"));
+  EXPECT_THAT(html, ::testing::HasSubstr("<polyline"));
 }
 
 TEST(ReportHtml, BatchOnTheSampleSessionWithExports) {
@@ -64,9 +62,9 @@ TEST(ReportHtml, BatchOnTheSampleSessionWithExports) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string html = Slurp(dir + "/report.html");
   ExpectSelfContained(html);
-  EXPECT_TRUE(Has(html, "class='umbmark'"));
-  EXPECT_TRUE(Has(html, "class='trajectories'"));
-  EXPECT_TRUE(Has(html, "E_max,syst"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='umbmark'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='trajectories'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("E_max,syst"));
   const nlohmann::json report = ReadJson(dir + "/report.json");
   ASSERT_EQ(report["umbmark"]["return_errors"]["cw"].size(), 1u);
   ASSERT_EQ(report["trajectories"].size(), report["runs"].size());
@@ -95,8 +93,8 @@ TEST(ReportHtml, DemoDrawsConvergenceAndExports) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string html = Slurp(dir + "/report.html");
   ExpectSelfContained(html);
-  EXPECT_TRUE(Has(html, "class='convergence'"));
-  EXPECT_TRUE(Has(html, "class='umbmark'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='convergence'"));
+  EXPECT_THAT(html, ::testing::HasSubstr("class='umbmark'"));
   const nlohmann::json report = ReadJson(dir + "/report.json");
   const YAML::Node fw = YAML::LoadFile(dir + "/fw.yaml");
   for (const char* k : {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm"})
@@ -126,11 +124,11 @@ TEST(Export, UmbmarkExportsWhenDiametersAreGiven) {
 
   const auto no_wheels = RunCommand(Odocal(runs + "--export ros2 " + dir + "/x.yaml"));
   EXPECT_EQ(no_wheels.exit_code, 2);
-  EXPECT_TRUE(Has(no_wheels.err, "--export needs the nominal wheels")) << no_wheels.err;
+  EXPECT_THAT(no_wheels.err, ::testing::HasSubstr("--export needs the nominal wheels")) << no_wheels.err;
   const auto bad_kind = RunCommand(Odocal(runs + "--left-diameter-mm 70 --right-diameter-mm 70 "
                                                  "--export urdf " + dir + "/x.yaml"));
   EXPECT_EQ(bad_kind.exit_code, 2);
-  EXPECT_TRUE(Has(bad_kind.err, "--export urdf: unknown kind")) << bad_kind.err;
+  EXPECT_THAT(bad_kind.err, ::testing::HasSubstr("--export urdf: unknown kind")) << bad_kind.err;
 }
 
 TEST(Export, YamlRoundTripsThroughAParser) {

@@ -9,7 +9,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <ostream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -72,9 +76,11 @@ TEST(LinkPty, ConnectRunTelemetryPushRestartReadBack) {
     EXPECT_EQ(done.value->run_id, *run.value);
     EXPECT_EQ(done.value->status, RunStatus::kCompleted);
     // The fake backend's odometry is the plan: a closed square.
-    EXPECT_NEAR(done.value->x_mm, 0.0, 1e-6);
-    EXPECT_NEAR(done.value->y_mm, 0.0, 1e-6);
-    EXPECT_NEAR(std::remainder(done.value->heading_rad, 2 * M_PI), 0.0, 1e-9);
+    const calibration::ReturnError odometry_error{done.value->x_mm * 1e-3, done.value->y_mm * 1e-3,
+                                                  done.value->heading_rad};
+    // 1e-6 mm and 1e-9 rad.
+    EXPECT_THAT(odometry_error, test_util::IsNearReturnError(calibration::ReturnError{0.0, 0.0, 0.0}, 1e-6,
+                                                             1e-9 * 180.0 / M_PI));
     // 4 x 0.5 m at 0.4 m/s + 4 x 90 deg at 3 rad/s = 7.1 s of robot time,
     // 50 Hz: about 350 samples; the host must have seen a healthy share.
     EXPECT_GT(telemetry.size(), 100u);
@@ -182,37 +188,62 @@ TEST(LinkPty, WrongDevicePathAndNonTtyAreRefusedAtOpen) {
 
 using testing::FakePeer;
 
-TEST(LinkPty, RobotSpeakingAnotherProtocolVersionIsNamed) {
-  // A robot from the future: answers HELLO in its own version 2 layout.
-  FakePeer peer([](const Frame& req) {
-    return EncodeFrame(Frame{2, OLF_MSG_ACK, req.seq, Bytes{req.type, 2, 4}});
-  });
-  Result<std::unique_ptr<SerialTransport>> port = SerialTransport::Open(peer.path());
-  ASSERT_TRUE(port.ok()) << port;
-  Client client(**port.value);
-  Result<RobotInfo> info = client.Hello();
-  EXPECT_EQ(info.status, StatusCode::kVersionMismatch);
-  EXPECT_THAT(info.message, HasSubstr("protocol version 2"));
-  EXPECT_THAT(info.message, HasSubstr("odocal speaks version 1"));
-}
+// A peer whose answer to HELLO is wrong in one way, and how the client must
+// name it.
+struct WrongAnswer {
+  std::string name;
+  std::function<Bytes(const Frame&)> reply;
+  ClientOptions options;
+  StatusCode expected_status;
+  std::vector<std::string> expected_words;  // each must appear in the message
+};
+void PrintTo(const WrongAnswer& c, std::ostream* os) { *os << c.name; }
 
-TEST(LinkPty, RepliesFailingTheirCrcAreReportedAsSuch) {
-  // A wrong baud rate or a broken cable: bytes arrive, frames do not check.
-  FakePeer peer([](const Frame& req) {
-    Bytes out = EncodeFrame(Frame{OLF_PROTOCOL_VERSION, OLF_MSG_ACK, req.seq, Bytes{req.type}});
-    out[3] ^= 0x5a;
-    return out;
-  });
-  Result<std::unique_ptr<SerialTransport>> port = SerialTransport::Open(peer.path());
-  ASSERT_TRUE(port.ok()) << port;
+// A client that gives up after three short waits: answers that never check
+// cost it 90 ms, not the default 10 x 200 ms.
+ClientOptions QuickToGiveUp() {
   ClientOptions o;
   o.reply_timeout = 30ms;
   o.max_attempts = 3;
-  Client client(**port.value, o);
-  Result<RobotInfo> info = client.Hello();
-  EXPECT_EQ(info.status, StatusCode::kCrcErrors);
-  EXPECT_THAT(info.message, HasSubstr("failed their CRC"));
+  return o;
 }
+
+std::vector<WrongAnswer> WrongAnswers() {
+  return {
+      // A robot from the future: answers HELLO in its own version 2 layout.
+      {"AnotherProtocolVersion",
+       [](const Frame& req) { return EncodeFrame(Frame{2, OLF_MSG_ACK, req.seq, Bytes{req.type, 2, 4}}); },
+       ClientOptions{},
+       StatusCode::kVersionMismatch,
+       {"protocol version 2", "odocal speaks version 1"}},
+      // A wrong baud rate or a broken cable: bytes arrive, frames do not check.
+      {"RepliesFailingTheirCrc",
+       [](const Frame& req) {
+         Bytes out = EncodeFrame(Frame{OLF_PROTOCOL_VERSION, OLF_MSG_ACK, req.seq, Bytes{req.type}});
+         out[3] ^= 0x5a;
+         return out;
+       },
+       QuickToGiveUp(),
+       StatusCode::kCrcErrors,
+       {"failed their CRC"}},
+  };
+}
+
+class LinkPtyWrongAnswer : public ::testing::TestWithParam<WrongAnswer> {};
+
+TEST_P(LinkPtyWrongAnswer, IsNamedInTheStatusAndTheMessage) {
+  const WrongAnswer& c = GetParam();
+  FakePeer peer(c.reply);
+  Result<std::unique_ptr<SerialTransport>> port = SerialTransport::Open(peer.path());
+  ASSERT_TRUE(port.ok()) << port;
+  Client client(**port.value, c.options);
+  Result<RobotInfo> info = client.Hello();
+  EXPECT_EQ(info.status, c.expected_status);
+  for (const std::string& w : c.expected_words) EXPECT_THAT(info.message, HasSubstr(w));
+}
+
+INSTANTIATE_TEST_SUITE_P(Peers, LinkPtyWrongAnswer, ::testing::ValuesIn(WrongAnswers()),
+                         [](const ::testing::TestParamInfo<WrongAnswer>& info) { return info.param.name; });
 
 }  // namespace
 }  // namespace odocal::robot_link

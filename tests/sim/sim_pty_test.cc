@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/procedures.h"
@@ -39,6 +40,7 @@ TEST(SimOverPty, HostDrivesTheSimulatedRobotAndItsParametersPersist) {
   const RobotConfig config = test_util::ExactRobot(Ed, Eb);
   const std::string storage = test_util::MakeTempDir("odocal_simpty_") + "/flash.bin";
   const ParamSet pushed{69.93, 70.07, 303.0, 2048};
+  const calibration::WheelParams pushed_m{0.06993, 0.07007, 0.303, 2048};  // the same, in metres
   {
     SimMotionBackend backend(config);
     auto host = FirmwareHost::Start(HostOptions(storage, config.nominal), backend);
@@ -72,7 +74,8 @@ TEST(SimOverPty, HostDrivesTheSimulatedRobotAndItsParametersPersist) {
 
     const auto report = client.PushParams(pushed);
     ASSERT_TRUE(report.ok()) << report.message;
-    EXPECT_NEAR(backend.BelievedParams().track_m, 0.303, 1e-12) << "the robot uses the pushed set";
+    EXPECT_THAT(backend.BelievedParams(), test_util::IsNearWheelParams(pushed_m, 1e-9))
+        << "the robot uses the pushed set";
   }
   // Power off, power on: the robot boots from its storage.
   SimMotionBackend backend(config);
@@ -84,7 +87,7 @@ TEST(SimOverPty, HostDrivesTheSimulatedRobotAndItsParametersPersist) {
   const auto params = client.GetParams();
   ASSERT_TRUE(params.ok()) << params.message;
   EXPECT_TRUE(params.value->SameBits(pushed));
-  EXPECT_NEAR(backend.BelievedParams().left_wheel_diameter_m, 0.06993, 1e-12);
+  EXPECT_THAT(backend.BelievedParams(), test_util::IsNearWheelParams(pushed_m, 1e-9));
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "odocal/calibration/statistics.h"
@@ -64,10 +65,11 @@ TEST(VirtualRobot, AgreesWithTheClosedFormModel) {
       const Pose2 predicted = calibration::PredictReturnError(spec, scales, 0.3);
       const Pose2 planned = calibration::PlannedEnd(calibration::PlanPrimitives(spec));
       const Pose2 simulated = run.TrueEndInStartFrame();
-      EXPECT_NEAR(simulated.x() - planned.x(), predicted.x(), 1e-9) << ToString(spec.procedure);
-      EXPECT_NEAR(simulated.y() - planned.y(), predicted.y(), 1e-9) << ToString(spec.procedure);
-      EXPECT_NEAR(calibration::WrapAngle(simulated.heading() - planned.heading()),
-                  predicted.heading(), 1e-9);
+      const calibration::ReturnError simulated_error{simulated.x() - planned.x(), simulated.y() - planned.y(),
+                                                     simulated.heading() - planned.heading()};
+      // 1e-9 m and 1e-9 rad.
+      EXPECT_THAT(simulated_error, test_util::IsNearReturnError(predicted, 1e-6, 1e-9 * 180.0 / M_PI))
+          << ToString(spec.procedure);
     }
   }
 }

@@ -174,7 +174,10 @@ TEST(StationEndToEnd, CalibratesAMisCalibratedVirtualRobotInAtMostTwoRounds) {
   ASSERT_TRUE(r.params_final);
   EXPECT_TRUE(r.params_final->SameBits(*first.pushed));
   EXPECT_TRUE(vs->ReadBack().SameBits(*first.pushed));
-  EXPECT_NEAR(vs->backend->BelievedParams().track_m * 1e3, first.pushed->track_mm, 1e-9);
+  const calibration::WheelParams pushed{first.pushed->left_wheel_diameter_mm * 1e-3,
+                                        first.pushed->right_wheel_diameter_mm * 1e-3,
+                                        first.pushed->track_mm * 1e-3, 0.0};
+  EXPECT_THAT(vs->backend->BelievedParams(), test_util::IsNearWheelParams(pushed, 1e-9));
   const nlohmann::json report = station::StationReportJson(r);
   for (const char* key : {"iterations", "robot_params_final", "improvement"}) EXPECT_TRUE(report.contains(key)) << key;
   for (const char* key : {"left_wheel_diameter_mm", "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"})
@@ -190,7 +193,7 @@ TEST(StationFailure, TagNotFoundAtTheStart) {
   const calibration::Pose2 before = vs->backend->TruePose();
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kTagNotFound) << r.message;
-  EXPECT_NE(r.message.find("not found at the start"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("not found at the start")) << r.message;
   EXPECT_EQ(vs->host->last_run_id(), 0) << "no run was started";
   EXPECT_NEAR((vs->backend->TruePose().translation() - before.translation()).norm(), 0.0, 1e-12);
   ExpectLeftAsItWas(*vs, r);
@@ -221,7 +224,7 @@ TEST(StationFailure, CameraLostAfterTheStart) {
   vs->setup.camera = &blind;
   const station::StationResult r = station::RunStation(vs->setup, options);
   EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
-  EXPECT_NE(r.message.find("camera lost the tag"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("camera lost the tag")) << r.message;
   ExpectLeftAsItWas(*vs, r);
 }
 
@@ -251,8 +254,8 @@ TEST(StationFailure, CameraUnpluggedDuringARun) {
   vs->setup.camera = &unplugged;
   const station::StationResult r = station::RunStation(vs->setup, options);
   EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
-  EXPECT_NE(r.message.find("unplugged"), std::string::npos) << r.message;
-  EXPECT_NE(r.cleanup.find("robot stopped"), std::string::npos) << r.cleanup;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("unplugged")) << r.message;
+  EXPECT_THAT(r.cleanup, ::testing::HasSubstr("robot stopped")) << r.cleanup;
   ExpectLeftAsItWas(*vs, r);
 }
 
@@ -285,9 +288,9 @@ TEST(StationFailure, RobotStopsAnsweringDuringARun) {
   vs->setup.client.reply_timeout = 50ms;
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kRobotLink) << r.message;
-  EXPECT_NE(r.message.find("not answering"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("not answering")) << r.message;
   EXPECT_FALSE(r.robot_stopped) << "a stop cannot reach a robot that does not answer";
-  EXPECT_NE(r.cleanup.find("could not stop"), std::string::npos) << r.cleanup;
+  EXPECT_THAT(r.cleanup, ::testing::HasSubstr("could not stop")) << r.cleanup;
   ExpectLeftAsItWas(*vs, r);  // the robot ends its square by itself
 }
 
@@ -302,7 +305,7 @@ TEST(StationFailure, CablePulledDuringARun) {
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kRobotLink) << r.message;
   EXPECT_FALSE(r.robot_stopped);
-  EXPECT_NE(r.cleanup.find("line is gone"), std::string::npos) << r.cleanup;
+  EXPECT_THAT(r.cleanup, ::testing::HasSubstr("line is gone")) << r.cleanup;
   for (int i = 0; i < 200 && vs->host->running(); ++i) std::this_thread::sleep_for(20ms);
   EXPECT_TRUE(vs->host->active().SameBits(kNominal)) << "nothing was pushed";
 }
@@ -341,7 +344,7 @@ TEST(StationFailure, RunNotCompleted) {
   ASSERT_TRUE(vs);
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kRunNotCompleted) << r.message;
-  EXPECT_NE(r.message.find("failed"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("failed")) << r.message;
   ExpectLeftAsItWas(*vs, r);
 }
 
@@ -354,7 +357,7 @@ TEST(StationFailure, PushRefusedByTheRobot) {
   std::filesystem::create_directory(dir + "/flash.bin.tmp");
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kPushRefused) << r.message;
-  EXPECT_NE(r.message.find("push"), std::string::npos) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("push")) << r.message;
   ASSERT_EQ(r.iterations.size(), 1u);
   EXPECT_TRUE(r.iterations[0].estimate.ok()) << "round 1 was measured before the push";
   EXPECT_FALSE(r.restored) << "nothing reached the robot, nothing to undo";
@@ -374,7 +377,7 @@ TEST(StationFailure, InterruptStopsTheRobotMidRun) {
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
   EXPECT_EQ(r.status, station::StationStatus::kInterrupted) << r.message;
   EXPECT_TRUE(r.robot_stopped);
-  EXPECT_NE(r.cleanup.find("robot stopped"), std::string::npos) << r.cleanup;
+  EXPECT_THAT(r.cleanup, ::testing::HasSubstr("robot stopped")) << r.cleanup;
   // Stopped well short of the 8 m square: it is near where it started.
   const double moved_m = (vs->backend->TruePose().translation() - vs->scenario.robot.start_pose.translation()).norm();
   EXPECT_LT(moved_m, 1.5);
@@ -416,15 +419,15 @@ TEST(StationCli, VirtualRobotWritesTheReport) {
       Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --max-rounds 2 --time-scale 50" +
              " --export firmware " + dir + "/firmware.yaml --export ros2 " + dir + "/ros2.yaml"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.err.find("station: round 2"), std::string::npos) << "progress on stderr";
+  EXPECT_THAT(r.err, ::testing::HasSubstr("station: round 2")) << "progress on stderr";
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/report.html"));
   // The exports carry the set read back from the robot.
   std::ifstream fw(dir + "/firmware.yaml");
   const std::string firmware((std::istreambuf_iterator<char>(fw)), std::istreambuf_iterator<char>());
-  EXPECT_NE(firmware.find("track_mm: 30"), std::string::npos) << firmware;
+  EXPECT_THAT(firmware, ::testing::HasSubstr("track_mm: 30")) << firmware;
   std::ifstream ros(dir + "/ros2.yaml");
   const std::string ros2((std::istreambuf_iterator<char>(ros)), std::istreambuf_iterator<char>());
-  EXPECT_NE(ros2.find("wheel_separation_multiplier: 1.0"), std::string::npos) << ros2;
+  EXPECT_THAT(ros2, ::testing::HasSubstr("wheel_separation_multiplier: 1.0")) << ros2;
   std::ifstream in(dir + "/out/report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   ASSERT_EQ(report["iterations"].size(), 2u);
@@ -442,8 +445,8 @@ TEST(StationCli, CtrlCStopsTheRobotAndExits130) {
       "timeout --preserve-status -s INT 2.5 " +
       Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --time-scale 5"));
   EXPECT_EQ(r.exit_code, 130) << r.err;
-  EXPECT_NE(r.err.find("interrupted"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("parameters as they were"), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("interrupted")) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("parameters as they were")) << r.err;
   std::ifstream in(dir + "/out/report.json");
   const nlohmann::json report = nlohmann::json::parse(in);
   EXPECT_EQ(report["status"], "interrupted");
@@ -469,23 +472,23 @@ TEST(StationCli, RealRobotConfigNamesTheMissingDeviceAndCamera) {
   };
   const test_util::CommandResult no_robot = config("/dev/odocal-no-such-robot", "0");
   EXPECT_EQ(no_robot.exit_code, 2);
-  EXPECT_NE(no_robot.err.find("/dev/odocal-no-such-robot"), std::string::npos) << no_robot.err;
+  EXPECT_THAT(no_robot.err, ::testing::HasSubstr("/dev/odocal-no-such-robot")) << no_robot.err;
   // A robot that exists (a virtual one on a pty), a camera that does not.
   auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
   ASSERT_TRUE(vs);
   const test_util::CommandResult no_camera = config(vs->host->device_path(), "/nonexistent/camera.mp4");
   EXPECT_EQ(no_camera.exit_code, 2);
-  EXPECT_NE(no_camera.err.find("cannot open camera '/nonexistent/camera.mp4'"), std::string::npos)
+  EXPECT_THAT(no_camera.err, ::testing::HasSubstr("cannot open camera '/nonexistent/camera.mp4'"))
       << no_camera.err;
   // A malformed file names the key: unknown keys are errors, required ones are required.
   std::ofstream(dir + "/bad.yaml") << "robot: {port: /dev/x}\nbogus: 1\n";
   const test_util::CommandResult bad = test_util::RunCommand(Odocal("station --config " + dir + "/bad.yaml"));
   EXPECT_EQ(bad.exit_code, 2);
-  EXPECT_NE(bad.err.find("bogus"), std::string::npos) << bad.err;
+  EXPECT_THAT(bad.err, ::testing::HasSubstr("bogus")) << bad.err;
   std::ofstream(dir + "/bad.yaml") << "robot: {port: /dev/x}\n";
   const test_util::CommandResult missing = test_util::RunCommand(Odocal("station --config " + dir + "/bad.yaml"));
   EXPECT_EQ(missing.exit_code, 2);
-  EXPECT_NE(missing.err.find("camera: missing"), std::string::npos) << missing.err;
+  EXPECT_THAT(missing.err, ::testing::HasSubstr("camera: missing")) << missing.err;
 }
 
 }  // namespace

@@ -29,12 +29,7 @@ namespace odocal::app {
 namespace {
 
 
-bool Usable(const calibration::MeasuredRun& m) {
-  if (!m.return_error) return false;
-  for (const std::string& f : m.flags)
-    if (measure::IsFatalFlag(f)) return false;
-  return true;
-}
+bool Usable(const calibration::MeasuredRun& m) { return measure::UsableReturnError(m) != nullptr; }
 
 nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
   if (!sm.session.has_camera) return nullptr;  // pose logs only: no camera to place

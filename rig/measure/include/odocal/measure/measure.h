@@ -71,8 +71,13 @@ struct MeasureOptions {
   PoseLogOptions pose_log;
 };
 
-// Flags that leave a run without a return error.
+// Whether a flag's text form names a kind that leaves a run without a
+// return error (calibration/run_flag.h).
 bool IsFatalFlag(const std::string& flag);
+
+// The run's return error when it has one and no fatal flag (what report.json
+// prints and the estimators pool); nullptr otherwise.
+const calibration::RelativePose* UsableReturnError(const calibration::MeasuredRun& run);
 
 // The image quality of one refined rest frame, and of a rest:
 // what the user reads to judge the camera (report.json "quality").

@@ -224,6 +224,26 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
   return calibration::SummarizeRest(samples);
 }
 
+bool MeasureOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!track.IsValid(why) || !plane.IsValid(why) || !rest.IsValid(why) || !pose_log.IsValid(why) ||
+      !quality_gate.IsValid(why))
+    return false;
+  if (max_plane_views < 1) return fail("max_plane_views must be at least 1");
+  if (!(min_view_separation_px >= 0.0)) return fail("min_view_separation_px must not be negative");
+  if (!(border_margin_px >= 0.0)) return fail("border_margin_px must not be negative");
+  if (!(systematic_floor.position_m >= 0.0) || !(systematic_floor.heading_rad >= 0.0))
+    return fail("systematic_floor must not be negative");
+  if (!(systematic_scale_sigma >= 0.0)) return fail("systematic_scale_sigma must not be negative");
+  if (!(rest_search_fraction > 0.0 && rest_search_fraction <= 1.0))
+    return fail("rest_search_fraction must be in (0, 1]");
+  if (!(flag_gap_s > 0.0)) return fail("flag_gap_s must be positive");
+  return true;
+}
+
 bool IsFatalFlag(const std::string& flag) {
   const std::optional<calibration::RunFlag> parsed = calibration::ParseRunFlag(flag);
   return parsed && parsed->fatal();
@@ -275,8 +295,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error) {
   std::string why;
-  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
-      !options.pose_log.IsValid(&why) || !options.quality_gate.IsValid(&why)) {
+  if (!options.IsValid(&why)) {
     if (error) *error = "measure options: " + why;
     return std::nullopt;
   }

@@ -15,20 +15,23 @@
 #include "odocal/media/video.h"
 
 namespace odocal::measure {
+
+using calibration::RunFlag;
+using calibration::RunFlagKind;
+
 namespace {
 
 // The telemetry reader shared with pose-log runs (pose_log.h); for a video
 // run a bad file is a flag, not an error.
 std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
                                                         const calibration::WheelParams& nominal,
-                                                        std::vector<calibration::RunFlag>* flags) {
+                                                        std::vector<RunFlag>* flags) {
   if (path.empty()) return {};
   std::string error;
   auto records = ReadTelemetryCsv(path, nominal, &error);
   if (records) return *records;
-  flags->push_back(calibration::RunFlag::Of(std::ifstream(path) ? calibration::RunFlagKind::kTelemetryMalformed
-                                                                : calibration::RunFlagKind::kTelemetryUnreadable,
-                                            error));
+  flags->push_back(RunFlag::Of(
+      std::ifstream(path) ? RunFlagKind::kTelemetryMalformed : RunFlagKind::kTelemetryUnreadable, error));
   return {};
 }
 
@@ -92,8 +95,8 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
   if (!rests.rests.empty() && rests.rests.back().t_end_s >= t1 - options.rest_search_fraction * span &&
       (!m.start_rest || rests.rests.size() >= 2))
     m.end_rest = rests.rests.back();
-  if (!m.start_rest) m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kNoStartRest));
-  if (!m.end_rest) m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kNoEndRest));
+  if (!m.start_rest) m.flags.push_back(RunFlag::Of(RunFlagKind::kNoStartRest));
+  if (!m.end_rest) m.flags.push_back(RunFlag::Of(RunFlagKind::kNoEndRest));
   // The averaged frames, refined exactly (the per-frame refinement is biased
   // by up to 0.02 px on edges parallel to the pixel grid: docs/vision.md).
   if (options.exact_rest_refinement) {
@@ -108,16 +111,16 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
       } else if (q && !quality.flags.empty()) {
         // The images cannot support the number: no value, say why.
         for (const std::string& f : quality.flags)
-          m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kImageQuality,
-                                                     std::string(start ? "start_rest:" : "end_rest:") + f));
+          m.flags.push_back(
+              RunFlag::Of(RunFlagKind::kImageQuality, std::string(start ? "start_rest:" : "end_rest:") + f));
       } else {
-        m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kExactRefinementFailed));
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kExactRefinementFailed));
       }
       if (q) (start ? rm->start_quality : rm->end_quality) = std::move(quality);
     }
   }
-  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kShortStartRest));
-  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kShortEndRest));
+  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back(RunFlag::Of(RunFlagKind::kShortStartRest));
+  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back(RunFlag::Of(RunFlagKind::kShortEndRest));
   // Gaps while moving: between the rests, longer than flag_gap_s.
   if (m.start_rest && m.end_rest) {
     double last_seen = m.start_rest->t_end_s, longest = 0.0;
@@ -130,7 +133,7 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
     if (longest > options.flag_gap_s) {
       char gap[32];
       std::snprintf(gap, sizeof(gap), "%.1fs", longest);
-      m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kTagOutOfViewMidRun, gap));
+      m.flags.push_back(RunFlag::Of(RunFlagKind::kTagOutOfViewMidRun, gap));
     }
     const calibration::RelativePose r =
         calibration::Between(*m.start_rest, *m.end_rest, options.systematic_floor);
@@ -329,7 +332,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       if (read) {
         stamps = *read;
       } else {
-        rm.measured.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kTimestampsUnreadable));
+        rm.measured.flags.push_back(RunFlag::Of(RunFlagKind::kTimestampsUnreadable));
       }
     }
     rm.track = TrackTagInVideo(rm.run.video, stamps, session.tag, session.intrinsics, options.track,
@@ -384,21 +387,20 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       m.spec = rm.run.spec;
       m.telemetry = ReadTelemetry(rm.run.telemetry, sm.session.nominal, &m.flags);
       if (!rm.track.ok) {
-        m.flags.push_back(calibration::RunFlag::Of(calibration::RunFlagKind::kVideoUnreadable, rm.track.message));
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kVideoUnreadable, rm.track.message));
         continue;
       }
       if (rm.track.duplicate_frames > 0) {
-        m.flags.push_back(calibration::RunFlag::Of(
-            calibration::RunFlagKind::kDuplicateTagId, "id " + std::to_string(sm.session.tag.id) +
-                                                           " seen twice in " +
-                                                           std::to_string(rm.track.duplicate_frames) + " frames"));
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kDuplicateTagId,
+                                      "id " + std::to_string(sm.session.tag.id) + " seen twice in " +
+                                          std::to_string(rm.track.duplicate_frames) + " frames"));
       }
       if (rm.track.found == 0) {
         if (rm.track.duplicate_frames == 0) {
           m.flags.push_back(rm.track.wrong_id_frames > 0
-                                ? calibration::RunFlag::Of(calibration::RunFlagKind::kWrongTagId,
-                                                           "tags seen, never id " + std::to_string(sm.session.tag.id))
-                                : calibration::RunFlag::Of(calibration::RunFlagKind::kTagNeverSeen));
+                                ? RunFlag::Of(RunFlagKind::kWrongTagId,
+                                              "tags seen, never id " + std::to_string(sm.session.tag.id))
+                                : RunFlag::Of(RunFlagKind::kTagNeverSeen));
         }
         continue;
       }

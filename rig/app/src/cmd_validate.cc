@@ -1,9 +1,9 @@
 // odocal validate --manual manual.csv SESSION.yaml --out DIR
 //
 // How far can the tape be trusted? Each hand-measured return error (the CSV
-// format is in rig/manual_csv.h) against the camera's measurement of the same
-// run: Bland-Altman per axis (calibration/bland_altman.h), outliers, and a
-// plain verdict. Writes DIR/report.json and DIR/report.html.
+// format is in config/manual_csv.h) against the camera's measurement of the
+// same run: Bland-Altman per axis, outliers, and a plain verdict
+// (measure/tape_validation.h). Writes DIR/report.json and DIR/report.html.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +21,7 @@
 #include "odocal/config/manual_csv.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/measure.h"
+#include "odocal/measure/tape_validation.h"
 #include "odocal/report/html_report.h"
 #include "odocal/report/json.h"
 #include "odocal/report/measurement_json.h"
@@ -28,26 +29,10 @@
 namespace odocal::app {
 namespace {
 
-
-struct Pair {
-  const config::ManualReading* reading;
-  double camera_x_mm, camera_y_mm, camera_theta_deg;
-  double sigma_x_mm, sigma_y_mm, sigma_theta_deg;
-};
-
 std::string Fmt(double v, int precision = 2) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", precision, v);
   return buf;
-}
-
-// A round figure at or above v: 1, 2, 5 x 10^k.
-double NiceCeil(double v) {
-  if (!(v > 0.0)) return 0.0;
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
-  for (double m : {1.0, 2.0, 5.0, 10.0})
-    if (m * p >= v * (1 - 1e-12)) return m * p;
-  return 10.0 * p;
 }
 
 nlohmann::json IntervalJson(const calibration::Interval& i) { return {i.lower, i.upper}; }
@@ -123,20 +108,18 @@ void RegisterValidateCommand(CLI::App& app) {
     if (!measured) Fail(name, kExitBadInput, error);
     const measure::SessionMeasurement& sm = measured->front();
 
-    std::vector<Pair> pairs;
+    std::vector<measure::TapePair> pairs;
     std::vector<std::string> notes;
     for (const config::ManualReading& r : *readings) {
       const measure::RunMeasurement& rm = sm.runs[run_index[r.run]];
-      const nlohmann::json j = report::RunJson(rm);
-      if (j["return_error"].is_null()) {
+      const calibration::RelativePose* camera = measure::UsableReturnError(rm.measured);
+      if (!camera) {
         notes.push_back(args->manual + ":" + std::to_string(r.line) + ": run " + r.run +
-                        " has no camera measurement (" + j["flags"].dump() + "); left out");
+                        " has no camera measurement (" +
+                        nlohmann::json(calibration::ToStrings(rm.measured.flags)).dump() + "); left out");
         continue;
       }
-      pairs.push_back({&r, j["return_error"]["x_mm"].get<double>(),
-                       j["return_error"]["y_mm"].get<double>(),
-                       j["return_error"]["theta_deg"].get<double>(), j["sigma"]["x_mm"].get<double>(),
-                       j["sigma"]["y_mm"].get<double>(), j["sigma"]["theta_deg"].get<double>()});
+      pairs.push_back({&r, *camera});
     }
 
     nlohmann::json report = {{"command", "validate"},
@@ -146,65 +129,31 @@ void RegisterValidateCommand(CLI::App& app) {
                              {"differences", "manual - camera"},
                              {"pairs", nlohmann::json::array()},
                              {"axes", nlohmann::json::array()}};
-    for (const Pair& p : pairs) {
+    for (const measure::TapePair& p : pairs) {
       nlohmann::json manual = {{"x_mm", p.reading->x_mm}, {"y_mm", p.reading->y_mm}};
       if (p.reading->theta_deg) manual["theta_deg"] = *p.reading->theta_deg;
       report["pairs"].push_back(
           {{"run", p.reading->run},
            {"line", p.reading->line},
            {"manual", manual},
-           {"camera", {{"x_mm", p.camera_x_mm}, {"y_mm", p.camera_y_mm}, {"theta_deg", p.camera_theta_deg}}},
-           {"camera_sigma", {{"x_mm", p.sigma_x_mm}, {"y_mm", p.sigma_y_mm}, {"theta_deg", p.sigma_theta_deg}}}});
+           {"camera", {{"x_mm", p.camera_x_mm()}, {"y_mm", p.camera_y_mm()}, {"theta_deg", p.camera_theta_deg()}}},
+           {"camera_sigma", {{"x_mm", p.sigma_x_mm()}, {"y_mm", p.sigma_y_mm()}, {"theta_deg", p.sigma_theta_deg()}}}});
     }
 
-    struct Axis {
-      std::string key, label, unit;
-      std::vector<double> manual, camera, camera_sigma;
-      std::vector<const config::ManualReading*> from;
-    };
-    std::vector<Axis> axes = {{"x", "x", "mm", {}, {}, {}, {}},
-                              {"y", "y", "mm", {}, {}, {}, {}},
-                              {"theta", "theta", "deg", {}, {}, {}, {}}};
-    for (const Pair& p : pairs) {
-      axes[0].manual.push_back(p.reading->x_mm);
-      axes[0].camera.push_back(p.camera_x_mm);
-      axes[0].camera_sigma.push_back(p.sigma_x_mm);
-      axes[0].from.push_back(p.reading);
-      axes[1].manual.push_back(p.reading->y_mm);
-      axes[1].camera.push_back(p.camera_y_mm);
-      axes[1].camera_sigma.push_back(p.sigma_y_mm);
-      axes[1].from.push_back(p.reading);
-      if (p.reading->theta_deg) {
-        axes[2].manual.push_back(*p.reading->theta_deg);
-        axes[2].camera.push_back(p.camera_theta_deg);
-        axes[2].camera_sigma.push_back(p.sigma_theta_deg);
-        axes[2].from.push_back(p.reading);
-      }
-    }
+    const measure::TapeValidation validation = measure::ValidateTape(pairs, ba_options);
+    notes.insert(notes.end(), validation.notes.begin(), validation.notes.end());
     std::vector<std::string> sentences;
-    double position_bound_mm = 0.0;
-    double position_worst_mm = 0.0;  // the limits' far confidence bounds
-    int position_n = 0;
-    bool position_ok = true;
-    for (const Axis& a : axes) {
-      if (a.key == "theta" && a.manual.empty()) continue;
-      const calibration::BlandAltmanResult r = calibration::BlandAltman(a.manual, a.camera, ba_options);
-      if (!r.ok()) {
-        notes.push_back(a.label + ": " + r.message);
-        if (a.key != "theta") position_ok = false;
-        continue;
-      }
+    for (const measure::AxisAgreement& a : validation.axes) {
+      const calibration::BlandAltmanResult& r = a.agreement;
       nlohmann::json outliers = nlohmann::json::array(), outside = nlohmann::json::array();
       for (int i : r.outliers)
-        outliers.push_back({{"run", a.from[i]->run}, {"line", a.from[i]->line},
+        outliers.push_back({{"run", a.readings[i]->run}, {"line", a.readings[i]->line},
                             {"difference", r.differences[i]}});
       for (int i : r.outside_limits)
-        outside.push_back({{"run", a.from[i]->run}, {"line", a.from[i]->line},
+        outside.push_back({{"run", a.readings[i]->run}, {"line", a.readings[i]->line},
                            {"difference", r.differences[i]}});
-      double max_sigma = 0.0;
-      for (double s : a.camera_sigma) max_sigma = std::max(max_sigma, s);
       std::vector<std::string> runs;
-      for (const config::ManualReading* m : a.from) runs.push_back(m->run);
+      for (const config::ManualReading* m : a.readings) runs.push_back(m->run);
       report["axes"].push_back({{"axis", a.key},
                                 {"unit", a.unit},
                                 {"n", r.n},
@@ -218,42 +167,34 @@ void RegisterValidateCommand(CLI::App& app) {
                                 {"z", r.z},
                                 {"t", r.t},
                                 {"error_bound", r.error_bound()},
-                                {"camera_sigma_max", max_sigma},
+                                {"camera_sigma_max", a.camera_sigma_max},
                                 {"outliers", outliers},
                                 {"outside_limits", outside},
                                 {"runs", runs},
                                 {"means", r.means},
                                 {"differences", r.differences}});
-      sentences.push_back(AxisSentence(a.label, a.unit, r, args->confidence));
-      if (a.key != "theta") {
-        position_bound_mm = std::max(position_bound_mm, r.error_bound());
-        position_worst_mm = std::max({position_worst_mm, std::abs(r.lower_limit_ci.lower),
-                                      std::abs(r.upper_limit_ci.upper)});
-        position_n = r.n;
-      }
+      sentences.push_back(AxisSentence(a.key, a.unit, r, args->confidence));
     }
-    if (!position_ok || report["axes"].empty())
+    if (!validation.ok)
       Fail(name, kExitFailure,
            "fewer than 3 readings with a camera measurement: no agreement statistics (" +
                std::to_string(pairs.size()) + " usable)");
 
-    // The tape is good for return errors well above its own error: a third
-    // or less of what it measures keeps E_max,syst within ~30 %.
-    const double usable_above_mm = NiceCeil(3.0 * position_bound_mm);
     std::ostringstream verdict;
-    verdict << "A tape reading is within " << Fmt(position_bound_mm, 1) << " mm of the camera ("
+    verdict << "A tape reading is within " << Fmt(validation.error_bound_mm, 1) << " mm of the camera ("
             << static_cast<int>(std::lround(args->confidence * 100))
-            << " %, bias included): good for UMBMark when E_max,syst is above ~" << Fmt(usable_above_mm, 0)
+            << " %, bias included): good for UMBMark when E_max,syst is above ~"
+            << Fmt(validation.usable_above_emax_mm, 0)
             << " mm, not for fine calibration below that (use the camera).";
-    if (position_n < 30)
-      verdict << " With " << position_n << " readings the limits themselves are uncertain: up to "
-              << Fmt(position_worst_mm, 1) << " mm at the far end of their confidence intervals"
+    if (validation.few_readings())
+      verdict << " With " << validation.position_n << " readings the limits themselves are uncertain: up to "
+              << Fmt(validation.limits_worst_case_mm, 1) << " mm at the far end of their confidence intervals"
               << " (more readings narrow them).";
     report["verdict"] = {{"text", verdict.str()},
                          {"axes", sentences},
-                         {"error_bound_mm", position_bound_mm},
-                         {"limits_worst_case_mm", position_worst_mm},
-                         {"usable_above_emax_mm", usable_above_mm}};
+                         {"error_bound_mm", validation.error_bound_mm},
+                         {"limits_worst_case_mm", validation.limits_worst_case_mm},
+                         {"usable_above_emax_mm", validation.usable_above_emax_mm}};
     report["notes"] = notes;
     report["runs"] = nlohmann::json::array();
     report["trajectories"] = nlohmann::json::array();

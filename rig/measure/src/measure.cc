@@ -15,18 +15,23 @@
 #include "odocal/media/video.h"
 
 namespace odocal::measure {
+
+using calibration::RunFlag;
+using calibration::RunFlagKind;
+
 namespace {
 
 // The telemetry reader shared with pose-log runs (pose_log.h); for a video
 // run a bad file is a flag, not an error.
 std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
                                                         const calibration::WheelParams& nominal,
-                                                        std::vector<std::string>* flags) {
+                                                        std::vector<RunFlag>* flags) {
   if (path.empty()) return {};
   std::string error;
   auto records = ReadTelemetryCsv(path, nominal, &error);
   if (records) return *records;
-  flags->push_back((std::ifstream(path) ? "telemetry_malformed: " : "telemetry_unreadable: ") + error);
+  flags->push_back(RunFlag::Of(
+      std::ifstream(path) ? RunFlagKind::kTelemetryMalformed : RunFlagKind::kTelemetryUnreadable, error));
   return {};
 }
 
@@ -90,8 +95,8 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
   if (!rests.rests.empty() && rests.rests.back().t_end_s >= t1 - options.rest_search_fraction * span &&
       (!m.start_rest || rests.rests.size() >= 2))
     m.end_rest = rests.rests.back();
-  if (!m.start_rest) m.flags.push_back("no_start_rest");
-  if (!m.end_rest) m.flags.push_back("no_end_rest");
+  if (!m.start_rest) m.flags.push_back(RunFlag::Of(RunFlagKind::kNoStartRest));
+  if (!m.end_rest) m.flags.push_back(RunFlag::Of(RunFlagKind::kNoEndRest));
   // The averaged frames, refined exactly (the per-frame refinement is biased
   // by up to 0.02 px on edges parallel to the pixel grid: docs/vision.md).
   if (options.exact_rest_refinement) {
@@ -106,15 +111,16 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
       } else if (q && !quality.flags.empty()) {
         // The images cannot support the number: no value, say why.
         for (const std::string& f : quality.flags)
-          m.flags.push_back("image_quality:" + std::string(start ? "start_rest:" : "end_rest:") + f);
+          m.flags.push_back(
+              RunFlag::Of(RunFlagKind::kImageQuality, std::string(start ? "start_rest:" : "end_rest:") + f));
       } else {
-        m.flags.push_back("exact_refinement_failed");
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kExactRefinementFailed));
       }
       if (q) (start ? rm->start_quality : rm->end_quality) = std::move(quality);
     }
   }
-  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back("short_start_rest");
-  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back("short_end_rest");
+  if (m.start_rest && m.start_rest->n < 10) m.flags.push_back(RunFlag::Of(RunFlagKind::kShortStartRest));
+  if (m.end_rest && m.end_rest->n < 10) m.flags.push_back(RunFlag::Of(RunFlagKind::kShortEndRest));
   // Gaps while moving: between the rests, longer than flag_gap_s.
   if (m.start_rest && m.end_rest) {
     double last_seen = m.start_rest->t_end_s, longest = 0.0;
@@ -125,9 +131,9 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
     }
     longest = std::max(longest, m.end_rest->t_begin_s - last_seen);
     if (longest > options.flag_gap_s) {
-      char flag[64];
-      std::snprintf(flag, sizeof(flag), "tag_out_of_view_mid_run:%.1fs", longest);
-      m.flags.push_back(flag);
+      char gap[32];
+      std::snprintf(gap, sizeof(gap), "%.1fs", longest);
+      m.flags.push_back(RunFlag::Of(RunFlagKind::kTagOutOfViewMidRun, gap));
     }
     const calibration::RelativePose r =
         calibration::Between(*m.start_rest, *m.end_rest, options.systematic_floor);
@@ -221,12 +227,34 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
   return calibration::SummarizeRest(samples);
 }
 
+bool MeasureOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!track.IsValid(why) || !plane.IsValid(why) || !rest.IsValid(why) || !pose_log.IsValid(why) ||
+      !quality_gate.IsValid(why))
+    return false;
+  if (max_plane_views < 1) return fail("max_plane_views must be at least 1");
+  if (!(min_view_separation_px >= 0.0)) return fail("min_view_separation_px must not be negative");
+  if (!(border_margin_px >= 0.0)) return fail("border_margin_px must not be negative");
+  if (!(systematic_floor.position_m >= 0.0) || !(systematic_floor.heading_rad >= 0.0))
+    return fail("systematic_floor must not be negative");
+  if (!(systematic_scale_sigma >= 0.0)) return fail("systematic_scale_sigma must not be negative");
+  if (!(rest_search_fraction > 0.0 && rest_search_fraction <= 1.0))
+    return fail("rest_search_fraction must be in (0, 1]");
+  if (!(flag_gap_s > 0.0)) return fail("flag_gap_s must be positive");
+  return true;
+}
+
 bool IsFatalFlag(const std::string& flag) {
-  for (const char* fatal : {"video_unreadable", "tag_never_seen", "wrong_tag_id", "duplicate_tag_id",
-                            "no_start_rest", "no_end_rest", "image_quality"}) {
-    if (flag.rfind(fatal, 0) == 0) return true;
-  }
-  return false;
+  const std::optional<calibration::RunFlag> parsed = calibration::ParseRunFlag(flag);
+  return parsed && parsed->fatal();
+}
+
+const calibration::RelativePose* UsableReturnError(const calibration::MeasuredRun& run) {
+  if (!run.return_error || calibration::AnyFatal(run.flags)) return nullptr;
+  return &*run.return_error;
 }
 
 std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& sm) {
@@ -270,8 +298,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
     std::string* error) {
   std::string why;
-  if (!options.track.IsValid(&why) || !options.plane.IsValid(&why) || !options.rest.IsValid(&why) ||
-      !options.pose_log.IsValid(&why) || !options.quality_gate.IsValid(&why)) {
+  if (!options.IsValid(&why)) {
     if (error) *error = "measure options: " + why;
     return std::nullopt;
   }
@@ -305,7 +332,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       if (read) {
         stamps = *read;
       } else {
-        rm.measured.flags.push_back("timestamps_unreadable");
+        rm.measured.flags.push_back(RunFlag::Of(RunFlagKind::kTimestampsUnreadable));
       }
     }
     rm.track = TrackTagInVideo(rm.run.video, stamps, session.tag, session.intrinsics, options.track,
@@ -360,18 +387,20 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       m.spec = rm.run.spec;
       m.telemetry = ReadTelemetry(rm.run.telemetry, sm.session.nominal, &m.flags);
       if (!rm.track.ok) {
-        m.flags.push_back("video_unreadable: " + rm.track.message);
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kVideoUnreadable, rm.track.message));
         continue;
       }
       if (rm.track.duplicate_frames > 0) {
-        m.flags.push_back("duplicate_tag_id: id " + std::to_string(sm.session.tag.id) + " seen twice in " +
-                          std::to_string(rm.track.duplicate_frames) + " frames");
+        m.flags.push_back(RunFlag::Of(RunFlagKind::kDuplicateTagId,
+                                      "id " + std::to_string(sm.session.tag.id) + " seen twice in " +
+                                          std::to_string(rm.track.duplicate_frames) + " frames"));
       }
       if (rm.track.found == 0) {
         if (rm.track.duplicate_frames == 0) {
           m.flags.push_back(rm.track.wrong_id_frames > 0
-                                ? "wrong_tag_id: tags seen, never id " + std::to_string(sm.session.tag.id)
-                                : std::string("tag_never_seen"));
+                                ? RunFlag::Of(RunFlagKind::kWrongTagId,
+                                              "tags seen, never id " + std::to_string(sm.session.tag.id))
+                                : RunFlag::Of(RunFlagKind::kTagNeverSeen));
         }
         continue;
       }

@@ -11,6 +11,10 @@
 #include "odocal/calibration/arc.h"
 
 namespace odocal::measure {
+
+using calibration::RunFlag;
+using calibration::RunFlagKind;
+
 namespace {
 
 using calibration::Pose2;
@@ -434,11 +438,12 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     }
     m->camera.push_back(c);
   }
-  if (stats->nan_rows > 0) m->flags.push_back("nan_frames:" + std::to_string(stats->nan_rows));
+  if (stats->nan_rows > 0)
+    m->flags.push_back(RunFlag::Of(RunFlagKind::kNanFrames, std::to_string(stats->nan_rows)));
   if (stats->jump_frames > 0)
-    m->flags.push_back("tracker_jump:" + std::to_string(stats->jump_frames));
+    m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerJump, std::to_string(stats->jump_frames)));
   if (stats->valid < 2) {
-    m->flags.push_back("tracker_never_valid");
+    m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerNeverValid));
     return true;
   }
 
@@ -519,8 +524,7 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
                                                   options.max_clock_offset_s);
     }
     if (stats->clock_offset_s && std::abs(*stats->clock_offset_s) > 2.0 * stats->pose_period_s) {
-      m->flags.push_back(std::string("clock_offset:") +
-                         Format("%+.3fs", *stats->clock_offset_s));
+      m->flags.push_back(RunFlag::Of(RunFlagKind::kClockOffset, Format("%+.3fs", *stats->clock_offset_s)));
     }
   }
 
@@ -579,14 +583,14 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     if (first_move < tel.size()) w = window(-1e300, tel[first_move - 1].t_s - margin);
     if (w) {
       m->start_rest = w;
-      m->flags.push_back("start_rest_from_still_wheels");
+      m->flags.push_back(RunFlag::Of(RunFlagKind::kStartRestFromStillWheels));
     } else {
       for (const auto& s : samples)
         if (s.valid) {
           m->start_rest = calibration::SummarizeRest({s});
           break;
         }
-      m->flags.push_back("start_rest_from_first_pose");
+      m->flags.push_back(RunFlag::Of(RunFlagKind::kStartRestFromFirstPose));
     }
   }
   if (!m->end_rest) {
@@ -594,18 +598,18 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     if (last_move > 0) w = window(tel[last_move].t_s + margin, 1e300);
     if (w) {
       m->end_rest = w;
-      m->flags.push_back("end_rest_from_still_wheels");
+      m->flags.push_back(RunFlag::Of(RunFlagKind::kEndRestFromStillWheels));
     } else {
       for (auto s = samples.rbegin(); s != samples.rend(); ++s)
         if (s->valid) {
           m->end_rest = calibration::SummarizeRest({*s});
           break;
         }
-      m->flags.push_back("end_rest_from_last_pose");
+      m->flags.push_back(RunFlag::Of(RunFlagKind::kEndRestFromLastPose));
     }
   }
-  if (m->start_rest && m->start_rest->n < 10) m->flags.push_back("short_start_rest");
-  if (m->end_rest && m->end_rest->n < 10) m->flags.push_back("short_end_rest");
+  if (m->start_rest && m->start_rest->n < 10) m->flags.push_back(RunFlag::Of(RunFlagKind::kShortStartRest));
+  if (m->end_rest && m->end_rest->n < 10) m->flags.push_back(RunFlag::Of(RunFlagKind::kShortEndRest));
   return true;
 }
 
@@ -621,7 +625,7 @@ void FinishPoseLogRuns(const PoseLogOptions& options, std::vector<calibration::M
   const double sigma_h = measured ? std::max(scatter.sigma_heading_rad, 1e-6 * kDegToRad)
                                   : options.default_sigma_heading_rad;
   for (calibration::MeasuredRun* run : runs) {
-    if (!measured) run->flags.push_back("default_frame_sigma");
+    if (!measured) run->flags.push_back(RunFlag::Of(RunFlagKind::kDefaultFrameSigma));
     for (calibration::CameraRecord& c : run->camera) {
       if (!c.valid) continue;
       c.sigma_position_m = sigma_p;

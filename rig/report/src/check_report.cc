@@ -254,7 +254,7 @@ json CheckJson(const std::string& session_path, const calibration::MeasuredSessi
     runs.push_back({{"name", run.name},
                     {"procedure", calibration::ToString(run.spec.procedure)},
                     {"direction", calibration::ToString(run.spec.direction)},
-                    {"flags", run.flags},
+                    {"flags", calibration::ToStrings(run.flags)},
                     {"distance_mm", distance},
                     {"measured_mm", Thinned(measured, max_points)},
                     {"results", results}});

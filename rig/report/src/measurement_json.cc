@@ -21,10 +21,8 @@ nlohmann::json RunJson(const measure::RunMeasurement& rm) {
     j["source"] = "video";
     j["video"] = rm.run.video;
   }
-  bool fatal = false;
-  for (const std::string& f : m.flags) fatal = fatal || measure::IsFatalFlag(f);
-  if (m.return_error && !fatal) {
-    const calibration::RelativePose& r = *m.return_error;
+  if (const calibration::RelativePose* usable = measure::UsableReturnError(m)) {
+    const calibration::RelativePose& r = *usable;
     j["return_error"] = {{"x_mm", r.pose.x() * 1e3}, {"y_mm", r.pose.y() * 1e3},
                          {"theta_deg", r.pose.heading() * kRadToDeg}};
     j["sigma"] = {{"x_mm", r.sigma_x_m() * 1e3}, {"y_mm", r.sigma_y_m() * 1e3},
@@ -33,7 +31,7 @@ nlohmann::json RunJson(const measure::RunMeasurement& rm) {
     j["return_error"] = nullptr;
     j["sigma"] = nullptr;
   }
-  j["flags"] = m.flags;
+  j["flags"] = calibration::ToStrings(m.flags);
   if (rm.pose_log) {
     const measure::PoseLogStats& p = *rm.pose_log;
     j["frames"] = {{"logged", p.rows}, {"valid", p.valid}, {"nan", p.nan_rows},

@@ -12,6 +12,10 @@
 #include "odocal/calibration/rest.h"
 
 namespace odocal::simulation {
+
+using calibration::RunFlag;
+using calibration::RunFlagKind;
+
 namespace {
 
 using calibration::Pose2;
@@ -103,7 +107,7 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
     mr.spec = run.spec;
     mr.telemetry = run.telemetry;
     if (run.telemetry.empty() || run.truth_poses.empty()) {
-      mr.flags.push_back("no_telemetry");
+      mr.flags.push_back(RunFlag::Of(RunFlagKind::kNoTelemetry));
       session.runs.push_back(mr);
       continue;
     }
@@ -137,12 +141,12 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
     if (!rests.rests.empty() && rests.rests.front().t_begin_s <= samples.front().t_s + 0.2)
       mr.start_rest = rests.rests.front();
     else
-      mr.flags.push_back("no_start_rest");
+      mr.flags.push_back(RunFlag::Of(RunFlagKind::kNoStartRest));
     if (!rests.rests.empty() && rests.rests.back().t_end_s >= samples.back().t_s - 0.2 &&
         (!mr.start_rest || rests.rests.size() > 1))
       mr.end_rest = rests.rests.back();
     else
-      mr.flags.push_back("no_end_rest");
+      mr.flags.push_back(RunFlag::Of(RunFlagKind::kNoEndRest));
     if (mr.start_rest && mr.end_rest)
       mr.return_error = calibration::Between(*mr.start_rest, *mr.end_rest);
     session.runs.push_back(mr);

@@ -23,6 +23,7 @@
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/robot_model.h"
+#include "odocal/calibration/run_flag.h"
 
 namespace odocal::calibration {
 
@@ -53,8 +54,9 @@ struct MeasuredRun {
   // true - odometry in the start frame (the rests' relative pose, with the
   // odometry's own end belief removed), when both rests were measured.
   std::optional<RelativePose> return_error;
-  // Why a number is missing or doubtful: "tag_lost_mid_run", "no_start_rest", ...
-  std::vector<std::string> flags;
+  // Why a number is missing or doubtful (run_flag.h): "no_start_rest",
+  // "tag_out_of_view_mid_run:1.2s", ...; a fatal one leaves no usable return error.
+  std::vector<RunFlag> flags;
 };
 
 struct MeasuredSession {

@@ -57,7 +57,8 @@ struct RestWindow {
   Pose2 mean;
   // Covariance of the mean (x, y, heading), from the spread of the frames
   // divided by n. Frames are treated as independent; sensor noise is, slow
-  // vibration is not (see sigma_scale in ReturnErrorBetween).
+  // vibration and errors every frame shares are not (Between with a
+  // SystematicFloor, below, adds a floor for the latter).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
 
   double duration_s() const { return t_end_s - t_begin_s; }
@@ -78,7 +79,7 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
 std::optional<RestWindow> SummarizeRest(const std::vector<PoseSample>& samples);
 
 // The pose of `end` in the frame of `start` (x along the start heading), with
-// its covariance propagated from both means (x_mm, y_mm, heading).
+// its covariance propagated from both means (x, y, heading; m and rad).
 struct RelativePose {
   Pose2 pose;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();

@@ -66,13 +66,22 @@ struct MeasureOptions {
   double rest_search_fraction = 0.35;
   // Gaps longer than this while the robot moves are flagged.
   double flag_gap_s = 0.5;
-  int threads = 0;  // 0: one per core
+  int threads = 0;  // 0 (or negative): one per core
   // Runs measured from a pose log instead of a video (pose_log.h).
   PoseLogOptions pose_log;
+
+  // False with `why` naming the offending option (the nested options' own
+  // checks included).
+  bool IsValid(std::string* why) const;
 };
 
-// Flags that leave a run without a return error.
+// Whether a flag's text form names a kind that leaves a run without a
+// return error (calibration/run_flag.h).
 bool IsFatalFlag(const std::string& flag);
+
+// The run's return error when it has one and no fatal flag (what report.json
+// prints and the estimators pool); nullptr otherwise.
+const calibration::RelativePose* UsableReturnError(const calibration::MeasuredRun& run);
 
 // The image quality of one refined rest frame, and of a rest:
 // what the user reads to judge the camera (report.json "quality").

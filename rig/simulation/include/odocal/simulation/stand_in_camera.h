@@ -1,15 +1,17 @@
-// Building a MeasuredSession — what the estimators consume — from recorded
-// files.
+// A MeasuredSession — what the estimators consume — from a simulation,
+// without rendering or measuring videos: a stand-in camera.
 //
-// STAND-IN FOR THE CAMERA PIPELINE. Until the integrator's pipeline (videos
-// -> camera poses) lands, a session can be built from an `odocal simulate`
-// output directory: the telemetry as the robot sent it, and camera poses
-// made from the simulator's true trajectory by a stand-in camera (30 fps,
-// seeded per-frame noise, an optional home-area visibility window, and —
-// for tests only — the camera-side effects a real camera would add). From
-// truth.json it reads only the nominal parameters and the run plan, never
-// `truth`, the true poses or any effect. The real camera loader will fill the
-// same MeasuredSession.
+// The camera pipeline (measure/measure.h: videos -> tag -> camera plane ->
+// poses -> rests) measures recorded sessions; this stand-in serves where a
+// known truth and speed matter more than the images: `odocal explain` on an
+// `odocal simulate` output directory, and the tests of the trajectory fit,
+// replay and explain. It takes the telemetry as the robot sent it and makes
+// camera poses from the simulator's true trajectory (30 fps, seeded
+// per-frame noise, an optional home-area visibility window, and — for tests
+// only — the camera-side effects a real camera would add). From truth.json
+// it reads only the nominal parameters and the run plan, never `truth`, the
+// true poses or any effect. It fills the same MeasuredSession as
+// SessionMeasurement::ToMeasuredSession (measure.h) does.
 //
 // Frames: the stand-in camera measures in the simulator's world frame
 // (REP-103). Units: SI inside, mm/deg in the files.
@@ -43,8 +45,9 @@ struct StandInCameraOptions {
   calibration::FloorCamera camera =
       calibration::FloorCamera::Overhead(Eigen::Vector2d(1.0, 0.0), 2.5);
   // Camera-side effects of the stand-in, for tests of the explain workflow
-  // (the CLI never sets them: in the station a scenario's camera-side effects
-  // are rendered into the video by the integrator's pipeline).
+  // (the CLI never sets them: in a simulated station a scenario's camera-side
+  // effects are rendered into the video, camera_sim.h, and the camera
+  // pipeline measures them).
   double tag_x_m = 0.0;  // tag centre in the robot frame; measured as if at the axle
   double tag_y_m = 0.0;
   double latency_s = 0.0;  // a frame captured at telemetry time t is stamped t - latency

@@ -1,0 +1,71 @@
+// What a batch of measured sessions says about the robot's wheels: which
+// runs are usable, UMBMark over the pooled squares (Borenstein & Feng 1996),
+// CVRA's wheel ratio, distance scale and track factor from the camera's
+// return errors (each run's estimate, then their mean and standard error),
+// the corrected parameters they give, and the full-trajectory least squares
+// over every run with telemetry. No I/O: report/session_estimate_json.h
+// writes the result for report.json.
+//
+// Return errors are true - odometry in the run's start frame (measure.h);
+// units SI.
+#ifndef ODOCAL_MEASURE_ESTIMATE_SESSION_H_
+#define ODOCAL_MEASURE_ESTIMATE_SESSION_H_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/robot_model.h"
+#include "odocal/calibration/trajectory_fit.h"
+#include "odocal/calibration/umbmark.h"
+#include "odocal/measure/measure.h"
+
+namespace odocal::measure {
+
+// One CVRA quantity over the runs that measured it.
+struct PooledCvra {
+  std::vector<double> values;     // one per run, in the runs' order
+  std::vector<std::string> runs;  // their names
+  double mean = 0.0;
+  std::optional<double> standard_error;  // nullopt with fewer than two runs
+};
+
+struct SessionEstimate {
+  // UMBMark over the usable squares (equal cw and ccw counts), when it
+  // succeeded; `umbmark_input` holds the squares it used.
+  std::optional<calibration::UmbmarkInput> umbmark_input;
+  std::optional<calibration::UmbmarkSummary> umbmark;
+  // CVRA from the camera: the wheel ratio Ed from out-and-backs, the distance
+  // scale from straights, the track factor from spins.
+  std::optional<PooledCvra> ratio, scale, track;
+  // Runs left out and why, estimators that could not run.
+  std::vector<std::string> notes;
+
+  bool any() const { return umbmark || ratio || scale || track; }
+};
+
+// The UMBMark and CVRA estimates over every usable run of `sessions` (a run
+// with a return error and no fatal flag). The nominal parameters are the
+// first session's.
+SessionEstimate EstimateSession(const std::vector<SessionMeasurement>& sessions);
+
+// The corrected parameters: UMBMark, when present, sets the ratio and the
+// track (it measures both on the same squares); CVRA's scale always applies;
+// CVRA's ratio and track fill in without UMBMark. Only when estimate.any().
+calibration::WheelParams CorrectedParams(const calibration::WheelParams& nominal,
+                                         const SessionEstimate& estimate);
+
+// The full-trajectory least squares (trajectory_fit.h, base model with the
+// pose source's clock offset) over every run with telemetry and measured
+// poses. Sessions recorded with other believed parameters than the first
+// are left out with a note; a fit that fails adds a note. nullopt without
+// such runs or when the fit fails.
+std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes);
+
+// How many runs of `sessions` have a usable return error.
+int CountUsableRuns(const std::vector<SessionMeasurement>& sessions);
+
+}  // namespace odocal::measure
+
+#endif  // ODOCAL_MEASURE_ESTIMATE_SESSION_H_

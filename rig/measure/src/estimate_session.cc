@@ -1,0 +1,185 @@
+#include "odocal/measure/estimate_session.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "odocal/calibration/corrections.h"
+#include "odocal/calibration/cvra.h"
+#include "odocal/calibration/statistics.h"
+
+namespace odocal::measure {
+namespace {
+
+// The robot's own belief of where the run ended, in its start frame, from the
+// odometry it reported (identity without telemetry, or when it reported
+// none). A real robot's controller stops within a tolerance of the planned
+// end (the OptiOdom robot: ~5 mm and 1-2 deg short of closing its squares),
+// so a return error is true - this belief, not true - plan (UMBMark's
+// epsilon = x_abs - x_calc); the CVRA estimators need the true displacement
+// itself, the return error plus this belief.
+calibration::Pose2 OdometryEnd(const calibration::MeasuredRun& m) {
+  if (m.telemetry.size() < 2) return calibration::Pose2::Identity();
+  return m.telemetry.front().odometry.inverse() * m.telemetry.back().odometry;
+}
+
+// Collects one CVRA quantity run by run.
+struct CvraCollector {
+  std::vector<double> values;
+  std::vector<std::string> runs;
+
+  void Add(const calibration::CvraResult& r, const std::string& run) {
+    if (!r.ok()) return;
+    values.push_back(r.value);
+    runs.push_back(run);
+  }
+  std::optional<PooledCvra> Pooled() const {
+    if (values.empty()) return std::nullopt;
+    return PooledCvra{values, runs, calibration::Mean(values), calibration::StandardError(values)};
+  }
+};
+
+}  // namespace
+
+SessionEstimate EstimateSession(const std::vector<SessionMeasurement>& sessions) {
+  SessionEstimate e;
+  const calibration::WheelParams& nominal = sessions.front().session.nominal;
+  calibration::UmbmarkInput input;
+  input.track_m = nominal.track_m;
+  CvraCollector ratios, scales, tracks;
+  for (const SessionMeasurement& sm : sessions) {
+    for (const RunMeasurement& rm : sm.runs) {
+      const calibration::MeasuredRun& m = rm.measured;
+      if (!UsableReturnError(m)) continue;
+      // true - odometry in the start frame, and the true displacement.
+      const calibration::Pose2& error = m.return_error->pose;
+      const double ex = error.x(), ey = error.y(), eh = error.heading();
+      const calibration::Pose2 odometry = OdometryEnd(m);
+      const calibration::Pose2 p = calibration::Pose2::FromXYHeading(
+          ex + odometry.x(), ey + odometry.y(), calibration::WrapAngle(eh + odometry.heading()));
+      const calibration::RunSpec& spec = m.spec;
+      switch (spec.procedure) {
+        case calibration::Procedure::kUmbmark: {
+          std::string why;
+          if (!input.AddRun(spec, error, &why))
+            e.notes.push_back(m.name + ": square of another side, not pooled");
+          break;
+        }
+        case calibration::Procedure::kOutAndBack: {
+          if (spec.reference == calibration::Reference::kWall) {
+            e.notes.push_back(m.name + ": wall-referenced; the camera cannot see the wall's correction");
+            break;
+          }
+          const double travel = 2.0 * spec.distance_m * spec.repeats;
+          ratios.Add(calibration::WheelRatioFromCamera(travel, eh, nominal.track_m), m.name);
+          break;
+        }
+        case calibration::Procedure::kStraight:
+          scales.Add(calibration::ScaleFromStraight(m.telemetry.size() < 2 ? spec.distance_m : odometry.x(),
+                                                    p.x(), p.y(), p.heading()),
+                     m.name);
+          break;
+        case calibration::Procedure::kSpin: {
+          const double planned =
+              (spec.direction == calibration::Direction::kCcw ? 1.0 : -1.0) * 2.0 * M_PI * spec.turns;
+          // What odometry turned: the plan, corrected by where it stopped.
+          const double believed = planned + calibration::WrapAngle(odometry.heading() - planned);
+          tracks.Add(calibration::TrackFromCamera(believed, eh), m.name);
+          break;
+        }
+        case calibration::Procedure::kRecorded:
+        case calibration::Procedure::kCircle:
+          // No closed-form UMBMark/CVRA model of these paths: such runs serve
+          // the trajectory fit (explain) and the report only.
+          break;
+      }
+    }
+  }
+  if (!input.cw.empty() || !input.ccw.empty()) {
+    // Unequal counts (a flagged run dropped): pair the first n of each.
+    const size_t n = std::min(input.cw.size(), input.ccw.size());
+    if (input.cw.size() != input.ccw.size()) {
+      e.notes.push_back("umbmark: " + std::to_string(input.cw.size()) + " cw and " +
+                        std::to_string(input.ccw.size()) + " ccw usable runs; using " +
+                        std::to_string(n) + " of each");
+      input.cw.resize(n);
+      input.ccw.resize(n);
+    }
+    if (n > 0) {
+      const calibration::UmbmarkSummary s = calibration::EstimateUmbmark(input);
+      if (s.ok()) {
+        e.umbmark_input = input;
+        e.umbmark = s;
+      } else {
+        e.notes.push_back("umbmark: " + s.message);
+      }
+    }
+  }
+  e.ratio = ratios.Pooled();
+  e.scale = scales.Pooled();
+  e.track = tracks.Pooled();
+  return e;
+}
+
+calibration::WheelParams CorrectedParams(const calibration::WheelParams& nominal,
+                                         const SessionEstimate& e) {
+  const auto mean = [](const std::optional<PooledCvra>& c) {
+    return c ? std::optional<double>(c->mean) : std::nullopt;
+  };
+  if (e.umbmark) {
+    calibration::WheelParams p =
+        calibration::ApplyUmbmarkCorrection(nominal, e.umbmark->coupled.Ed, e.umbmark->coupled.Eb);
+    return calibration::ApplyCvra(p, std::nullopt, mean(e.scale), std::nullopt);
+  }
+  return calibration::ApplyCvra(nominal, mean(e.ratio), mean(e.scale), mean(e.track));
+}
+
+// Unlike UMBMark the trajectory fit uses every frame and measures the
+// distance scale Es as well, which a pose source with true lengths (motion
+// capture, a camera with a length reference) supports.
+std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes) {
+  calibration::MeasuredSession pooled;
+  bool first = true;
+  for (const SessionMeasurement& sm : sessions) {
+    calibration::MeasuredSession ms = sm.ToMeasuredSession();
+    if (first) {
+      pooled.believed = ms.believed;
+      pooled.camera_scale_sigma = ms.camera_scale_sigma;
+      first = false;
+    } else if (std::abs(ms.believed.left_wheel_diameter_m - pooled.believed.left_wheel_diameter_m) > 1e-12 ||
+               std::abs(ms.believed.right_wheel_diameter_m - pooled.believed.right_wheel_diameter_m) > 1e-12 ||
+               std::abs(ms.believed.track_m - pooled.believed.track_m) > 1e-12 ||
+               std::abs(ms.believed.ticks_per_rev - pooled.believed.ticks_per_rev) > 1e-9) {
+      notes->push_back("trajectory_fit: " + sm.session.path +
+                       " was recorded with other believed parameters; fitted without it");
+      continue;
+    }
+    pooled.camera_scale_sigma = std::max(pooled.camera_scale_sigma, ms.camera_scale_sigma);
+    for (calibration::MeasuredRun& run : ms.runs)
+      if (!run.telemetry.empty()) pooled.runs.push_back(std::move(run));
+  }
+  if (pooled.runs.empty()) return std::nullopt;  // no telemetry: nothing to fit
+  // The pose source's clock offset against the robot's is fitted with the
+  // parameters: a real pose source has one (the OptiOdom rows' poses lead
+  // their ticks by up to ~56 ms), and left out the scales absorb what they
+  // can of it (the track of the OptiOdom Ivanjko paths moved by 0.1-0.3 %
+  // when it was fitted; the squares' by < 0.01 %). Fitting a zero offset
+  // costs a little variance.
+  calibration::TrajectoryFitOptions options;
+  options.effects = {calibration::Effect::kCameraLatency};
+  calibration::TrajectoryFitResult fit = calibration::FitTrajectory(pooled, options);
+  if (!fit.ok()) {
+    notes->push_back("trajectory_fit: " + fit.message);
+    return std::nullopt;
+  }
+  return fit;
+}
+
+int CountUsableRuns(const std::vector<SessionMeasurement>& sessions) {
+  int usable = 0;
+  for (const SessionMeasurement& sm : sessions)
+    for (const RunMeasurement& rm : sm.runs) usable += UsableReturnError(rm.measured) ? 1 : 0;
+  return usable;
+}
+
+}  // namespace odocal::measure

@@ -1,0 +1,31 @@
+// report.json's entries for what a batch of sessions says about the wheels
+// (measure/estimate_session.h): "umbmark", "cvra", "trajectory_fit".
+// Units at this edge: millimetres and milliseconds, the unit in the key.
+#ifndef ODOCAL_REPORT_SESSION_ESTIMATE_JSON_H_
+#define ODOCAL_REPORT_SESSION_ESTIMATE_JSON_H_
+
+#include <nlohmann/json.hpp>
+
+#include "odocal/calibration/robot_model.h"
+#include "odocal/calibration/trajectory_fit.h"
+#include "odocal/measure/estimate_session.h"
+
+namespace odocal::report {
+
+// report.json's "umbmark" (UmbmarkJson of the squares used); null without UMBMark.
+nlohmann::json SessionUmbmarkJson(const measure::SessionEstimate& estimate);
+
+// report.json's "cvra": {ratio: {Ed, sigma_Ed, n, runs}, scale: {scale, ...},
+// track: {track_factor, ...}}, each only when measured; empty without any.
+nlohmann::json CvraJson(const measure::SessionEstimate& estimate);
+
+// report.json's "trajectory_fit": frames, gap and noise floor, the clock
+// offset, Ed, Es, Eb and turn_gain with their sigma (null when not
+// identifiable), and, when every one is identifiable, the corrected
+// parameters and their ROS 2 multipliers.
+nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
+                                 const calibration::TrajectoryFitResult& fit);
+
+}  // namespace odocal::report
+
+#endif  // ODOCAL_REPORT_SESSION_ESTIMATE_JSON_H_

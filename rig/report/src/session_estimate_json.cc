@@ -1,0 +1,65 @@
+#include "odocal/report/session_estimate_json.h"
+
+#include "odocal/calibration/corrections.h"
+#include "odocal/report/json.h"
+
+namespace odocal::report {
+namespace {
+
+// One pooled CVRA quantity as {key, sigma_key, n, runs}.
+nlohmann::json PooledCvraJson(const std::string& key, const measure::PooledCvra& c) {
+  return {{key, c.mean},
+          {"sigma_" + key, c.standard_error ? nlohmann::json(*c.standard_error) : nlohmann::json(nullptr)},
+          {"n", c.values.size()},
+          {"runs", c.runs}};
+}
+
+}  // namespace
+
+nlohmann::json SessionUmbmarkJson(const measure::SessionEstimate& e) {
+  if (!e.umbmark || !e.umbmark_input) return nullptr;
+  return UmbmarkJson(*e.umbmark_input, *e.umbmark);
+}
+
+nlohmann::json CvraJson(const measure::SessionEstimate& e) {
+  nlohmann::json cvra = nlohmann::json::object();
+  if (e.ratio) cvra["ratio"] = PooledCvraJson("Ed", *e.ratio);
+  if (e.scale) cvra["scale"] = PooledCvraJson("scale", *e.scale);
+  if (e.track) cvra["track"] = PooledCvraJson("track_factor", *e.track);
+  return cvra;
+}
+
+nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
+                                 const calibration::TrajectoryFitResult& fit) {
+  nlohmann::json j = {{"method", "full-trajectory least squares (base model)"},
+                      {"frames", fit.n_frames},
+                      {"gap_mm", fit.gap_m * 1e3},
+                      {"noise_floor_mm", fit.noise_floor_m * 1e3},
+                      {"unidentifiable", fit.unidentifiable}};
+  int runs_used = 0;
+  for (bool used : fit.run_used) runs_used += used ? 1 : 0;
+  j["runs_used"] = runs_used;
+  // camera_latency: a frame stamped s shows the robot at telemetry time s + latency.
+  if (const calibration::ParameterEstimate* p = fit.Find("camera_latency.latency_s")) {
+    j["clock_offset_ms"] = {{"value", p->value * 1e3},
+                            {"sigma", p->identifiable ? nlohmann::json(p->sigma * 1e3) : nlohmann::json(nullptr)},
+                            {"meaning", "a pose stamped s shows the robot at telemetry time s + offset"}};
+  }
+  bool all_identifiable = true;
+  for (const char* key : {"Ed", "Es", "Eb", "turn_gain"}) {
+    const calibration::ParameterEstimate* p = fit.Find(key);
+    if (!p) continue;
+    if (!p->identifiable) all_identifiable = false;
+    j[key] = {{"value", p->value},
+              {"sigma", p->identifiable ? nlohmann::json(p->sigma) : nlohmann::json(nullptr)},
+              {"identifiable", p->identifiable}};
+  }
+  if (all_identifiable) {
+    const calibration::WheelParams corrected = calibration::ApplyWheelScales(nominal, fit.scales);
+    j["corrected"] = WheelParamsJson(corrected);
+    j["ros2"] = Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected));
+  }
+  return j;
+}
+
+}  // namespace odocal::report

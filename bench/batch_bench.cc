@@ -75,9 +75,9 @@ int main(int argc, char** argv) {
   }
   const std::string dir = argv[1];
   std::string error;
-  const auto session = odocal::config::LoadSession(dir + "/session.yaml", &error);
+  const auto session = odocal::config::LoadSession(dir + "/session.yaml");
   if (!session) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+    std::fprintf(stderr, "%s\n", session.message.c_str());
     return 1;
   }
   // The longest video.

@@ -81,9 +81,8 @@ TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
   // 0.12, 0.17, 0.28 px and 0.0025 (camera_calibration_test). Bounds ~3x
   // that: 0.1 % on the focal lengths (the issue asks 0.5 %), 1 px on the
   // principal point, 0.006 on k1.
-  std::string error;
-  const auto file = config::ReadCameraFile(out, &error);
-  ASSERT_TRUE(file) << error;
+  const auto file = config::ReadCameraFile(out);
+  ASSERT_TRUE(file) << file.message;
   EXPECT_EQ(file->format, config::CameraFileFormat::kOpenCv);
   const Intrinsics t = Truth();
   const Intrinsics& e = file->intrinsics;
@@ -128,9 +127,8 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
                                " --format ros --camera-name overhead");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, ::testing::HasSubstr("RMS reprojection error")) << r.out;
-  std::string error;
-  const auto file = config::ReadCameraFile(out, &error);
-  ASSERT_TRUE(file) << error;
+  const auto file = config::ReadCameraFile(out);
+  ASSERT_TRUE(file) << file.message;
   EXPECT_EQ(file->format, config::CameraFileFormat::kRos);
   EXPECT_EQ(file->camera_name, "overhead");
 

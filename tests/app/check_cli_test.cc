@@ -144,9 +144,8 @@ TEST(CheckCli, CorrectedSetHoldsAndTheTrueSetIsAtTheNoiseLevel) {
 
 TEST(CheckCli, RunWithoutTelemetryIsListedWithItsReason) {
   const std::string dir = test_util::MakeTempDir("odocal_check_notelemetry_");
-  std::string error;
-  std::optional<config::Session> session = config::LoadSession(SamplePath(), &error);
-  ASSERT_TRUE(session) << error;
+  auto session = config::LoadSession(SamplePath());
+  ASSERT_TRUE(session) << session.message;
   ASSERT_EQ(session->runs.size(), 2u);
   session->runs[1].telemetry.clear();
   session->camera_file = dir + "/camera.yaml";

@@ -187,9 +187,8 @@ TEST(ValidateCli, TooFewReadingsForStatisticsFail) {
 TEST(ValidateCsv, ReadsOptionalThetaCommentsAndColumnOrder) {
   const std::string dir = test_util::MakeTempDir("odocal_manual_csv_");
   std::ofstream(dir + "/m.csv") << "# comment\ny_mm, run ,x_mm,theta_deg\n-2.5,a,1e1,\n3,b,-4,0.25\n";
-  std::string error;
-  const auto r = config::ReadManualCsv(dir + "/m.csv", &error);
-  ASSERT_TRUE(r) << error;
+  const auto r = config::ReadManualCsv(dir + "/m.csv");
+  ASSERT_TRUE(r) << r.message;
   ASSERT_EQ(r->size(), 2u);
   EXPECT_EQ((*r)[0].run, "a");
   EXPECT_EQ((*r)[0].line, 3);

@@ -62,9 +62,8 @@ TEST(CameraIo, RoundTripsBothFormats) {
       SCOPED_TRACE(config::CameraFileFormatName(format));
       const std::string path = dir + "/camera.yaml";
       ASSERT_FALSE(config::WriteCameraFile(path, file, format));
-      std::string error;
-      const auto back = config::ReadCameraFile(path, &error);
-      ASSERT_TRUE(back) << error;
+      const auto back = config::ReadCameraFile(path);
+      ASSERT_TRUE(back) << back.message;
       EXPECT_EQ(back->format, format);  // auto-detected
       ExpectSameIntrinsics(back->intrinsics, file.intrinsics);
       ASSERT_TRUE(back->rms_reprojection_error_px);
@@ -110,9 +109,8 @@ TEST(CameraIo, ReadsFilesWrittenByCvFileStorage) {
     fs << "extrinsic_parameters" << cv::Mat::zeros(3, 6, CV_64F);
     fs << "image_points" << cv::Mat::zeros(3, 54, CV_32FC2);  // written as an nd-matrix of 2-channel points
   }
-  std::string error;
-  const auto file = config::ReadCameraFile(path, &error);
-  ASSERT_TRUE(file) << error;
+  const auto file = config::ReadCameraFile(path);
+  ASSERT_TRUE(file) << file.message;
   EXPECT_EQ(file->format, config::CameraFileFormat::kOpenCv);
   std::string why;
   const auto expected = Intrinsics::FromCv(K, D, 1280, 720, &why);
@@ -130,8 +128,8 @@ TEST(CameraIo, ReadsFilesWrittenByCvFileStorage) {
     fs << "image_width" << 1280 << "image_height" << 720 << "Camera_Matrix" << Kf
        << "Distortion_Coefficients" << D8;
   }
-  const auto old_file = config::ReadCameraFile(old_path, &error);
-  ASSERT_TRUE(old_file) << error;
+  const auto old_file = config::ReadCameraFile(old_path);
+  ASSERT_TRUE(old_file) << old_file.message;
   ExpectSameIntrinsics(old_file->intrinsics, *expected, 1e-6);  // float precision
 
   // And the other way: OpenCV reads what we write.
@@ -171,9 +169,8 @@ projection_matrix:
   cols: 4
   data: [700.5, 0, 319.5, 0, 0, 699.25, 239.5, 0, 0, 0, 1, 0]
 )");
-  std::string error;
-  const auto file = config::ReadCameraFile(path, &error);
-  ASSERT_TRUE(file) << error;
+  const auto file = config::ReadCameraFile(path);
+  ASSERT_TRUE(file) << file.message;
   EXPECT_EQ(file->format, config::CameraFileFormat::kRos);
   EXPECT_EQ(file->camera_name, "narrow_stereo");
   ExpectSameIntrinsics(file->intrinsics,
@@ -224,10 +221,10 @@ TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
     EXPECT_EQ(error.rfind(expected, 0), 0u) << "got: " << error << "\nfor:\n" << text;
     EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("\n"))) << error;
     // The same through the file reader, which names the path it was given.
-    EXPECT_FALSE(config::ReadCameraFile(path, &error));
+    error = test_util::ErrorOf(config::ReadCameraFile(path));
     EXPECT_EQ(error.rfind(path + ": ", 0), 0u) << error;
   }
-  EXPECT_FALSE(config::ReadCameraFile(dir + "/missing.yaml", &error));
+  error = test_util::ErrorOf(config::ReadCameraFile(dir + "/missing.yaml"));
   EXPECT_EQ(error, dir + "/missing.yaml: cannot open file");
 }
 

@@ -48,7 +48,12 @@ std::optional<config::ReplaySet> Read(const std::string& path, std::string* erro
                              const WheelParams& believed = Nominal()) {
   const std::optional<config::ParamSpec> spec = config::ParseParamSpec(path, error);
   if (!spec) return std::nullopt;
-  return config::ReadReplaySet(*spec, believed, error);
+  Result<config::ReplaySet> set = config::ReadReplaySet(*spec, believed);
+  if (!set) {
+    *error = set.message;
+    return std::nullopt;
+  }
+  return std::move(*set.value);
 }
 
 // `tol`: the exports write 9 significant digits.

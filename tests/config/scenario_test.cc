@@ -38,9 +38,8 @@ effects: []
 )";
 
 TEST(Scenario, LoadsTheIssuesKeys) {
-  std::string error;
-  const auto s = config::LoadScenario(WriteTemp(kIssueScenario), &error);
-  ASSERT_TRUE(s) << error;
+  const auto s = config::LoadScenario(WriteTemp(kIssueScenario));
+  ASSERT_TRUE(s) << s.message;
   EXPECT_EQ(s->seed, 7u);
   EXPECT_NEAR(s->robot.nominal.track_m, 0.300, 1e-12);
   EXPECT_DOUBLE_EQ(s->robot.nominal.ticks_per_rev, 2048.0);
@@ -72,7 +71,7 @@ TEST_P(ScenarioErrors, NameTheField) {
   text.replace(at, c.from.size(), c.to);
   const std::string path = WriteTemp(text);
   std::string error;
-  EXPECT_FALSE(config::LoadScenario(path, &error));
+  error = test_util::ErrorOf(config::LoadScenario(path));
   EXPECT_THAT(error, ::testing::HasSubstr(c.expected)) << error;
   EXPECT_THAT(error, ::testing::HasSubstr(path)) << "names the file: " << error;
   EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("\n"))) << "one line: " << error;
@@ -118,9 +117,8 @@ TEST(Scenario, LoadsEveryEffect) {
                "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
                "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n"
                "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n");
-  std::string error;
-  const auto s = config::LoadScenario(WriteTemp(text), &error);
-  ASSERT_TRUE(s) << error;
+  const auto s = config::LoadScenario(WriteTemp(text));
+  ASSERT_TRUE(s) << s.message;
   const sim::Effects& e = s->robot.effects;
   EXPECT_EQ(e.Names().size(), 10u);
   EXPECT_NEAR(e.arc_scale->fraction_at_1_per_m, 0.001, 1e-12);
@@ -143,8 +141,8 @@ TEST(Scenario, LoadsACircle) {
   text.replace(text.find("  - {procedure: spin, turns: 3, direction: cw}"), 46,
                "  - {procedure: circle, radius_mm: 320, turns: 2, direction: cw}");
   std::string error;
-  const auto s = config::LoadScenario(WriteTemp(text), &error);
-  ASSERT_TRUE(s) << error;
+  const auto s = config::LoadScenario(WriteTemp(text));
+  ASSERT_TRUE(s) << s.message;
   const calibration::RunSpec* circle = nullptr;
   for (const auto& r : s->runs)
     if (r.procedure == calibration::Procedure::kCircle) circle = &r;
@@ -154,17 +152,17 @@ TEST(Scenario, LoadsACircle) {
   EXPECT_EQ(circle->direction, calibration::Direction::kCw);
   // A circle without its radius is named.
   text.replace(text.find("radius_mm: 320, "), 16, "");
-  EXPECT_FALSE(config::LoadScenario(WriteTemp(text), &error));
+  error = test_util::ErrorOf(config::LoadScenario(WriteTemp(text)));
   EXPECT_THAT(error, ::testing::HasSubstr("radius_mm")) << error;
 }
 
 TEST(Scenario, MissingEmptyAndDirectoryFilesAreNamed) {
   std::string error;
-  EXPECT_FALSE(config::LoadScenario("/nonexistent/s.yaml", &error));
+  error = test_util::ErrorOf(config::LoadScenario("/nonexistent/s.yaml"));
   EXPECT_THAT(error, ::testing::HasSubstr("/nonexistent/s.yaml: no such file")) << error;
-  EXPECT_FALSE(config::LoadScenario(WriteTemp(""), &error));
+  error = test_util::ErrorOf(config::LoadScenario(WriteTemp("")));
   EXPECT_THAT(error, ::testing::HasSubstr("empty scenario file")) << error;
-  EXPECT_FALSE(config::LoadScenario(test_util::MakeTempDir("odocal_dir_"), &error));
+  error = test_util::ErrorOf(config::LoadScenario(test_util::MakeTempDir("odocal_dir_")));
   EXPECT_THAT(error, ::testing::HasSubstr("is a directory")) << error;
 }
 
@@ -187,9 +185,8 @@ TEST(Session, ACircleRunRoundTrips) {
   run.end_s = 10.0;
   session.runs.push_back(run);
   ASSERT_FALSE(config::WriteSession(session, dir + "/session.yaml"));
-  std::string error;
-  const auto loaded = config::LoadSession(dir + "/session.yaml", &error);
-  ASSERT_TRUE(loaded) << error;
+  const auto loaded = config::LoadSession(dir + "/session.yaml");
+  ASSERT_TRUE(loaded) << loaded.message;
   ASSERT_EQ(loaded->runs.size(), 1u);
   const calibration::RunSpec& spec = loaded->runs[0].spec;
   EXPECT_EQ(spec.procedure, calibration::Procedure::kCircle);

@@ -123,8 +123,8 @@ TEST_F(CameraAccuracy, ReturnErrorsMatchRenderedTruth) {
 
 TEST_F(CameraAccuracy, MovingTagPosePerFrameWithinAMillimetre) {
   std::string error;
-  const auto session = config::LoadSession(*sim_ + "/session.yaml", &error);
-  ASSERT_TRUE(session) << error;
+  const auto session = config::LoadSession(*sim_ + "/session.yaml");
+  ASSERT_TRUE(session) << session.message;
   const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {}, &error);
   ASSERT_TRUE(measured) << error;
   // Truth per frame, in the world; the measurement's frame differs from it by

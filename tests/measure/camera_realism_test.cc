@@ -43,7 +43,7 @@ camera:
 
 TEST(CameraScenario, WithoutProfileKeysNothingChanges) {
   std::string error;
-  const auto s = config::LoadScenario(WriteTemp(ScenarioText("")), &error);
+  const auto s = config::LoadScenario(WriteTemp(ScenarioText("")));
   ASSERT_TRUE(s && s->camera) << error;
   EXPECT_FALSE(s->camera->render.formation.HasSensorChain());
   EXPECT_FALSE(s->camera->render.formation.psf.has_value());
@@ -60,9 +60,8 @@ TEST(CameraScenario, ProfileThenOverrides) {
   noise: {read_e: 4, full_well_e: 6000}
   codec: {mjpeg: 70}
   tag: {print_scale: 1.0042, black_level: 0.08, white_level: 0.9}
-)")),
-                              &error);
-  ASSERT_TRUE(s && s->camera) << error;
+)")));
+  ASSERT_TRUE(s && s->camera) << s.message;
   const vision::ImageFormationOptions& f = s->camera->render.formation;
   ASSERT_TRUE(f.psf);
   EXPECT_EQ(f.psf->model, vision::PsfOptions::Model::kDiskGaussian);
@@ -78,8 +77,8 @@ TEST(CameraScenario, ProfileThenOverrides) {
   EXPECT_NEAR(s->camera->tag_print_scale, 1.0042, 1e-12);
   EXPECT_NEAR(s->camera->render.tag_black, 0.08 * 255.0, 1e-9);
 
-  const auto h264 = config::LoadScenario(WriteTemp(ScenarioText("  profile: phone\n")), &error);
-  ASSERT_TRUE(h264) << error;
+  const auto h264 = config::LoadScenario(WriteTemp(ScenarioText("  profile: phone\n")));
+  ASSERT_TRUE(h264) << h264.message;
   EXPECT_EQ(h264->camera->crf, 28);
 }
 
@@ -94,7 +93,7 @@ TEST(CameraScenario, BadProfileKeysAreNamed) {
            {"  tag: {print_scale: 3}\n", "camera.tag.print_scale"},
            {"  gamma: 0\n", "gamma must be in"}}) {
     std::string error;
-    EXPECT_FALSE(config::LoadScenario(WriteTemp(ScenarioText(extra)), &error)) << extra;
+    error = test_util::ErrorOf(config::LoadScenario(WriteTemp(ScenarioText(extra))));
     EXPECT_THAT(error, ::testing::HasSubstr(expected)) << error;
   }
 }

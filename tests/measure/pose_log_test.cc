@@ -146,8 +146,8 @@ std::string WritePoseSession(const std::string& dir, const simulation::Simulatio
 
 std::vector<measure::RunMeasurement> MeasureFile(const std::string& path) {
   std::string error;
-  const auto session = config::LoadSession(path, &error);
-  EXPECT_TRUE(session) << error;
+  const auto session = config::LoadSession(path);
+  EXPECT_TRUE(session) << session.message;
   if (!session) return {};
   const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {}, &error);
   EXPECT_TRUE(measured) << error;

@@ -89,8 +89,8 @@ std::unique_ptr<VirtualStation> MakeStation(
   const std::string dir = test_util::MakeTempDir("odocal_station_");
   std::ofstream(dir + "/scenario.yaml") << scenario_text;
   std::string error;
-  auto scenario = config::LoadScenario(dir + "/scenario.yaml", &error);
-  EXPECT_TRUE(scenario) << error;
+  const auto scenario = config::LoadScenario(dir + "/scenario.yaml");
+  EXPECT_TRUE(scenario) << scenario.message;
   if (!scenario) return nullptr;
   vs->scenario = *scenario;
   vs->backend = std::make_unique<sim::SimMotionBackend>(vs->scenario.robot);

@@ -45,9 +45,8 @@ std::vector<config::Session> LoadSessionsOrFail(const std::string& command,
                                         const std::vector<std::string>& paths) {
   std::vector<config::Session> sessions;
   for (const std::string& path : paths) {
-    std::string error;
-    const std::optional<config::Session> s = config::LoadSession(path, &error);
-    if (!s) Fail(command, kExitBadInput, error);
+    const auto s = config::LoadSession(path);
+    if (!s) Fail(command, kExitBadInput, s.message);
     sessions.push_back(*s);
   }
   return sessions;

@@ -44,12 +44,12 @@ void RunCheck(const CheckArgs& args) {
                "' is already given (nominal is the session's own); name it with NAME=FILE");
     specs.push_back(*spec);
   }
-  std::optional<config::Session> session = config::LoadSession(args.session, &error);
-  if (!session) Fail("check", kExitBadInput, error);
+  const auto session = config::LoadSession(args.session);
+  if (!session) Fail("check", kExitBadInput, session.message);
   std::vector<config::ReplaySet> sets = {config::NominalReplaySet()};
   for (const config::ParamSpec& spec : specs) {
-    std::optional<config::ReplaySet> set = config::ReadReplaySet(spec, session->nominal, &error);
-    if (!set) Fail("check", kExitBadInput, error);
+    const auto set = config::ReadReplaySet(spec, session->nominal);
+    if (!set) Fail("check", kExitBadInput, set.message);
     sets.push_back(*set);
   }
   if (auto e = config::EnsureDirectory(args.out)) Fail("check", kExitFailure, *e);

@@ -57,8 +57,8 @@ void RunDemo(const DemoArgs& args) {
   const std::string name = "demo";
   if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
   std::string error;
-  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
-  if (!scenario) Fail(name, kExitBadInput, error);
+  const auto scenario = config::LoadScenario(args.scenario);
+  if (!scenario) Fail(name, kExitBadInput, scenario.message);
   const calibration::WheelParams& nominal = scenario->robot.nominal;
 
   const simulation::SimulationResult before = simulation::Simulate(*scenario);

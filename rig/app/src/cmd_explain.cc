@@ -42,8 +42,11 @@ std::optional<calibration::MeasuredSession> WithTelemetryOrFail(const std::strin
 std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::string& path,
                                                                     double k1_correction,
                                                                     std::string* error) {
-  std::optional<config::Session> session = config::LoadSession(path, error);
-  if (!session) return std::nullopt;
+  Result<config::Session> session = config::LoadSession(path);
+  if (!session) {
+    *error = session.message;
+    return std::nullopt;
+  }
   if (session->has_camera) session->intrinsics.distortion[0] += k1_correction;
   const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), error);
   if (!measured) return std::nullopt;

@@ -36,8 +36,8 @@ struct RobotSimArgs {
 void RunRobotSim(const RobotSimArgs& args) {
   const std::string name = "robot-sim";
   std::string error;
-  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
-  if (!scenario) Fail(name, kExitBadInput, error);
+  const auto scenario = config::LoadScenario(args.scenario);
+  if (!scenario) Fail(name, kExitBadInput, scenario.message);
   if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
     Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
   sim::SimMotionBackend backend(scenario->robot);

@@ -22,9 +22,8 @@ struct SimulateArgs {
 };
 
 void RunSimulate(const SimulateArgs& args) {
-  std::string error;
-  const std::optional<config::Scenario> scenario = config::LoadScenario(args.scenario, &error);
-  if (!scenario) Fail("simulate", kExitBadInput, error);
+  const auto scenario = config::LoadScenario(args.scenario);
+  if (!scenario) Fail("simulate", kExitBadInput, scenario.message);
   const simulation::SimulationResult result = simulation::Simulate(*scenario);
   if (auto dir_error = config::EnsureDirectory(args.out)) Fail("simulate", kExitFailure, *dir_error);
   std::vector<simulation::RecordedRun> recorded;

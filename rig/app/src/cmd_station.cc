@@ -122,8 +122,8 @@ void RunStation(const StationArgs& args) {
   std::string error;
 
   if (!args.scenario.empty()) {
-    const std::optional<config::Scenario> s = config::LoadScenario(args.scenario, &error);
-    if (!s) Fail(name, kExitBadInput, error);
+    const auto s = config::LoadScenario(args.scenario);
+    if (!s) Fail(name, kExitBadInput, s.message);
     if (!s->camera || !s->tag)
       Fail(name, kExitBadInput, args.scenario + ": the station needs the scenario's camera: and tag:");
     if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
@@ -169,13 +169,13 @@ void RunStation(const StationArgs& args) {
     return;
   }
 
-  const std::optional<config::StationConfig> c = config::LoadStationConfig(args.config, &error);
-  if (!c) Fail(name, kExitBadInput, error);
+  const auto c = config::LoadStationConfig(args.config);
+  if (!c) Fail(name, kExitBadInput, c.message);
   if (!args.max_rounds_given) options.max_rounds = c->max_rounds;
   options.rest_flush_frames = c->flush_frames;
   options.settle_s = c->settle_s;
-  const std::optional<config::CameraFile> camera_file = config::ReadCameraFile(c->camera_file, &error);
-  if (!camera_file) Fail(name, kExitBadInput, error);
+  const auto camera_file = config::ReadCameraFile(c->camera_file);
+  if (!camera_file) Fail(name, kExitBadInput, camera_file.message);
   robot_link::SerialOptions serial;
   serial.baud = c->baud;
   auto port = robot_link::SerialTransport::Open(c->port, serial);

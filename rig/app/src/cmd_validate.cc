@@ -84,10 +84,10 @@ void RegisterValidateCommand(CLI::App& app) {
     calibration::BlandAltmanOptions ba_options;
     ba_options.confidence = args->confidence;
     if (!ba_options.IsValid(&error)) Fail(name, kExitBadInput, "--confidence: " + error);
-    const auto readings = config::ReadManualCsv(args->manual, &error);
-    if (!readings) Fail(name, kExitBadInput, error);
-    const std::optional<config::Session> session = config::LoadSession(args->session, &error);
-    if (!session) Fail(name, kExitBadInput, error);
+    const auto readings = config::ReadManualCsv(args->manual);
+    if (!readings) Fail(name, kExitBadInput, readings.message);
+    const auto session = config::LoadSession(args->session);
+    if (!session) Fail(name, kExitBadInput, session.message);
     std::map<std::string, int> run_index;
     std::string run_names;
     for (size_t i = 0; i < session->runs.size(); ++i) {

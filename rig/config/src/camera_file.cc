@@ -1,5 +1,6 @@
 #include "odocal/config/camera_file.h"
 
+#include <filesystem>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -250,7 +251,10 @@ std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::st
   }
 }
 
-std::optional<CameraFile> ReadCameraFile(const std::string& path, std::string* error) {
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<CameraFile> ReadCameraFileOrError(const std::string& path, std::string* error) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     if (error) *error = path + ": cannot open file";
@@ -260,6 +264,8 @@ std::optional<CameraFile> ReadCameraFile(const std::string& path, std::string* e
   buffer << in.rdbuf();
   return ParseCameraFile(buffer.str(), path, error);
 }
+
+}  // namespace
 
 std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
   const vision::Intrinsics& in = file.intrinsics;
@@ -306,6 +312,16 @@ std::optional<std::string> WriteCameraFile(const std::string& path, const Camera
   std::string why;
   if (!file.intrinsics.IsValid(&why)) return path + ": not written: " + why;
   return WriteFileAtomically(path, FormatCameraFile(file, format));
+}
+
+Result<CameraFile> ReadCameraFile(const std::string& path) {
+  std::string error;
+  std::optional<CameraFile> parsed = ReadCameraFileOrError(path, &error);
+  if (!parsed) {
+    return Result<CameraFile>::Error(
+        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<CameraFile>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

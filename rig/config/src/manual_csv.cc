@@ -1,5 +1,6 @@
 #include "odocal/config/manual_csv.h"
 
+#include <filesystem>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -47,7 +48,10 @@ std::string WrongUnitHint(const std::string& column) {
 
 }  // namespace
 
-std::optional<std::vector<ManualReading>> ReadManualCsv(const std::string& path,
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<std::vector<ManualReading>> ReadManualCsvOrError(const std::string& path,
                                                         std::string* error) {
   std::ifstream in(path);
   if (!in) {
@@ -119,6 +123,18 @@ std::optional<std::vector<ManualReading>> ReadManualCsv(const std::string& path,
     return std::nullopt;
   }
   return readings;
+}
+
+}  // namespace
+
+Result<std::vector<ManualReading>> ReadManualCsv(const std::string& path) {
+  std::string error;
+  std::optional<std::vector<ManualReading>> parsed = ReadManualCsvOrError(path, &error);
+  if (!parsed) {
+    return Result<std::vector<ManualReading>>::Error(
+        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<std::vector<ManualReading>>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

@@ -191,7 +191,10 @@ ReplaySet NominalReplaySet() {
   return set;
 }
 
-std::optional<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration::WheelParams& believed,
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<ReplaySet> ReadReplaySetOrError(const ParamSpec& spec, const calibration::WheelParams& believed,
                                      std::string* error) {
   const std::string& path = spec.path;
   auto fail = [&](const std::string& m) -> std::optional<ReplaySet> {
@@ -259,6 +262,18 @@ std::optional<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration:
   set->name = spec.name;
   set->path = path;
   return set;
+}
+
+}  // namespace
+
+Result<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration::WheelParams& believed) {
+  std::string error;
+  std::optional<ReplaySet> parsed = ReadReplaySetOrError(spec, believed, &error);
+  if (!parsed) {
+    return Result<ReplaySet>::Error(
+        std::filesystem::exists(spec.path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<ReplaySet>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

@@ -273,7 +273,10 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
 
 }  // namespace
 
-std::optional<Scenario> LoadScenario(const std::string& path, std::string* error) {
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<Scenario> LoadScenarioOrError(const std::string& path, std::string* error) {
   auto fail = [&](const std::string& message) -> std::optional<Scenario> {
     if (error) *error = message;
     return std::nullopt;
@@ -325,6 +328,8 @@ std::optional<Scenario> LoadScenario(const std::string& path, std::string* error
   }
 }
 
+}  // namespace
+
 std::string RunName(int index, const calibration::RunSpec& spec) {
   char name[64];
   const bool has_direction = spec.procedure != calibration::Procedure::kStraight &&
@@ -333,6 +338,16 @@ std::string RunName(int index, const calibration::RunSpec& spec) {
                 std::string(calibration::ToString(spec.procedure)).c_str(), has_direction ? "_" : "",
                 has_direction ? std::string(calibration::ToString(spec.direction)).c_str() : "");
   return name;
+}
+
+Result<Scenario> LoadScenario(const std::string& path) {
+  std::string error;
+  std::optional<Scenario> parsed = LoadScenarioOrError(path, &error);
+  if (!parsed) {
+    return Result<Scenario>::Error(
+        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<Scenario>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

@@ -132,7 +132,10 @@ std::optional<std::string> WriteSession(const Session& session, const std::strin
   return WriteFileAtomically(path, std::string(out.c_str()) + "\n");
 }
 
-std::optional<Session> LoadSession(const std::string& path, std::string* error) {
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<Session> LoadSessionOrError(const std::string& path, std::string* error) {
   auto fail = [&](const std::string& message) -> std::optional<Session> {
     if (error) *error = message;
     return std::nullopt;
@@ -162,9 +165,8 @@ std::optional<Session> LoadSession(const std::string& path, std::string* error) 
     if (s.has_camera) {
       if (!root["camera_file"]) Fail(root, "camera_file", why_camera);
       s.camera_file = Resolve(dir, String(root["camera_file"], "camera_file"));
-      std::string camera_error;
-      const auto camera = ReadCameraFile(s.camera_file, &camera_error);
-      if (!camera) Fail(root["camera_file"], "camera_file", camera_error);
+      const auto camera = ReadCameraFile(s.camera_file);
+      if (!camera) Fail(root["camera_file"], "camera_file", camera.message);
       s.intrinsics = camera->intrinsics;
       if (!root["camera_mount_guess"]) Fail(root, "camera_mount_guess", why_camera);
       const YAML::Node m = root["camera_mount_guess"];
@@ -234,6 +236,18 @@ std::optional<Session> LoadSession(const std::string& path, std::string* error) 
   } catch (const YAML::Exception& e) {
     return fail(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
+}
+
+}  // namespace
+
+Result<Session> LoadSession(const std::string& path) {
+  std::string error;
+  std::optional<Session> parsed = LoadSessionOrError(path, &error);
+  if (!parsed) {
+    return Result<Session>::Error(
+        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<Session>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

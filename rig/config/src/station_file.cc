@@ -10,7 +10,10 @@ namespace odocal::config {
 
 namespace fs = std::filesystem;
 
-std::optional<StationConfig> LoadStationConfig(const std::string& path, std::string* error) {
+namespace {
+
+// The parser; the public function wraps its error line in a Result.
+std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, std::string* error) {
   using namespace yaml_util;
   if (!fs::exists(path)) {
     *error = path + ": no such file";
@@ -70,6 +73,18 @@ std::optional<StationConfig> LoadStationConfig(const std::string& path, std::str
     *error = path + ":" + e.what();
     return std::nullopt;
   }
+}
+
+}  // namespace
+
+Result<StationConfig> LoadStationConfig(const std::string& path) {
+  std::string error;
+  std::optional<StationConfig> parsed = LoadStationConfigOrError(path, &error);
+  if (!parsed) {
+    return Result<StationConfig>::Error(
+        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
+  }
+  return Result<StationConfig>::Ok(std::move(*parsed));
 }
 
 }  // namespace odocal::config

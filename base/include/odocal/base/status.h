@@ -5,7 +5,7 @@
 //
 //   Result<Session> session = config::LoadSession(path);
 //   if (!session) return Result<Report>::From(session);   // passes the error on
-//   Use(*session.value);
+//   Use(*session);                                        // or session->runs
 //
 // A Status is a Result without a value.
 #ifndef ODOCAL_BASE_STATUS_H_
@@ -56,6 +56,11 @@ struct Result {
 
   bool ok() const { return status == StatusCode::kOk; }
   explicit operator bool() const { return ok(); }
+  // The value, as with std::optional; only on an ok result.
+  T& operator*() { return *value; }
+  const T& operator*() const { return *value; }
+  T* operator->() { return &*value; }
+  const T* operator->() const { return &*value; }
   static Result Ok(T v) { return Result{StatusCode::kOk, "", std::move(v)}; }
   static Result Ok()
     requires std::is_same_v<T, Empty>

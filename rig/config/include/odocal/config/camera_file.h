@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::config {
@@ -54,11 +55,11 @@ struct CameraFile {
 };
 
 // Parses the text of a camera file; `name` is the path used in messages.
-// nullopt with `*error` set to one line otherwise.
+// An error (kNotFound, or kBadFile with one line naming the file and key) otherwise.
 std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::string& name,
                                           std::string* error);
 // Reads and parses `path`.
-std::optional<CameraFile> ReadCameraFile(const std::string& path, std::string* error);
+Result<CameraFile> ReadCameraFile(const std::string& path);
 
 // The file's text in `format` (OpenCV: written by cv::FileStorage itself;
 // numbers with 17 significant digits, so a round trip is exact).

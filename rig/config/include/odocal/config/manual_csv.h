@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
+
 namespace odocal::config {
 
 struct ManualReading {
@@ -35,9 +37,8 @@ struct ManualReading {
   std::optional<double> theta_deg;
 };
 
-// nullopt with `error` = "FILE:LINE: what" (or "FILE: what").
-std::optional<std::vector<ManualReading>> ReadManualCsv(const std::string& path,
-                                                        std::string* error);
+// An error whose message is "FILE:LINE: what" (or "FILE: what") otherwise.
+Result<std::vector<ManualReading>> ReadManualCsv(const std::string& path);
 
 }  // namespace odocal::config
 

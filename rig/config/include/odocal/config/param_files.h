@@ -30,6 +30,7 @@
 #include <string_view>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/replay.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/calibration/trajectory_fit.h"
@@ -65,11 +66,10 @@ std::optional<ParamSpec> ParseParamSpec(const std::string& text, std::string* er
 ReplaySet NominalReplaySet();
 
 // Reads `spec.path`, detects its kind and returns the set relative to
-// `believed`. nullopt + one error line naming the file (and the key, the
+// `believed`. An error with one line naming the file (and the key, the
 // line where YAML knows it) otherwise: unreadable, of no known kind, a key
 // missing or not a positive number.
-std::optional<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration::WheelParams& believed,
-                                     std::string* error);
+Result<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration::WheelParams& believed);
 
 }  // namespace odocal::config
 

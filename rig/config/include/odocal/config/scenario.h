@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/sim/virtual_robot.h"
 #include "odocal/vision/camera_model.h"
@@ -49,8 +50,9 @@ struct Scenario {
   std::optional<CameraScenario> camera;
 };
 
-// nullopt with `error` set (one line) when the file is missing or malformed.
-std::optional<Scenario> LoadScenario(const std::string& path, std::string* error);
+// kNotFound or kBadFile, with one line naming the file (and key), when the file
+// is missing or malformed.
+Result<Scenario> LoadScenario(const std::string& path);
 
 // A stable name for the i-th run (0-based): "run01_umbmark_cw".
 std::string RunName(int index, const calibration::RunSpec& spec);

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/vision/camera_model.h"
@@ -67,7 +68,9 @@ struct Session {
   std::vector<SessionRun> runs;
 };
 
-std::optional<Session> LoadSession(const std::string& path, std::string* error);
+// Reads a session file; kNotFound or kBadFile with one line naming the file and
+// the key otherwise.
+Result<Session> LoadSession(const std::string& path);
 // Writes `session` to `path` with paths relative to its directory, and (with
 // a camera) the intrinsics to session.camera_file (OpenCV FileStorage YAML;
 // camera_io.h). `comment` lines (without '#') head the file.

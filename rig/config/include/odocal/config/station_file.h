@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/tag.h"
 
@@ -27,8 +28,8 @@ struct StationConfig {
   int max_rounds = 3;
 };
 
-// nullopt + one error line naming the file and the key otherwise.
-std::optional<StationConfig> LoadStationConfig(const std::string& path, std::string* error);
+// kNotFound or kBadFile with one line naming the file and the key otherwise.
+Result<StationConfig> LoadStationConfig(const std::string& path);
 
 }  // namespace odocal::config
 

@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/calibration/umbmark.h"
@@ -74,6 +75,13 @@ MATCHER_P2(IsNearWheelParams, expected, tol_mm,
   *result_listener << "off by " << dl_mm << " mm (left D), " << dr_mm << " mm (right D), "
                    << db_mm << " mm (track)";
   return std::abs(dl_mm) <= tol_mm && std::abs(dr_mm) <= tol_mm && std::abs(db_mm) <= tol_mm;
+}
+
+// The message of a result that must be an error (the test fails if it is not).
+template <typename T>
+std::string ErrorOf(const Result<T>& result) {
+  EXPECT_FALSE(result.ok()) << "expected an error";
+  return result.message;
 }
 
 // The odocal binary under test ($ODOCAL_BINARY, set by odocal_test()).

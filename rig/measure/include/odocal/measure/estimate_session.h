@@ -38,7 +38,10 @@ struct SessionEstimate {
   // CVRA from the camera: the wheel ratio Ed from out-and-backs, the distance
   // scale from straights, the track factor from spins.
   std::optional<PooledCvra> ratio, scale, track;
-  // Runs left out and why, estimators that could not run.
+  // How runs were pooled: runs left out for the estimator's own reasons
+  // (a square of another side, unequal cw/ccw counts, a wall reference) and
+  // estimators that could not run. A run without a usable return error (a
+  // fatal flag) is left out without a note: its flags in report.json say why.
   std::vector<std::string> notes;
 
   bool any() const { return umbmark || ratio || scale || track; }

@@ -27,20 +27,6 @@
 namespace odocal::app {
 namespace {
 
-nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
-  if (!sm.session.has_camera) return nullptr;  // pose logs only: no camera to place
-  if (!sm.plane_estimated) return {{"estimated", false}, {"message", sm.plane.message}};
-  const vision::CameraPlaneResult& p = sm.plane;
-  return {{"estimated", true},
-          {"roll_deg", p.mount.roll_deg},
-          {"pitch_deg", p.mount.pitch_deg},
-          {"height_mm", p.mount.height_mm},
-          {"sigma", {{"roll_deg", p.sigma_roll_deg}, {"pitch_deg", p.sigma_pitch_deg},
-                     {"height_mm", p.sigma_height_mm}}},
-          {"views", p.views_used},
-          {"rms_reprojection_px", p.rms_reprojection_px}};
-}
-
 std::vector<config::Session> LoadSessionsOrFail(const std::string& command,
                                         const std::vector<std::string>& paths) {
   std::vector<config::Session> sessions;
@@ -115,7 +101,7 @@ void RegisterBatchCommand(CLI::App& app) {
                              {"trajectories", nlohmann::json::array()}};
     for (const measure::SessionMeasurement& sm : *measured) {
       report["sessions"].push_back(
-          {{"session", sm.session.path}, {"camera_plane", PlaneJson(sm)}, {"flags", sm.flags}});
+          {{"session", sm.session.path}, {"camera_plane", report::PlaneJson(sm)}, {"flags", sm.flags}});
       for (const measure::RunMeasurement& rm : sm.runs) {
         nlohmann::json j = report::RunJson(rm);
         j["session"] = sm.session.path;
@@ -194,7 +180,7 @@ void RegisterMeasureCommand(CLI::App& app) {
     // A malformed pose log (or its telemetry) is the one way measuring fails.
     if (!measured) Fail(name, kExitBadInput, error);
     if (args->json) {
-      nlohmann::json j = {{"video", args->video}, {"camera_plane", PlaneJson(measured->front())},
+      nlohmann::json j = {{"video", args->video}, {"camera_plane", report::PlaneJson(measured->front())},
                           {"runs", nlohmann::json::array()}};
       for (const measure::RunMeasurement& rm : measured->front().runs) j["runs"].push_back(report::RunJson(rm));
       std::cout << j.dump(2) << std::endl;

@@ -97,4 +97,18 @@ nlohmann::json TrajectoryJson(const measure::RunMeasurement& rm, int max_points)
           {"points_mm", points}};
 }
 
+nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
+  if (!sm.session.has_camera) return nullptr;  // pose logs only: no camera to place
+  if (!sm.plane_estimated) return {{"estimated", false}, {"message", sm.plane.message}};
+  const vision::CameraPlaneResult& p = sm.plane;
+  return {{"estimated", true},
+          {"roll_deg", p.mount.roll_deg},
+          {"pitch_deg", p.mount.pitch_deg},
+          {"height_mm", p.mount.height_mm},
+          {"sigma", {{"roll_deg", p.sigma_roll_deg}, {"pitch_deg", p.sigma_pitch_deg},
+                     {"height_mm", p.sigma_height_mm}}},
+          {"views", p.views_used},
+          {"rms_reprojection_px", p.rms_reprojection_px}};
+}
+
 }  // namespace odocal::report

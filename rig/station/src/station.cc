@@ -241,7 +241,8 @@ std::optional<Station::Failure> Station::MeasureRound(
     const calibration::RelativePose r = calibration::Between(*start, *end, options_.systematic_floor);
     run.return_error = r;
     std::string why;
-    if (!input.AddRun(run.spec, r.pose, &why)) return Failure{StationStatus::kEstimateFailed, "UMBMark input: " + why};
+    if (!input.AddRun(run.spec, r.pose, &why))
+      return Failure{StationStatus::kEstimateFailed, "UMBMark input: " + why};
   }
   std::string why;
   if (!input.IsValid(&why)) return Failure{StationStatus::kEstimateFailed, "UMBMark input: " + why};

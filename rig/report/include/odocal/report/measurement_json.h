@@ -23,6 +23,11 @@ nlohmann::json RestQualityJson(const measure::RestQuality& quality);
 // measurement frame, thinned to at most `max_points`.
 nlohmann::json TrajectoryJson(const measure::RunMeasurement& run, int max_points = 300);
 
+// The camera plane of a session: {estimated, roll_deg, pitch_deg, height_mm,
+// sigma {...}, views, rms_reprojection_px}; {estimated: false, message} when
+// the operator's guess was used; null for a session of pose logs.
+nlohmann::json PlaneJson(const measure::SessionMeasurement& session);
+
 }  // namespace odocal::report
 
 #endif  // ODOCAL_REPORT_MEASUREMENT_JSON_H_

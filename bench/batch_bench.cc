@@ -105,9 +105,9 @@ int main(int argc, char** argv) {
 
   // Accuracy: the whole session, as batch measures it.
   const auto t1 = Clock::now();
-  const auto measured = odocal::measure::MeasureSessions({*session}, {}, {}, &error);
+  const auto measured = odocal::measure::MeasureSessions({*session}, {}, {});
   if (!measured) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+    std::fprintf(stderr, "%s\n", measured.message.c_str());
     return 1;
   }
   const double session_s = Since(t1);

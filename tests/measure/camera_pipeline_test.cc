@@ -125,8 +125,8 @@ TEST_F(CameraAccuracy, MovingTagPosePerFrameWithinAMillimetre) {
   std::string error;
   const auto session = config::LoadSession(*sim_ + "/session.yaml");
   ASSERT_TRUE(session) << session.message;
-  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {}, &error);
-  ASSERT_TRUE(measured) << error;
+  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {});
+  ASSERT_TRUE(measured) << measured.message;
   // Truth per frame, in the world; the measurement's frame differs from it by
   // the gauge the camera cannot see (its x, y, yaw guess): align by a rigid fit.
   std::vector<Eigen::Vector2d> measured_xy, true_xy;

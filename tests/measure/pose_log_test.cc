@@ -149,8 +149,8 @@ std::vector<measure::RunMeasurement> MeasureFile(const std::string& path) {
   const auto session = config::LoadSession(path);
   EXPECT_TRUE(session) << session.message;
   if (!session) return {};
-  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {}, &error);
-  EXPECT_TRUE(measured) << error;
+  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, {});
+  EXPECT_TRUE(measured) << measured.message;
   if (!measured) return {};
   return measured->front().runs;
 }

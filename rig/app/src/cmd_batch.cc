@@ -89,10 +89,9 @@ void RegisterBatchCommand(CLI::App& app) {
     const std::vector<config::Session> sessions = LoadSessionsOrFail(name, args->sessions);
     measure::MeasureOptions options;
     options.threads = args->threads;
-    std::string error;
-    const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"), &error);
+    const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
     // A malformed pose log (or its telemetry) is the one way measuring fails.
-    if (!measured) Fail(name, kExitBadInput, error);
+    if (!measured) Fail(name, kExitBadInput, measured.message);
     if (auto e = config::EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
 
     nlohmann::json report = {{"command", "batch"},
@@ -175,10 +174,10 @@ void RegisterMeasureCommand(CLI::App& app) {
       Fail(name, kExitBadInput, args->video + " is not a run of " + args->session +
                                     " (list it under runs: with its procedure and time span)");
     session.runs = runs;
-    std::string error;
-    const auto measured = measure::MeasureSessions({session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), &error);
+    const auto measured =
+        measure::MeasureSessions({session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"));
     // A malformed pose log (or its telemetry) is the one way measuring fails.
-    if (!measured) Fail(name, kExitBadInput, error);
+    if (!measured) Fail(name, kExitBadInput, measured.message);
     if (args->json) {
       nlohmann::json j = {{"video", args->video}, {"camera_plane", report::PlaneJson(measured->front())},
                           {"runs", nlohmann::json::array()}};

@@ -55,8 +55,8 @@ void RunCheck(const CheckArgs& args) {
   if (auto e = config::EnsureDirectory(args.out)) Fail("check", kExitFailure, *e);
 
   const auto measured =
-      measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), &error);
-  if (!measured) Fail("check", kExitFailure, error);
+      measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"));
+  if (!measured) Fail("check", kExitFailure, measured.message);
   const measure::SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession ms = sm.ToMeasuredSession();
   ms.camera = measure::FloorCameraOf(sm);

@@ -48,8 +48,11 @@ std::optional<calibration::MeasuredSession> MeasureSessionForExplain(const std::
     return std::nullopt;
   }
   if (session->has_camera) session->intrinsics.distortion[0] += k1_correction;
-  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"), error);
-  if (!measured) return std::nullopt;
+  const auto measured = measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"));
+  if (!measured) {
+    *error = measured.message;
+    return std::nullopt;
+  }
   const measure::SessionMeasurement& sm = measured->front();
   calibration::MeasuredSession out = sm.ToMeasuredSession();
   // A session of pose logs has no camera: no lens candidate to weigh.

@@ -103,9 +103,9 @@ void RegisterValidateCommand(CLI::App& app) {
     measure::MeasureOptions options;
     options.threads = args->threads;
     const auto measured =
-        measure::MeasureSessions({*session}, options, TerminalProgressBar("measuring"), &error);
+        measure::MeasureSessions({*session}, options, TerminalProgressBar("measuring"));
     // A malformed pose log (or its telemetry) is the one way measuring fails.
-    if (!measured) Fail(name, kExitBadInput, error);
+    if (!measured) Fail(name, kExitBadInput, measured.message);
     const measure::SessionMeasurement& sm = measured->front();
 
     std::vector<measure::TapePair> pairs;

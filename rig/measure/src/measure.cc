@@ -294,14 +294,12 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   return s;
 }
 
-std::optional<std::vector<SessionMeasurement>> MeasureSessions(
-    const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
-    std::string* error) {
+Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config::Session>& sessions,
+                                                        const MeasureOptions& options,
+                                                        const ProgressFn& progress) {
+  using Measured = Result<std::vector<SessionMeasurement>>;
   std::string why;
-  if (!options.IsValid(&why)) {
-    if (error) *error = "measure options: " + why;
-    return std::nullopt;
-  }
+  if (!options.IsValid(&why)) return Measured::Error(StatusCode::kInvalidArgument, "measure options: " + why);
   std::vector<SessionMeasurement> out(sessions.size());
   // Phase 1: every run of every session, in parallel.
   struct Job {
@@ -327,8 +325,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
     RunMeasurement& rm = out[jobs[j].session].runs[jobs[j].run];
     std::vector<double> stamps;
     if (!rm.run.timestamps.empty()) {
-      std::string stamp_error;
-      const auto read = media::ReadTimestamps(rm.run.timestamps, &stamp_error);
+      const auto read = media::ReadTimestamps(rm.run.timestamps);
       if (read) {
         stamps = *read;
       } else {
@@ -354,9 +351,10 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
         continue;
       }
       rm.pose_log.emplace();
+      std::string error;
       if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log,
-                             &rm.measured, &*rm.pose_log, error))
-        return std::nullopt;
+                             &rm.measured, &*rm.pose_log, &error))
+        return Measured::Error(StatusCode::kBadFile, error);
       pose_runs.push_back(&rm.measured);
     }
     if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
@@ -419,7 +417,7 @@ std::optional<std::vector<SessionMeasurement>> MeasureSessions(
       MeasureRestsAndReturnError(options, camera, sm.session.tag, &rm);
     }
   }
-  return out;
+  return Measured::Ok(std::move(out));
 }
 
 }  // namespace odocal::measure

@@ -225,12 +225,10 @@ int VideoReader::frame_count() const {
   return static_cast<int>(impl_->capture.get(cv::CAP_PROP_FRAME_COUNT));
 }
 
-std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error) {
+Result<std::vector<double>> ReadTimestamps(const std::string& path) {
+  using Stamps = Result<std::vector<double>>;
   std::ifstream in(path);
-  if (!in) {
-    if (error) *error = path + ": cannot read";
-    return std::nullopt;
-  }
+  if (!in) return Stamps::Error(StatusCode::kNotFound, path + ": cannot read");
   std::vector<double> stamps;
   std::string line;
   int line_number = 0;
@@ -240,17 +238,17 @@ std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::
     std::istringstream fields(line);
     std::string index, t;
     if (!std::getline(fields, index, ',') || !std::getline(fields, t)) {
-      if (error) *error = path + ":" + std::to_string(line_number) + ": expected frame,t_s";
-      return std::nullopt;
+      return Stamps::Error(StatusCode::kBadFile,
+                           path + ":" + std::to_string(line_number) + ": expected frame,t_s");
     }
     try {
       stamps.push_back(std::stod(t));
     } catch (const std::exception&) {
-      if (error) *error = path + ":" + std::to_string(line_number) + ": t_s is not a number";
-      return std::nullopt;
+      return Stamps::Error(StatusCode::kBadFile,
+                           path + ":" + std::to_string(line_number) + ": t_s is not a number");
     }
   }
-  return stamps;
+  return Stamps::Ok(std::move(stamps));
 }
 
 std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,

@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/config/session.h"
@@ -137,12 +138,12 @@ std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& 
 using ProgressFn = std::function<void(long, long)>;
 
 // Measures every session's runs (videos in parallel across cores; pose logs
-// by pose_log.h). Fails (nullopt + error) for options and for a malformed
-// pose log or its telemetry (the error names the file); bad videos become
-// flags.
-std::optional<std::vector<SessionMeasurement>> MeasureSessions(
-    const std::vector<config::Session>& sessions, const MeasureOptions& options, const ProgressFn& progress,
-    std::string* error);
+// by pose_log.h). Fails for bad options (kInvalidArgument) and for a
+// malformed pose log or its telemetry (kBadFile, the message names the file);
+// bad videos become flags.
+Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config::Session>& sessions,
+                                                        const MeasureOptions& options,
+                                                        const ProgressFn& progress);
 
 // Pieces of the measurement shared with the live station (station.h):
 // Views for the plane estimate from candidate corners in time order: each new

@@ -74,8 +74,9 @@ class VideoReader {
   std::unique_ptr<Impl> impl_;
 };
 
-// Reads "frame,t_s" files as Mp4Writer::WriteTimestamps writes them.
-std::optional<std::vector<double>> ReadTimestamps(const std::string& path, std::string* error);
+// Reads "frame,t_s" files as Mp4Writer::WriteTimestamps writes them;
+// kNotFound or kBadFile (naming the file and line) otherwise.
+Result<std::vector<double>> ReadTimestamps(const std::string& path);
 
 // Codec round trip of a clip (the camera simulator's last stage): MJPEG frame
 // by frame in memory, H.264 through a temporary .mp4 (ffmpeg program). nullopt

@@ -1,6 +1,5 @@
 #include "odocal/config/camera_file.h"
 
-#include <filesystem>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -12,6 +11,7 @@
 #include <opencv2/core.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "file_result.h"
 #include "odocal/config/files.h"
 
 namespace odocal::config {
@@ -315,13 +315,7 @@ std::optional<std::string> WriteCameraFile(const std::string& path, const Camera
 }
 
 Result<CameraFile> ReadCameraFile(const std::string& path) {
-  std::string error;
-  std::optional<CameraFile> parsed = ReadCameraFileOrError(path, &error);
-  if (!parsed) {
-    return Result<CameraFile>::Error(
-        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<CameraFile>::Ok(std::move(*parsed));
+  return ReadFileAs<CameraFile>(path, [&](std::string* error) { return ReadCameraFileOrError(path, error); });
 }
 
 }  // namespace odocal::config

@@ -1,10 +1,11 @@
 #include "odocal/config/manual_csv.h"
 
-#include <filesystem>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
+
+#include "file_result.h"
 
 namespace odocal::config {
 namespace {
@@ -128,13 +129,7 @@ std::optional<std::vector<ManualReading>> ReadManualCsvOrError(const std::string
 }  // namespace
 
 Result<std::vector<ManualReading>> ReadManualCsv(const std::string& path) {
-  std::string error;
-  std::optional<std::vector<ManualReading>> parsed = ReadManualCsvOrError(path, &error);
-  if (!parsed) {
-    return Result<std::vector<ManualReading>>::Error(
-        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<std::vector<ManualReading>>::Ok(std::move(*parsed));
+  return ReadFileAs<std::vector<ManualReading>>(path, [&](std::string* error) { return ReadManualCsvOrError(path, error); });
 }
 
 }  // namespace odocal::config

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "file_result.h"
 #include "yaml_util.h"
 
 namespace odocal::config {
@@ -267,13 +268,7 @@ std::optional<ReplaySet> ReadReplaySetOrError(const ParamSpec& spec, const calib
 }  // namespace
 
 Result<ReplaySet> ReadReplaySet(const ParamSpec& spec, const calibration::WheelParams& believed) {
-  std::string error;
-  std::optional<ReplaySet> parsed = ReadReplaySetOrError(spec, believed, &error);
-  if (!parsed) {
-    return Result<ReplaySet>::Error(
-        std::filesystem::exists(spec.path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<ReplaySet>::Ok(std::move(*parsed));
+  return ReadFileAs<ReplaySet>(spec.path, [&](std::string* error) { return ReadReplaySetOrError(spec, believed, error); });
 }
 
 }  // namespace odocal::config

@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "file_result.h"
 #include "odocal/config/scenario.h"
 #include "yaml_util.h"
 
@@ -341,13 +342,7 @@ std::string RunName(int index, const calibration::RunSpec& spec) {
 }
 
 Result<Scenario> LoadScenario(const std::string& path) {
-  std::string error;
-  std::optional<Scenario> parsed = LoadScenarioOrError(path, &error);
-  if (!parsed) {
-    return Result<Scenario>::Error(
-        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<Scenario>::Ok(std::move(*parsed));
+  return ReadFileAs<Scenario>(path, [&](std::string* error) { return LoadScenarioOrError(path, error); });
 }
 
 }  // namespace odocal::config

@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "file_result.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
 #include "odocal/config/scenario.h"
@@ -241,13 +242,7 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
 }  // namespace
 
 Result<Session> LoadSession(const std::string& path) {
-  std::string error;
-  std::optional<Session> parsed = LoadSessionOrError(path, &error);
-  if (!parsed) {
-    return Result<Session>::Error(
-        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<Session>::Ok(std::move(*parsed));
+  return ReadFileAs<Session>(path, [&](std::string* error) { return LoadSessionOrError(path, error); });
 }
 
 }  // namespace odocal::config

@@ -4,6 +4,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "file_result.h"
 #include "yaml_util.h"
 
 namespace odocal::config {
@@ -78,13 +79,7 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
 }  // namespace
 
 Result<StationConfig> LoadStationConfig(const std::string& path) {
-  std::string error;
-  std::optional<StationConfig> parsed = LoadStationConfigOrError(path, &error);
-  if (!parsed) {
-    return Result<StationConfig>::Error(
-        std::filesystem::exists(path) ? StatusCode::kBadFile : StatusCode::kNotFound, error);
-  }
-  return Result<StationConfig>::Ok(std::move(*parsed));
+  return ReadFileAs<StationConfig>(path, [&](std::string* error) { return LoadStationConfigOrError(path, error); });
 }
 
 }  // namespace odocal::config

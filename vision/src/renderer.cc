@@ -69,6 +69,80 @@ constexpr int kBody = 1;
 constexpr int kPlate = 2;
 constexpr int kFirstCell = 16;
 
+// Paints one floor tag into the sharp floor (CV_32F, pixel-centre samples of
+// the texture): every pixel whose footprint on the floor reaches the tag's
+// paper is integrated over its footprint with stratified samples, as the
+// robot's tag is. False with `why` for an unknown family.
+bool PaintFloorTag(const CameraModel& camera, const cv::Mat& corner_rays,
+                   const FloorTagPlacement& placement, const RenderOptions& options, cv::Mat* floor,
+                   std::string* why) {
+  auto family = internal::CreateFamily(placement.family);
+  if (!family) {
+    if (why) *why = "floor tag: unknown family '" + placement.family + "'";
+    return false;
+  }
+  internal::ImageU8Ptr im(apriltag_to_image(family.get(), placement.id));
+  const int n = im->width;
+  const double cell_m = placement.size_mm * 1e-3 / family->width_at_border;
+  const double half_grid_m = 0.5 * n * cell_m;
+  const double paper_half_m = half_grid_m + placement.paper_margin_mm * 1e-3;
+  // Image box of the paper.
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (int sx = -1; sx <= 1; sx += 2) {
+    for (int sy = -1; sy <= 1; sy += 2) {
+      const Eigen::Vector2d p = placement.T_world_tag * Eigen::Vector2d(sx * paper_half_m, sy * paper_half_m);
+      const auto px = camera.ProjectWorld(Eigen::Vector3d(p.x(), p.y(), 0.0));
+      if (!px) return true;  // behind the camera: not seen
+      x0 = std::min(x0, px->x());
+      y0 = std::min(y0, px->y());
+      x1 = std::max(x1, px->x());
+      y1 = std::max(y1, px->y());
+    }
+  }
+  const cv::Rect roi = cv::Rect(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2,
+                                static_cast<int>(std::ceil(x1 - x0)) + 5, static_cast<int>(std::ceil(y1 - y0)) + 5) &
+                       cv::Rect(0, 0, floor->cols, floor->rows);
+  if (roi.area() == 0) return true;
+  const Eigen::Matrix3d R = camera.T_world_camera().linear();
+  const Eigen::Vector3d c = camera.T_world_camera().translation();
+  const calibration::Pose2 T_tag_world = placement.T_world_tag.inverse();
+  // Tag-frame floor point of each pixel corner of the box.
+  const int w = roi.width, h = roi.height;
+  std::vector<Eigen::Vector2d> q((w + 1) * (h + 1));
+  auto classify = [&](const Eigen::Vector2d& t) {
+    if (std::abs(t.x()) > paper_half_m || std::abs(t.y()) > paper_half_m) return kFloor;
+    const int col = static_cast<int>(std::floor((t.x() + half_grid_m) / cell_m));
+    const int row = static_cast<int>(std::floor((half_grid_m - t.y()) / cell_m));
+    if (col >= 0 && col < n && row >= 0 && row < n) return kFirstCell + row * n + col;
+    return kPlate;
+  };
+  std::vector<int> id(q.size());
+  for (int j = 0; j <= h; ++j) {
+    for (int i = 0; i <= w; ++i) {
+      const cv::Vec2d r = corner_rays.at<cv::Vec2d>(roi.y + j, roi.x + i);
+      const Eigen::Vector3d d = R * Eigen::Vector3d(r[0], r[1], 1.0);
+      const double s = -c.z() / d.z();
+      const int k = j * (w + 1) + i;
+      q[k] = s > 0.0 ? T_tag_world * (c + s * d).head<2>().eval() : Eigen::Vector2d(1e9, 1e9);
+      id[k] = classify(q[k]);
+    }
+  }
+  cv::Mat painted(h, w, CV_32F, cv::Scalar(0.0));
+  internal::IntegratePixels(
+      w, h, q, id, options.edge_supersample, 1.0, options.seed * 31 + placement.id, classify,
+      [&](int region, int i, int j) -> double {
+        if (region >= kFirstCell) {
+          const int k = region - kFirstCell;
+          return im->buf[(k / n) * im->stride + k % n] > 127 ? options.tag_white : options.tag_black;
+        }
+        if (region == kPlate) return options.tag_white;
+        return floor->at<float>(roi.y + j, roi.x + i);
+      },
+      &painted);
+  painted.copyTo((*floor)(roi));
+  return true;
+}
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -255,6 +329,12 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
         value += options.floor_contrast * FloorTexture(p.x(), p.y(), options.seed);
       }
       row[u] = static_cast<float>(value);
+    }
+  }
+  for (const FloorTagPlacement& placement : options.floor_tags) {
+    if (!PaintFloorTag(camera, impl->corner_rays, placement, options, &impl->bg_sharp, &why)) {
+      result.message = why;
+      return result;
     }
   }
   if (options.formation.psf) {

@@ -100,7 +100,10 @@ void RegisterBatchCommand(CLI::App& app) {
                              {"trajectories", nlohmann::json::array()}};
     for (const measure::SessionMeasurement& sm : *measured) {
       report["sessions"].push_back(
-          {{"session", sm.session.path}, {"camera_plane", report::PlaneJson(sm)}, {"flags", sm.flags}});
+          {{"session", sm.session.path},
+           {"camera_plane", report::PlaneJson(sm)},
+           {"camera_scale", report::CameraScaleJson(sm)},
+           {"flags", sm.flags}});
       for (const measure::RunMeasurement& rm : sm.runs) {
         nlohmann::json j = report::RunJson(rm);
         j["session"] = sm.session.path;
@@ -141,6 +144,8 @@ void RegisterBatchCommand(CLI::App& app) {
     if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
     PrintRuns(*measured);
+    for (const measure::SessionMeasurement& sm : *measured)
+      if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
     if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
     if (fit) std::printf("\n%s", fit->BriefReport().c_str());
     for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());

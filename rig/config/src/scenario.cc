@@ -70,7 +70,8 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   CheckKeys(node, path,
             {"width", "height", "fx", "fy", "cx", "cy", "distortion", "pose", "fps", "noise_sigma",
              "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
-             "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag"});
+             "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag",
+             "floor_tags"});
   CameraScenario c;
   auto whole = [&](const char* key) {
     if (!node[key]) Fail(node, Join(path, key), "missing (required)");
@@ -184,6 +185,37 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
     c.render.tag_white = 255.0 * OptionalNumber(tag, "camera.tag", "white_level", c.render.tag_white / 255.0);
     if (!(c.render.tag_black >= 0.0 && c.render.tag_black + 10.0 < c.render.tag_white))
       Fail(tag, "camera.tag", "black_level must be >= 0 and well below white_level");
+  }
+  if (const YAML::Node floor = node["floor_tags"]) {
+    const std::string fp = "camera.floor_tags";
+    ExpectMap(floor, fp);
+    CheckKeys(floor, fp, {"family", "size_mm", "tags", "tape_sigma_mm", "tape_error_mm"});
+    CameraScenario::FloorTags ft;
+    if (floor["family"]) ft.family = String(floor["family"], Join(fp, "family"));
+    if (!vision::IsKnownTagFamily(ft.family))
+      Fail(floor["family"], Join(fp, "family"), "unknown tag family '" + ft.family + "'");
+    ft.size_mm = Positive(OptionalNumber(floor, fp, "size_mm", ft.size_mm), floor["size_mm"], Join(fp, "size_mm"));
+    ft.tape_sigma_mm = Positive(OptionalNumber(floor, fp, "tape_sigma_mm", ft.tape_sigma_mm),
+                                floor["tape_sigma_mm"], Join(fp, "tape_sigma_mm"));
+    ft.tape_error_mm = OptionalNumber(floor, fp, "tape_error_mm", 0.0);
+    const YAML::Node tags = floor["tags"];
+    if (!tags || !tags.IsSequence() || tags.size() < 2)
+      Fail(tags ? tags : floor, Join(fp, "tags"), "expected a list of at least two {id, x_mm, y_mm, yaw_deg}");
+    for (size_t i = 0; i < tags.size(); ++i) {
+      const std::string tp = Join(fp, "tags") + "[" + std::to_string(i) + "]";
+      CheckKeys(tags[i], tp, {"id", "x_mm", "y_mm", "yaw_deg"});
+      CameraScenario::FloorTags::Tag t;
+      if (!tags[i]["id"]) Fail(tags[i], Join(tp, "id"), "missing (required)");
+      t.id = static_cast<int>(Integer(tags[i]["id"], Join(tp, "id")));
+      if (t.id < 0) Fail(tags[i]["id"], Join(tp, "id"), "must be a tag id (0 or more)");
+      t.x_mm = RequiredNumber(tags[i], tp, "x_mm");
+      t.y_mm = RequiredNumber(tags[i], tp, "y_mm");
+      t.yaw_deg = OptionalNumber(tags[i], tp, "yaw_deg", 0.0);
+      for (const auto& other : ft.tags)
+        if (other.id == t.id) Fail(tags[i]["id"], Join(tp, "id"), "tag " + std::to_string(t.id) + " listed twice");
+      ft.tags.push_back(t);
+    }
+    c.floor_tags = ft;
   }
   std::string formation_why;
   if (!f.IsValid(&formation_why)) Fail(node, path, formation_why);

@@ -106,10 +106,16 @@ std::optional<std::string> WriteSession(const Session& session, const std::strin
     const vision::TagSpec& t = session.tag;
     out << YAML::Key << "tag" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "family"
         << YAML::Value << t.family << YAML::Key << "id" << YAML::Value << t.id << YAML::Key
-        << "size_mm" << YAML::Value << t.size_mm << YAML::Key << "height_mm" << YAML::Value
+        << "size_mm" << YAML::Value << t.size_mm;
+    if (session.tag_size_sigma_mm) out << YAML::Key << "size_sigma_mm" << YAML::Value << *session.tag_size_sigma_mm;
+    out << YAML::Key << "height_mm" << YAML::Value
         << t.height_mm << YAML::Key << "offset_mm" << YAML::Value << YAML::BeginMap << YAML::Key
         << "x" << YAML::Value << t.offset_x_mm << YAML::Key << "y" << YAML::Value << t.offset_y_mm
         << YAML::EndMap << YAML::Key << "yaw_deg" << YAML::Value << t.yaw_deg << YAML::EndMap;
+    if (session.floor_reference) {
+      out << YAML::Key << "floor_reference" << YAML::Value;
+      EmitFloorReference(out, *session.floor_reference);
+    }
   }
   bool any_poses = false;
   for (const SessionRun& run : session.runs) any_poses = any_poses || !run.poses.empty();
@@ -152,7 +158,7 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
   if (!root || root.IsNull()) return fail(path + ": empty session file");
   const fs::path dir = fs::absolute(path).parent_path();
   try {
-    CheckKeys(root, "", {"camera_file", "camera_mount_guess", "tag", "tracker", "robot", "runs"});
+    CheckKeys(root, "", {"camera_file", "camera_mount_guess", "tag", "floor_reference", "tracker", "robot", "runs"});
     Session s;
     s.path = path;
     // The camera keys are needed only by video runs: with pose logs alone a
@@ -181,7 +187,15 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
       s.camera_mount_guess.pitch_deg = OptionalNumber(m, mp, "pitch_deg", 0.0);
       s.camera_mount_guess.yaw_deg = OptionalNumber(m, mp, "yaw_deg", 0.0);
       if (!root["tag"]) Fail(root, "tag", why_camera);
-      s.tag = ParseTag(root["tag"]);
+      s.tag = ParseTag(root["tag"], "tag", {"size_sigma_mm"});
+      if (const YAML::Node sigma = root["tag"]["size_sigma_mm"]) {
+        s.tag_size_sigma_mm = Number(sigma, "tag.size_sigma_mm");
+        if (!(*s.tag_size_sigma_mm >= 0.0)) Fail(sigma, "tag.size_sigma_mm", "must not be negative");
+      }
+      if (const YAML::Node floor = root["floor_reference"])
+        s.floor_reference = ParseFloorReference(floor, "floor_reference");
+    } else if (root["floor_reference"]) {
+      Fail(root["floor_reference"], "floor_reference", "needs a camera (camera_file, camera_mount_guess, tag)");
     }
     if (const YAML::Node k = root["tracker"]) {
       CheckKeys(k, "tracker", {"offset_mm", "yaw_deg"});

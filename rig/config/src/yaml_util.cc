@@ -203,8 +203,11 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
   return spec;
 }
 
-vision::TagSpec ParseTag(const YAML::Node& node, const std::string& path) {
-  CheckKeys(node, path, {"family", "id", "size_mm", "height_mm", "offset_mm", "yaw_deg"});
+vision::TagSpec ParseTag(const YAML::Node& node, const std::string& path,
+                         const std::set<std::string>& extra_keys) {
+  std::set<std::string> keys = {"family", "id", "size_mm", "height_mm", "offset_mm", "yaw_deg"};
+  keys.insert(extra_keys.begin(), extra_keys.end());
+  CheckKeys(node, path, keys);
   vision::TagSpec tag;
   if (node["family"]) tag.family = String(node["family"], Join(path, "family"));
   if (!vision::IsKnownTagFamily(tag.family))
@@ -223,6 +226,79 @@ vision::TagSpec ParseTag(const YAML::Node& node, const std::string& path) {
   }
   tag.yaw_deg = OptionalNumber(node, path, "yaw_deg", 0.0);
   return tag;
+}
+
+vision::FloorReference ParseFloorReference(const YAML::Node& node, const std::string& path) {
+  ExpectMap(node, path);
+  CheckKeys(node, path, {"family", "tags", "distances", "tag_height_sigma_mm"});
+  vision::FloorReference r;
+  if (node["family"]) r.family = String(node["family"], Join(path, "family"));
+  if (!vision::IsKnownTagFamily(r.family))
+    Fail(node["family"], Join(path, "family"), "unknown tag family '" + r.family + "'");
+  const YAML::Node tags = node["tags"];
+  if (!tags) Fail(node, Join(path, "tags"), "missing (required: the floor tags, at least two)");
+  if (!tags.IsSequence() || tags.size() < 2)
+    Fail(tags, Join(path, "tags"), "expected a list of at least two tags {id, size_mm}");
+  for (size_t i = 0; i < tags.size(); ++i) {
+    const std::string tp = Join(path, "tags") + "[" + std::to_string(i) + "]";
+    ExpectMap(tags[i], tp);
+    CheckKeys(tags[i], tp, {"id", "size_mm"});
+    vision::FloorReference::Tag t;
+    if (!tags[i]["id"]) Fail(tags[i], Join(tp, "id"), "missing (required)");
+    const long long id = Integer(tags[i]["id"], Join(tp, "id"));
+    if (id < 0 || id > 100000) Fail(tags[i]["id"], Join(tp, "id"), "must be a tag id (0 or more)");
+    t.id = static_cast<int>(id);
+    for (const auto& other : r.tags)
+      if (other.id == t.id) Fail(tags[i]["id"], Join(tp, "id"), "tag " + std::to_string(t.id) + " listed twice");
+    t.size_mm = Positive(RequiredNumber(tags[i], tp, "size_mm"), tags[i]["size_mm"], Join(tp, "size_mm"));
+    r.tags.push_back(t);
+  }
+  const YAML::Node distances = node["distances"];
+  if (!distances) Fail(node, Join(path, "distances"), "missing (required: at least one measured distance)");
+  if (!distances.IsSequence() || distances.size() == 0)
+    Fail(distances, Join(path, "distances"), "expected a list of {between: [A, B], mm, sigma_mm}");
+  for (size_t i = 0; i < distances.size(); ++i) {
+    const std::string dp = Join(path, "distances") + "[" + std::to_string(i) + "]";
+    const YAML::Node d = distances[i];
+    ExpectMap(d, dp);
+    CheckKeys(d, dp, {"between", "mm", "sigma_mm"});
+    const YAML::Node between = d["between"];
+    if (!between) Fail(d, Join(dp, "between"), "missing (required: the two tag ids)");
+    if (!between.IsSequence() || between.size() != 2)
+      Fail(between, Join(dp, "between"), "expected two tag ids [A, B]");
+    vision::FloorReference::Distance m;
+    m.id_a = static_cast<int>(Integer(between[0], Join(dp, "between")));
+    m.id_b = static_cast<int>(Integer(between[1], Join(dp, "between")));
+    for (const int id : {m.id_a, m.id_b}) {
+      bool known = false;
+      for (const auto& t : r.tags) known = known || t.id == id;
+      if (!known) Fail(between, Join(dp, "between"), "tag " + std::to_string(id) + " is not in " + Join(path, "tags"));
+    }
+    if (m.id_a == m.id_b) Fail(between, Join(dp, "between"), "joins a tag to itself");
+    m.mm = Positive(RequiredNumber(d, dp, "mm"), d["mm"], Join(dp, "mm"));
+    m.sigma_mm = Positive(OptionalNumber(d, dp, "sigma_mm", m.sigma_mm), d["sigma_mm"], Join(dp, "sigma_mm"));
+    r.distances.push_back(m);
+  }
+  r.tag_height_sigma_mm = OptionalNumber(node, path, "tag_height_sigma_mm", r.tag_height_sigma_mm);
+  if (!(r.tag_height_sigma_mm >= 0.0))
+    Fail(node["tag_height_sigma_mm"], Join(path, "tag_height_sigma_mm"), "must not be negative");
+  return r;
+}
+
+void EmitFloorReference(YAML::Emitter& out, const vision::FloorReference& r) {
+  out << YAML::BeginMap;
+  out << YAML::Key << "family" << YAML::Value << r.family;
+  out << YAML::Key << "tags" << YAML::Value << YAML::BeginSeq;
+  for (const auto& t : r.tags)
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "id" << YAML::Value << t.id << YAML::Key
+        << "size_mm" << YAML::Value << t.size_mm << YAML::EndMap;
+  out << YAML::EndSeq << YAML::Key << "distances" << YAML::Value << YAML::BeginSeq;
+  for (const auto& d : r.distances)
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "between" << YAML::Value << YAML::Flow
+        << YAML::BeginSeq << d.id_a << d.id_b << YAML::EndSeq << YAML::Key << "mm" << YAML::Value
+        << d.mm << YAML::Key << "sigma_mm" << YAML::Value << d.sigma_mm << YAML::EndMap;
+  out << YAML::EndSeq << YAML::Key << "tag_height_sigma_mm" << YAML::Value << r.tag_height_sigma_mm;
+  out << YAML::EndMap;
 }
 
 }  // namespace odocal::config::yaml_util

@@ -13,6 +13,7 @@
 #include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
+#include "odocal/vision/floor_reference.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::config::yaml_util {
@@ -46,8 +47,14 @@ calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& 
 // One run of a plan; `extra_keys` are allowed besides the procedure's own.
 calibration::RunSpec ParseRun(const YAML::Node& node, const std::string& path,
                               const std::set<std::string>& extra_keys = {});
-// {family, id, size_mm, height_mm, offset_mm: {x, y}, yaw_deg}
-vision::TagSpec ParseTag(const YAML::Node& node, const std::string& path = "tag");
+// {family, id, size_mm, height_mm, offset_mm: {x, y}, yaw_deg}; `extra_keys`
+// are allowed besides (the caller reads them).
+vision::TagSpec ParseTag(const YAML::Node& node, const std::string& path = "tag",
+                         const std::set<std::string>& extra_keys = {});
+// {family, tags: [{id, size_mm}], distances: [{between: [A, B], mm, sigma_mm}],
+//  tag_height_sigma_mm} (vision/floor_reference.h), checked.
+vision::FloorReference ParseFloorReference(const YAML::Node& node, const std::string& path);
+void EmitFloorReference(YAML::Emitter& out, const vision::FloorReference& reference);
 
 }  // namespace odocal::config::yaml_util
 

@@ -146,7 +146,108 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
   }
 }
 
+// The first frames of the session's videos, for the floor tags.
+std::vector<cv::Mat> FloorFrames(const SessionMeasurement& sm, const MeasureOptions& options) {
+  std::vector<cv::Mat> frames;
+  std::vector<std::string> videos;
+  for (const RunMeasurement& rm : sm.runs)
+    if (!rm.run.video.empty() && std::find(videos.begin(), videos.end(), rm.run.video) == videos.end())
+      videos.push_back(rm.run.video);
+  if (static_cast<int>(videos.size()) > options.floor_max_videos) videos.resize(options.floor_max_videos);
+  for (const std::string& video : videos) {
+    media::VideoReader reader;
+    if (!reader.Open(video).ok()) continue;
+    cv::Mat frame;
+    for (int k = 0; k < options.floor_frames_per_video && reader.Read(&frame); ++k) frames.push_back(frame.clone());
+  }
+  return frames;
+}
+
+std::string Percent(double fraction, int decimals) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * fraction);
+  return text;
+}
+
+// The camera's scale: from the floor reference when the session has one and
+// it could be measured (the mount's height is then the reference's), else
+// from the robot tag's printed size.
+CameraScale ScaleOfCamera(SessionMeasurement& sm, const MeasureOptions& options,
+                          vision::CameraMount* mount) {
+  const config::Session& session = sm.session;
+  CameraScale scale;
+  const double tag_mm = session.tag.height_mm;
+  const double print_sigma =
+      session.tag_size_sigma_mm ? *session.tag_size_sigma_mm / session.tag.size_mm : options.tag_print_sigma;
+  const double plane_sigma = sm.plane_estimated && mount->height_mm > tag_mm
+                                 ? sm.plane.sigma_height_mm / (mount->height_mm - tag_mm)
+                                 : 0.0;
+  const double apparent_sigma = std::hypot(plane_sigma, options.systematic_scale_sigma);
+  const double tag_sigma = std::hypot(apparent_sigma, print_sigma);
+  std::string fallback_reason;
+  if (session.floor_reference) {
+    scale.floor_tags = vision::ObserveFloorTags(FloorFrames(sm, options), session.intrinsics,
+                                                *session.floor_reference, options.quality_gate);
+    if (!sm.plane_estimated) {
+      fallback_reason = "the camera's tilt was not estimated";
+    } else {
+      scale.floor = vision::EstimateFloorScale(vision::CameraModel(session.intrinsics, *mount), scale.floor_tags,
+                                               *session.floor_reference, sm.plane.sigma_roll_deg,
+                                               sm.plane.sigma_pitch_deg);
+      if (!scale.floor->ok) fallback_reason = scale.floor->message;
+    }
+    if (scale.floor && scale.floor->ok) {
+      const vision::FloorScaleResult& f = *scale.floor;
+      const double above_ref = f.camera_height_mm - tag_mm;
+      const double above_tag = mount->height_mm - tag_mm;
+      const double sigma_above_ref =
+          std::hypot(f.sigma_camera_height_mm, session.floor_reference->tag_height_sigma_mm);
+      scale.source = CameraScale::Source::kFloorReference;
+      scale.relative_sigma = sigma_above_ref / above_ref;
+      scale.camera_height_mm = f.camera_height_mm;
+      scale.sigma_camera_height_mm = f.sigma_camera_height_mm;
+      // A tag printed s times its stated size looks s times nearer.
+      scale.tag_print_scale = above_ref / above_tag;
+      scale.tag_print_scale_sigma = *scale.tag_print_scale * std::hypot(scale.relative_sigma, apparent_sigma);
+      const double off = *scale.tag_print_scale - 1.0;
+      scale.explanation = "from the floor reference (" + std::to_string(f.pairs.size()) +
+                          (f.pairs.size() == 1 ? " distance" : " distances") + "): ±" +
+                          Percent(scale.relative_sigma, 3) + "; the robot tag prints " +
+                          Percent(std::abs(off), 2) + " ± " + Percent(*scale.tag_print_scale_sigma, 2) +
+                          (off >= 0.0 ? " large" : " small") + " (or looks it: tone curve, blur)";
+      if (f.inconsistent) {
+        sm.flags.push_back("floor_reference_inconsistent");
+        scale.explanation += "; the measured distances disagree beyond their sigmas (a tag moved? a misread tape?)";
+      }
+      mount->height_mm = f.camera_height_mm;
+      return scale;
+    }
+    sm.flags.push_back("floor_reference_unusable");
+  }
+  scale.source = CameraScale::Source::kTagSize;
+  scale.relative_sigma = tag_sigma;
+  scale.camera_height_mm = mount->height_mm;
+  scale.sigma_camera_height_mm = sm.plane_estimated ? sm.plane.sigma_height_mm : 0.0;
+  scale.explanation =
+      "from the robot tag's printed size: ±" + Percent(tag_sigma, 2) + " (print size ±" +
+      Percent(print_sigma, 2) +
+      (session.tag_size_sigma_mm ? " as measured" : " assumed; state tag.size_sigma_mm if you measured it") +
+      ", apparent size ±" + Percent(apparent_sigma, 3) + ")" +
+      (session.floor_reference ? "; the floor reference could not be used: " + fallback_reason
+                               : "; a floor reference (two floor tags at a taped distance) pins it");
+  return scale;
+}
+
 }  // namespace
+
+std::string_view ToString(CameraScale::Source source) {
+  switch (source) {
+    case CameraScale::Source::kNone: return "none";
+    case CameraScale::Source::kTagSize: return "tag_size";
+    case CameraScale::Source::kFloorReference: return "floor_reference";
+  }
+  return "none";
+}
 
 std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
                                                double separation_px, int max_views) {
@@ -241,6 +342,9 @@ bool MeasureOptions::IsValid(std::string* why) const {
   if (!(systematic_floor.position_m >= 0.0) || !(systematic_floor.heading_rad >= 0.0))
     return fail("systematic_floor must not be negative");
   if (!(systematic_scale_sigma >= 0.0)) return fail("systematic_scale_sigma must not be negative");
+  if (!(tag_print_sigma >= 0.0)) return fail("tag_print_sigma must not be negative");
+  if (floor_frames_per_video < 1) return fail("floor_frames_per_video must be at least 1");
+  if (floor_max_videos < 1) return fail("floor_max_videos must be at least 1");
   if (!(rest_search_fraction > 0.0 && rest_search_fraction <= 1.0))
     return fail("rest_search_fraction must be in (0, 1]");
   if (!(flag_gap_s > 0.0)) return fail("flag_gap_s must be positive");
@@ -373,10 +477,8 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
       }
     }
     if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
-    const double above_tag_mm = mount.height_mm - sm.session.tag.height_mm;
-    sm.camera_scale_sigma =
-        std::hypot(sm.plane_estimated && above_tag_mm > 0.0 ? sm.plane.sigma_height_mm / above_tag_mm : 0.0,
-                   options.systematic_scale_sigma);
+    sm.camera_scale = ScaleOfCamera(sm, options, &mount);
+    sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
     const vision::CameraModel camera(sm.session.intrinsics, mount);
     for (RunMeasurement& rm : sm.runs) {
       if (rm.pose_log) continue;

@@ -111,4 +111,62 @@ nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
           {"rms_reprojection_px", p.rms_reprojection_px}};
 }
 
+nlohmann::json CameraScaleJson(const measure::SessionMeasurement& sm) {
+  if (!sm.session.has_camera) return nullptr;
+  const measure::CameraScale& c = sm.camera_scale;
+  nlohmann::json j = {{"source", std::string(measure::ToString(c.source))},
+                      {"relative_sigma", c.relative_sigma},
+                      {"camera_height_mm", c.camera_height_mm},
+                      {"sigma_camera_height_mm", c.sigma_camera_height_mm},
+                      {"explanation", c.explanation}};
+  if (!sm.session.floor_reference) return j;
+  nlohmann::json tags = nlohmann::json::array();
+  for (const vision::FloorTagSighting& t : c.floor_tags) {
+    nlohmann::json tag = {{"id", t.id},
+                          {"frames_seen", t.frames_seen},
+                          {"frames_used", t.frames_used},
+                          {"flags", t.flags}};
+    if (t.usable()) {
+      tag["centre_px"] = {t.centre_px.x, t.centre_px.y};
+      tag["sigma_centre_px"] = t.sigma_centre_px;
+      tag["quality"] = {{"side_px", t.median_quality.side_px},
+                        {"contrast_grey", t.median_quality.contrast_grey},
+                        {"blur_sigma_px", t.median_quality.blur_sigma_px},
+                        {"saturated_fraction", t.median_quality.saturated_fraction},
+                        {"rms_residual_grey", t.median_quality.rms_residual_grey}};
+    }
+    tags.push_back(tag);
+  }
+  j["floor_tags"] = tags;
+  if (c.floor) {
+    const vision::FloorScaleResult& f = *c.floor;
+    nlohmann::json reference = {{"ok", f.ok}};
+    if (!f.ok) reference["message"] = f.message;
+    if (f.ok) {
+      nlohmann::json pairs = nlohmann::json::array();
+      for (const auto& p : f.pairs)
+        pairs.push_back({{"between", {p.id_a, p.id_b}},
+                         {"tape_mm", p.tape_mm},
+                         {"tape_sigma_mm", p.tape_sigma_mm},
+                         {"seen_mm", p.seen_mm},
+                         {"sigma_seen_mm", p.sigma_seen_mm},
+                         {"camera_height_mm", p.height_mm}});
+      reference["distances"] = pairs;
+      reference["camera_height_mm"] = f.camera_height_mm;
+      reference["sigma_camera_height_mm"] = f.sigma_camera_height_mm;
+      reference["variance_share"] = {{"tape", f.variance_share_tape},
+                                     {"centres", f.variance_share_centres},
+                                     {"tilt", f.variance_share_tilt}};
+      reference["chi_square"] = f.chi_square;
+      reference["inconsistent"] = f.inconsistent;
+    }
+    j["floor_reference"] = reference;
+  }
+  if (c.tag_print_scale)
+    j["tag_print_scale"] = {{"value", *c.tag_print_scale},
+                            {"sigma", *c.tag_print_scale_sigma},
+                            {"meaning", "robot tag's apparent size / stated size (1.0042: prints 0.42 % large)"}};
+  return j;
+}
+
 }  // namespace odocal::report

@@ -36,6 +36,16 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
 
   vision::RenderOptions render = cam.render;
   render.seed = scenario.seed * 1000003ULL + std::hash<std::string>{}(name);
+  if (cam.floor_tags) {
+    for (const auto& t : cam.floor_tags->tags) {
+      vision::FloorTagPlacement placement;
+      placement.family = cam.floor_tags->family;
+      placement.id = t.id;
+      placement.size_mm = cam.floor_tags->size_mm * cam.tag_print_scale;  // the same printer
+      placement.T_world_tag = calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.yaw_deg * kDegToRad);
+      render.floor_tags.push_back(placement);
+    }
+  }
   vision::RendererResult created =
       vision::Renderer::Create(vision::CameraModel(true_lens, cam.mount), true_tag, render);
   if (!created.ok) return name + ": cannot render: " + created.message;

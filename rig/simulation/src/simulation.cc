@@ -143,6 +143,25 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
     session.intrinsics = cam.intrinsics;
     session.camera_mount_guess = OperatorMountGuess(cam.mount);
     session.tag = *scenario.tag;
+    if (cam.floor_tags) {
+      // The tape's readings between consecutive floor tags (and back to the
+      // first from the last of three or more): the truth plus the tape's error.
+      const config::CameraScenario::FloorTags& ft = *cam.floor_tags;
+      vision::FloorReference reference;
+      reference.family = ft.family;
+      for (const auto& t : ft.tags) reference.tags.push_back({t.id, ft.size_mm});
+      const size_t n = ft.tags.size();
+      nlohmann::json tape = nlohmann::json::array();
+      for (size_t i = 0; i < (n > 2 ? n : 1); ++i) {
+        const auto& a = ft.tags[i];
+        const auto& b = ft.tags[(i + 1) % n];
+        const double true_mm = std::hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm);
+        reference.distances.push_back({a.id, b.id, true_mm + ft.tape_error_mm, ft.tape_sigma_mm});
+        tape.push_back({{"between", {a.id, b.id}}, {"true_mm", true_mm}});
+      }
+      session.floor_reference = reference;
+      truth["floor_tags"] = {{"print_scale", cam.tag_print_scale}, {"distances", tape}};
+    }
     session.nominal = scenario.robot.nominal;
     for (size_t i = 0; i < result.runs.size(); ++i) {
       config::SessionRun run;

@@ -6,7 +6,8 @@
 // follow OpenCV (pixel centres at integers, pixel (u, v) covers
 // [u-0.5, u+0.5] x [v-0.5, v+0.5]).
 //
-// Scene: a textured floor (z = 0, seeded value noise, static), the robot as a
+// Scene: a textured floor (z = 0, seeded value noise, static) with any floor
+// tags (RenderOptions::floor_tags) printed on it, the robot as a
 // flat grey disc whose top is the tag plane (z = tag height), a white plate
 // carrying the tag bitmap from libapriltag's apriltag_to_image.
 //
@@ -45,6 +46,18 @@
 
 namespace odocal::vision {
 
+// A tag printed on paper lying on the floor (z = 0): a length reference
+// (floor_reference.h). Drawn into the static floor with the same
+// area-correct anti-aliasing as the robot's tag, under the same optics and
+// sensor; the robot's body hides it when it drives over it.
+struct FloorTagPlacement {
+  std::string family = "tag36h11";
+  int id = 0;
+  double size_mm = 80.0;  // as printed
+  calibration::Pose2 T_world_tag;
+  double paper_margin_mm = 10.0;  // white paper beyond the tag's own white border
+};
+
 struct RenderOptions {
   double noise_sigma = 2.0;     // grey levels, additive Gaussian
   double blur_sigma_px = 0.8;   // optical blur; 0 = none
@@ -69,6 +82,8 @@ struct RenderOptions {
   // shutter, Bayer, tone curve, shading, Poisson-Gaussian noise, sharpening,
   // MJPEG. Default: none of it (the renderer above, unchanged).
   ImageFormationOptions formation;
+  // Tags lying on the floor (none by default).
+  std::vector<FloorTagPlacement> floor_tags;
 
   bool IsValid(std::string* why) const;
 };

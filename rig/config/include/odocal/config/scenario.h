@@ -38,6 +38,22 @@ struct CameraScenario {
   // (tag.size_mm): the renderer draws the printed one, the session file keeps
   // the stated one (`camera.tag.print_scale`).
   double tag_print_scale = 1.0;
+  // Tags lying on the floor, a length reference (`camera.floor_tags`):
+  // printed by the same printer (tag_print_scale), measured with a tape
+  // whose reading between consecutive tags is off by tape_error_mm; the
+  // session file gets the tape's readings with tape_sigma_mm.
+  struct FloorTags {
+    std::string family = "tag36h11";
+    double size_mm = 80.0;  // as stated
+    struct Tag {
+      int id = 0;
+      double x_mm = 0.0, y_mm = 0.0, yaw_deg = 0.0;
+    };
+    std::vector<Tag> tags;
+    double tape_sigma_mm = 0.3;
+    double tape_error_mm = 0.0;
+  };
+  std::optional<FloorTags> floor_tags;
 };
 
 struct Scenario {

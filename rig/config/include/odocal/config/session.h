@@ -10,7 +10,9 @@
 // (docs/formats.md):
 //   camera_file: camera.yaml                      # only with video runs
 //   camera_mount_guess: {x_mm, y_mm, height_mm, roll_deg, pitch_deg, yaw_deg}  # idem
-//   tag: {family, id, size_mm, height_mm, offset_mm: {x, y}}                   # idem
+//   tag: {family, id, size_mm, size_sigma_mm, height_mm, offset_mm: {x, y}}    # idem
+//   floor_reference: {family, tags: [{id, size_mm}], distances: [{between: [A, B], mm, sigma_mm}],
+//                     tag_height_sigma_mm}       # optional: the camera's length scale
 //   tracker: {offset_mm: {x, y}, yaw_deg}         # pose runs; default zeros
 //   robot: {nominal: {left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, ticks_per_rev}}
 //   runs:
@@ -32,6 +34,7 @@
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/vision/camera_model.h"
+#include "odocal/vision/floor_reference.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::config {
@@ -63,6 +66,12 @@ struct Session {
   vision::Intrinsics intrinsics;
   vision::CameraMount camera_mount_guess;
   vision::TagSpec tag;
+  // How well the robot tag's printed size is known (1 sigma, mm), when the
+  // operator measured it; unset: MeasureOptions' print tolerance.
+  std::optional<double> tag_size_sigma_mm;
+  // Floor tags at measured distances: the camera's length scale without
+  // trusting the robot tag's print (vision/floor_reference.h).
+  std::optional<vision::FloorReference> floor_reference;
   TrackerMount tracker;
   calibration::WheelParams nominal;
   std::vector<SessionRun> runs;

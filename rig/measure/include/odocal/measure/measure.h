@@ -22,6 +22,7 @@
 #include "odocal/measure/pose_log.h"
 #include "odocal/measure/video_track.h"
 #include "odocal/vision/edge_quality.h"
+#include "odocal/vision/floor_reference.h"
 #include "odocal/vision/planar_pose.h"
 
 namespace odocal::measure {
@@ -62,6 +63,15 @@ struct MeasureOptions {
   // the exact refinement, 8.3e-4 without. Add the tag's print tolerance for
   // a real tag.
   double systematic_scale_sigma = 4e-4;
+  // A tag's printed size is known to this relative 1-sigma unless the
+  // session states `tag.size_sigma_mm` (measured with a caliper): office
+  // printers scale by a few tenths of a percent, "fit to page" by several.
+  // It is the dominant term of Es's uncertainty without a floor reference.
+  double tag_print_sigma = 3e-3;
+  // With a floor reference: the first frames of each video (at most
+  // floor_max_videos of them) in which the floor tags are measured.
+  int floor_frames_per_video = 8;
+  int floor_max_videos = 3;
   // A start (end) rest must begin (end) within this fraction of the run's
   // span from its start (end).
   double rest_search_fraction = 0.35;
@@ -108,13 +118,33 @@ struct RunMeasurement {
   std::optional<RestQuality> start_quality, end_quality;  // with model_free_rest_refinement
 };
 
+// Where the camera's length scale comes from, and how well it is known:
+// what Es's uncertainty rests on (report.json "camera_scale").
+struct CameraScale {
+  enum class Source { kNone, kTagSize, kFloorReference };
+  Source source = Source::kNone;
+  double relative_sigma = 0.0;  // of every measured distance
+  double camera_height_mm = 0.0;  // above the floor, as used
+  double sigma_camera_height_mm = 0.0;
+  // The plain reason, for the report ("from the robot tag's printed size:
+  // ±0.30 % print tolerance (assumed) ...").
+  std::string explanation;
+  // With a floor reference: its tags, its estimate, and the robot tag's
+  // printed size it implies (the tag-size height over the reference's, above
+  // the tag plane; 1.0042 = "prints 0.42 % large").
+  std::vector<vision::FloorTagSighting> floor_tags;
+  std::optional<vision::FloorScaleResult> floor;
+  std::optional<double> tag_print_scale, tag_print_scale_sigma;
+};
+std::string_view ToString(CameraScale::Source source);
+
 struct SessionMeasurement {
   config::Session session;
   vision::CameraPlaneResult plane;
   bool plane_estimated = false;
-  // Relative 1-sigma of every measured distance (the plane's height sigma
-  // and MeasureOptions::systematic_scale_sigma).
+  // Relative 1-sigma of every measured distance: camera_scale's.
   double camera_scale_sigma = 0.0;
+  CameraScale camera_scale;
   std::vector<RunMeasurement> runs;
   std::vector<std::string> flags;  // session-wide
 

@@ -28,6 +28,14 @@ nlohmann::json TrajectoryJson(const measure::RunMeasurement& run, int max_points
 // the operator's guess was used; null for a session of pose logs.
 nlohmann::json PlaneJson(const measure::SessionMeasurement& session);
 
+// Where the session's length scale comes from (report.json sessions[].camera_scale):
+// {source: tag_size | floor_reference, relative_sigma, camera_height_mm,
+// sigma_camera_height_mm, explanation}; with a floor reference also
+// floor_tags[] (id, frames, centre_px, sigma_centre_px, quality, flags),
+// distances[] (tape vs seen), variance shares, and tag_print_scale
+// {value, sigma}. Null for a session of pose logs.
+nlohmann::json CameraScaleJson(const measure::SessionMeasurement& session);
+
 }  // namespace odocal::report
 
 #endif  // ODOCAL_REPORT_MEASUREMENT_JSON_H_

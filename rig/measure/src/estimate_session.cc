@@ -116,6 +116,9 @@ SessionEstimate EstimateSession(const std::vector<SessionMeasurement>& sessions)
   }
   e.ratio = ratios.Pooled();
   e.scale = scales.Pooled();
+  if (e.scale)
+    for (const SessionMeasurement& sm : sessions)
+      e.scale->camera_scale_sigma = std::max(e.scale->camera_scale_sigma, sm.camera_scale_sigma);
   e.track = tracks.Pooled();
   return e;
 }

@@ -1,5 +1,7 @@
 #include "odocal/report/session_estimate_json.h"
 
+#include <cmath>
+
 #include "odocal/calibration/corrections.h"
 #include "odocal/report/json.h"
 
@@ -24,7 +26,14 @@ nlohmann::json SessionUmbmarkJson(const measure::SessionEstimate& e) {
 nlohmann::json CvraJson(const measure::SessionEstimate& e) {
   nlohmann::json cvra = nlohmann::json::object();
   if (e.ratio) cvra["ratio"] = PooledCvraJson("Ed", *e.ratio);
-  if (e.scale) cvra["scale"] = PooledCvraJson("scale", *e.scale);
+  if (e.scale) {
+    nlohmann::json scale = PooledCvraJson("scale", *e.scale);
+    // The camera's length scale is common to the runs: it adds to their spread.
+    const double camera = e.scale->camera_scale_sigma * e.scale->mean;
+    scale["sigma_camera_scale"] = camera;
+    scale["sigma_total"] = std::hypot(e.scale->standard_error.value_or(0.0), camera);
+    cvra["scale"] = scale;
+  }
   if (e.track) cvra["track"] = PooledCvraJson("track_factor", *e.track);
   return cvra;
 }

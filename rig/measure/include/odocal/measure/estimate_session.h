@@ -28,6 +28,10 @@ struct PooledCvra {
   std::vector<std::string> runs;  // their names
   double mean = 0.0;
   std::optional<double> standard_error;  // nullopt with fewer than two runs
+  // The distance scale only: the camera's own length scale (relative 1-sigma,
+  // SessionMeasurement::camera_scale_sigma), common to every run, which no
+  // number of runs averages away.
+  double camera_scale_sigma = 0.0;
 };
 
 struct SessionEstimate {

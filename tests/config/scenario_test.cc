@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -193,6 +194,78 @@ TEST(Session, ACircleRunRoundTrips) {
   EXPECT_NEAR(spec.radius_m, 0.32, 1e-9);
   EXPECT_EQ(spec.turns, 2);
   EXPECT_EQ(spec.direction, calibration::Direction::kCw);
+}
+
+// A session with a floor reference and a measured tag size: through a write
+// and a load, and its bad keys named.
+config::Session FloorSession(const std::string& dir) {
+  std::ofstream(dir + "/run01.mp4") << "not read here";
+  config::Session session;
+  session.camera_file = dir + "/camera.yaml";
+  session.intrinsics = vision::Intrinsics{640, 480, 700, 700, 320, 240, {0, 0, 0, 0, 0}};
+  session.camera_mount_guess.height_mm = 1200;
+  session.tag.id = 5;
+  session.tag_size_sigma_mm = 0.05;
+  vision::FloorReference reference;
+  reference.tags = {{1, 80.0}, {2, 80.0}, {3, 60.0}};
+  reference.distances = {{1, 2, 1040.5, 0.3}, {2, 3, 742.1, 0.5}};
+  reference.tag_height_sigma_mm = 0.8;
+  session.floor_reference = reference;
+  session.nominal.left_wheel_diameter_m = session.nominal.right_wheel_diameter_m = 0.07;
+  session.nominal.track_m = 0.3;
+  session.nominal.ticks_per_rev = 2048;
+  config::SessionRun run;
+  run.name = "run01";
+  run.spec = calibration::RunSpec::Straight(0.4);
+  run.video = dir + "/run01.mp4";
+  session.runs.push_back(run);
+  return session;
+}
+
+TEST(Session, AFloorReferenceRoundTrips) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_floor_");
+  ASSERT_FALSE(config::WriteSession(FloorSession(dir), dir + "/session.yaml"));
+  const auto loaded = config::LoadSession(dir + "/session.yaml");
+  ASSERT_TRUE(loaded) << loaded.message;
+  ASSERT_TRUE(loaded->tag_size_sigma_mm);
+  EXPECT_NEAR(*loaded->tag_size_sigma_mm, 0.05, 1e-12);
+  ASSERT_TRUE(loaded->floor_reference);
+  const vision::FloorReference& r = *loaded->floor_reference;
+  ASSERT_EQ(r.tags.size(), 3u);
+  EXPECT_EQ(r.tags[2].id, 3);
+  EXPECT_NEAR(r.tags[2].size_mm, 60.0, 1e-12);
+  ASSERT_EQ(r.distances.size(), 2u);
+  EXPECT_EQ(r.distances[1].id_a, 2);
+  EXPECT_EQ(r.distances[1].id_b, 3);
+  EXPECT_NEAR(r.distances[1].mm, 742.1, 1e-9);
+  EXPECT_NEAR(r.distances[1].sigma_mm, 0.5, 1e-12);
+  EXPECT_NEAR(r.tag_height_sigma_mm, 0.8, 1e-12);
+  std::string why;
+  EXPECT_TRUE(r.IsValid(&why)) << why;
+}
+
+TEST(Session, BadFloorReferenceKeysAreNamed) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_floor_bad_");
+  ASSERT_FALSE(config::WriteSession(FloorSession(dir), dir + "/good.yaml"));
+  const std::string good = test_util::Slurp(dir + "/good.yaml");
+  for (const auto& [from, to, expected] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"between: [2, 3]", "between: [2, 9]", "floor_reference.distances[1].between: tag 9 is not in floor_reference.tags"},
+           {"between: [2, 3]", "between: [2, 2]", "joins a tag to itself"},
+           {"between: [2, 3]", "between: [2]", "expected two tag ids"},
+           {"mm: 742.1", "mm: -742.1", "floor_reference.distances[1].mm"},
+           {"sigma_mm: 0.5", "sigma_mm: 0", "floor_reference.distances[1].sigma_mm"},
+           {"{id: 3, size_mm: 60}", "{id: 2, size_mm: 60}", "tag 2 listed twice"},
+           {"{id: 3, size_mm: 60}", "{id: 3}", "floor_reference.tags[2].size_mm"},
+           {"tag_height_sigma_mm: 0.8", "tag_height_sigma: 0.8", "floor_reference.tag_height_sigma: unknown key"},
+           {"size_sigma_mm: 0.05", "size_sigma_mm: -1", "tag.size_sigma_mm: must not be negative"}}) {
+    std::string text = good;
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from << " not in\n" << good;
+    text.replace(at, from.size(), to);
+    std::ofstream(dir + "/bad.yaml") << text;
+    const std::string error = test_util::ErrorOf(config::LoadSession(dir + "/bad.yaml"));
+    EXPECT_THAT(error, ::testing::HasSubstr(expected)) << from << " -> " << to;
+  }
 }
 
 }  // namespace

@@ -156,7 +156,9 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
         const auto& a = ft.tags[i];
         const auto& b = ft.tags[(i + 1) % n];
         const double true_mm = std::hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm);
-        reference.distances.push_back({a.id, b.id, true_mm + ft.tape_error_mm, ft.tape_sigma_mm});
+        // Read to a tenth of a millimetre.
+        const double reading_mm = std::round((true_mm + ft.tape_error_mm) * 10.0) / 10.0;
+        reference.distances.push_back({a.id, b.id, reading_mm, ft.tape_sigma_mm});
         tape.push_back({{"between", {a.id, b.id}}, {"true_mm", true_mm}});
       }
       session.floor_reference = reference;

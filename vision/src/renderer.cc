@@ -27,6 +27,7 @@ bool RenderOptions::IsValid(std::string* why) const {
   if (!(plate_margin_mm >= 0.0)) return fail("plate_margin_mm must be >= 0");
   if (edge_supersample < 1 || edge_supersample > 64) return fail("edge_supersample must be in [1, 64]");
   if (optical_oversample < 1 || optical_oversample > 4) return fail("optical_oversample must be in [1, 4]");
+  if (!(tag_bow_mm >= 0.0 && tag_bow_mm <= 50.0)) return fail("tag bow_mm must be in [0, 50]");
   return formation.IsValid(why);
 }
 
@@ -155,6 +156,7 @@ struct Renderer::Impl {
   int width_at_border = 0;
   double cell_m = 0.0;
   double plate_half_m = 0.0;
+  Pose2 tag_T_robot;      // the tag frame from the robot frame
   cv::Mat corner_rays;    // (H+1) x (W+1) CV_64FC2: normalised coords of pixel corners
   cv::Mat bg_sharp;       // CV_32F
   cv::Mat bg_blur;        // CV_32F
@@ -218,7 +220,24 @@ struct Renderer::Impl {
     const double s = (tag.height_m() - c.z()) / d.z();
     if (!(s > 0.0)) return Eigen::Vector2d(1e9, 1e9);  // looks away from the plane: floor
     const Eigen::Vector3d p = c + s * d;
-    return T_robot_world * Eigen::Vector2d(p.x(), p.y());
+    Eigen::Vector2d q = T_robot_world * Eigen::Vector2d(p.x(), p.y());
+    if (options.tag_bow_mm > 0.0) {
+      // The ray meets the bowed paper where its height matches: a fixed
+      // point, converged to < 1 nm in three steps (the lift is ~1e-3 of the range).
+      for (int it = 0; it < 3; ++it) {
+        const double lift = BowLift(tag_T_robot * q);
+        const Eigen::Vector3d b = c + ((tag.height_m() + lift - c.z()) / d.z()) * d;
+        q = T_robot_world * Eigen::Vector2d(b.x(), b.y());
+      }
+    }
+    return q;
+  }
+
+  // Height of the bowed paper above the tag plane at tag-frame point t (m).
+  double BowLift(const Eigen::Vector2d& t) const {
+    if (std::abs(t.x()) > plate_half_m || std::abs(t.y()) > plate_half_m) return 0.0;
+    const double u = t.x() / plate_half_m;
+    return options.tag_bow_mm * 1e-3 * (1.0 - u * u);
   }
 
   // Adds weight * (the scene at pose T_world_robot) over `roi` to acc, which
@@ -308,6 +327,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   impl->width_at_border = family->width_at_border;
   impl->cell_m = tag.size_m() / family->width_at_border;
   impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * 1e-3;
+  impl->tag_T_robot = tag.T_robot_tag().inverse();
 
   // Normalised coordinates of every pixel corner (u - 0.5, v - 0.5), once.
   const int W = impl->width, H = impl->height;
@@ -558,7 +578,8 @@ std::optional<std::array<cv::Point2d, 4>> Renderer::TrueCorners(const Pose2& T_w
   const auto model = TagCornersInTag(impl_->tag.size_m());
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector2d p = T_world_tag * model[k];
-    const auto px = impl_->camera.ProjectWorld(Eigen::Vector3d(p.x(), p.y(), impl_->tag.height_m()));
+    const double z = impl_->tag.height_m() + impl_->BowLift(model[k]);
+    const auto px = impl_->camera.ProjectWorld(Eigen::Vector3d(p.x(), p.y(), z));
     if (!px) return std::nullopt;
     out[k] = cv::Point2d(px->x(), px->y());
   }

@@ -176,7 +176,10 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   if (f.codec.kind == vision::CodecOptions::Kind::kH264) c.crf = f.codec.crf;
   if (f.codec.kind == vision::CodecOptions::Kind::kMjpeg) c.crf = 0;
   if (const YAML::Node tag = node["tag"]) {
-    CheckKeys(tag, "camera.tag", {"print_scale", "black_level", "white_level"});
+    CheckKeys(tag, "camera.tag", {"print_scale", "bow_mm", "black_level", "white_level"});
+    c.render.tag_bow_mm = OptionalNumber(tag, "camera.tag", "bow_mm", 0.0);
+    if (!(c.render.tag_bow_mm >= 0.0 && c.render.tag_bow_mm <= 50.0))
+      Fail(tag["bow_mm"], "camera.tag.bow_mm", "must be in [0, 50] (mm the paper's middle rises)");
     c.tag_print_scale = OptionalNumber(tag, "camera.tag", "print_scale", 1.0);
     if (!(c.tag_print_scale > 0.5 && c.tag_print_scale < 2.0))
       Fail(tag["print_scale"], "camera.tag.print_scale", "must be in (0.5, 2)");

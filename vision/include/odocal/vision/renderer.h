@@ -70,6 +70,11 @@ struct RenderOptions {
   // Grey levels (before noise).
   double tag_black = 30.0;
   double tag_white = 220.0;
+  // Paper bow: the robot tag's paper bulges toward the camera, cylindrically
+  // about the tag's y axis: z = tag_bow_mm (1 - (x / half plate)^2) over the
+  // plate (its middle line highest, its x ends on the plate's plane). The
+  // truth corners are the lifted ones; the truth pose stays the tag's.
+  double tag_bow_mm = 0.0;
   double body_grey = 70.0;
   double floor_mean = 120.0;
   double floor_contrast = 40.0;  // peak deviation of the floor texture

@@ -438,5 +438,52 @@ TEST(CrossValidation, APeculiarityOfOneRunIsNotNamed) {
     EXPECT_EQ(w.run, s.session.runs[0].name) << w.motion << " " << w.t_from_s;
 }
 
+// The readout is told from the latency only by moving frames at different
+// rows: at one row it is a latency (aliased with it once the latency is
+// fitted), at the middle row it changes nothing, and without image rows
+// (a pose log) explain cannot form it and says what would tell.
+TEST(RollingShutter, AtOneRowItIsALatencyAtTheMiddleNothingWithoutRowsNotFormed) {
+  sim::Effects latency;
+  latency.camera_latency = sim::CameraLatencyEffect{0.080};
+  const SessionUnderTest s = MakeSession(IdentifyingPlan(), latency, 3);
+  auto with_rows = [&](double row) {
+    calibration::MeasuredSession session = s.session;
+    for (calibration::MeasuredRun& run : session.runs)
+      for (calibration::CameraRecord& f : run.camera) f.image_row_fraction = row;
+    return session;
+  };
+  calibration::TrajectoryFitOptions o;
+  o.effects = {calibration::Effect::kCameraLatency};
+  const auto whole_field = calibration::FitTrajectory(s.session, o);
+  const auto one_row = calibration::FitTrajectory(with_rows(0.8), o);
+  const auto middle = calibration::FitTrajectory(with_rows(0.5), o);
+  ASSERT_TRUE(whole_field.ok() && one_row.ok() && middle.ok());
+  const auto separated = calibration::CheckAliasing(whole_field, calibration::Effect::kRollingShutter);
+  const auto aliased = calibration::CheckAliasing(one_row, calibration::Effect::kRollingShutter);
+  const auto nothing = calibration::CheckAliasing(middle, calibration::Effect::kRollingShutter);
+  std::printf("[figure] rolling_shutter vs camera_latency separation: %.4f (rows 0.03-0.97), "
+              "%.2g (one row)\n", separated.separation, aliased.separation);
+  EXPECT_FALSE(separated.aliased);
+  EXPECT_TRUE(aliased.aliased);
+  EXPECT_FALSE(aliased.no_signal);
+  EXPECT_THAT(aliased.looks_like, ::testing::Contains("camera_latency"));
+  EXPECT_THAT(aliased.distinguishing_runs, ::testing::HasSubstr("different image rows"));
+  EXPECT_TRUE(nothing.no_signal);
+
+  const SessionUnderTest clean = MakeSession(IdentifyingPlan(), {}, 3);
+  calibration::MeasuredSession pose_log = clean.session;
+  for (calibration::MeasuredRun& run : pose_log.runs)
+    for (calibration::CameraRecord& f : run.camera) f.image_row_fraction = NAN;
+  const ExplainResult r = calibration::Explain(pose_log);
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.EffectsAdded().empty()) << r.BriefReport();
+  const calibration::AliasReport* rs = nullptr;
+  for (const auto& a : r.aliased)
+    if (a.effect == calibration::Effect::kRollingShutter) rs = &a;
+  ASSERT_NE(rs, nullptr) << r.BriefReport();
+  EXPECT_TRUE(rs->no_signal);
+  EXPECT_THAT(rs->distinguishing_runs, ::testing::HasSubstr("image row"));
+}
+
 }  // namespace
 }  // namespace odocal::testing

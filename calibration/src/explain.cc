@@ -20,6 +20,21 @@ std::string Fixed(double v, int precision) {
   return os.str();
 }
 
+// A candidate the session lacks the input for cannot be formed: the lens
+// candidate without the camera's geometry over the tag plane, rolling_shutter
+// without any frame's image row (pose logs). What it would need, else empty.
+std::string MissingInput(const MeasuredSession& session, Effect e) {
+  if (e == Effect::kLensDistortion && !session.camera)
+    return "the camera's floor geometry (centre, height)";
+  if (e == Effect::kRollingShutter) {
+    for (const MeasuredRun& run : session.runs)
+      for (const CameraRecord& f : run.camera)
+        if (f.valid && f.has_image_row()) return "";
+    return "each frame's image row (video measured by odocal; a pose log has none)";
+  }
+  return "";
+}
+
 bool Contains(const std::vector<Effect>& effects, Effect e) {
   return std::find(effects.begin(), effects.end(), e) != effects.end();
 }
@@ -319,8 +334,9 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   result.base_residuals = SummariseResiduals(session, result.base);
   TrajectoryFitResult current = result.base;
 
-  // The lens candidate needs the camera's geometry; without it it cannot be
-  // formed and is reported as without signal.
+  // The lens candidate needs the camera's geometry, rolling_shutter the
+  // frames' image rows; without them they cannot be formed and are reported
+  // as without signal (MissingInput).
   const std::vector<Effect>& candidates = options.candidates;
   while (static_cast<int>(current.options.effects.size()) < options.max_effects) {
     std::vector<CandidateTrial> trials;
@@ -333,11 +349,11 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       if (Contains(current.options.effects, e)) continue;
       CandidateTrial trial;
       trial.effect = e;
-      if (e == Effect::kLensDistortion && !session.camera) {
+      if (const std::string missing = MissingInput(session, e); !missing.empty()) {
         trial.alias.effect = e;
         trial.alias.no_signal = true;
         trial.alias.aliased = true;
-        trial.alias.distinguishing_runs = "the camera's floor geometry (centre, height)";
+        trial.alias.distinguishing_runs = missing;
         trials.push_back(trial);
         continue;
       }
@@ -414,10 +430,10 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   for (Effect e : candidates) {
     if (Contains(current.options.effects, e)) continue;
     AliasReport a;
-    if (e == Effect::kLensDistortion && !session.camera) {
+    if (const std::string missing = MissingInput(session, e); !missing.empty()) {
       a.effect = e;
       a.aliased = a.no_signal = true;
-      a.distinguishing_runs = "the camera's floor geometry (centre, height)";
+      a.distinguishing_runs = missing;
     } else {
       a = CheckAliasing(current, e, options.alias_tolerance);
     }

@@ -14,6 +14,7 @@ struct Frame {
   Pose2 z;
   double sigma_p = 0.0;
   double sigma_h = 0.0;
+  double row_fraction = 0.0;  // CameraRecord::image_row_fraction (NaN: unknown)
 };
 
 // The start pose whose prediction best matches the anchor frames (whitened
@@ -22,12 +23,15 @@ struct Frame {
 Pose2 AnchorStart(const MeasuredRun& run, const WheelParams& believed, const ReplayModel& model,
                   const std::optional<FloorCamera>& camera, const ReplayOptions& options,
                   const std::vector<Frame>& anchor) {
-  std::vector<double> stamps;
-  for (const Frame& f : anchor) stamps.push_back(f.t_s);
+  std::vector<double> stamps, rows;
+  for (const Frame& f : anchor) {
+    stamps.push_back(f.t_s);
+    rows.push_back(f.row_fraction);
+  }
   auto predict = [&](const Eigen::Vector3d& s) {
     return PredictMeasuredPoses(run, believed, model.scales, model.effects, camera,
                                 Pose2::FromXYHeading(s[0], s[1], s[2]), stamps,
-                                options.left_direction0, options.right_direction0);
+                                options.left_direction0, options.right_direction0, rows);
   };
   auto residuals = [&](const Eigen::Vector3d& s) {
     const std::vector<Pose2> p = predict(s);
@@ -126,14 +130,16 @@ RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const R
     frames.push_back({f.t_s, f.T_world_robot,
                       f.sigma_position_m > 0.0 ? f.sigma_position_m : options.default_position_sigma_m,
                       f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
-                                                : options.default_heading_sigma_rad});
+                                                : options.default_heading_sigma_rad,
+                      f.image_row_fraction});
   }
   std::sort(frames.begin(), frames.end(),
             [](const Frame& a, const Frame& b) { return a.t_s < b.t_s; });
-  // A frame stamped s shows the robot at telemetry time s + latency.
-  const double latency_s = model.effects.latency_s();
+  // A frame stamped s shows the robot at telemetry time s + latency (and
+  // for a rolling shutter + (row fraction - 1/2) readout).
+  auto shown_s = [&](const Frame& f) { return model.effects.TelemetryTimeOf(f.t_s, f.row_fraction); };
   size_t n_still = 0;
-  while (n_still < frames.size() && frames[n_still].t_s + latency_s <= *first_motion_s) ++n_still;
+  while (n_still < frames.size() && shown_s(frames[n_still]) <= *first_motion_s) ++n_still;
   size_t anchor_begin = 0, anchor_end = 0;  // [begin, end) of `frames`
   if (n_still > 0) {
     anchor_end = n_still;
@@ -148,20 +154,21 @@ RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const R
   const std::vector<Frame> anchor(frames.begin() + anchor_begin, frames.begin() + anchor_end);
   out.start = AnchorStart(run, believed, model, camera, options, anchor);
 
-  std::vector<double> stamps;
+  std::vector<double> stamps, rows;
   for (size_t j = anchor_end; j < frames.size(); ++j) {
     stamps.push_back(frames[j].t_s);
+    rows.push_back(frames[j].row_fraction);
     out.measured.push_back(frames[j].z);
   }
   out.t_s = stamps;
   out.predicted = PredictMeasuredPoses(run, believed, model.scales, model.effects, camera,
                                        out.start, stamps, options.left_direction0,
-                                       options.right_direction0);
+                                       options.right_direction0, rows);
   double sum_sq = 0.0;
   std::vector<Pose2> final_measured, final_predicted;
   for (size_t j = 0; j < stamps.size(); ++j) {
     sum_sq += (out.predicted[j].translation() - out.measured[j].translation()).squaredNorm();
-    if (stamps[j] + latency_s >= *last_motion_s) {
+    if (model.effects.TelemetryTimeOf(stamps[j], rows[j]) >= *last_motion_s) {
       final_measured.push_back(out.measured[j]);
       final_predicted.push_back(out.predicted[j]);
     }

@@ -105,14 +105,29 @@ void DeadReckon(const RunData& run, const ModelConstants& constants, const T* ba
   }
 }
 
-// The measured pose predicted for a camera frame stamped `stamp_s`.
+// Frame j's image row fraction - 1/2 (0 when unknown or not extracted).
+double RowOffsetOf(const RunData& run, size_t j) {
+  return j < run.frame_row_offset.size() ? run.frame_row_offset[j] : 0.0;
+}
+
+// The telemetry time frame j of `run` shows (camera_latency, rolling_shutter).
+double FrameTelemetryTime(const RunData& run, size_t j, const EffectParams& effects) {
+  return run.frame_t_s[j] + effects.latency_s() + RowOffsetOf(run, j) * effects.readout_s();
+}
+
+// The measured pose predicted for a camera frame stamped `stamp_s` whose tag
+// is `row_offset` (image row fraction - 1/2) from the middle row.
 template <typename T>
 void PredictFrame(const RunData& run, const ModelConstants& constants, const std::vector<T>& xs_m,
                   const std::vector<T>& ys_m, const std::vector<T>& headings_rad,
-                  const T* effect_values, double stamp_s, T* px_m, T* py_m, T* ph_rad) {
+                  const T* effect_values, double stamp_s, double row_offset, T* px_m, T* py_m,
+                  T* ph_rad) {
   using std::cos;
   using std::sin;
-  const T t = stamp_s + effect_values[EffectParams::kLatency];
+  // camera_latency: a clock offset; rolling_shutter: the tag's row is
+  // exposed (f - 1/2) T after the middle row, whose time the stamp is.
+  const T t = stamp_s + effect_values[EffectParams::kLatency] +
+              row_offset * effect_values[EffectParams::kReadout];
   const double ts = Scalar(t);
   const size_t n = run.t_s.size();
   if (ts <= run.t_s.front()) {
@@ -160,7 +175,7 @@ struct RunResidual {
     for (size_t j = 0; j < run->frame_t_s.size(); ++j) {
       T px_m, py_m, ph_rad;
       PredictFrame(*run, *constants, xs_m, ys_m, headings_rad, effect_values, run->frame_t_s[j],
-                   &px_m, &py_m, &ph_rad);
+                   RowOffsetOf(*run, j), &px_m, &py_m, &ph_rad);
       const double w = run->sqrt_weight[j];
       residuals[m * j + 0] = w * (px_m - run->measured_x_m[j]) / run->sigma_position_m[j];
       residuals[m * j + 1] = w * (py_m - run->measured_y_m[j]) / run->sigma_position_m[j];
@@ -304,6 +319,7 @@ ExtractedRuns ExtractRuns(const MeasuredSession& session, const TrajectoryFitOpt
     for (const CameraRecord& f : mr.camera) {
       if (!f.valid) continue;
       rd.frame_t_s.push_back(f.t_s);
+      rd.frame_row_offset.push_back(EffectParams::RowOffset(f.image_row_fraction));
       rd.measured_x_m.push_back(f.T_world_robot.x());
       rd.measured_y_m.push_back(f.T_world_robot.y());
       rd.measured_heading_rad.push_back(f.T_world_robot.heading());
@@ -497,11 +513,12 @@ FrameReport ReportFrames(const std::vector<RunData>& runs, const ModelConstants&
     for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
       double px_m, py_m, ph_rad;
       PredictFrame(rd, constants, poses.x_m, poses.y_m, poses.heading_rad,
-                   params.effects.values.data(), rd.frame_t_s[j], &px_m, &py_m, &ph_rad);
+                   params.effects.values.data(), rd.frame_t_s[j], RowOffsetOf(rd, j), &px_m,
+                   &py_m, &ph_rad);
       FrameResidual fr;
       fr.run = rd.run;
       fr.t_s = rd.frame_t_s[j];
-      const double telemetry_t_s = rd.frame_t_s[j] + params.effects.latency_s();
+      const double telemetry_t_s = FrameTelemetryTime(rd, j, params.effects);
       const size_t k = std::min<size_t>(
           std::upper_bound(rd.t_s.begin(), rd.t_s.end(), telemetry_t_s) - rd.t_s.begin(),
           rd.t_s.size() - 1);
@@ -611,7 +628,6 @@ void AddWheelNoiseCovariance(const std::vector<RunData>& runs, const ModelConsta
   const int p = static_cast<int>(pinv.rows());
   const double q_m = wheel_sigma_m_per_sqrt_m * wheel_sigma_m_per_sqrt_m;  // variance per metre
   const double true_track_m = params.base_scales[2] * constants.track_m;
-  const double latency_s = params.effects.latency_s();
   int row0 = 0;
   for (size_t r = 0; r < runs.size(); ++r) {
     const RunData& rd = runs[r];
@@ -625,7 +641,7 @@ void AddWheelNoiseCovariance(const std::vector<RunData>& runs, const ModelConsta
     int j = rd.n_frames() - 1;
     for (int k = static_cast<int>(rd.t_s.size()) - 1; k >= 1; --k) {
       // Frames at or after the end of step k feel its noise.
-      for (; j >= 0 && rd.frame_t_s[j] + latency_s >= rd.t_s[k]; --j) {
+      for (; j >= 0 && FrameTelemetryTime(rd, j, params.effects) >= rd.t_s[k]; --j) {
         const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
         const Eigen::VectorXd ax = pinv.col(row0 + m * j) * g;
         const Eigen::VectorXd ay = pinv.col(row0 + m * j + 1) * g;
@@ -706,7 +722,6 @@ double WheelNoiseGap(const std::vector<RunData>& runs, const ModelConstants& con
   std::normal_distribution<double> normal(0.0, 1.0);
   const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
   const double true_track_m = params.base_scales[2] * constants.track_m;
-  const double latency_s = params.effects.latency_s();
   double sum_sq_m2 = 0.0;
   for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
     Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);  // whitened residual change
@@ -719,7 +734,7 @@ double WheelNoiseGap(const std::vector<RunData>& runs, const ModelConstants& con
       double shift_x_m = 0.0, shift_y_m = 0.0, rotation_rad = 0.0;
       size_t j = 0;
       auto assign_until = [&](double t_s) {
-        for (; j < rd.frame_t_s.size() && rd.frame_t_s[j] + latency_s < t_s; ++j) {
+        for (; j < rd.frame_t_s.size() && FrameTelemetryTime(rd, j, params.effects) < t_s; ++j) {
           const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
           delta[row0 + m * j] = (shift_x_m - rotation_rad * rd.measured_y_m[j]) * g;
           delta[row0 + m * j + 1] = (shift_y_m + rotation_rad * rd.measured_x_m[j]) * g;
@@ -902,6 +917,7 @@ std::string_view ToString(Effect effect) {
     case Effect::kTrackerYaw: return "tracker_yaw";
     case Effect::kSpeedSlip: return "speed_slip";
     case Effect::kArcScale: return "arc_scale";
+    case Effect::kRollingShutter: return "rolling_shutter";
   }
   return "?";
 }
@@ -932,6 +948,7 @@ std::vector<int> EffectParamIndices(Effect effect) {
     case Effect::kTrackerYaw: return {EffectParams::kTrackerYaw};
     case Effect::kSpeedSlip: return {EffectParams::kSpeedSlip};
     case Effect::kArcScale: return {EffectParams::kArcScale};
+    case Effect::kRollingShutter: return {EffectParams::kReadout};
   }
   return {};
 }
@@ -952,6 +969,7 @@ std::vector<std::string> EffectParamNames(Effect effect) {
     case Effect::kTrackerYaw: return {"yaw_rad"};
     case Effect::kSpeedSlip: return {"fraction_at_1m_s"};
     case Effect::kArcScale: return {"fraction_at_1_per_m"};
+    case Effect::kRollingShutter: return {"readout_s"};
   }
   return {};
 }
@@ -986,6 +1004,10 @@ std::string DistinguishingRuns(Effect effect) {
       return "arcs (e.g. circles of radius 0.3-1 m) beside straights and turns in place: on arcs of "
              "one curvature it is a scale of both wheels there, which only straights tell from Es "
              "(and spins from Eb)";
+    case Effect::kRollingShutter:
+      return "motion seen by a video camera at different image rows (e.g. squares or straights "
+             "that cross the image top to bottom, spins away from the middle row): at one row "
+             "it is a camera latency, at the middle row nothing";
   }
   return "";
 }
@@ -1136,7 +1158,8 @@ std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParam
                                         const WheelScales& scales, const EffectParams& effects,
                                         const std::optional<FloorCamera>& camera,
                                         const Pose2& start, const std::vector<double>& stamps_s,
-                                        int left_direction0, int right_direction0) {
+                                        int left_direction0, int right_direction0,
+                                        const std::vector<double>& image_row_fractions) {
   using namespace internal;
   RunData rd = ExtractTelemetry(run, 0, &left_direction0, &right_direction0);
   if (rd.t_s.size() < 2) return {};
@@ -1149,10 +1172,12 @@ std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParam
              &headings_rad);
   std::vector<Pose2> poses;
   poses.reserve(stamps_s.size());
-  for (double stamp_s : stamps_s) {
+  for (size_t j = 0; j < stamps_s.size(); ++j) {
+    const double row_offset =
+        j < image_row_fractions.size() ? EffectParams::RowOffset(image_row_fractions[j]) : 0.0;
     double px_m, py_m, ph_rad;
-    PredictFrame(rd, constants, xs_m, ys_m, headings_rad, effects.values.data(), stamp_s, &px_m,
-                 &py_m, &ph_rad);
+    PredictFrame(rd, constants, xs_m, ys_m, headings_rad, effects.values.data(), stamps_s[j],
+                 row_offset, &px_m, &py_m, &ph_rad);
     poses.push_back(Pose2::FromXYHeading(px_m, py_m, ph_rad));
   }
   return poses;

@@ -13,6 +13,7 @@ std::vector<std::string> Effects::Names() const {
   if (tracker_yaw) names.push_back("tracker_yaw");
   if (speed_slip) names.push_back("speed_slip");
   if (arc_scale) names.push_back("arc_scale");
+  if (rolling_shutter) names.push_back("rolling_shutter");
   if (eccentric_wheel) names.push_back("eccentric_wheel");
   return names;
 }

@@ -183,6 +183,133 @@ TEST(TrajectoryFit, HuberKeepsGrossOutliersFromMovingTheEstimate) {
   EXPECT_LT(robust_eb + robust_ed, plain_eb + plain_ed);
 }
 
+// rolling_shutter is a clock offset per image row: a frame at row fraction f
+// with readout T is predicted exactly as a frame with latency (f - 1/2) T,
+// and without a row it is not shifted at all.
+TEST(RollingShutter, IsARowDependentClockOffset) {
+  const SessionUnderTest s = MakeSession({RunSpec::Umbmark(Direction::kCw, 2.0)}, {}, 3);
+  const calibration::MeasuredRun& run = s.session.runs[0];
+  const calibration::WheelScales scales;
+  const calibration::Pose2 start = calibration::Pose2::FromXYHeading(0.1, -0.2, 0.3);
+  std::vector<double> stamps, rows;
+  for (const calibration::CameraRecord& f : run.camera) {
+    stamps.push_back(f.t_s);
+    rows.push_back(f.image_row_fraction);
+  }
+  calibration::EffectParams shutter;
+  shutter.values[calibration::EffectParams::kReadout] = 0.020;
+  const auto with_rows = calibration::PredictMeasuredPoses(run, s.session.believed, scales, shutter,
+                                                           std::nullopt, start, stamps, 1, 1, rows);
+  const auto without_rows = calibration::PredictMeasuredPoses(
+      run, s.session.believed, scales, shutter, std::nullopt, start, stamps, 1, 1);
+  const auto none = calibration::PredictMeasuredPoses(run, s.session.believed, scales, {},
+                                                      std::nullopt, start, stamps, 1, 1, rows);
+  ASSERT_EQ(with_rows.size(), stamps.size());
+  double largest_shift_m = 0.0;
+  for (size_t j = 0; j < stamps.size(); j += 7) {
+    ASSERT_FALSE(std::isnan(rows[j]));
+    calibration::EffectParams latency;
+    latency.values[calibration::EffectParams::kLatency] = (rows[j] - 0.5) * 0.020;
+    const calibration::Pose2 expected = calibration::PredictMeasuredPoses(
+        run, s.session.believed, scales, latency, std::nullopt, start, {stamps[j]})[0];
+    EXPECT_NEAR((with_rows[j].translation() - expected.translation()).norm(), 0.0, 1e-12) << j;
+    EXPECT_NEAR(with_rows[j].heading(), expected.heading(), 1e-12) << j;
+    EXPECT_EQ(without_rows[j].translation(), none[j].translation()) << j;
+    largest_shift_m = std::max(largest_shift_m, (with_rows[j].translation() - none[j].translation()).norm());
+  }
+  // 250 mm/s times up to 10 ms: millimetres, not nothing.
+  EXPECT_GT(largest_shift_m, 1e-3);
+}
+
+// The fit's (automatic) derivative in the readout against central
+// differences of the model, and its relation to the latency's: d/dT = (f - 1/2) d/dlatency.
+TEST(RollingShutter, JacobianMatchesCentralDifferences) {
+  sim::Effects effects;
+  effects.rolling_shutter = sim::RollingShutterEffect{0.020};
+  const SessionUnderTest s = MakeSession({RunSpec::Umbmark(Direction::kCw, 2.0)}, effects, 3);
+  TrajectoryFitOptions options;
+  options.effects = {calibration::Effect::kCameraLatency, calibration::Effect::kRollingShutter};
+  const auto fit = FitTrajectory(s.session, options);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  const calibration::MeasuredRun& run = s.session.runs[0];
+  std::vector<double> stamps, rows;
+  std::vector<const calibration::CameraRecord*> frames;
+  for (const calibration::CameraRecord& f : run.camera)
+    if (f.valid) {
+      stamps.push_back(f.t_s);
+      rows.push_back(f.image_row_fraction);
+      frames.push_back(&f);
+    }
+  constexpr int kBase = 3;  // r_left, r_right, Eb come first
+  const Eigen::VectorXd d_readout = fit.jacobian.col(kBase + calibration::EffectParams::kReadout);
+  const Eigen::VectorXd d_latency = fit.jacobian.col(kBase + calibration::EffectParams::kLatency);
+  ASSERT_EQ(d_readout.size(), 3 * static_cast<int>(stamps.size()));
+  auto predict = [&](double readout_s) {
+    calibration::EffectParams fx = fit.effects;
+    fx.values[calibration::EffectParams::kReadout] = readout_s;
+    return calibration::PredictMeasuredPoses(run, s.session.believed, fit.scales, fx, s.session.camera,
+                                             fit.start_poses[0], stamps, 1, 1, rows);
+  };
+  const double h = 1e-5, readout = fit.effects.readout_s();
+  const auto plus = predict(readout + h), minus = predict(readout - h);
+  double largest = 0.0, worst = 0.0;
+  for (size_t j = 0; j < stamps.size(); ++j) {
+    // The whitened residual (robust weight 1 for inliers) per unit readout.
+    const double w = 1.0 / frames[j]->sigma_position_m;
+    const double numeric_x = w * (plus[j].x() - minus[j].x()) / (2 * h);
+    const double numeric_y = w * (plus[j].y() - minus[j].y()) / (2 * h);
+    largest = std::max({largest, std::abs(numeric_x), std::abs(numeric_y)});
+    // Inliers only (a down-weighted frame scales its row).
+    if (fit.residuals[j].weight < 1.0) continue;
+    worst = std::max({worst, std::abs(d_readout[3 * j] - numeric_x), std::abs(d_readout[3 * j + 1] - numeric_y)});
+    EXPECT_NEAR(d_readout[3 * j], (rows[j] - 0.5) * d_latency[3 * j], 1e-9 * (1.0 + std::abs(d_latency[3 * j])));
+    EXPECT_NEAR(d_readout[3 * j + 2], (rows[j] - 0.5) * d_latency[3 * j + 2], 1e-9 * (1.0 + std::abs(d_latency[3 * j + 2])));
+  }
+  std::printf("[figure] d(residual)/d(readout): largest %.3g per s, worst |autodiff - numeric| %.3g\n",
+              largest, worst);
+  EXPECT_GT(largest, 50.0);
+  EXPECT_LT(worst, 1e-4 * largest);
+}
+
+// A whole-field camera (the tag crosses most of the image's rows) with a
+// hidden rolling shutter of 20 ms: the fit with latency and readout recovers
+// the readout within its interval, and the latency stays at zero.
+TEST(RollingShutter, TheFitRecoversAHiddenReadoutOfAWholeFieldCamera) {
+  sim::Effects effects;
+  effects.rolling_shutter = sim::RollingShutterEffect{0.020};
+  const SessionUnderTest s = MakeSession(IdentifyingPlan(), effects, 3);
+  double lowest = 1.0, highest = 0.0;
+  for (const calibration::MeasuredRun& run : s.session.runs)
+    for (const calibration::CameraRecord& f : run.camera) {
+      lowest = std::min(lowest, f.image_row_fraction);
+      highest = std::max(highest, f.image_row_fraction);
+    }
+  std::printf("[figure] rolling shutter: image rows %.2f to %.2f\n", lowest, highest);
+  EXPECT_GT(highest - lowest, 0.8);
+  TrajectoryFitOptions options;
+  options.effects = {calibration::Effect::kCameraLatency, calibration::Effect::kRollingShutter};
+  const auto fit = FitTrajectory(s.session, options);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  std::printf("%s", fit.BriefReport().c_str());
+  const auto* readout = fit.Find("rolling_shutter.readout_s");
+  const auto* latency = fit.Find("camera_latency.latency_s");
+  ASSERT_NE(readout, nullptr);
+  ASSERT_TRUE(readout->identifiable);
+  ASSERT_TRUE(latency->identifiable);
+  std::printf("[figure] rolling_shutter 20 ms: fitted %.3f ms, sigma %.3f ms, 95%% [%.3f, %.3f]; "
+              "latency %.3f ms [%.3f, %.3f]\n",
+              readout->value * 1e3, readout->sigma * 1e3, readout->lower95() * 1e3,
+              readout->upper95() * 1e3, latency->value * 1e3, latency->lower95() * 1e3,
+              latency->upper95() * 1e3);
+  EXPECT_GE(0.020, readout->lower95());
+  EXPECT_LE(0.020, readout->upper95());
+  EXPECT_LT(readout->upper95() - readout->lower95(), 0.2 * 0.020);  // it measures
+  EXPECT_GE(0.0, latency->lower95());
+  EXPECT_LE(0.0, latency->upper95());
+  EXPECT_TRUE(fit.unidentifiable.empty());
+  EXPECT_LT(fit.gap_m, 1.05 * fit.noise_floor_m);
+}
+
 TEST(TrajectoryFit, RejectsBadInput) {
   calibration::MeasuredSession empty;
   empty.believed = test_util::NominalParams();

@@ -94,6 +94,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0].name: unknown effect 'warp_drive'"},
         BadCase{"effects: []", "effects: [{name: turn_slip, fraction: 0.1}]", "effects[0].fraction: unknown key"},
         BadCase{"effects: []", "effects: [{name: camera_latency}]", "effects[0].ms: missing"},
+        BadCase{"effects: []", "effects: [{name: rolling_shutter}]", "effects[0].ms: missing"},
+        BadCase{"effects: []", "effects: [{name: rolling_shutter, ms: -5}]", "effects[0].ms: must be in [0, 1000]"},
         BadCase{"  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
                 "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
                 "  - {procedure: straight, distance_mm: 1500}\n"
@@ -117,11 +119,13 @@ TEST(Scenario, LoadsEveryEffect) {
                "  - {name: tracker_yaw, deg: -1.5}\n"
                "  - {name: speed_slip, fraction_at_1m_s: 0.03}\n"
                "  - {name: eccentric_wheel, wheel: right, amplitude: 0.02, phase_deg: 90}\n"
-               "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n");
+               "  - {name: arc_scale, fraction_at_1_per_m: 0.001}\n"
+               "  - {name: rolling_shutter, ms: 20}\n");
   const auto s = config::LoadScenario(WriteTemp(text));
   ASSERT_TRUE(s) << s.message;
   const sim::Effects& e = s->robot.effects;
-  EXPECT_EQ(e.Names().size(), 10u);
+  EXPECT_EQ(e.Names().size(), 11u);
+  EXPECT_NEAR(e.rolling_shutter->readout_s, 0.020, 1e-12);
   EXPECT_NEAR(e.arc_scale->fraction_at_1_per_m, 0.001, 1e-12);
   EXPECT_NEAR(e.tracker_yaw->yaw_rad, -1.5 * M_PI / 180, 1e-12);
   EXPECT_NEAR(e.speed_slip->fraction_at_1m_s, 0.03, 1e-12);
@@ -135,6 +139,25 @@ TEST(Scenario, LoadsEveryEffect) {
   EXPECT_NEAR(e.encoder_backlash->ticks, 3.0, 1e-12);
   EXPECT_NEAR(e.carpet_drift->grain_rad, M_PI / 2, 1e-12);
   EXPECT_NEAR(e.carpet_drift->rate_m_per_m, 0.002, 1e-12);
+}
+
+// A hidden rolling shutter is rendered as the camera's: it replaces a
+// profile's readout, and the scenario may not also give the camera's key.
+TEST(Scenario, ARollingShutterEffectIsTheCamerasAndGivenOnce) {
+  std::string text = kIssueScenario;
+  text.replace(text.find("effects: []"), 11, "effects: [{name: rolling_shutter, ms: 20}]");
+  text += "tag: {family: tag36h11, id: 5, size_mm: 80, height_mm: 150}\n"
+          "camera: {width: 640, height: 480, fx: 700, fy: 700, cx: 320, cy: 240, "
+          "pose: {height_mm: 1200}, profile: webcam}\n";
+  const auto s = config::LoadScenario(WriteTemp(text));
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_NEAR(s->robot.effects.rolling_shutter->readout_s, 0.020, 1e-12);
+  std::string both = text;
+  both.replace(both.find("profile: webcam"), 15, "rolling_shutter_ms: 20");
+  const auto refused = config::LoadScenario(WriteTemp(both));
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.message, ::testing::HasSubstr("camera.rolling_shutter_ms"));
+  EXPECT_THAT(refused.message, ::testing::HasSubstr("give the readout once"));
 }
 
 TEST(Scenario, LoadsACircle) {

@@ -71,6 +71,7 @@ inline SessionUnderTest MakeSession(const std::vector<calibration::RunSpec>& pla
   if (effects.camera_latency) camera.latency_s = effects.camera_latency->latency_s;
   if (effects.lens_distortion) camera.k1_delta = effects.lens_distortion->k1_delta;
   if (effects.tracker_yaw) camera.tracker_yaw_rad = effects.tracker_yaw->yaw_rad;
+  if (effects.rolling_shutter) camera.rolling_shutter_s = effects.rolling_shutter->readout_s;
   SessionUnderTest out;
   out.session = simulation::MeasureWithStandInCamera(scenario.robot.nominal, simulation::SimulatedRunRecordsOf(sim), camera);
   out.truth = sim.truth;

@@ -287,6 +287,13 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       if (c < 0.0 || c >= 0.01)
         Fail(e["fraction_at_1_per_m"], Join(path, "fraction_at_1_per_m"), "must be in [0, 0.01)");
       out.arc_scale = sim::ArcScaleEffect{c};
+    } else if (name == "rolling_shutter") {
+      CheckKeys(e, path, {"name", "ms"});
+      twice(out.rolling_shutter.has_value());
+      // The readout of the rows, top to bottom (as camera.rolling_shutter_ms).
+      const double ms = RequiredNumber(e, path, "ms");
+      if (!(ms >= 0.0 && ms <= 1000.0)) Fail(e["ms"], Join(path, "ms"), "must be in [0, 1000]");
+      out.rolling_shutter = sim::RollingShutterEffect{ms * 1e-3};
     } else if (name == "eccentric_wheel") {
       CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
       twice(out.eccentric_wheel.has_value());
@@ -301,7 +308,8 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       Fail(e["name"], Join(path, "name"),
            "unknown effect '" + name +
                "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
-               "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, arc_scale, eccentric_wheel)");
+               "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, arc_scale, "
+               "rolling_shutter, eccentric_wheel)");
     }
   }
   return out;
@@ -356,6 +364,11 @@ std::optional<Scenario> LoadScenarioOrError(const std::string& path, std::string
     }
     if (const YAML::Node tag = root["tag"]) s.tag = ParseTag(tag);
     if (const YAML::Node camera = root["camera"]) s.camera = ParseCamera(camera, s.seed);
+    // One shutter, named once: the hidden effect is rendered as the camera's.
+    if (s.robot.effects.rolling_shutter && root["camera"] && root["camera"]["rolling_shutter_ms"])
+      Fail(root["camera"]["rolling_shutter_ms"], "camera.rolling_shutter_ms",
+           "the effects list has rolling_shutter: give the readout once (the effect is rendered "
+           "as the camera's rolling shutter)");
     return s;
   } catch (const YamlError& e) {
     return fail(path + ":" + e.what());

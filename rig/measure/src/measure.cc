@@ -512,6 +512,10 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
               vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
           c.valid = pose.ok;
           if (pose.ok) c.T_world_robot = pose.T_world_robot;
+          // The tag centre's image row, v / (H - 1), for the rolling_shutter candidate.
+          const vision::TagCorners& q = *f.corners_px;
+          c.image_row_fraction = (q[0].y + q[1].y + q[2].y + q[3].y) / 4.0 /
+                                 (sm.session.intrinsics.height - 1);
         }
         m.camera.push_back(c);
       }

@@ -21,6 +21,7 @@ std::pair<std::string, double> EdgeName(const std::string& name) {
   if (name == "x_m") return {"x_mm", 1e3};
   if (name == "y_m") return {"y_mm", 1e3};
   if (name == "latency_s") return {"ms", 1e3};
+  if (name == "readout_s") return {"ms", 1e3};
   if (name == "grain_rad") return {"grain_deg", kRadToDeg};
   if (name == "rate_m_per_m") return {"rate_mm_per_m", 1e3};
   if (name == "camera_tilt_x_rad") return {"camera_tilt_x_deg", kRadToDeg};

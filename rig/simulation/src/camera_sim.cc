@@ -35,6 +35,8 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
   const double latency_s = effects.camera_latency ? effects.camera_latency->latency_s : 0.0;
 
   vision::RenderOptions render = cam.render;
+  // A hidden rolling shutter is the camera's (it replaces a profile's readout).
+  if (effects.rolling_shutter) render.formation.rolling_shutter_s = effects.rolling_shutter->readout_s;
   render.seed = scenario.seed * 1000003ULL + std::hash<std::string>{}(name);
   if (cam.floor_tags) {
     for (const auto& t : cam.floor_tags->tags) {

@@ -77,6 +77,16 @@ bool ReadCsv(const std::string& path, size_t n_fields, std::vector<std::vector<d
   return true;
 }
 
+// The image row, as a fraction v / (H - 1), at which `camera` (a pinhole with
+// vertical field `vertical_fov_rad`, the middle row on its axis) sees the
+// tag-plane point p.
+double RowFraction(const calibration::FloorCamera& camera, double vertical_fov_rad,
+                   const Eigen::Vector2d& p) {
+  const Eigen::Vector3d c =
+      camera.R_camera_world * (Eigen::Vector3d(p.x(), p.y(), 0.0) - camera.centre_m);
+  return 0.5 + (c.y() / c.z()) / (2.0 * std::tan(vertical_fov_rad / 2.0));
+}
+
 }  // namespace
 
 bool StandInCameraOptions::IsValid(std::string* why) const {
@@ -89,6 +99,9 @@ bool StandInCameraOptions::IsValid(std::string* why) const {
   if (!(sigma_heading_rad > 0.0)) return fail("camera heading sigma must be positive");
   if (home_radius_m && !(*home_radius_m > 0.0)) return fail("home radius must be positive");
   if (!camera.IsValid()) return fail("camera must be above the tag plane, looking down at it");
+  if (!(rolling_shutter_s >= 0.0)) return fail("rolling shutter readout must not be negative");
+  if (!(vertical_fov_rad > 0.0 && vertical_fov_rad < M_PI))
+    return fail("vertical field of view must be in (0, 180) deg");
   return true;
 }
 
@@ -116,15 +129,26 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
     std::vector<calibration::PoseSample> samples;
     for (double k = std::ceil(t0 / period); k * period <= t1; k += 1.0) {
       const double t_capture = k * period;
-      const Pose2 truth = Interpolate(run, t_capture);
+      // The tag centre's image row; with a rolling shutter, the row whose
+      // exposure time shows the tag there (a fixed point: the tag moves a
+      // fraction of a row in the readout's shift).
+      const Eigen::Vector2d tag_on_robot(options.tag_x_m, options.tag_y_m);
+      Pose2 truth = Interpolate(run, t_capture);
+      double row = RowFraction(options.camera, options.vertical_fov_rad, truth * tag_on_robot);
+      if (options.rolling_shutter_s > 0.0)
+        for (int iteration = 0; iteration < 3; ++iteration) {
+          truth = Interpolate(run, t_capture + (row - 0.5) * options.rolling_shutter_s);
+          row = RowFraction(options.camera, options.vertical_fov_rad, truth * tag_on_robot);
+        }
       calibration::CameraRecord f;
+      f.image_row_fraction = row;
       f.t_s = t_capture - options.latency_s;
       f.sigma_position_m = options.sigma_position_m;
       f.sigma_heading_rad = options.sigma_heading_rad;
       f.valid = !options.home_radius_m ||
                 (truth.translation() - options.home_centre_m).norm() <= *options.home_radius_m;
       // What the camera sees: the tag (wherever it really is on the robot)...
-      Eigen::Vector2d p = truth * Eigen::Vector2d(options.tag_x_m, options.tag_y_m);
+      Eigen::Vector2d p = truth * tag_on_robot;
       // ...through a lens whose k1 is off by k1_delta.
       calibration::SeenThroughLens(options.camera, p.x(), p.y(), options.k1_delta, 0.0, 0.0, &p.x(),
                                    &p.y());

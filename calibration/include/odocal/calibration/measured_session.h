@@ -11,7 +11,9 @@
 #ifndef ODOCAL_CALIBRATION_MEASURED_SESSION_H_
 #define ODOCAL_CALIBRATION_MEASURED_SESSION_H_
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +44,12 @@ struct CameraRecord {
   // corner noise), for weighting.
   double sigma_position_m = 0.0;
   double sigma_heading_rad = 0.0;
+  // The image row of the tag's centre as a fraction of the image, v / (H - 1)
+  // in [0, 1] (0: the top row), for the rolling_shutter candidate: a rolling
+  // shutter exposes that row at the stamp + (fraction - 1/2) * readout. NaN
+  // when unknown (pose logs): such a frame feels no rolling shutter.
+  double image_row_fraction = std::numeric_limits<double>::quiet_NaN();
+  bool has_image_row() const { return !std::isnan(image_row_fraction); }
 };
 
 struct MeasuredRun {

@@ -39,6 +39,11 @@
 //                    travel (1 - c |kappa|), kappa the path curvature (1/m)
 //                    from the ticks over a few steps; 0 on straights, not
 //                    applied to in-place turns (turn_slip's)
+//   rolling_shutter  the image rows are exposed one after another over the
+//                    readout time T: a frame stamped s whose tag centre is at
+//                    image row fraction f (CameraRecord::image_row_fraction,
+//                    v / (H - 1)) shows the robot at telemetry time
+//                    s + latency + (f - 1/2) T; frames without a row: no shift
 //
 // Robust loss: Huber on each frame's whitened error, by iteratively
 // reweighted least squares (the frames of a run share one dead-reckoned
@@ -83,11 +88,12 @@ namespace odocal::calibration {
 
 // The candidate effects, named as scenario files name them.
 enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
-                    kCarpetDrift, kTrackerYaw, kSpeedSlip, kArcScale };
-inline constexpr std::array<Effect, 9> kAllEffects = {
+                    kCarpetDrift, kTrackerYaw, kSpeedSlip, kArcScale, kRollingShutter };
+inline constexpr std::array<Effect, 10> kAllEffects = {
     Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
     Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift,
-    Effect::kTrackerYaw,     Effect::kSpeedSlip,       Effect::kArcScale};
+    Effect::kTrackerYaw,     Effect::kSpeedSlip,       Effect::kArcScale,
+    Effect::kRollingShutter};
 std::string_view ToString(Effect effect);
 
 // The effect parameter block. Indices into `values` are fixed; a disabled
@@ -95,7 +101,7 @@ std::string_view ToString(Effect effect);
 struct EffectParams {
   enum Index {
     kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY,
-    kTrackerYaw, kSpeedSlip, kArcScale, kSize
+    kTrackerYaw, kSpeedSlip, kArcScale, kReadout, kSize
   };
   std::array<double, kSize> values{};
 
@@ -108,6 +114,16 @@ struct EffectParams {
   double tracker_yaw_rad() const { return values[kTrackerYaw]; }
   double speed_slip_at_1m_s() const { return values[kSpeedSlip]; }
   double arc_scale_at_1_per_m() const { return values[kArcScale]; }
+  double readout_s() const { return values[kReadout]; }
+  // The telemetry time a frame shows: its stamp + latency, and for a rolling
+  // shutter + (row fraction - 1/2) readout (no shift when the row is unknown).
+  double TelemetryTimeOf(double stamp_s, double image_row_fraction) const {
+    return stamp_s + latency_s() + RowOffset(image_row_fraction) * readout_s();
+  }
+  // f - 1/2 for a known row fraction f, else 0.
+  static double RowOffset(double image_row_fraction) {
+    return std::isnan(image_row_fraction) ? 0.0 : image_row_fraction - 0.5;
+  }
   double drift_rate_m_per_m() const;
   double drift_grain_rad() const;
 };
@@ -267,12 +283,15 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // model FitTrajectory fits. `left_direction0`/`right_direction0`: each wheel's
 // last direction of motion before the run (+1 forward, -1 backward), which
 // encoder_backlash needs; LastShaftDirections carries them over from an earlier
-// run. Empty when the run has fewer than 2 telemetry samples.
+// run. `image_row_fractions`, one per stamp when given, are the frames' image
+// rows (rolling_shutter; NaN: unknown); empty: no frame has a row.
+// Empty when the run has fewer than 2 telemetry samples.
 std::vector<Pose2> PredictMeasuredPoses(const MeasuredRun& run, const WheelParams& believed,
                                         const WheelScales& scales, const EffectParams& effects,
                                         const std::optional<FloorCamera>& camera,
                                         const Pose2& start, const std::vector<double>& stamps_s,
-                                        int left_direction0 = 1, int right_direction0 = 1);
+                                        int left_direction0 = 1, int right_direction0 = 1,
+                                        const std::vector<double>& image_row_fractions = {});
 
 // Each wheel's last direction of motion at the end of `run` (+1, -1), given
 // those before it (unchanged for a wheel that did not move).

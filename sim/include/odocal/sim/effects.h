@@ -76,6 +76,18 @@ struct ArcScaleEffect {
   double fraction_at_1_per_m = 0.0;
 };
 
+// {name: rolling_shutter, ms}: the camera exposes its image rows one after
+// another over `readout_s`, top to bottom: row v (of H) at the frame's
+// mid-exposure time (its stamp) + (v / (H - 1) - 1/2) readout. Camera-side:
+// the pose-level twin of the rendered camera's `rolling_shutter_ms`
+// (vision/image_formation.h). The stand-in camera shows a frame whose tag is
+// at row fraction f with the pose at capture + (f - 1/2) readout; a rendered
+// scenario renders it (it replaces a camera profile's readout, and a scenario
+// may not give both it and camera.rolling_shutter_ms).
+struct RollingShutterEffect {
+  double readout_s = 0.0;
+};
+
 // {name: eccentric_wheel, wheel, amplitude, phase_deg}: one wheel's rolling
 // radius varies with its angle phi as r (1 + amplitude sin(phi + phase)).
 // Simulator only — not a candidate of explain's model library, so that
@@ -96,6 +108,7 @@ struct Effects {
   std::optional<TrackerYawEffect> tracker_yaw;
   std::optional<SpeedSlipEffect> speed_slip;
   std::optional<ArcScaleEffect> arc_scale;
+  std::optional<RollingShutterEffect> rolling_shutter;
   std::optional<EccentricWheelEffect> eccentric_wheel;
 
   // The names of the effects that are on, in the order above.

@@ -56,6 +56,8 @@ struct RunData {
   int left_direction0 = 1, right_direction0 = 1;  // shaft directions before the run
   // The used (valid) camera frames.
   std::vector<double> frame_t_s;
+  // Each frame's image row fraction - 1/2 (rolling_shutter), 0 when unknown.
+  std::vector<double> frame_row_offset;
   std::vector<double> measured_x_m, measured_y_m, measured_heading_rad;
   std::vector<double> sigma_position_m, sigma_heading_rad;
   std::vector<double> sqrt_weight;  // IRLS weights (square roots)

@@ -5,7 +5,8 @@
 // Camera-side hidden effects act here: tag_offset (the tag sits elsewhere on
 // the robot than the operator's tag spec says), camera_latency (frames are
 // stamped `latency` before the telemetry clock), lens_distortion (the lens's
-// k1 differs from the calibration file's).
+// k1 differs from the calibration file's), rolling_shutter (rendered as the
+// camera's rolling shutter: the image rows exposed one after another).
 #ifndef ODOCAL_SIMULATION_CAMERA_SIM_H_
 #define ODOCAL_SIMULATION_CAMERA_SIM_H_
 

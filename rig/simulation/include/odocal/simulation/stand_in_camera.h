@@ -53,6 +53,17 @@ struct StandInCameraOptions {
   double latency_s = 0.0;  // a frame captured at telemetry time t is stamped t - latency
   double k1_delta = 0.0;   // the lens's true k1 minus camera.distortion[0]
   double tracker_yaw_rad = 0.0;  // the tag turned on the robot: heading measured + yaw
+  // A rolling shutter reading the rows top to bottom in this time: a frame
+  // whose tag centre is at image row fraction f shows the pose at its
+  // capture time + (f - 1/2) rolling_shutter_s (sim::RollingShutterEffect).
+  double rolling_shutter_s = 0.0;
+  // The image's vertical field of view: each frame's image_row_fraction is
+  // the tag centre's row through a pinhole `camera` with this field (its
+  // rows along the camera's y axis, the middle row on the optical axis),
+  // whatever rolling_shutter_s is. The default, 85 deg, sees +/-2.3 m from
+  // the default camera's 2.5 m (the explain tests' squares of 2 m both ways);
+  // a tag beyond it gets a fraction outside [0, 1] and stays valid.
+  double vertical_fov_rad = 85.0 * M_PI / 180.0;
 
   bool IsValid(std::string* why) const;
 };

@@ -11,6 +11,11 @@
 // the virtual camera rendering it live (simulation::SimCameraSource): RunStation
 // sees a robot_link::Transport and a media::FrameSource, nothing else.
 //
+// The camera's length scale is batch's (measure::EstimateCameraScale): from
+// a floor reference (StationSetup::floor_reference) when one is given and
+// its tags are seen in the first start rest, else from the robot tag's
+// printed size; the log and report.json say which, and why.
+//
 // Frames and units: camera poses as in vision/ (world REP-103, the camera's
 // tag plane); return errors true - odometry in the run's start frame (SI
 // inside); parameter sets in the link's units (mm, ticks). Time: a frame's

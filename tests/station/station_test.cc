@@ -22,6 +22,7 @@
 #include "odocal/robot_link/firmware_host.h"
 #include "odocal/robot_link/serial_transport.h"
 #include "odocal/sim/sim_motion_backend.h"
+#include "odocal/simulation/camera_sim.h"
 #include "odocal/simulation/sim_camera_source.h"
 #include "odocal/station/report_json.h"
 #include "odocal/station/station.h"
@@ -35,8 +36,9 @@ using robot_link::ParamSet;
 
 // The standard pixel scale on a small sensor over the home area
 // (tests/rig/camera_pipeline_test.cc): the robot leaves the view on a square.
+// `camera_extra`: more keys of camera:, each line indented by two spaces.
 std::string ScenarioText(const std::string& true_wheels, double start_x_mm, double start_y_mm,
-                         double side_mm, int per_direction) {
+                         double side_mm, int per_direction, const std::string& camera_extra = "") {
   std::ostringstream os;
   os << "seed: 7\nrobot:\n"
      << "  nominal: {left_wheel_diameter_mm: 70.0, right_wheel_diameter_mm: 70.0, track_mm: 300.0, "
@@ -54,7 +56,7 @@ std::string ScenarioText(const std::string& true_wheels, double start_x_mm, doub
      << "camera:\n  width: 960\n  height: 540\n  fx: 1400\n  fy: 1400\n  cx: 480\n  cy: 270\n"
      << "  distortion: [-0.12, 0.05, 0, 0, 0]\n"
      << "  pose: {x_mm: 0, y_mm: -1000, height_mm: 2000, roll_deg: 0, pitch_deg: 3, yaw_deg: 0}\n"
-     << "  fps: 30\n  noise_sigma: 2.0\n  blur_sigma_px: 0.8\n  exposure_ms: 4\n";
+     << "  fps: 30\n  noise_sigma: 2.0\n  blur_sigma_px: 0.8\n  exposure_ms: 4\n" << camera_extra;
   return os.str();
 }
 
@@ -119,6 +121,8 @@ std::unique_ptr<VirtualStation> MakeStation(
   vs->setup.mount_guess = vs->scenario.camera->mount;
   vs->setup.tag = *vs->scenario.tag;
   vs->setup.plan = vs->scenario.runs;
+  if (vs->scenario.camera->floor_tags)
+    vs->setup.floor_reference = simulation::TapedFloorReference(*vs->scenario.camera->floor_tags);
   VirtualStation* raw = vs.get();
   vs->setup.progress = [raw](const std::string& line) {
     raw->log.push_back(line);
@@ -184,6 +188,82 @@ TEST(StationEndToEnd, CalibratesAMisCalibratedVirtualRobotInAtMostTwoRounds) {
     EXPECT_TRUE(report["iterations"][0]["pushed"].contains(key)) << key;
   EXPECT_TRUE(report["iterations"][0]["estimate"].contains("Ed"));
   EXPECT_TRUE(report["iterations"][0]["estimate"].contains("Eb"));
+}
+
+// The robot tag printed 0.5 % large (the session says 80 mm, the paper
+// carries 80.4 mm) and three tags on the floor around the start, taped once
+// (0.3 mm, read to 0.1 mm): the layout of sample_data/scenarios/
+// floor_reference_540p.yaml about the station's camera (0, -1000).
+const char* kFloorTags =
+    "  tag: {print_scale: 1.005}\n"
+    "  floor_tags:\n"
+    "    size_mm: 80\n"
+    "    tags: [{id: 1, x_mm: -520, y_mm: -750}, {id: 2, x_mm: 520, y_mm: -750, yaw_deg: 30}, "
+    "{id: 3, x_mm: 0, y_mm: -1280}]\n"
+    "    tape_sigma_mm: 0.3\n";
+
+TEST(StationFloorReference, FindsTheCameraHeightAndTheTagsPrintScale) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1, kFloorTags));
+  ASSERT_TRUE(vs);
+  ASSERT_TRUE(vs->setup.floor_reference);
+  station::StationOptions options;
+  options.max_rounds = 2;
+  const station::StationResult r = station::RunStation(vs->setup, options);
+  ASSERT_TRUE(r.ok()) << ToString(r.status) << ": " << r.message;
+  const nlohmann::json report = station::StationReportJson(r);
+  const nlohmann::json& scale = report["camera_scale"];
+  ASSERT_EQ(scale["source"], "floor_reference") << scale.dump(1);
+  const double truth_h = vs->scenario.camera->mount.height_mm;  // above the floor
+  const double h = scale["camera_height_mm"].get<double>();
+  const double sigma_h = scale["sigma_camera_height_mm"].get<double>();
+  const double print = scale["tag_print_scale"]["value"].get<double>();
+  const double print_sigma = scale["tag_print_scale"]["sigma"].get<double>();
+  std::printf("figures: camera height %.2f mm (truth %.1f, error %+.2f mm = %+.2f sigma, sigma %.2f mm); "
+              "plane said %.2f mm\n",
+              h, truth_h, h - truth_h, (h - truth_h) / sigma_h, sigma_h, r.plane.mount.height_mm);
+  std::printf("figures: print scale %.5f (truth 1.005, error %+.5f = %+.2f sigma, sigma %.5f)\n", print,
+              print - 1.005, (print - 1.005) / print_sigma, print_sigma);
+  // The height's error follows the plane's roll error (views from the live polls: 5 or 6).
+  std::printf("figures: plane roll %.3f ± %.3f deg, pitch %.3f ± %.3f deg (truth 0, 3) from %d views\n",
+              r.plane.mount.roll_deg, r.plane.sigma_roll_deg, r.plane.mount.pitch_deg, r.plane.sigma_pitch_deg,
+              r.plane.views_used);
+  EXPECT_LT(sigma_h, 2.0);
+  EXPECT_NEAR(h, truth_h, 3.0 * sigma_h);
+  EXPECT_LT(print_sigma, 1.5e-3) << "finer than the 0.5 % it has to find";
+  EXPECT_NEAR(print, 1.005, 3.0 * print_sigma);
+  // The plane alone, fooled by the large print, puts the camera nearer the tag.
+  EXPECT_LT(r.plane.mount.height_mm, truth_h - 5.0);
+  for (const auto& tag : scale["floor_tags"]) EXPECT_TRUE(tag["flags"].empty()) << tag.dump();
+  EXPECT_TRUE(report["flags"].empty()) << report["flags"].dump();
+  bool logged = false;
+  for (const std::string& line : vs->log)
+    logged = logged || line.rfind("camera scale: from the floor reference (3 distances)", 0) == 0;
+  EXPECT_TRUE(logged) << "the camera-scale line, as batch prints it";
+}
+
+TEST(StationFloorReference, UnseenFloorTagsAreSaidAndTheTagSizeScaleStands) {
+  // A reference whose tags are not in the scene (none are on the floor).
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  vision::FloorReference reference;
+  reference.tags = {{1, 80.0}, {2, 80.0}};
+  reference.distances = {{1, 2, 1040.0, 0.3}};
+  vs->setup.floor_reference = reference;
+  station::StationOptions options;
+  options.max_rounds = 2;
+  const station::StationResult r = station::RunStation(vs->setup, options);
+  ASSERT_TRUE(r.ok()) << ToString(r.status) << ": " << r.message;
+  const nlohmann::json report = station::StationReportJson(r);
+  const nlohmann::json& scale = report["camera_scale"];
+  EXPECT_EQ(scale["source"], "tag_size") << scale.dump(1);
+  EXPECT_THAT(scale["explanation"].get<std::string>(), ::testing::HasSubstr("the floor reference could not be used"));
+  EXPECT_NEAR(scale["camera_height_mm"].get<double>(), r.plane.mount.height_mm, 1e-9);
+  EXPECT_EQ(report["flags"], nlohmann::json({"floor_reference_unusable"}));
+  for (const auto& tag : scale["floor_tags"]) EXPECT_FALSE(tag["flags"].empty()) << tag.dump();
+  bool logged = false;
+  for (const std::string& line : vs->log)
+    logged = logged || line.find("the floor reference could not be used") != std::string::npos;
+  EXPECT_TRUE(logged);
 }
 
 TEST(StationFailure, TagNotFoundAtTheStart) {
@@ -435,6 +515,25 @@ TEST(StationCli, VirtualRobotWritesTheReport) {
   EXPECT_TRUE(report["iterations"][1]["estimate"].contains("Eb"));
   EXPECT_TRUE(report["robot_params_final"].contains("ticks_per_rev"));
   EXPECT_GT(report["improvement"].get<double>(), 10.0);
+}
+
+TEST(StationCli, AScenarioWithFloorTagsGivesTheStationItsFloorReference) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_cli_floor_");
+  std::ofstream(dir + "/s.yaml") << ScenarioText(kMisCalibrated, -100, -1000, 500, 1, kFloorTags);
+  const test_util::CommandResult r = test_util::RunCommand(
+      Odocal("station --scenario " + dir + "/s.yaml --out " + dir + "/out --max-rounds 2 --time-scale 50"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("floor reference: 3 floor tags, 3 taped distances")) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("camera scale: from the floor reference (3 distances)")) << r.err;
+  std::ifstream in(dir + "/out/report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  const nlohmann::json& scale = report["camera_scale"];
+  ASSERT_EQ(scale["source"], "floor_reference") << scale.dump(1);
+  EXPECT_NEAR(scale["camera_height_mm"].get<double>(), 2000.0, 3.0 * scale["sigma_camera_height_mm"].get<double>());
+  EXPECT_NEAR(scale["tag_print_scale"]["value"].get<double>(), 1.005,
+              3.0 * scale["tag_print_scale"]["sigma"].get<double>());
+  // The tape's readings, to 0.1 mm: 1040.0 between 1 and 2.
+  EXPECT_NEAR(scale["floor_reference"]["distances"][0]["tape_mm"].get<double>(), 1040.0, 1e-9);
 }
 
 TEST(StationCli, CtrlCStopsTheRobotAndExits130) {

@@ -11,7 +11,9 @@
 //   camera: {device: "0" | "rtsp://...", calibration: camera.yaml,
 //            mount_guess: {x_mm, y_mm, height_mm, roll_deg, pitch_deg, yaw_deg},
 //            flush_frames: 5, settle_s: 0.5}
-//   tag:    {family, id, size_mm, height_mm, offset_mm: {x, y}, yaw_deg}
+//   tag:    {family, id, size_mm, size_sigma_mm, height_mm, offset_mm: {x, y}, yaw_deg}
+//   floor_reference: {family, tags: [{id, size_mm}], distances: [{between: [A, B], mm, sigma_mm}],
+//                     tag_height_sigma_mm}              # optional, as in session.yaml
 //   plan:   {side_mm: 2000, runs_per_direction: 3}
 //   max_rounds: 3
 #include <atomic>
@@ -35,6 +37,7 @@
 #include "odocal/robot_link/firmware_host.h"
 #include "odocal/robot_link/serial_transport.h"
 #include "odocal/sim/sim_motion_backend.h"
+#include "odocal/simulation/camera_sim.h"
 #include "odocal/simulation/sim_camera_source.h"
 #include "odocal/station/report_json.h"
 #include "odocal/station/station.h"
@@ -156,6 +159,13 @@ void RunStation(const StationArgs& args) {
     // refines its tilt and height from the views.
     setup.mount_guess = s->camera->mount;
     setup.tag = *s->tag;
+    // Floor tags in the scenario: the virtual camera draws them, and the
+    // station gets the tape's readings, as simulate writes them into session.yaml.
+    if (s->camera->floor_tags) {
+      setup.floor_reference = simulation::TapedFloorReference(*s->camera->floor_tags);
+      Progress("floor reference: " + std::to_string(setup.floor_reference->tags.size()) + " floor tags, " +
+               std::to_string(setup.floor_reference->distances.size()) + " taped distances");
+    }
     const calibration::WheelParams& t = s->robot.truth;
     const double Ed = (t.right_wheel_diameter_m / t.left_wheel_diameter_m) /
                       (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
@@ -192,6 +202,8 @@ void RunStation(const StationArgs& args) {
   setup.intrinsics = camera_file->intrinsics;
   setup.mount_guess = c->mount_guess;
   setup.tag = c->tag;
+  setup.tag_size_sigma_mm = c->tag_size_sigma_mm;
+  setup.floor_reference = c->floor_reference;
   Finish(setup, options, args.out, {{"config", args.config}}, args.exports);
 }
 

@@ -30,7 +30,7 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
   const fs::path dir = fs::absolute(path).parent_path();
   try {
     ExpectMap(root, "");
-    CheckKeys(root, "", {"robot", "camera", "tag", "plan", "max_rounds"});
+    CheckKeys(root, "", {"robot", "camera", "tag", "floor_reference", "plan", "max_rounds"});
     StationConfig c;
     for (const char* key : {"robot", "camera", "tag"})
       if (!root[key]) yaml_util::Fail(root, key, "missing (required)");
@@ -61,7 +61,13 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
     c.flush_frames = static_cast<int>(OptionalNumber(camera, "camera", "flush_frames", 5));
     c.settle_s = OptionalNumber(camera, "camera", "settle_s", 0.5);
     if (c.flush_frames < 0 || c.settle_s < 0.0) yaml_util::Fail(camera, "camera", "flush_frames and settle_s must not be negative");
-    c.tag = ParseTag(root["tag"]);
+    c.tag = ParseTag(root["tag"], "tag", {"size_sigma_mm"});
+    if (const YAML::Node sigma = root["tag"]["size_sigma_mm"]) {
+      c.tag_size_sigma_mm = Number(sigma, "tag.size_sigma_mm");
+      if (!(*c.tag_size_sigma_mm >= 0.0)) yaml_util::Fail(sigma, "tag.size_sigma_mm", "must not be negative");
+    }
+    if (const YAML::Node floor = root["floor_reference"])
+      c.floor_reference = ParseFloorReference(floor, "floor_reference");
     if (const YAML::Node plan = root["plan"]) {
       ExpectMap(plan, "plan");
       CheckKeys(plan, "plan", {"side_mm", "runs_per_direction"});

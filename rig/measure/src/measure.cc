@@ -169,39 +169,38 @@ std::string Percent(double fraction, int decimals) {
   return text;
 }
 
-// The camera's scale: from the floor reference when the session has one and
-// it could be measured (the mount's height is then the reference's), else
-// from the robot tag's printed size.
-CameraScale ScaleOfCamera(SessionMeasurement& sm, const MeasureOptions& options,
-                          vision::CameraMount* mount) {
-  const config::Session& session = sm.session;
+}  // namespace
+
+CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                std::optional<double> tag_size_sigma_mm,
+                                const vision::CameraPlaneResult* plane,
+                                const vision::FloorReference* reference,
+                                const std::vector<cv::Mat>& floor_frames,
+                                const CameraScaleOptions& options, vision::CameraMount* mount,
+                                std::vector<std::string>* flags) {
   CameraScale scale;
-  const double tag_mm = session.tag.height_mm;
-  const double print_sigma =
-      session.tag_size_sigma_mm ? *session.tag_size_sigma_mm / session.tag.size_mm : options.tag_print_sigma;
-  const double plane_sigma = sm.plane_estimated && mount->height_mm > tag_mm
-                                 ? sm.plane.sigma_height_mm / (mount->height_mm - tag_mm)
-                                 : 0.0;
+  scale.with_floor_reference = reference != nullptr;
+  const double tag_mm = tag.height_mm;
+  const double print_sigma = tag_size_sigma_mm ? *tag_size_sigma_mm / tag.size_mm : options.tag_print_sigma;
+  const double plane_sigma =
+      plane && mount->height_mm > tag_mm ? plane->sigma_height_mm / (mount->height_mm - tag_mm) : 0.0;
   const double apparent_sigma = std::hypot(plane_sigma, options.systematic_scale_sigma);
   const double tag_sigma = std::hypot(apparent_sigma, print_sigma);
   std::string fallback_reason;
-  if (session.floor_reference) {
-    scale.floor_tags = vision::ObserveFloorTags(FloorFrames(sm, options), session.intrinsics,
-                                                *session.floor_reference, options.quality_gate);
-    if (!sm.plane_estimated) {
+  if (reference) {
+    scale.floor_tags = vision::ObserveFloorTags(floor_frames, intrinsics, *reference, options.quality_gate);
+    if (!plane) {
       fallback_reason = "the camera's tilt was not estimated";
     } else {
-      scale.floor = vision::EstimateFloorScale(vision::CameraModel(session.intrinsics, *mount), scale.floor_tags,
-                                               *session.floor_reference, sm.plane.sigma_roll_deg,
-                                               sm.plane.sigma_pitch_deg);
+      scale.floor = vision::EstimateFloorScale(vision::CameraModel(intrinsics, *mount), scale.floor_tags,
+                                               *reference, plane->sigma_roll_deg, plane->sigma_pitch_deg);
       if (!scale.floor->ok) fallback_reason = scale.floor->message;
     }
     if (scale.floor && scale.floor->ok) {
       const vision::FloorScaleResult& f = *scale.floor;
       const double above_ref = f.camera_height_mm - tag_mm;
       const double above_tag = mount->height_mm - tag_mm;
-      const double sigma_above_ref =
-          std::hypot(f.sigma_camera_height_mm, session.floor_reference->tag_height_sigma_mm);
+      const double sigma_above_ref = std::hypot(f.sigma_camera_height_mm, reference->tag_height_sigma_mm);
       scale.source = CameraScale::Source::kFloorReference;
       scale.relative_sigma = sigma_above_ref / above_ref;
       scale.camera_height_mm = f.camera_height_mm;
@@ -216,29 +215,27 @@ CameraScale ScaleOfCamera(SessionMeasurement& sm, const MeasureOptions& options,
                           Percent(std::abs(off), 2) + " ± " + Percent(*scale.tag_print_scale_sigma, 2) +
                           (off >= 0.0 ? " large" : " small") + " (or looks it: tone curve, blur)";
       if (f.inconsistent) {
-        sm.flags.push_back("floor_reference_inconsistent");
+        if (flags) flags->push_back("floor_reference_inconsistent");
         scale.explanation += "; the measured distances disagree beyond their sigmas (a tag moved? a misread tape?)";
       }
       mount->height_mm = f.camera_height_mm;
       return scale;
     }
-    sm.flags.push_back("floor_reference_unusable");
+    if (flags) flags->push_back("floor_reference_unusable");
   }
   scale.source = CameraScale::Source::kTagSize;
   scale.relative_sigma = tag_sigma;
   scale.camera_height_mm = mount->height_mm;
-  scale.sigma_camera_height_mm = sm.plane_estimated ? sm.plane.sigma_height_mm : 0.0;
+  scale.sigma_camera_height_mm = plane ? plane->sigma_height_mm : 0.0;
   scale.explanation =
       "from the robot tag's printed size: ±" + Percent(tag_sigma, 2) + " (print size ±" +
       Percent(print_sigma, 2) +
-      (session.tag_size_sigma_mm ? " as measured" : " assumed; state tag.size_sigma_mm if you measured it") +
+      (tag_size_sigma_mm ? " as measured" : " assumed; state tag.size_sigma_mm if you measured it") +
       ", apparent size ±" + Percent(apparent_sigma, 3) + ")" +
-      (session.floor_reference ? "; the floor reference could not be used: " + fallback_reason
-                               : "; a floor reference (two floor tags at a taped distance) pins it");
+      (reference ? "; the floor reference could not be used: " + fallback_reason
+                 : "; a floor reference (two floor tags at a taped distance) pins it");
   return scale;
 }
-
-}  // namespace
 
 std::string_view ToString(CameraScale::Source source) {
   switch (source) {
@@ -477,7 +474,15 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
       }
     }
     if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
-    sm.camera_scale = ScaleOfCamera(sm, options, &mount);
+    {
+      const config::Session& session = sm.session;
+      const std::vector<cv::Mat> floor_frames =
+          session.floor_reference ? FloorFrames(sm, options) : std::vector<cv::Mat>{};
+      sm.camera_scale = EstimateCameraScale(
+          session.intrinsics, session.tag, session.tag_size_sigma_mm, sm.plane_estimated ? &sm.plane : nullptr,
+          session.floor_reference ? &*session.floor_reference : nullptr, floor_frames,
+          {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags);
+    }
     sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
     const vision::CameraModel camera(sm.session.intrinsics, mount);
     for (RunMeasurement& rm : sm.runs) {

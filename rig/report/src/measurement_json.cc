@@ -113,13 +113,16 @@ nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
 
 nlohmann::json CameraScaleJson(const measure::SessionMeasurement& sm) {
   if (!sm.session.has_camera) return nullptr;
-  const measure::CameraScale& c = sm.camera_scale;
+  return CameraScaleJson(sm.camera_scale);
+}
+
+nlohmann::json CameraScaleJson(const measure::CameraScale& c) {
   nlohmann::json j = {{"source", std::string(measure::ToString(c.source))},
                       {"relative_sigma", c.relative_sigma},
                       {"camera_height_mm", c.camera_height_mm},
                       {"sigma_camera_height_mm", c.sigma_camera_height_mm},
                       {"explanation", c.explanation}};
-  if (!sm.session.floor_reference) return j;
+  if (!c.with_floor_reference) return j;
   nlohmann::json tags = nlohmann::json::array();
   for (const vision::FloorTagSighting& t : c.floor_tags) {
     nlohmann::json tag = {{"id", t.id},

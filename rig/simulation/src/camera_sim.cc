@@ -38,16 +38,7 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
   // A hidden rolling shutter is the camera's (it replaces a profile's readout).
   if (effects.rolling_shutter) render.formation.rolling_shutter_s = effects.rolling_shutter->readout_s;
   render.seed = scenario.seed * 1000003ULL + std::hash<std::string>{}(name);
-  if (cam.floor_tags) {
-    for (const auto& t : cam.floor_tags->tags) {
-      vision::FloorTagPlacement placement;
-      placement.family = cam.floor_tags->family;
-      placement.id = t.id;
-      placement.size_mm = cam.floor_tags->size_mm * cam.tag_print_scale;  // the same printer
-      placement.T_world_tag = calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.yaw_deg * kDegToRad);
-      render.floor_tags.push_back(placement);
-    }
-  }
+  render.floor_tags = FloorTagPlacements(cam);
   vision::RendererResult created =
       vision::Renderer::Create(vision::CameraModel(true_lens, cam.mount), true_tag, render);
   if (!created.ok) return name + ": cannot render: " + created.message;
@@ -100,6 +91,38 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
 }
 
 }  // namespace
+
+std::vector<vision::FloorTagPlacement> FloorTagPlacements(const config::CameraScenario& cam) {
+  std::vector<vision::FloorTagPlacement> placements;
+  if (!cam.floor_tags) return placements;
+  for (const auto& t : cam.floor_tags->tags) {
+    vision::FloorTagPlacement placement;
+    placement.family = cam.floor_tags->family;
+    placement.id = t.id;
+    placement.size_mm = cam.floor_tags->size_mm * cam.tag_print_scale;  // the same printer
+    placement.T_world_tag = calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.yaw_deg * kDegToRad);
+    placements.push_back(placement);
+  }
+  return placements;
+}
+
+vision::FloorReference TapedFloorReference(const config::CameraScenario::FloorTags& ft,
+                                           std::vector<double>* true_mm) {
+  vision::FloorReference reference;
+  reference.family = ft.family;
+  for (const auto& t : ft.tags) reference.tags.push_back({t.id, ft.size_mm});
+  const size_t n = ft.tags.size();
+  for (size_t i = 0; i < (n > 2 ? n : 1); ++i) {
+    const auto& a = ft.tags[i];
+    const auto& b = ft.tags[(i + 1) % n];
+    const double truth_mm = std::hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm);
+    // Read to a tenth of a millimetre.
+    const double reading_mm = std::round((truth_mm + ft.tape_error_mm) * 10.0) / 10.0;
+    reference.distances.push_back({a.id, b.id, reading_mm, ft.tape_sigma_mm});
+    if (true_mm) true_mm->push_back(truth_mm);
+  }
+  return reference;
+}
 
 std::optional<std::string> RecordRuns(const config::Scenario& scenario, const SimulationResult& result,
                                       const std::string& dir, bool progress,

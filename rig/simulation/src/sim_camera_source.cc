@@ -2,14 +2,21 @@
 
 #include <algorithm>
 
+#include "odocal/simulation/camera_sim.h"
+
 namespace odocal::simulation {
 
 std::unique_ptr<SimCameraSource> SimCameraSource::Create(const config::CameraScenario& camera,
                                                          const vision::TagSpec& tag,
                                                          const sim::SimMotionBackend& backend,
                                                          std::string* error) {
+  // The world as it is: the tag as printed, the floor tags on the floor.
+  vision::TagSpec printed = tag;
+  printed.size_mm *= camera.tag_print_scale;
+  vision::RenderOptions render = camera.render;
+  render.floor_tags = FloorTagPlacements(camera);
   vision::RendererResult r =
-      vision::Renderer::Create(vision::CameraModel(camera.intrinsics, camera.mount), tag, camera.render);
+      vision::Renderer::Create(vision::CameraModel(camera.intrinsics, camera.mount), printed, render);
   if (!r.ok) {
     if (error) *error = "virtual camera: " + r.message;
     return nullptr;

@@ -144,23 +144,13 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
     session.camera_mount_guess = OperatorMountGuess(cam.mount);
     session.tag = *scenario.tag;
     if (cam.floor_tags) {
-      // The tape's readings between consecutive floor tags (and back to the
-      // first from the last of three or more): the truth plus the tape's error.
-      const config::CameraScenario::FloorTags& ft = *cam.floor_tags;
-      vision::FloorReference reference;
-      reference.family = ft.family;
-      for (const auto& t : ft.tags) reference.tags.push_back({t.id, ft.size_mm});
-      const size_t n = ft.tags.size();
+      // The tape's readings: the truth plus the tape's error.
+      std::vector<double> true_mm;
+      const vision::FloorReference reference = TapedFloorReference(*cam.floor_tags, &true_mm);
       nlohmann::json tape = nlohmann::json::array();
-      for (size_t i = 0; i < (n > 2 ? n : 1); ++i) {
-        const auto& a = ft.tags[i];
-        const auto& b = ft.tags[(i + 1) % n];
-        const double true_mm = std::hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm);
-        // Read to a tenth of a millimetre.
-        const double reading_mm = std::round((true_mm + ft.tape_error_mm) * 10.0) / 10.0;
-        reference.distances.push_back({a.id, b.id, reading_mm, ft.tape_sigma_mm});
-        tape.push_back({{"between", {a.id, b.id}}, {"true_mm", true_mm}});
-      }
+      for (size_t i = 0; i < true_mm.size(); ++i)
+        tape.push_back({{"between", {reference.distances[i].id_a, reference.distances[i].id_b}},
+                        {"true_mm", true_mm[i]}});
       session.floor_reference = reference;
       truth["floor_tags"] = {{"print_scale", cam.tag_print_scale}, {"distances", tape}};
     }

@@ -2,6 +2,7 @@
 
 #include "odocal/base/units.h"
 #include "odocal/report/json.h"
+#include "odocal/report/measurement_json.h"
 
 namespace odocal::station {
 
@@ -65,6 +66,8 @@ nlohmann::json StationReportJson(const StationResult& result) {
         {"pitch_deg", result.plane.mount.pitch_deg},
         {"height_mm", result.plane.mount.height_mm},
         {"views", result.plane.views_used}}},
+      {"camera_scale", result.camera_scale ? report::CameraScaleJson(*result.camera_scale) : nlohmann::json()},
+      {"flags", result.flags},
       {"wall_s", result.wall_s},
   };
   if (!result.ok()) {

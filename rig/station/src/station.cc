@@ -54,7 +54,10 @@ class Station {
   bool StopRequested() const { return setup_.stop_requested && setup_.stop_requested->load(); }
 
   std::optional<Failure> Connect();
-  std::optional<Failure> CaptureRest(RestFrames* rest);
+  // With `keep_grey`, the first options_.floor_frames full frames are kept
+  // there too (for the floor reference).
+  std::optional<Failure> CaptureRest(RestFrames* rest, std::vector<cv::Mat>* keep_grey = nullptr);
+  void EstimateScale(vision::CameraMount* mount);
   // Drives one run; its end rest (the next run's start rest) goes to `rest`.
   std::optional<Failure> DriveRun(const calibration::RunSpec& spec, int index, int total,
                                   StationRun* run, RestFrames* rest);
@@ -75,6 +78,9 @@ class Station {
   bool link_ok_ = true;
   vision::CameraPlaneResult plane_;
   bool plane_estimated_ = false;
+  std::vector<cv::Mat> floor_frames_;
+  std::optional<measure::CameraScale> camera_scale_;
+  std::vector<std::string> flags_;
 
  public:
   std::optional<robot_link::RobotInfo> info_;
@@ -103,7 +109,7 @@ std::optional<Station::Failure> Station::Connect() {
 
 // Frames of the robot standing still: the tag's corners, kept with their crops
 // for the exact refinement once the camera plane is known.
-std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest) {
+std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest, std::vector<cv::Mat>* keep_grey) {
   std::string error;
   if (options_.settle_s > 0.0)
     std::this_thread::sleep_for(std::chrono::duration<double>(options_.settle_s));
@@ -124,6 +130,8 @@ std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest) {
                             setup_.intrinsics.width, setup_.intrinsics.height)};
     }
     ++rest->grabbed;
+    if (keep_grey && static_cast<int>(keep_grey->size()) < options_.floor_frames)
+      keep_grey->push_back(frame->grey.clone());
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
     rest->wrong_id += obs.status == vision::DetectStatus::kWrongId ? 1 : 0;
     if (obs.corners_px) {
@@ -222,6 +230,7 @@ std::optional<Station::Failure> Station::MeasureRound(
     }
     if (!plane_estimated_)
       Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
+    EstimateScale(&mount);
     camera_.emplace(setup_.intrinsics, mount);
   }
   calibration::UmbmarkInput& input = iteration->input;
@@ -270,6 +279,32 @@ std::optional<Station::Failure> Station::MeasureRound(
         r > 0.0 ? std::hypot(cg.x_m * sx, cg.y_m * sy) / r : std::hypot(sx, sy);
   }
   return std::nullopt;
+}
+
+// The camera's length scale, as batch finds it: with a floor reference the
+// mount's height becomes the reference's; otherwise, or when the reference
+// cannot be used (the log says why), the robot tag's printed size stands.
+void Station::EstimateScale(vision::CameraMount* mount) {
+  const size_t flags_before = flags_.size();
+  camera_scale_ = measure::EstimateCameraScale(
+      setup_.intrinsics, setup_.tag, setup_.tag_size_sigma_mm, plane_estimated_ ? &plane_ : nullptr,
+      setup_.floor_reference ? &*setup_.floor_reference : nullptr, floor_frames_, options_.camera_scale, mount,
+      &flags_);
+  floor_frames_.clear();
+  floor_frames_.shrink_to_fit();
+  Log("camera scale: " + camera_scale_->explanation);
+  if (setup_.floor_reference) {
+    std::string seen;
+    for (const vision::FloorTagSighting& t : camera_scale_->floor_tags) {
+      seen += Format("%s%d: %d/%d frames", seen.empty() ? "" : ", ", t.id, t.frames_used, t.frames_seen);
+      for (const std::string& flag : t.flags) seen += " " + flag;
+    }
+    Log("floor tags " + seen);
+    for (size_t i = flags_before; i < flags_.size(); ++i) Log("flag: " + flags_[i]);
+    if (camera_scale_->source == measure::CameraScale::Source::kFloorReference)
+      Log(Format("camera height %.1f mm from the floor reference (sigma %.2f mm); the plane said %.1f mm",
+                 mount->height_mm, camera_scale_->sigma_camera_height_mm, plane_.mount.height_mm));
+  }
 }
 
 void Station::Cleanup(StationResult* result) {
@@ -326,6 +361,8 @@ StationResult Station::Run() {
     result.robot = info_;
     result.plane = plane_;
     result.plane_estimated = plane_estimated_;
+    result.camera_scale = camera_scale_;
+    result.flags = flags_;
     if (result.iterations.size() >= 2 && result.iterations.back().estimate.emax_syst_m > 0.0) {
       result.improvement =
           result.iterations.front().estimate.emax_syst_m / result.iterations.back().estimate.emax_syst_m;
@@ -336,6 +373,8 @@ StationResult Station::Run() {
 
   std::string why;
   if (!options_.IsValid(&why)) return finish(Failure{StationStatus::kInvalidInput, "options: " + why});
+  if (setup_.floor_reference && !setup_.floor_reference->IsValid(&why))
+    return finish(Failure{StationStatus::kInvalidInput, "floor reference: " + why});
   if (!setup_.transport || !setup_.camera)
     return finish(Failure{StationStatus::kInvalidInput, "no robot link or no camera"});
   int cw = 0, ccw = 0;
@@ -355,7 +394,7 @@ StationResult Station::Run() {
   result.params_initial = initial_;
 
   RestFrames rest;
-  if (auto f = CaptureRest(&rest)) return finish(f);
+  if (auto f = CaptureRest(&rest, setup_.floor_reference ? &floor_frames_ : nullptr)) return finish(f);
   const int need = static_cast<int>(std::ceil(options_.min_rest_found_fraction * rest.grabbed));
   if (static_cast<int>(rest.found.size()) < std::max(1, need)) {
     return finish(Failure{
@@ -478,6 +517,10 @@ bool StationOptions::IsValid(std::string* why) const {
   if (rest_flush_frames < 0 || settle_s < 0.0) return fail("rest_flush_frames and settle_s must not be negative");
   if (run_timeout.count() <= 0 || poll_interval.count() < 0) return fail("run_timeout must be positive");
   if (!(converge_sigmas > 0.0)) return fail("converge_sigmas must be positive");
+  if (floor_frames < 1) return fail("floor_frames must be at least 1");
+  if (!(camera_scale.systematic_scale_sigma >= 0.0) || !(camera_scale.tag_print_sigma >= 0.0))
+    return fail("camera_scale: systematic_scale_sigma and tag_print_sigma must not be negative");
+  if (!camera_scale.quality_gate.IsValid(why)) return false;
   return track.IsValid(why) && plane.IsValid(why);
 }
 

@@ -1,5 +1,5 @@
 // The station file (`odocal station --config station.yaml`): the robot's port, the camera and
-// its calibration file, the tag and the plan. Paths are resolved against the file's folder.
+// its calibration file, the tag, optionally a floor length reference, and the plan. Paths are resolved against the file's folder.
 // docs/formats.md lists every key.
 #ifndef ODOCAL_CONFIG_STATION_FILE_H_
 #define ODOCAL_CONFIG_STATION_FILE_H_
@@ -9,6 +9,7 @@
 
 #include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
+#include "odocal/vision/floor_reference.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::config {
@@ -23,6 +24,9 @@ struct StationConfig {
   int flush_frames = 5;
   double settle_s = 0.5;
   vision::TagSpec tag;
+  std::optional<double> tag_size_sigma_mm;  // tag.size_sigma_mm: the print as measured
+  // `floor_reference:` (the session file's keys; vision/floor_reference.h).
+  std::optional<vision::FloorReference> floor_reference;
   double side_mm = 2000.0;
   int runs_per_direction = 3;
   int max_rounds = 3;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
@@ -135,8 +136,34 @@ struct CameraScale {
   std::vector<vision::FloorTagSighting> floor_tags;
   std::optional<vision::FloorScaleResult> floor;
   std::optional<double> tag_print_scale, tag_print_scale_sigma;
+  bool with_floor_reference = false;  // one was given (used or not)
 };
 std::string_view ToString(CameraScale::Source source);
+
+// What the camera's scale rests on besides the images (MeasureOptions' terms
+// of the same names; the station's).
+struct CameraScaleOptions {
+  double systematic_scale_sigma = 4e-4;
+  double tag_print_sigma = 3e-3;
+  vision::QualityGate quality_gate;  // for the floor tags
+};
+
+// The camera's length scale, shared by batch and the station: from the floor
+// reference when `reference` is given and could be measured in
+// `floor_frames` (grey, CV_8UC1; `mount`'s height is then set to the
+// reference's and the robot tag's print scale is reported), else from the
+// robot tag's printed size (`mount` untouched; the explanation says why the
+// reference could not be used). `plane` is the plane estimate `mount` came
+// from, null when `mount` is the operator's guess (no tilt sigmas: the
+// reference is then not used). Appends floor_reference_unusable or
+// floor_reference_inconsistent to `flags` (may be null).
+CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                std::optional<double> tag_size_sigma_mm,
+                                const vision::CameraPlaneResult* plane,
+                                const vision::FloorReference* reference,
+                                const std::vector<cv::Mat>& floor_frames,
+                                const CameraScaleOptions& options, vision::CameraMount* mount,
+                                std::vector<std::string>* flags);
 
 struct SessionMeasurement {
   config::Session session;

@@ -35,6 +35,8 @@ nlohmann::json PlaneJson(const measure::SessionMeasurement& session);
 // distances[] (tape vs seen), variance shares, and tag_print_scale
 // {value, sigma}. Null for a session of pose logs.
 nlohmann::json CameraScaleJson(const measure::SessionMeasurement& session);
+// The same for any camera scale (the station's report.json `camera_scale`).
+nlohmann::json CameraScaleJson(const measure::CameraScale& scale);
 
 }  // namespace odocal::report
 

@@ -16,6 +16,8 @@
 
 #include "odocal/config/scenario.h"
 #include "odocal/simulation/simulation.h"
+#include "odocal/vision/floor_reference.h"
+#include "odocal/vision/renderer.h"
 
 namespace odocal::simulation {
 
@@ -38,6 +40,20 @@ std::optional<std::string> RecordRuns(const config::Scenario& scenario, const Si
 // What an operator would write down for where the camera hangs: positions to
 // 100 mm, yaw to 90 deg, "level" for roll and pitch.
 vision::CameraMount OperatorMountGuess(const vision::CameraMount& truth);
+
+// The scenario's floor tags as the renderer draws them (printed by the same
+// printer as the robot tag: camera.tag.print_scale); none without
+// camera.floor_tags. Shared by the recorded and the live virtual camera.
+std::vector<vision::FloorTagPlacement> FloorTagPlacements(const config::CameraScenario& camera);
+
+// What the operator writes down for the scenario's floor tags: each at its
+// stated size, and the tape's readings between consecutive tags (and back to
+// the first from the last of three or more): the true distance plus the
+// tape's error, read to 0.1 mm, with the tape's sigma. `true_mm` (may be
+// null) gets each reading's true distance. Shared by simulate's session.yaml
+// and `station --scenario`.
+vision::FloorReference TapedFloorReference(const config::CameraScenario::FloorTags& floor_tags,
+                                           std::vector<double>* true_mm = nullptr);
 
 }  // namespace odocal::simulation
 

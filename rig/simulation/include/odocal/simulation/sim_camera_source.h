@@ -20,6 +20,8 @@ namespace odocal::simulation {
 // still between runs, so frames of a rest are spaced by 1/fps). Frames are
 // rendered without motion blur: the station averages rest frames only; the
 // frames taken while moving serve tracking and the camera-plane estimate.
+// `tag` is the stated tag: it is drawn as printed (camera.tag.print_scale),
+// with the scenario's floor tags (camera.floor_tags) on the floor.
 class SimCameraSource final : public media::FrameSource {
  public:
   static std::unique_ptr<SimCameraSource> Create(const config::CameraScenario& camera,

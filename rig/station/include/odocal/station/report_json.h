@@ -11,7 +11,10 @@ namespace odocal::station {
 
 // report.json: iterations [{emax_syst_mm, estimate {Ed, Eb, ...}, pushed
 // {left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, ticks_per_rev}
-// or null}], robot_params_final, improvement, status, message and more.
+// or null}], robot_params_final, improvement, camera_plane, camera_scale
+// (report::CameraScaleJson: source tag_size | floor_reference, the camera
+// height, the robot tag's print scale; null before the first round was
+// measured), flags, status, message and more.
 nlohmann::json StationReportJson(const StationResult& result);
 
 // {left_wheel_diameter_mm, right_wheel_diameter_mm, track_mm, ticks_per_rev}

@@ -11,6 +11,11 @@
 // the virtual camera rendering it live (simulation::SimCameraSource): RunStation
 // sees a robot_link::Transport and a media::FrameSource, nothing else.
 //
+// The camera's length scale is batch's (measure::EstimateCameraScale): from
+// a floor reference (StationSetup::floor_reference) when one is given and
+// its tags are seen in the first start rest, else from the robot tag's
+// printed size; the log and report.json say which, and why.
+//
 // Frames and units: camera poses as in vision/ (world REP-103, the camera's
 // tag plane); return errors true - odometry in the run's start frame (SI
 // inside); parameter sets in the link's units (mm, ticks). Time: a frame's
@@ -39,12 +44,14 @@
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/config/scenario.h"
+#include "odocal/measure/measure.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/params.h"
 #include "odocal/robot_link/transport.h"
 #include "odocal/sim/sim_motion_backend.h"
 #include "odocal/vision/camera_model.h"
+#include "odocal/vision/floor_reference.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/tag.h"
 #include "odocal/vision/tag_observer.h"
@@ -83,6 +90,12 @@ struct StationOptions {
   // (the remaining error is not measurably different from zero), or when a
   // round does not improve on the one before.
   double converge_sigmas = 3.0;
+  // The camera's length scale (measure::EstimateCameraScale, as batch): the
+  // print tolerance assumed for the robot tag, the apparent size's floor, the
+  // quality gate of the floor tags; and with a floor reference, how many full
+  // frames of the first start rest it is measured in.
+  measure::CameraScaleOptions camera_scale;
+  int floor_frames = 8;
 
   bool IsValid(std::string* why) const;
 };
@@ -94,6 +107,14 @@ struct StationSetup {
   vision::Intrinsics intrinsics;
   vision::CameraMount mount_guess;  // the operator's; tilt and height are refined
   vision::TagSpec tag;
+  // The tag's printed size as measured (1 sigma, mm); unset: the print
+  // tolerance of options.camera_scale is assumed.
+  std::optional<double> tag_size_sigma_mm;
+  // Floor tags at taped distances (vision/floor_reference.h): the camera's
+  // height, hence every distance, from the tape rather than the robot tag's
+  // print. Measured in the first start rest's frames once the plane is known;
+  // when it cannot be used the station says why and keeps the tag-size scale.
+  std::optional<vision::FloorReference> floor_reference;
   // The runs of one round: UMBMark squares of one side, cw and ccw.
   std::vector<calibration::RunSpec> plan;
   // Set (e.g. from a signal handler) to stop cleanly; may be null.
@@ -148,6 +169,10 @@ struct StationResult {
   std::string cleanup;  // what the failure handling did, in words
   vision::CameraPlaneResult plane;
   bool plane_estimated = false;
+  // Where the camera's length scale came from (set once the first round was
+  // measured); the camera model's height is camera_scale->camera_height_mm.
+  std::optional<measure::CameraScale> camera_scale;
+  std::vector<std::string> flags;  // floor_reference_unusable, floor_reference_inconsistent
   std::vector<StationIteration> iterations;
   std::optional<double> improvement;  // first E_max,syst / last
   double wall_s = 0.0;

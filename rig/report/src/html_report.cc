@@ -296,8 +296,13 @@ std::string ReportHtml(const json& report, const std::string& title) {
       os << "<div class='note'>" << k << ": " << Escape(report[k].get<std::string>()) << "</div>\n";
   if (report.contains("sessions") && report["sessions"].is_array())
     for (const json& s : report["sessions"])
-      if (s.contains("session") && s["session"].is_string())
+      if (s.contains("session") && s["session"].is_string()) {
         os << "<div class='note'>session: " << Escape(s["session"].get<std::string>()) << "</div>\n";
+        // Where the lengths come from: what Es's uncertainty rests on.
+        if (s.contains("camera_scale") && s["camera_scale"].is_object())
+          os << "<div class='note'>camera scale: "
+             << Escape(s["camera_scale"].value("explanation", std::string())) << "</div>\n";
+      }
 
   if (report.contains("verdict")) {
     const json& v = report["verdict"];

@@ -49,6 +49,20 @@ cv::Point2d TrueCentre(const CameraModel& camera, const PlacedTag& t) {
   return {px->x(), px->y()};
 }
 
+// Every tag seen exactly where `camera` projects its centre, with this sigma.
+std::vector<FloorTagSighting> ExactSightings(const CameraModel& camera, double sigma_px) {
+  std::vector<FloorTagSighting> seen;
+  for (const PlacedTag& t : kTags) {
+    FloorTagSighting s;
+    s.id = t.id;
+    s.frames_seen = s.frames_used = 5;
+    s.centre_px = TrueCentre(camera, t);
+    s.sigma_centre_px = sigma_px;
+    seen.push_back(s);
+  }
+  return seen;
+}
+
 std::vector<cv::Mat> RenderFrames(const CameraModel& camera, const RenderOptions& base, double print_scale,
                                   int n) {
   RenderOptions o = base;
@@ -110,15 +124,7 @@ TEST(FloorReference, CentresAreUnbiasedWhateverTheImageModelAndPrintScale) {
 TEST(FloorReference, HeightFromTheTapeIsExactOnExactCentres) {
   const CameraMount truth_mount{100.0, -50.0, 1200.0, 1.5, 3.0, 10.0};
   const CameraModel truth(testing::SmallCamera().intrinsics(), truth_mount);
-  std::vector<FloorTagSighting> seen;
-  for (const PlacedTag& t : kTags) {
-    FloorTagSighting s;
-    s.id = t.id;
-    s.frames_seen = s.frames_used = 5;
-    s.centre_px = TrueCentre(truth, t);
-    s.sigma_centre_px = 0.0;
-    seen.push_back(s);
-  }
+  const std::vector<FloorTagSighting> seen = ExactSightings(truth, 0.0);
   for (const double trial_mm : {900.0, 1200.0, 1900.0}) {
     CameraMount trial = truth_mount;
     trial.height_mm = trial_mm;
@@ -158,15 +164,7 @@ TEST(FloorReference, RenderedFloorTagsGiveTheCameraHeight) {
 
 TEST(FloorReference, DisagreeingDistancesAreReportedNotAveraged) {
   const CameraModel truth = testing::SmallCamera();
-  std::vector<FloorTagSighting> seen;
-  for (const PlacedTag& t : kTags) {
-    FloorTagSighting s;
-    s.id = t.id;
-    s.frames_seen = s.frames_used = 5;
-    s.centre_px = TrueCentre(truth, t);
-    s.sigma_centre_px = kCentreFloorPx;
-    seen.push_back(s);
-  }
+  const std::vector<FloorTagSighting> seen = ExactSightings(truth, kCentreFloorPx);
   FloorReference misread = Reference(0.3);
   misread.distances[1].mm += 5.0;  // a tape read 5 mm long
   EXPECT_TRUE(EstimateFloorScale(truth, seen, misread, 0.0, 0.0).inconsistent);

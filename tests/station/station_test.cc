@@ -202,13 +202,25 @@ const char* kFloorTags =
     "{id: 3, x_mm: 0, y_mm: -1280}]\n"
     "    tape_sigma_mm: 0.3\n";
 
+// Two rounds of the station on the virtual robot and camera.
+station::StationResult RunTwoRounds(const VirtualStation& vs) {
+  station::StationOptions options;
+  options.max_rounds = 2;
+  return station::RunStation(vs.setup, options);
+}
+
+// Whether some progress line contains `text`.
+bool Logged(const VirtualStation& vs, const std::string& text) {
+  for (const std::string& line : vs.log)
+    if (line.find(text) != std::string::npos) return true;
+  return false;
+}
+
 TEST(StationFloorReference, FindsTheCameraHeightAndTheTagsPrintScale) {
   auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1, kFloorTags));
   ASSERT_TRUE(vs);
   ASSERT_TRUE(vs->setup.floor_reference);
-  station::StationOptions options;
-  options.max_rounds = 2;
-  const station::StationResult r = station::RunStation(vs->setup, options);
+  const station::StationResult r = RunTwoRounds(*vs);
   ASSERT_TRUE(r.ok()) << ToString(r.status) << ": " << r.message;
   const nlohmann::json report = station::StationReportJson(r);
   const nlohmann::json& scale = report["camera_scale"];
@@ -235,10 +247,8 @@ TEST(StationFloorReference, FindsTheCameraHeightAndTheTagsPrintScale) {
   EXPECT_LT(r.plane.mount.height_mm, truth_h - 5.0);
   for (const auto& tag : scale["floor_tags"]) EXPECT_TRUE(tag["flags"].empty()) << tag.dump();
   EXPECT_TRUE(report["flags"].empty()) << report["flags"].dump();
-  bool logged = false;
-  for (const std::string& line : vs->log)
-    logged = logged || line.rfind("camera scale: from the floor reference (3 distances)", 0) == 0;
-  EXPECT_TRUE(logged) << "the camera-scale line, as batch prints it";
+  EXPECT_TRUE(Logged(*vs, "camera scale: from the floor reference (3 distances)"))
+      << "the camera-scale line, as batch prints it";
 }
 
 TEST(StationFloorReference, UnseenFloorTagsAreSaidAndTheTagSizeScaleStands) {
@@ -249,9 +259,7 @@ TEST(StationFloorReference, UnseenFloorTagsAreSaidAndTheTagSizeScaleStands) {
   reference.tags = {{1, 80.0}, {2, 80.0}};
   reference.distances = {{1, 2, 1040.0, 0.3}};
   vs->setup.floor_reference = reference;
-  station::StationOptions options;
-  options.max_rounds = 2;
-  const station::StationResult r = station::RunStation(vs->setup, options);
+  const station::StationResult r = RunTwoRounds(*vs);
   ASSERT_TRUE(r.ok()) << ToString(r.status) << ": " << r.message;
   const nlohmann::json report = station::StationReportJson(r);
   const nlohmann::json& scale = report["camera_scale"];
@@ -260,10 +268,7 @@ TEST(StationFloorReference, UnseenFloorTagsAreSaidAndTheTagSizeScaleStands) {
   EXPECT_NEAR(scale["camera_height_mm"].get<double>(), r.plane.mount.height_mm, 1e-9);
   EXPECT_EQ(report["flags"], nlohmann::json({"floor_reference_unusable"}));
   for (const auto& tag : scale["floor_tags"]) EXPECT_FALSE(tag["flags"].empty()) << tag.dump();
-  bool logged = false;
-  for (const std::string& line : vs->log)
-    logged = logged || line.find("the floor reference could not be used") != std::string::npos;
-  EXPECT_TRUE(logged);
+  EXPECT_TRUE(Logged(*vs, "the floor reference could not be used"));
 }
 
 TEST(StationFailure, TagNotFoundAtTheStart) {

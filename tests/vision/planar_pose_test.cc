@@ -219,5 +219,141 @@ TEST(CameraPlane, TooFewViewsIsAClearFailure) {
   EXPECT_THAT(r.message, ::testing::HasSubstr("views"));
 }
 
+
+// The closure's error model, derived in planar_pose.h, checked by Monte
+// Carlo: corners built from four edge lines, each moved along its normal by
+// delta_e and turned about its middle by phi_e (the way a codec or a noisy
+// band moves a fitted edge), projected into the standard camera, measured.
+// The rest repeats one image (a still scene through a codec): its frames'
+// spread is zero and only the closure can tell the error.
+struct EdgeErrors {
+  double sigma_offset_mm = 0.0, sigma_angle_rad = 0.0;
+};
+
+TagCorners CornersWithEdgeErrors(const CameraModel& camera, const TagSpec& tag, const Pose2& robot,
+                                 const std::array<double, 4>& delta_mm, const std::array<double, 4>& phi) {
+  const double h = 0.5 * tag.size_mm;
+  // Edge k joins corner k and k + 1 of TagCornersInTag: bottom, right, top, left.
+  const std::array<Eigen::Vector2d, 4> normal = {Eigen::Vector2d(0, -1), Eigen::Vector2d(1, 0),
+                                                 Eigen::Vector2d(0, 1), Eigen::Vector2d(-1, 0)};
+  std::array<Eigen::Vector2d, 4> point, dir;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Rotation2Dd turn(phi[k]);
+    point[k] = normal[k] * (h + delta_mm[k]);
+    dir[k] = turn * Eigen::Vector2d(-normal[k].y(), normal[k].x());
+  }
+  const Pose2 T_world_tag = robot * tag.T_robot_tag();
+  TagCorners px;
+  for (int k = 0; k < 4; ++k) {
+    // Corner k joins edge k - 1 and edge k.
+    const int a = (k + 3) % 4, b = k;
+    Eigen::Matrix2d m;
+    m << dir[a], -dir[b];
+    const Eigen::Vector2d st = m.inverse() * (point[b] - point[a]);
+    const Eigen::Vector2d corner_mm = point[a] + st[0] * dir[a];
+    const Eigen::Vector2d w = T_world_tag * (corner_mm * 1e-3);
+    const auto p = camera.ProjectWorld(Eigen::Vector3d(w.x(), w.y(), tag.height_m()));
+    px[k] = cv::Point2d(p->x(), p->y());
+  }
+  return px;
+}
+
+// Mean squared error of frozen rests against the closure's stated variance
+// (position: x and y summed; heading), over many rests.
+struct Coverage {
+  double position_ratio = 0.0, heading_ratio = 0.0;  // observed / stated
+};
+
+Coverage FrozenRestCoverage(const EdgeErrors& errors, int rests, uint32_t seed, bool tag_off_centre) {
+  const CameraModel camera = testing::StandardCamera();
+  TagSpec tag = testing::StandardTag();
+  tag.yaw_deg = 30.0;
+  if (tag_off_centre) {
+    tag.offset_x_mm = 60.0;
+    tag.offset_y_mm = -25.0;
+  }
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  std::uniform_real_distribution<double> ux(-0.6, 0.6), uy(-1.3, -0.7), uh(-M_PI, M_PI);
+  double err_p = 0, err_h = 0, var_p = 0, var_h = 0;
+  for (int r = 0; r < rests; ++r) {
+    const Pose2 robot = Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng));
+    std::array<double, 4> delta, phi;
+    for (int k = 0; k < 4; ++k) {
+      delta[k] = errors.sigma_offset_mm * unit(rng);
+      phi[k] = errors.sigma_angle_rad * unit(rng);
+    }
+    const PlanarPoseResult m = MeasureTagPose(camera, tag, CornersWithEdgeErrors(camera, tag, robot, delta, phi));
+    EXPECT_TRUE(m.ok) << m.message;
+    // Five frames of one image.
+    const std::vector<std::array<Eigen::Vector2d, 4>> closures(5, m.closure_mm);
+    const RestCornerError e = EstimateRestCornerError(closures, tag, m.T_world_robot.heading());
+    EXPECT_NEAR(e.sigma_independent_mm, 0.0, 1e-12);
+    err_p += (m.T_world_robot.translation() - robot.translation()).squaredNorm();
+    err_h += std::pow(WrapAngle(m.T_world_robot.heading() - robot.heading()), 2);
+    var_p += e.shared_covariance(0, 0) + e.shared_covariance(1, 1);
+    var_h += e.shared_covariance(2, 2);
+  }
+  return {err_p / var_p, err_h / var_h};
+}
+
+TEST(RestCornerError, EdgeOffsetsAreCoveredExactly) {
+  // The tag at the robot's centre: the stated heading variance (a bound
+  // that holds if the same closure came from angles) adds nothing here.
+  const Coverage c = FrozenRestCoverage({0.05, 0.0}, 20000, 11, false);
+  EXPECT_NEAR(c.position_ratio, 1.0, 0.06);
+  EXPECT_LT(c.heading_ratio, 1e-3);  // offsets do not turn the tag
+  // Off the centre, the robot's position is stated with the heading's
+  // lever arm: covered, not exactly.
+  const Coverage off = FrozenRestCoverage({0.05, 0.0}, 20000, 11, true);
+  EXPECT_LT(off.position_ratio, 1.0);
+  EXPECT_GT(off.position_ratio, 0.7);
+}
+
+TEST(RestCornerError, EdgeAnglesAreCoveredExactly) {
+  const Coverage c = FrozenRestCoverage({0.0, 1.5e-3}, 20000, 12, true);
+  EXPECT_NEAR(c.heading_ratio, 1.0, 0.06);
+  // The robot's centre is 65 mm from the tag's: it moves with the heading.
+  EXPECT_LT(c.position_ratio, 1.0);
+}
+
+TEST(RestCornerError, AMixtureIsNeverUnderstated) {
+  const Coverage c = FrozenRestCoverage({0.04, 1.0e-3}, 20000, 13, true);
+  EXPECT_LT(c.position_ratio, 1.0);
+  EXPECT_LT(c.heading_ratio, 1.0);
+  EXPECT_GT(c.position_ratio, 0.2);  // a bound, not a blanket
+  EXPECT_GT(c.heading_ratio, 0.2);
+}
+
+// Frames with their own errors: the spread is the independent part, the
+// shared part comes out near zero, and one repeated image has no spread.
+TEST(RestCornerError, IndependentFramesAreToldFromASharedImage) {
+  const CameraModel camera = testing::StandardCamera();
+  const TagSpec tag = testing::StandardTag();
+  const Pose2 robot = Pose2::FromXYHeading(0.1, -1.0, 0.4);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> offset(0.0, 0.05);
+  double independent_sq = 0.0, shared_sq = 0.0;
+  constexpr int kRests = 400, kFrames = 10;
+  for (int r = 0; r < kRests; ++r) {
+    std::vector<std::array<Eigen::Vector2d, 4>> closures;
+    for (int f = 0; f < kFrames; ++f) {
+      const std::array<double, 4> delta = {offset(rng), offset(rng), offset(rng), offset(rng)};
+      const PlanarPoseResult m = MeasureTagPose(camera, tag, CornersWithEdgeErrors(camera, tag, robot, delta, {}));
+      closures.push_back(m.closure_mm);
+    }
+    const RestCornerError e = EstimateRestCornerError(closures, tag, robot.heading());
+    independent_sq += e.sigma_independent_mm * e.sigma_independent_mm / kRests;
+    shared_sq += e.sigma_shared_mm * e.sigma_shared_mm / kRests;
+  }
+  // Edge offsets of sigma 0.05 mm: E|r|^2 = 2 sigma^2 over 4 dof per coordinate.
+  EXPECT_NEAR(std::sqrt(independent_sq), 0.05 / std::sqrt(2.0), 0.003);
+  // Clamped at zero, the shared part's estimate is small and positive.
+  EXPECT_LT(std::sqrt(shared_sq), 0.4 * 0.05 / std::sqrt(2.0));
+  const RestCornerError none = EstimateRestCornerError({}, tag, 0.0);
+  EXPECT_EQ(none.frames, 0);
+  EXPECT_DOUBLE_EQ(none.shared_covariance.norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace odocal::vision

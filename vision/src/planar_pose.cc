@@ -102,6 +102,14 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) sq += (rot * model[k] + t - plane[k]).squaredNorm();
   result.rms_fit_mm = std::sqrt(sq / 4.0) * 1e3;
+  // The similarity fit: the same rotation, the least-squares scale.
+  double model_sq = 0.0;
+  for (int k = 0; k < 4; ++k) model_sq += (model[k] - mc).squaredNorm();
+  const double scale = std::hypot(sdot, scross) / model_sq;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d residual = plane[k] - (pc + scale * (rot * (model[k] - mc)));
+    result.closure_mm[k] = rot.inverse() * residual * 1e3;
+  }
   result.T_world_tag = Pose2::FromXYHeading(t.x(), t.y(), theta);
   result.T_world_robot = result.T_world_tag * tag.T_robot_tag().inverse();
   // A fit residual of a quarter of the tag means these are not the tag's corners.
@@ -112,6 +120,52 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
   }
   result.ok = true;
   return result;
+}
+
+RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vector2d, 4>>& closures,
+                                        const TagSpec& tag, double heading_rad) {
+  RestCornerError e;
+  e.frames = static_cast<int>(closures.size());
+  if (closures.empty()) return e;
+  const double n = static_cast<double>(closures.size());
+  std::array<Eigen::Vector2d, 4> mean{};
+  for (auto& m : mean) m.setZero();
+  for (const auto& c : closures)
+    for (int k = 0; k < 4; ++k) mean[k] += c[k] / n;
+  double mean_sq = 0.0;
+  for (const auto& m : mean) mean_sq += m.squaredNorm();
+  // Four degrees of freedom in the closure (docs in the header).
+  constexpr double kDof = 4.0;
+  double independent_var = 0.0, shared_var = mean_sq / kDof;
+  if (closures.size() >= 2) {
+    double within = 0.0;
+    for (const auto& c : closures)
+      for (int k = 0; k < 4; ++k) within += (c[k] - mean[k]).squaredNorm();
+    independent_var = within / (n - 1.0) / kDof;
+    shared_var = std::max(0.0, mean_sq / kDof - independent_var / n);
+  }
+  e.sigma_independent_mm = std::sqrt(independent_var);
+  e.sigma_shared_mm = std::sqrt(shared_var);
+  // Corner variance (m^2) to the tag's pose, then to the robot's centre.
+  const double var_m2 = shared_var * 1e-6;
+  const double size_m = tag.size_m();
+  // Edge model (header): all of it edge offsets gives var_t = sigma_c^2,
+  // all of it edge angles gives var_h = sigma_c^2 / (1.5 L^2); a mixture
+  // gives less of each, so both bounds hold.
+  const double var_t = var_m2;
+  const double var_h = var_m2 / (1.5 * size_m * size_m);
+  // Robot = tag * T_tag_robot: its position moves by d(R(h) o)/dh = J o.
+  const Eigen::Vector2d o = tag.T_robot_tag().inverse().translation();
+  // The tag's heading is the robot's heading plus the tag's yaw on it.
+  const double th = heading_rad + tag.T_robot_tag().heading();
+  const double ct = std::cos(th), st = std::sin(th);
+  const Eigen::Vector2d lever(-st * o.x() - ct * o.y(), ct * o.x() - st * o.y());
+  Eigen::Matrix3d J = Eigen::Matrix3d::Identity();  // (tx, ty, h) -> (x, y, h)
+  J(0, 2) = lever.x();
+  J(1, 2) = lever.y();
+  const Eigen::Matrix3d tag_cov = Eigen::Vector3d(var_t, var_t, var_h).asDiagonal();
+  e.shared_covariance = J * tag_cov * J.transpose();
+  return e;
 }
 
 bool CameraPlaneOptions::IsValid(std::string* why) const {

@@ -49,12 +49,66 @@ struct PlanarPoseResult {
   // RMS distance between the four plane points and the fitted model (mm):
   // a few hundredths of a mm for a clean detection, more for a bad one.
   double rms_fit_mm = 0.0;
+  // How far the four plane points are from *any* square: the residual of
+  // the best similarity fit (rotation, translation and a free scale), in
+  // the fitted tag's frame, mm. A tone curve or a print scale changes the
+  // tag's apparent size and leaves this zero; an edge moved by a codec, a
+  // noisy pixel or a wrong lens model does not. 8 numbers, 4 degrees of
+  // freedom (8 coordinates less the similarity's 4).
+  std::array<Eigen::Vector2d, 4> closure_mm{};
 };
 
 // The tag's planar pose from its detected corners, with the camera at
 // `camera.mount()` over the floor and the tag at tag.height_mm.
 PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
                                 const TagCorners& corners_px);
+
+// The error of a rest's mean pose that its frames' spread cannot show.
+//
+// A still scene through a video codec is one image repeated: x264 copies
+// a still macroblock from frame to frame, so a rest's n frames share one
+// image error and their spread (hence spread / sqrt(n)) is ~0 while the
+// mean is off by that image's error (docs/vision.md: 0.1-0.28 deg of
+// heading on a webcam preset, stated as 0.005 deg before this). The
+// corners' closure (PlanarPoseResult::closure_mm) sees that error in every
+// frame whether or not the frames repeat it. With each frame's corner error
+// = s + u_i (s shared by the rest's frames, u_i its own; both isotropic,
+// per coordinate sigma_s, sigma_u) and the closure r_i its projection on
+// the 4 dimensions a similarity cannot absorb:
+//   E[sum |r_i - mean r|^2 / (n - 1)] = 4 sigma_u^2,
+//   E[|mean r|^2]                     = 4 sigma_s^2 + 4 sigma_u^2 / n,
+// which gives both. One frame (or a repeated one) puts everything in s.
+// The corners are intersections of four fitted edge lines, so their errors
+// are the edges' errors: each edge moved along its normal (delta_e) and
+// turned about its middle (phi_e). The 4 closure dimensions hold one offset
+// mode (the square becoming a rectangle: E[|r|^2] = 2 sigma_delta^2) and
+// three angle modes (E[|r|^2] = 1.5 L^2 sigma_phi^2, L the side), while the
+// centre moves by var sigma_delta^2 / 2 per axis and the heading by
+// sigma_phi^2 / 4. With sigma^2 = |r|^2 / 4 per coordinate: all offsets
+// give centre variance exactly sigma^2, all angles give heading variance
+// exactly sigma^2 / (1.5 L^2), and a mixture less of each; both are used
+// (bounds, never optimistic). Derived in tests/vision/planar_pose_test.cc
+// (random edges, Monte Carlo). The rest's mean carries sigma_s^2 +
+// sigma_u^2 / n; the robot's centre, at an offset o from the tag's, adds
+// |o| times the heading. Errors that are themselves a similarity (the whole
+// tag shifted or turned alike) do not show: the systematic floor stays for
+// those.
+// Tested against rendered truth through each camera preset
+// (tests/vision/planar_pose_test.cc, bench/camera_profiles_bench).
+struct RestCornerError {
+  int frames = 0;
+  double sigma_shared_mm = 0.0;       // per corner coordinate, common to the rest
+  double sigma_independent_mm = 0.0;  // per corner coordinate, each frame its own
+  // Of the rest's mean robot pose (x, y in metres, heading in radians, world
+  // frame) from the shared part only: the independent part is what the
+  // frames' spread already measures.
+  Eigen::Matrix3d shared_covariance = Eigen::Matrix3d::Zero();
+};
+
+// `closures` are the rest's frames' PlanarPoseResult::closure_mm, `heading_rad`
+// the rest's mean robot heading. Empty input gives frames = 0 and zeros.
+RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vector2d, 4>>& closures,
+                                        const TagSpec& tag, double heading_rad);
 
 struct CameraPlaneOptions {
   // The bundle adjustment of the camera and the views (Ceres, dense Schur).

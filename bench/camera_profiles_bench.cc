@@ -16,6 +16,7 @@
 // and codec, and again without them (2 frames a rest), where what is left
 // is each estimator's bias.
 // Figures in docs/vision.md ("Images odocal did not design").
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -56,6 +57,10 @@ TagSpec StandardTag() {
   return tag;
 }
 
+// The PSF/tone-free fit's restart shifts (edge_quality.h) of the preset
+// being measured: what the quality gate's max_restart_shift_px must pass.
+std::vector<double> g_restart_shifts;
+
 struct Estimator {
   std::string name;
   std::function<std::optional<TagCorners>(const cv::Mat&, const TagCorners&, const CameraModel&)> refine;
@@ -63,6 +68,9 @@ struct Estimator {
 
 struct Summary {
   std::vector<double> ex, ey, eh;  // per rest: mean error, mm and deg
+  // per rest: the stated sigma of the mean (frames' spread / sqrt(n), and
+  // with the closure's shared error added: EstimateRestCornerError)
+  std::vector<double> spread_p, spread_h, stated_p, stated_h;
   int frames_used = 0, frames_tried = 0, rests_refused = 0;
 };
 
@@ -86,6 +94,28 @@ void Print(const std::string& label, const std::string& estimator, const Summary
   std::printf("| %s | %s | %.4f | %.4f | %.5f | %.5f | %+.4f, %+.4f ± %.4f, %.4f | %+.5f ± %.5f | %zu/%d |\n",
               label.c_str(), estimator.c_str(), mp, xp, mh, xh, bx, by, std::sqrt(sx / dof),
               std::sqrt(sy / dof), bh, std::sqrt(sh / dof), n, static_cast<int>(n) + s.rests_refused);
+  // Do the stated sigmas cover the errors? RMS of error / sigma (1 when
+  // honest) and the largest, with the spread alone and with the closure.
+  auto z = [&](const std::vector<double>& sig_p, const std::vector<double>& sig_h) {
+    double rp = 0, rh = 0, mxp = 0, mxh = 0;
+    for (size_t i = 0; i < n; ++i) {
+      // position: per axis, the error's norm over sqrt(2) sigma
+      const double zp = std::hypot(s.ex[i], s.ey[i]) / std::max(1e-9, sig_p[i]);
+      const double zh = std::abs(s.eh[i]) / std::max(1e-9, sig_h[i]);
+      rp += zp * zp / n, rh += zh * zh / n, mxp = std::max(mxp, zp), mxh = std::max(mxh, zh);
+    }
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "z rms/max pos %.2f/%.2f heading %.2f/%.2f", std::sqrt(rp), mxp,
+                  std::sqrt(rh), mxh);
+    return std::string(buf);
+  };
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  std::printf("|   | sigma: spread only (median %.4f mm, %.5f deg): %s; with closure (median %.4f mm, %.5f deg): %s |\n",
+              median(s.spread_p), median(s.spread_h), z(s.spread_p, s.spread_h).c_str(), median(s.stated_p),
+              median(s.stated_h), z(s.stated_p, s.stated_h).c_str());
 }
 
 // One preset: every rest rendered, coded, measured by every estimator.
@@ -127,6 +157,8 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
     for (size_t e = 0; e < estimators.size(); ++e) {
       double sx = 0, sy = 0, sh = 0;
       int n = 0;
+      std::vector<std::array<Eigen::Vector2d, 4>> closures;
+      std::vector<Eigen::Vector3d> errors;
       for (const cv::Mat& image : *coded) {
         ++summaries[e].frames_tried;
         const FindResult found = detector->Find(image, tag.id);
@@ -139,6 +171,9 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
         sy += (m.T_world_robot.y() - pose.y()) * 1e3;
         sh += WrapAngle(m.T_world_robot.heading() - pose.heading()) * kRadToDeg;
         ++n;
+        closures.push_back(m.closure_mm);
+        errors.emplace_back((m.T_world_robot.x() - pose.x()) * 1e3, (m.T_world_robot.y() - pose.y()) * 1e3,
+                            WrapAngle(m.T_world_robot.heading() - pose.heading()) * kRadToDeg);
       }
       summaries[e].frames_used += n;
       if (2 * n < frames) {
@@ -148,9 +183,28 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
       summaries[e].ex.push_back(sx / n);
       summaries[e].ey.push_back(sy / n);
       summaries[e].eh.push_back(sh / n);
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero(), var = Eigen::Vector3d::Zero();
+      for (const auto& v : errors) mean += v / n;
+      for (const auto& v : errors) var += (v - mean).cwiseAbs2() / std::max(1, n - 1);
+      const RestCornerError shared = EstimateRestCornerError(closures, tag, pose.heading());
+      const double spread_p = std::sqrt((var.x() + var.y()) / n);
+      const double spread_h = std::sqrt(var.z() / n);
+      summaries[e].spread_p.push_back(spread_p);
+      summaries[e].spread_h.push_back(spread_h);
+      summaries[e].stated_p.push_back(std::sqrt(spread_p * spread_p + 1e6 * (shared.shared_covariance(0, 0) +
+                                                                               shared.shared_covariance(1, 1))));
+      summaries[e].stated_h.push_back(
+          std::hypot(spread_h, std::sqrt(shared.shared_covariance(2, 2)) * kRadToDeg));
     }
   }
   for (size_t e = 0; e < estimators.size(); ++e) Print(label, estimators[e].name, summaries[e]);
+  if (!g_restart_shifts.empty()) {
+    std::sort(g_restart_shifts.begin(), g_restart_shifts.end());
+    std::printf("|   | restart shift of the PSF/tone-free fit (px): median %.4f, 99 %% %.4f, max %.4f over %zu frames |\n",
+                g_restart_shifts[g_restart_shifts.size() / 2], g_restart_shifts[g_restart_shifts.size() * 99 / 100],
+                g_restart_shifts.back(), g_restart_shifts.size());
+    g_restart_shifts.clear();
+  }
 }
 
 }  // namespace
@@ -180,6 +234,7 @@ int main(int argc, char** argv) {
          if (!r0.ok) return std::nullopt;
          const auto r = RefineTagCornersModelFree(im, r0.corners_px, &cam);
          if (!r.ok) return std::nullopt;
+         g_restart_shifts.push_back(r.quality.restart_shift_px);
          return r.corners_px;
        }},
   };
@@ -187,6 +242,17 @@ int main(int argc, char** argv) {
               frames, places, static_cast<unsigned long long>(seed));
   std::printf("| preset | estimator | pos mean mm | pos max mm | |heading| mean deg | max deg | bias x, y ± spread mm | bias heading ± spread deg | rests |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  if (std::getenv("ODOCAL_BENCH_ONLY_PRESETS")) {
+    // Quick look: the presets only, the pipeline's estimator only.
+    const std::vector<Estimator> pipeline = {estimators.back()};
+    RunPreset("odocal renderer", ImageFormationOptions{}, frames, places, seed, pipeline);
+    for (const std::string& name : ImageFormationPresetNames())
+      RunPreset(name, *ImageFormationPreset(name), frames, places, seed, pipeline);
+    ImageFormationOptions mjpeg = *ImageFormationPreset("webcam");
+    mjpeg.codec = {CodecOptions::Kind::kMjpeg, 23, 80};
+    RunPreset("webcam, MJPEG q80", mjpeg, frames, places, seed, pipeline);
+    return 0;
+  }
   RunPreset("odocal renderer", ImageFormationOptions{}, frames, places, seed, estimators);
   for (const std::string& name : ImageFormationPresetNames()) {
     RunPreset(name, *ImageFormationPreset(name), frames, places, seed, estimators);

@@ -57,10 +57,6 @@ TagSpec StandardTag() {
   return tag;
 }
 
-// The PSF/tone-free fit's restart shifts (edge_quality.h) of the preset
-// being measured: what the quality gate's max_restart_shift_px must pass.
-std::vector<double> g_restart_shifts;
-
 struct Estimator {
   std::string name;
   std::function<std::optional<TagCorners>(const cv::Mat&, const TagCorners&, const CameraModel&)> refine;
@@ -198,13 +194,6 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
     }
   }
   for (size_t e = 0; e < estimators.size(); ++e) Print(label, estimators[e].name, summaries[e]);
-  if (!g_restart_shifts.empty()) {
-    std::sort(g_restart_shifts.begin(), g_restart_shifts.end());
-    std::printf("|   | restart shift of the PSF/tone-free fit (px): median %.4f, 99 %% %.4f, max %.4f over %zu frames |\n",
-                g_restart_shifts[g_restart_shifts.size() / 2], g_restart_shifts[g_restart_shifts.size() * 99 / 100],
-                g_restart_shifts.back(), g_restart_shifts.size());
-    g_restart_shifts.clear();
-  }
 }
 
 }  // namespace
@@ -234,7 +223,6 @@ int main(int argc, char** argv) {
          if (!r0.ok) return std::nullopt;
          const auto r = RefineTagCornersModelFree(im, r0.corners_px, &cam);
          if (!r.ok) return std::nullopt;
-         g_restart_shifts.push_back(r.quality.restart_shift_px);
          return r.corners_px;
        }},
   };

@@ -2,7 +2,6 @@
 // (edge_quality.h explains the model and why).
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -16,8 +15,7 @@ namespace odocal::vision {
 
 bool QualityGate::IsValid(std::string* why) const {
   if (!(min_contrast_grey >= 0.0) || !(max_blur_cells > 0.0) ||
-      !(max_saturated_fraction >= 0.0 && max_saturated_fraction <= 1.0) || !(max_relative_residual > 0.0) ||
-      !(max_restart_shift_px > 0.0)) {
+      !(max_saturated_fraction >= 0.0 && max_saturated_fraction <= 1.0) || !(max_relative_residual > 0.0)) {
     if (why) *why = "quality gate out of range";
     return false;
   }
@@ -30,7 +28,6 @@ std::vector<std::string> QualityFlags(const TagImageQuality& q, const QualityGat
   if (q.contrast_grey < gate.min_contrast_grey) flags.push_back("low_contrast");
   if (q.blur_sigma_px > gate.max_blur_cells * q.cell_px) flags.push_back("defocused");
   if (q.relative_residual > gate.max_relative_residual) flags.push_back("edge_not_straight");
-  if (!(q.restart_shift_px <= gate.max_restart_shift_px)) flags.push_back("fit_unstable");
   return flags;
 }
 
@@ -115,10 +112,13 @@ std::optional<EdgeBand> PrepareEdge(const cv::Mat& grey, const cv::Point& origin
   return band;
 }
 
-// One fit of the four edges from `corners_px` (the band is placed on them).
-ModelFreeRefineResult FitOnce(const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px,
-                              const CameraModel* camera, const CornerRefineOptions& options,
-                              const cv::Point& origin) {
+}  // namespace
+
+ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
+                                                const std::array<cv::Point2d, 4>& corners_px,
+                                                const CameraModel* camera,
+                                                const CornerRefineOptions& options,
+                                                const cv::Point& origin) {
   ModelFreeRefineResult result;
   result.corners_px = corners_px;
   const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
@@ -197,35 +197,6 @@ ModelFreeRefineResult FitOnce(const cv::Mat& grey, const std::array<cv::Point2d,
   q.saturated_fraction = static_cast<double>(saturated) / std::max(1, pixels);
   q.relative_residual = q.rms_residual_grey / std::max(1.0, q.contrast_grey);
   internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
-  return result;
-}
-
-}  // namespace
-
-ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
-                                                const std::array<cv::Point2d, 4>& corners_px,
-                                                const CameraModel* camera,
-                                                const CornerRefineOptions& options,
-                                                const cv::Point& origin) {
-  ModelFreeRefineResult result = FitOnce(grey, corners_px, camera, options, origin);
-  if (!result.ok) return result;
-  // The same fit again, its band placed on its own answer. Where the image
-  // is the model (a straight step in any symmetric blur and tone curve, with
-  // a plateau on either side) the answer moves by what noise and the band's
-  // new pixels move it (0.003-0.05 px median on the camera presets); where
-  // it is not (a narrow or shaded quiet zone, the edge of the object the tag
-  // is stuck on, a neighbour in the band) the answer depends on where the
-  // band was put and walks away (up to 1.9 px on real photographs of tags on
-  // small cubes), and no sigma from the fit would say so. The first answer
-  // is kept; the move is the quality gate's `fit_unstable`.
-  const ModelFreeRefineResult again = FitOnce(grey, result.corners_px, camera, options, origin);
-  if (!again.ok) {
-    result.quality.restart_shift_px = std::numeric_limits<double>::infinity();
-    return result;
-  }
-  for (int k = 0; k < 4; ++k)
-    result.quality.restart_shift_px =
-        std::max(result.quality.restart_shift_px, cv::norm(again.corners_px[k] - result.corners_px[k]));
   return result;
 }
 

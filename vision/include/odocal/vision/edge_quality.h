@@ -49,10 +49,6 @@ struct TagImageQuality {
   double saturated_fraction = 0.0;  // band pixels at 0 or 255
   double rms_residual_grey = 0.0;   // worst edge's fit residual
   double relative_residual = 0.0;   // rms_residual_grey / contrast_grey
-  // The largest corner move when the fit is restarted from its own answer
-  // (px): ~0 where the pixels are the model, large where the answer depends
-  // on where the band was put (RefineTagCornersModelFree).
-  double restart_shift_px = 0.0;
 };
 
 // When the image cannot support a measurement at the stated sigma.
@@ -70,14 +66,6 @@ struct QualityGate {
   // A fit residual this large against the contrast is not a straight edge:
   // an occluder, a shadow, a second object on the edge.
   double max_relative_residual = 0.08;
-  // An answer that moves far when the fit restarts from it is not
-  // determined by the image: a narrow or shaded quiet zone, the tag's mount
-  // or a neighbour in the band. Measured (docs/vision.md): on every camera
-  // preset the restart moves the corners by 0.003-0.05 px (median), 0.30 px
-  // at worst; on real photographs of tags on small cubes up to 1.9 px, and
-  // there the corners disagree with the same photograph turned by up to 0.25
-  // px (of the photograph's pixels) while every other gate passes.
-  double max_restart_shift_px = 0.4;
 
   bool IsValid(std::string* why) const;
 };

@@ -65,7 +65,7 @@ def row(name, truth, report):
         return {"x_mm": t["x_mm"] - o["x_mm"], "y_mm": t["y_mm"] - o["y_mm"], "theta_deg": h}
 
     true_runs = {r["name"]: true_minus_odometry(r) for r in truth["runs"]}
-    ex, ey, eh = [], [], []
+    ex, ey, eh, z = [], [], [], []
     for r in report["runs"]:
         m = r["return_error"]
         if m is None:
@@ -74,6 +74,9 @@ def row(name, truth, report):
         ex.append(m["x_mm"] - t["x_mm"])
         ey.append(m["y_mm"] - t["y_mm"])
         eh.append(m["theta_deg"] - t["theta_deg"])
+        # Does the stated sigma cover the error? (x, y and heading: error / sigma)
+        sg = r["sigma"]
+        z += [abs(ex[-1]) / sg["x_mm"], abs(ey[-1]) / sg["y_mm"], abs(eh[-1]) / sg["theta_deg"]]
     pos = [abs(v) for v in ex + ey]
     T = truth["truth"]
     fit = report["trajectory_fit"]
@@ -90,7 +93,8 @@ def row(name, truth, report):
         f"{fit['turn_gain']['value'] - gain_true:+.6f} | "
         f"{100 * (fit['Es']['value'] / T['Es'] - 1):+.3f} % (σ {100 * fit['Es']['sigma']:.3f} %) | "
         f"{100 * (es_cvra / T['Es'] - 1):+.3f} % | "
-        f"{ps.get('value', float('nan')):.4f} ± {ps.get('sigma', float('nan')):.4f} |"
+        f"{ps.get('value', float('nan')):.4f} ± {ps.get('sigma', float('nan')):.4f} | "
+        f"{(sum(v * v for v in z) / len(z)) ** 0.5:.2f} / {max(z):.2f} |"
     )
 
 
@@ -101,8 +105,9 @@ def main():
     p.add_argument("--presets", nargs="*", default=list(CAMERAS))
     a = p.parse_args()
     print("| camera | return error position mean / max (mm) | heading mean / max (°) | "
-          "bias x, y (mm) | Ed UMBMark | Ed fit | turn gain | Es fit | Es CVRA | tag print scale (1.005) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "bias x, y (mm) | Ed UMBMark | Ed fit | turn gain | Es fit | Es CVRA | tag print scale (1.005) | "
+          "return error / stated sigma, RMS / max |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name in a.presets:
         truth, report = one(a.odocal, a.out, name, CAMERAS[name])
         print(row(name, truth, report), flush=True)

@@ -268,6 +268,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
     const vision::QualityGate& gate) {
   std::vector<calibration::PoseSample> samples;
+  std::vector<std::array<Eigen::Vector2d, 4>> closures;
   int tried = 0;
   std::map<std::string, int> reasons;
   for (const vision::FrameObservation& f : frames) {
@@ -291,7 +292,9 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     }
     if (!corners) continue;
     const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
-    if (pose.ok) samples.push_back({f.t_s, pose.T_world_robot, true});
+    if (!pose.ok) continue;
+    samples.push_back({f.t_s, pose.T_world_robot, true});
+    closures.push_back(pose.closure_mm);
   }
   if (quality) {
     quality->frames = tried;
@@ -322,7 +325,18 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
       for (const auto& [reason, count] : reasons) quality->flags.push_back(reason);
   }
   if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
-  return calibration::SummarizeRest(samples);
+  std::optional<calibration::RestWindow> rest = calibration::SummarizeRest(samples);
+  if (!rest) return rest;
+  // What the frames share, their spread cannot show: add it (a codec's
+  // repeated image is otherwise stated at the systematic floor, 10-50x too
+  // small; docs/vision.md).
+  const vision::RestCornerError shared = vision::EstimateRestCornerError(closures, tag, rest->mean.heading());
+  rest->covariance += shared.shared_covariance;
+  if (quality) {
+    quality->shared_error_mm = shared.sigma_shared_mm;
+    quality->independent_error_mm = shared.sigma_independent_mm;
+  }
+  return rest;
 }
 
 bool MeasureOptions::IsValid(std::string* why) const {

@@ -76,6 +76,8 @@ nlohmann::json RestQualityJson(const measure::RestQuality& q) {
   nlohmann::json j = entry(q.median);
   j["frames"] = q.frames;
   j["usable_frames"] = q.usable;
+  j["shared_error_mm"] = q.shared_error_mm;
+  j["independent_error_mm"] = q.independent_error_mm;
   j["flags"] = q.flags;
   j["per_frame"] = frames;
   return j;

@@ -107,6 +107,12 @@ struct RestQuality {
   int frames = 0, usable = 0;
   // Medians over the fitted frames (saturation and residual: the worst).
   vision::TagImageQuality median;
+  // The rest's image error from the corners' closure (vision::
+  // EstimateRestCornerError), per corner coordinate in mm: the part its
+  // frames share (a still scene through a codec repeats one image) and each
+  // frame's own. The shared part is in the rest's covariance.
+  double shared_error_mm = 0.0;
+  double independent_error_mm = 0.0;
   std::vector<std::string> flags;  // the reasons, when fewer than half are usable
   std::vector<FrameQuality> per_frame;
 };

@@ -212,6 +212,94 @@ TEST_F(PlanarPose, CameraPlaneEstimatorRecoversTiltAndHeight) {
   EXPECT_GT(worst_guessed_mm, 5.0);
 }
 
+// The rolling shutter in the plane estimate, on exactly projected corners: a
+// tag moving at up to 0.6 m/s, read out top to bottom over 20 ms, is seen
+// sheared (each corner where it was at its row's time). Without the
+// readout in the model the shear tilts the plane; with the views' corner
+// velocities it comes out, and so does the readout time. (On rendered
+// video, where the shear comes from the renderer's band-wise readout and
+// the velocities from the tracker: tests/measure/camera_realism_test.cc.)
+TEST(CameraPlane, RollingShutterShearIsTakenOut) {
+  const CameraMount truth{0.0, -1000.0, 2000.0, -0.8, 3.0, 0.0};
+  const CameraModel camera(testing::StandardIntrinsics(), truth);
+  const TagSpec tag = testing::StandardTag();
+  const double readout_s = 0.020;
+  const int height = testing::StandardIntrinsics().height;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> ux(-1.0, 1.0), uy(-1.5, -0.5), uh(-M_PI, M_PI), uv(-0.6, 0.6);
+  std::vector<TagCorners> sheared, still;
+  std::vector<CornerVelocities> velocities;
+  auto project = [&](const Pose2& robot) {
+    TagCorners c;
+    const Pose2 t = robot * tag.T_robot_tag();
+    const auto model = TagCornersInTag(tag.size_m());
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d w = t * model[k];
+      const auto px = camera.ProjectWorld(Eigen::Vector3d(w.x(), w.y(), tag.height_m()));
+      c[k] = cv::Point2d(px->x(), px->y());
+    }
+    return c;
+  };
+  while (sheared.size() < 30) {
+    const Pose2 pose = Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng));
+    const Eigen::Vector2d v(uv(rng), uv(rng));  // m/s
+    const double w = uv(rng);                    // rad/s
+    auto at = [&](double dt) {
+      return Pose2::FromXYHeading(pose.x() + v.x() * dt, pose.y() + v.y() * dt, pose.heading() + w * dt);
+    };
+    const TagCorners mid = project(at(0.0));
+    TagCorners seen, vel;
+    for (int k = 0; k < 4; ++k) {
+      // The row's time, found by iterating on the row it lands on.
+      double dt = 0.0;
+      for (int it = 0; it < 5; ++it) {
+        seen[k] = project(at(dt))[k];
+        dt = (seen[k].y / (height - 1) - 0.5) * readout_s;
+      }
+      const TagCorners a = project(at(-1e-3)), b = project(at(1e-3));
+      vel[k] = (b[k] - a[k]) * (1.0 / 2e-3);
+    }
+    sheared.push_back(seen);
+    still.push_back(mid);
+    velocities.push_back(vel);
+  }
+  const CameraMount nominal{0.0, -1000.0, 2100.0, 0.0, 0.0, 0.0};
+  const CameraPlaneResult plain = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, sheared, nominal);
+  const CameraPlaneResult aware =
+      EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, sheared, nominal, {}, &velocities);
+  ASSERT_TRUE(plain.ok && aware.ok) << plain.message << aware.message;
+  std::printf("sheared views: without the readout roll %+.3f pitch %+.3f deg, height %+.2f mm off; with it "
+              "%+.4f, %+.4f deg, %+.3f mm, readout %.3f +- %.3f ms\n",
+              plain.mount.roll_deg - truth.roll_deg, plain.mount.pitch_deg - truth.pitch_deg,
+              plain.mount.height_mm - truth.height_mm, aware.mount.roll_deg - truth.roll_deg,
+              aware.mount.pitch_deg - truth.pitch_deg, aware.mount.height_mm - truth.height_mm,
+              aware.rolling_shutter_ms, aware.sigma_rolling_shutter_ms);
+  // The shear is a real error without the model...
+  EXPECT_GT(std::hypot(plain.mount.roll_deg - truth.roll_deg, plain.mount.pitch_deg - truth.pitch_deg), 0.05);
+  EXPECT_FALSE(plain.rolling_shutter_fitted);
+  // ...and gone with it (first-order in the motion: exact corners leave
+  // only the velocity's change over 10 ms).
+  ASSERT_TRUE(aware.rolling_shutter_fitted);
+  EXPECT_NEAR(aware.rolling_shutter_ms, 20.0, 0.05);
+  EXPECT_NEAR(aware.mount.roll_deg, truth.roll_deg, 0.001);
+  EXPECT_NEAR(aware.mount.pitch_deg, truth.pitch_deg, 0.001);
+  EXPECT_NEAR(aware.mount.height_mm, truth.height_mm, 0.05);
+  // A global shutter: still views with their (zero) velocities leave the
+  // readout out of the fit, and the plane as it was.
+  const std::vector<CornerVelocities> none(still.size());
+  const CameraPlaneResult global =
+      EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, still, nominal, {}, &none);
+  ASSERT_TRUE(global.ok);
+  EXPECT_FALSE(global.rolling_shutter_fitted);
+  EXPECT_NEAR(global.mount.roll_deg, truth.roll_deg, 1e-4);
+  // Moving views from a global shutter: the readout comes out 0.
+  const CameraPlaneResult moving_global =
+      EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, still, nominal, {}, &velocities);
+  ASSERT_TRUE(moving_global.rolling_shutter_fitted);
+  EXPECT_NEAR(moving_global.rolling_shutter_ms, 0.0, 0.05);
+  EXPECT_NEAR(moving_global.mount.roll_deg, truth.roll_deg, 1e-3);
+}
+
 TEST(CameraPlane, TooFewViewsIsAClearFailure) {
   const CameraPlaneResult r = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), testing::StandardTag(),
                                                          {}, testing::StandardMount());

@@ -25,6 +25,12 @@ struct CornerResidual {
 
   template <typename T>
   bool operator()(const T* const camera, const T* const view, T* residual) const {
+    return Project(camera, view, T(0.0), residual);
+  }
+  // With a rolling shutter's readout `readout_s`: the corner was seen
+  // shear * readout away from where it was at the frame's middle.
+  template <typename T>
+  bool Project(const T* const camera, const T* const view, const T& readout_s, T* residual) const {
     using std::cos;
     using std::sin;
     const T sr = sin(camera[0]), cr = cos(camera[0]);
@@ -41,14 +47,27 @@ struct CornerResidual {
     const T x = c0[0] * d[0] + c0[1] * d[1] + c0[2] * d[2];
     const T y = -(c1[0] * d[0] + c1[1] * d[1] + c1[2] * d[2]);
     const T z = -(c2[0] * d[0] + c2[1] * d[1] + c2[2] * d[2]);
-    residual[0] = f * (x / z - obs.x);
-    residual[1] = f * (y / z - obs.y);
+    residual[0] = f * (x / z - (obs.x - shear.x * readout_s));
+    residual[1] = f * (y / z - (obs.y - shear.y * readout_s));
     return true;
   }
 
   Eigen::Vector2d model;
   cv::Point2d obs;
   double cam_x, cam_y, yaw, f;
+  // Normalized-image velocity times the corner's row offset from the middle
+  // row (fraction of the frame): the corner's displacement per second of
+  // readout.
+  cv::Point2d shear{0.0, 0.0};
+};
+
+struct RollingShutterCornerResidual {
+  explicit RollingShutterCornerResidual(const CornerResidual& corner) : c(corner) {}
+  template <typename T>
+  bool operator()(const T* const camera, const T* const view, const T* const readout, T* residual) const {
+    return c.Project(camera, view, readout[0], residual);
+  }
+  CornerResidual c;
 };
 
 double Median(std::vector<double> v) {
@@ -169,8 +188,11 @@ RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vect
 }
 
 bool CameraPlaneOptions::IsValid(std::string* why) const {
-  if (!solver.IsValid(nullptr) || !(huber_px >= 0.0) || min_views < 1) {
-    if (why) *why = "camera-plane options: valid solver settings, huber_px >= 0, min_views >= 1";
+  if (!solver.IsValid(nullptr) || !(huber_px >= 0.0) || min_views < 1 || !(rolling_shutter_probe_s > 0.0) ||
+      !(rolling_shutter_min_shear_px > 0.0)) {
+    if (why)
+      *why = "camera-plane options: valid solver settings, huber_px >= 0, min_views >= 1, rolling-shutter "
+             "probe and shear > 0";
     return false;
   }
   return true;
@@ -182,6 +204,8 @@ std::string CameraPlaneResult::BriefReport() const {
      << " px; roll " << mount.roll_deg << " +- " << sigma_roll_deg << " deg, pitch "
      << mount.pitch_deg << " +- " << sigma_pitch_deg << " deg, height " << mount.height_mm
      << " +- " << sigma_height_mm << " mm";
+  if (rolling_shutter_fitted)
+    os << ", rolling shutter " << rolling_shutter_ms << " +- " << sigma_rolling_shutter_ms << " ms";
   if (!message.empty()) os << " (" << message << ")";
   return os.str();
 }
@@ -189,7 +213,8 @@ std::string CameraPlaneResult::BriefReport() const {
 CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const TagSpec& tag,
                                              const std::vector<TagCorners>& views_corners_px,
                                              const CameraMount& nominal_mount,
-                                             const CameraPlaneOptions& options) {
+                                             const CameraPlaneOptions& options,
+                                             const std::vector<CornerVelocities>* views_velocities) {
   CameraPlaneResult result;
   result.mount = nominal_mount;
   std::string why;
@@ -256,13 +281,52 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     result.message = "too few views fit the tag model";
     return result;
   }
+  // The rolling shutter: each corner's shear (normalized velocity times its
+  // row's offset from the middle row), and whether the views move enough.
+  const bool have_velocities = views_velocities && views_velocities->size() == views_corners_px.size();
+  std::vector<std::array<cv::Point2d, 4>> shear(views.size());
+  double shear_sq = 0.0;
+  for (size_t v = 0; v < views.size() && have_velocities; ++v) {
+    const TagCorners& c = views_corners_px[view_index[v]];
+    const CornerVelocities& vel = (*views_velocities)[view_index[v]];
+    // The velocity in normalized coordinates through the lens (a central
+    // difference over 1 ms of motion).
+    constexpr double kDt = 1e-3;
+    std::vector<cv::Point2d> ahead, behind;
+    for (int k = 0; k < 4; ++k) {
+      ahead.push_back(c[k] + vel[k] * kDt);
+      behind.push_back(c[k] - vel[k] * kDt);
+    }
+    const auto na = nominal.UndistortToNormalized(ahead), nb = nominal.UndistortToNormalized(behind);
+    for (int k = 0; k < 4; ++k) {
+      const double row = c[k].y / std::max(1, intrinsics.height - 1) - 0.5;
+      shear[v][k] = (na[k] - nb[k]) * (row / (2.0 * kDt));
+      shear_sq += std::pow(f * cv::norm(shear[v][k]) * options.rolling_shutter_probe_s, 2);
+    }
+  }
+  const bool fit_readout =
+      have_velocities && std::sqrt(shear_sq / (4.0 * views.size())) > options.rolling_shutter_min_shear_px;
+  double readout_s[1] = {0.0};
   for (size_t v = 0; v < views.size(); ++v) {
     for (int k = 0; k < 4; ++k) {
-      auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, 3, 3>(
-          new CornerResidual(model[k], normalized[view_index[v]][k], gauge, f));
-      problem.AddResidualBlock(cost, options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr,
-                               camera, views[v].data());
+      CornerResidual corner(model[k], normalized[view_index[v]][k], gauge, f);
+      ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
+      if (fit_readout) {
+        corner.shear = shear[v][k];
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<RollingShutterCornerResidual, 2, 3, 3, 1>(
+                new RollingShutterCornerResidual(corner)),
+            loss, camera, views[v].data(), readout_s);
+      } else {
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 3, 3>(new CornerResidual(corner)),
+                                 loss, camera, views[v].data());
+      }
     }
+  }
+  if (fit_readout) {
+    // Either direction of readout; longer than any camera's frame is not one.
+    problem.SetParameterLowerBound(readout_s, 0, -0.1);
+    problem.SetParameterUpperBound(readout_s, 0, 0.1);
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_SCHUR;
@@ -281,18 +345,27 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   result.rms_reprojection_px = std::sqrt(2.0 * summary.final_cost / n_res);
   for (const auto& v : views) result.world_Ts_tag.push_back(Pose2::FromXYHeading(v[0], v[1], v[2]));
 
+  result.rolling_shutter_fitted = fit_readout;
+  result.rolling_shutter_ms = readout_s[0] * 1e3;
+
   // Uncertainty of the camera block, scaled by the residual variance.
   ceres::Covariance::Options cov_options;
   ceres::Covariance covariance(cov_options);
   std::vector<std::pair<const double*, const double*>> blocks = {{camera, camera}};
+  if (fit_readout) blocks.push_back({readout_s, readout_s});
   if (covariance.Compute(blocks, &problem)) {
     double cov[9];
     covariance.GetCovarianceBlock(camera, camera, cov);
-    const int dof = std::max(1, n_res - 3 - 3 * result.views_used);
+    const int dof = std::max(1, n_res - 3 - 3 * result.views_used - (fit_readout ? 1 : 0));
     const double s2 = 2.0 * summary.final_cost / dof;
     result.sigma_roll_deg = std::sqrt(cov[0] * s2) * kRadToDeg;
     result.sigma_pitch_deg = std::sqrt(cov[4] * s2) * kRadToDeg;
     result.sigma_height_mm = std::sqrt(cov[8] * s2) * 1e3;
+    if (fit_readout) {
+      double t_cov = 0.0;
+      covariance.GetCovarianceBlock(readout_s, readout_s, &t_cov);
+      result.sigma_rolling_shutter_ms = std::sqrt(t_cov * s2) * 1e3;
+    }
   }
   result.ok = true;
   return result;

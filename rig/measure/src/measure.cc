@@ -52,27 +52,42 @@ bool AwayFromBorder(const vision::CameraModel& camera, const vision::TagCorners&
 // The views for the plane estimate. With `exact`, each picked view is
 // refined by the exact edge model from its kept crop (the per-frame corners
 // make a 30 px tag look 0.025 px too large: the camera's height came out
-// 1.5 mm low at 1.85 m, 15 sigma, and every distance 8e-4 long).
+// 1.5 mm low at 1.85 m, 15 sigma, and every distance 8e-4 long). Each view's
+// corner velocities (px/s, from the frames either side of it in its run;
+// zero without both) go to `velocities`, for the rolling shutter.
 std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
                                           double separation_px, int max_views,
                                           const vision::CameraModel& lens, double margin_px,
-                                          bool exact) {
+                                          bool exact, std::vector<vision::CornerVelocities>* velocities) {
   std::vector<vision::TagCorners> candidates;
-  std::vector<const vision::FrameObservation*> frames;
+  std::vector<std::pair<const std::vector<vision::FrameObservation>*, size_t>> frames;
   for (const RunMeasurement& run : runs)
-    for (const vision::FrameObservation& f : run.track.frames)
+    for (size_t i = 0; i < run.track.frames.size(); ++i) {
+      const vision::FrameObservation& f = run.track.frames[i];
       if (f.corners_px && AwayFromBorder(lens, *f.corners_px, margin_px)) {
         candidates.push_back(*f.corners_px);
-        frames.push_back(&f);
+        frames.emplace_back(&run.track.frames, i);
       }
+    }
   std::vector<vision::TagCorners> views = PickPlaneViews(candidates, separation_px, max_views);
-  if (!exact) return views;
+  velocities->assign(views.size(), vision::CornerVelocities{});
   // PickPlaneViews keeps candidates in order: find each view's frame.
   size_t k = 0;
-  for (vision::TagCorners& view : views) {
-    while (k < candidates.size() && candidates[k] != view) ++k;
+  for (size_t v = 0; v < views.size(); ++v) {
+    while (k < candidates.size() && candidates[k] != views[v]) ++k;
     if (k == candidates.size()) break;
-    if (auto refined = vision::RefineObservationExactly(*frames[k], lens)) view = *refined;
+    const auto& [run_frames, i] = frames[k];
+    if (i > 0 && i + 1 < run_frames->size()) {
+      const vision::FrameObservation& a = (*run_frames)[i - 1];
+      const vision::FrameObservation& b = (*run_frames)[i + 1];
+      const double dt = b.t_s - a.t_s;
+      // Neighbours seen, and no frame dropped between them.
+      if (a.corners_px && b.corners_px && dt > 0.0 &&
+          dt < 2.5 * std::max((*run_frames)[i].t_s - a.t_s, b.t_s - (*run_frames)[i].t_s))
+        for (int c = 0; c < 4; ++c) (*velocities)[v][c] = ((*b.corners_px)[c] - (*a.corners_px)[c]) * (1.0 / dt);
+    }
+    if (exact)
+      if (auto refined = vision::RefineObservationExactly((*run_frames)[i], lens)) views[v] = *refined;
   }
   return views;
 }
@@ -475,13 +490,14 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
     if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
     if (!any_video) continue;
     const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
+    std::vector<vision::CornerVelocities> velocities;
     const std::vector<vision::TagCorners> views =
         PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
-                  options.border_margin_px, options.exact_plane_refinement);
+                  options.border_margin_px, options.exact_plane_refinement, &velocities);
     vision::CameraMount mount = sm.session.camera_mount_guess;
     if (static_cast<int>(views.size()) >= options.plane.min_views) {
       sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
-                                                    sm.session.camera_mount_guess, options.plane);
+                                                    sm.session.camera_mount_guess, options.plane, &velocities);
       if (sm.plane.ok) {
         mount = sm.plane.mount;
         sm.plane_estimated = true;

@@ -110,7 +110,11 @@ nlohmann::json PlaneJson(const measure::SessionMeasurement& sm) {
           {"sigma", {{"roll_deg", p.sigma_roll_deg}, {"pitch_deg", p.sigma_pitch_deg},
                      {"height_mm", p.sigma_height_mm}}},
           {"views", p.views_used},
-          {"rms_reprojection_px", p.rms_reprojection_px}};
+          {"rms_reprojection_px", p.rms_reprojection_px},
+          // null: the views did not move enough to tell a rolling shutter
+          {"rolling_shutter_ms", p.rolling_shutter_fitted ? nlohmann::json(p.rolling_shutter_ms) : nlohmann::json()},
+          {"sigma_rolling_shutter_ms",
+           p.rolling_shutter_fitted ? nlohmann::json(p.sigma_rolling_shutter_ms) : nlohmann::json()}};
 }
 
 nlohmann::json CameraScaleJson(const measure::SessionMeasurement& sm) {

@@ -117,8 +117,22 @@ struct CameraPlaneOptions {
   // Huber loss scale on corner residuals (px); 0 = plain least squares.
   double huber_px = 1.0;
   int min_views = 3;
+  // The rolling shutter's readout time is fitted with the plane when the
+  // views' motion can tell it: a readout of this long would move the
+  // corners by more than `rolling_shutter_min_shear_px` RMS. Otherwise it
+  // stays 0 (a still or slow plan cannot tell it, and does not need to).
+  double rolling_shutter_probe_s = 0.02;
+  double rolling_shutter_min_shear_px = 0.05;
   bool IsValid(std::string* why) const;
 };
+
+// How each view's corners were moving in the image (px/s, distorted
+// pixels, same order as the corners), for the rolling shutter: a sensor read
+// row by row over T exposes row v at (v / (H - 1) - 1/2) T after the frame's
+// middle, so a moving tag is sheared; fitted with the plane, T takes the
+// shear out (without it, the shear tilts the plane: 1.9 deg of roll on a
+// webcam with a 20 ms readout, docs/vision.md). Zero velocity: a still view.
+using CornerVelocities = std::array<cv::Point2d, 4>;
 
 struct CameraPlaneResult {
   bool ok = false;
@@ -134,6 +148,11 @@ struct CameraPlaneResult {
   double sigma_height_mm = 0.0;
   // Each view's tag pose from the same adjustment.
   std::vector<calibration::Pose2> world_Ts_tag;
+  // The rolling shutter's readout time (top row to bottom row, ms), when the
+  // views' velocities were given and their motion could tell it.
+  bool rolling_shutter_fitted = false;
+  double rolling_shutter_ms = 0.0;
+  double sigma_rolling_shutter_ms = 0.0;
 
   std::string BriefReport() const;
 };
@@ -141,10 +160,12 @@ struct CameraPlaneResult {
 // Joint estimate of the camera's tilt and height over the tag plane from many
 // views of the same tag (e.g. a whole calibration run; views should spread
 // over the image — a single view position leaves tilt and position coupled).
+// `views_velocities`, when given, has one entry per view (CornerVelocities).
 CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const TagSpec& tag,
                                              const std::vector<TagCorners>& views_corners_px,
                                              const CameraMount& nominal_mount,
-                                             const CameraPlaneOptions& options = {});
+                                             const CameraPlaneOptions& options = {},
+                                             const std::vector<CornerVelocities>* views_velocities = nullptr);
 
 }  // namespace odocal::vision
 

@@ -87,14 +87,14 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
 // sigma_phi^2 / 4. With sigma^2 = |r|^2 / 4 per coordinate: all offsets
 // give centre variance exactly sigma^2, all angles give heading variance
 // exactly sigma^2 / (1.5 L^2), and a mixture less of each; both are used
-// (bounds, never optimistic). Derived in tests/vision/planar_pose_test.cc
-// (random edges, Monte Carlo). The rest's mean carries sigma_s^2 +
+// (bounds under this edge model). The rest's mean carries sigma_s^2 +
 // sigma_u^2 / n; the robot's centre, at an offset o from the tag's, adds
 // |o| times the heading. Errors that are themselves a similarity (the whole
 // tag shifted or turned alike) do not show: the systematic floor stays for
-// those.
-// Tested against rendered truth through each camera preset
-// (tests/vision/planar_pose_test.cc, bench/camera_profiles_bench).
+// those. Checked: the derivation by Monte Carlo on random edges
+// (tests/vision/planar_pose_test.cc, RestCornerError); the coverage against
+// rendered truth through each camera preset (bench/camera_profiles_bench,
+// bench/presets/presets.py; docs/vision.md).
 struct RestCornerError {
   int frames = 0;
   double sigma_shared_mm = 0.0;       // per corner coordinate, common to the rest

@@ -95,7 +95,7 @@ void Print(const std::string& label, const std::string& estimator, const Summary
   auto z = [&](const std::vector<double>& sig_p, const std::vector<double>& sig_h) {
     double rp = 0, rh = 0, mxp = 0, mxh = 0;
     for (size_t i = 0; i < n; ++i) {
-      // position: per axis, the error's norm over sqrt(2) sigma
+      // position: the 2-D error over the 2-D sigma
       const double zp = std::hypot(s.ex[i], s.ey[i]) / std::max(1e-9, sig_p[i]);
       const double zh = std::abs(s.eh[i]) / std::max(1e-9, sig_h[i]);
       rp += zp * zp / n, rh += zh * zh / n, mxp = std::max(mxp, zp), mxh = std::max(mxh, zh);
@@ -151,10 +151,8 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
       return;
     }
     for (size_t e = 0; e < estimators.size(); ++e) {
-      double sx = 0, sy = 0, sh = 0;
-      int n = 0;
       std::vector<std::array<Eigen::Vector2d, 4>> closures;
-      std::vector<Eigen::Vector3d> errors;
+      std::vector<Eigen::Vector3d> errors;  // per frame: x, y (mm), heading (deg)
       for (const cv::Mat& image : *coded) {
         ++summaries[e].frames_tried;
         const FindResult found = detector->Find(image, tag.id);
@@ -163,25 +161,22 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
         if (!corners) continue;
         const PlanarPoseResult m = MeasureTagPose(camera, tag, *corners);
         if (!m.ok) continue;
-        sx += (m.T_world_robot.x() - pose.x()) * 1e3;
-        sy += (m.T_world_robot.y() - pose.y()) * 1e3;
-        sh += WrapAngle(m.T_world_robot.heading() - pose.heading()) * kRadToDeg;
-        ++n;
         closures.push_back(m.closure_mm);
         errors.emplace_back((m.T_world_robot.x() - pose.x()) * 1e3, (m.T_world_robot.y() - pose.y()) * 1e3,
                             WrapAngle(m.T_world_robot.heading() - pose.heading()) * kRadToDeg);
       }
+      const int n = static_cast<int>(errors.size());
       summaries[e].frames_used += n;
       if (2 * n < frames) {
         ++summaries[e].rests_refused;
         continue;
       }
-      summaries[e].ex.push_back(sx / n);
-      summaries[e].ey.push_back(sy / n);
-      summaries[e].eh.push_back(sh / n);
       Eigen::Vector3d mean = Eigen::Vector3d::Zero(), var = Eigen::Vector3d::Zero();
       for (const auto& v : errors) mean += v / n;
       for (const auto& v : errors) var += (v - mean).cwiseAbs2() / std::max(1, n - 1);
+      summaries[e].ex.push_back(mean.x());
+      summaries[e].ey.push_back(mean.y());
+      summaries[e].eh.push_back(mean.z());
       const RestCornerError shared = EstimateRestCornerError(closures, tag, pose.heading());
       const double spread_p = std::sqrt((var.x() + var.y()) / n);
       const double spread_h = std::sqrt(var.z() / n);
@@ -194,6 +189,16 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
     }
   }
   for (size_t e = 0; e < estimators.size(); ++e) Print(label, estimators[e].name, summaries[e]);
+}
+
+// Every camera preset and the webcam with MJPEG q80 instead of H.264.
+void RunPresetTable(int frames, int places, uint64_t seed, const std::vector<Estimator>& estimators) {
+  RunPreset("odocal renderer", ImageFormationOptions{}, frames, places, seed, estimators);
+  for (const std::string& name : ImageFormationPresetNames())
+    RunPreset(name, *ImageFormationPreset(name), frames, places, seed, estimators);
+  ImageFormationOptions mjpeg = *ImageFormationPreset("webcam");
+  mjpeg.codec = {CodecOptions::Kind::kMjpeg, 23, 80};
+  RunPreset("webcam, MJPEG q80", mjpeg, frames, places, seed, estimators);
 }
 
 }  // namespace
@@ -232,24 +237,10 @@ int main(int argc, char** argv) {
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   if (std::getenv("ODOCAL_BENCH_ONLY_PRESETS")) {
     // Quick look: the presets only, the pipeline's estimator only.
-    const std::vector<Estimator> pipeline = {estimators.back()};
-    RunPreset("odocal renderer", ImageFormationOptions{}, frames, places, seed, pipeline);
-    for (const std::string& name : ImageFormationPresetNames())
-      RunPreset(name, *ImageFormationPreset(name), frames, places, seed, pipeline);
-    ImageFormationOptions mjpeg = *ImageFormationPreset("webcam");
-    mjpeg.codec = {CodecOptions::Kind::kMjpeg, 23, 80};
-    RunPreset("webcam, MJPEG q80", mjpeg, frames, places, seed, pipeline);
+    RunPresetTable(frames, places, seed, {estimators.back()});
     return 0;
   }
-  RunPreset("odocal renderer", ImageFormationOptions{}, frames, places, seed, estimators);
-  for (const std::string& name : ImageFormationPresetNames()) {
-    RunPreset(name, *ImageFormationPreset(name), frames, places, seed, estimators);
-  }
-  if (const ImageFormationOptions webcam = *ImageFormationPreset("webcam"); true) {
-    ImageFormationOptions mjpeg = webcam;
-    mjpeg.codec = {CodecOptions::Kind::kMjpeg, 23, 80};
-    RunPreset("webcam, MJPEG q80", mjpeg, frames, places, seed, estimators);
-  }
+  RunPresetTable(frames, places, seed, estimators);
   std::printf("\nPSF sweep: webcam preset, equal per-axis width 0.8 px\n\n");
   std::printf("| PSF | estimator | pos mean mm | pos max mm | |heading| mean deg | max deg | bias x, y ± spread mm | bias heading ± spread deg | rests |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");

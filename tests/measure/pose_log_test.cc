@@ -505,5 +505,44 @@ TEST(OptiOdomImport, MissingMetadataRowNamesTheFile) {
   EXPECT_THAT(r.err, HasSubstr("123_metadata.csv: no row 'Di'"));
 }
 
+// The whole data set holds other robots too (omni3, omni4, tricycle, each
+// with its `type` row). A folder of sets: the differential ones imported, the
+// others named and skipped, a broken one named with why -- and the exit code
+// says one was not imported. One named set of another type is refused.
+TEST(OptiOdomImport, OtherRobotTypesAreSkippedAndABrokenSetIsNamed) {
+  const std::string dir = test_util::MakeTempDir("odocal_optiodom_types_");
+  const std::string good = dir + "/data/diff/circular/250620202317";
+  std::filesystem::create_directories(good);
+  const std::string sample = test_util::SourceDir() + "/sample_data/optiodom/diff/circular/250620202317";
+  for (const auto& entry : std::filesystem::directory_iterator(sample))
+    std::filesystem::copy_file(entry.path(), good + "/" + entry.path().filename().string());
+  const std::string omni = dir + "/data/omni4/circular/231220200310";
+  std::filesystem::create_directories(omni);
+  // The data set's own omni4 metadata (four wheels, two half-lengths).
+  std::ofstream(omni + "/231220200310_metadata.csv")
+      << "type,omni4,,,,\nngear,1,,,,\nencRes,1,,,,\nLi,0.2,0.2,,,\nDi,0.06,0.06,0.06,0.06,\n"
+         "N,1,,,,\nL,,,,,\n";
+  std::ofstream(omni + "/231220200310_run-01.csv") << "0,0,0,0,0,0,0,0,0,0\n0.05,0,0,0,1,1,1,1,0,0\n";
+  const std::string broken = dir + "/data/diff/square/231220209999";
+  std::filesystem::create_directories(broken);
+  std::ofstream(broken + "/231220209999_metadata.csv")
+      << "type,diff\nngear,43.7\nencRes,64\nLi,0.2\nDi,0.084,0.084\nN,2\nL,1.7\n";
+
+  const CommandResult r = RunCommand(Odocal("import optiodom " + dir + "/data --out " + dir + "/out"));
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_THAT(r.out, HasSubstr("circular/250620202317: "));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/circular/250620202317/session.yaml"));
+  EXPECT_THAT(r.out, HasSubstr("skipped 1 set of type omni4: not a differential-drive robot"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out/circular/231220200310"));
+  EXPECT_THAT(r.err, HasSubstr("square/231220209999 not imported"));
+  EXPECT_THAT(r.err, HasSubstr("231220209999_run-01.csv: no such file (the metadata says N = 2)"));
+  EXPECT_THAT(r.out, HasSubstr("imported 1 set,"));
+
+  const CommandResult one = RunCommand(Odocal("import optiodom " + omni + " --out " + dir + "/one"));
+  EXPECT_EQ(one.exit_code, 2);
+  EXPECT_THAT(one.err, HasSubstr("231220200310_metadata.csv:1: type omni4: not a differential-drive robot"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/one/session.yaml"));
+}
+
 }  // namespace
 }  // namespace odocal

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -36,18 +37,47 @@ void RunImport(const ImportArgs& args) {
     Fail(name, kExitBadInput,
          args.dir + ": no OptiOdom set found (a folder <set> holding <set>_metadata.csv)");
   const bool one = sets.size() == 1 && sets.front() == dir;
-  int total = 0;
+  // A folder of sets may hold the data set's other robots (omni3, omni4,
+  // tricycle): named and skipped. A set that cannot be read is named with
+  // why, the others are still imported, and the exit code says so.
+  std::map<std::string, int> skipped;  // robot type -> sets
+  std::vector<std::string> failed;
+  int total = 0, imported = 0;
   for (const fs::path& set : sets) {
     const std::string category = set.parent_path().filename().string();
+    const std::string type = config::OptiodomRobotType(set);
+    if (!one && type != "diff") {
+      ++skipped[type];
+      continue;
+    }
     const fs::path out = one ? fs::path(args.out) : fs::path(args.out) / category / set.filename();
     std::string error;
     const auto runs = config::ImportOptiodomSet(set, category, out, &error);
-    if (!runs) Fail(name, kExitBadInput, error);
+    if (!runs) {
+      if (one) Fail(name, kExitBadInput, error);
+      std::fprintf(stderr, "odocal import optiodom: %s/%s not imported: %s\n", category.c_str(),
+                   set.filename().c_str(), error.c_str());
+      failed.push_back(category + "/" + set.filename().string());
+      continue;
+    }
     total += *runs;
+    ++imported;
     std::printf("%s/%s: %d runs -> %s\n", category.c_str(), set.filename().c_str(), *runs,
                 (out / "session.yaml").c_str());
   }
-  std::printf("imported %zu set%s, %d runs\n", sets.size(), sets.size() == 1 ? "" : "s", total);
+  for (const auto& [type, count] : skipped)
+    std::printf("skipped %d set%s of type %s: not a differential-drive robot\n", count,
+                count == 1 ? "" : "s", type.c_str());
+  std::printf("imported %d set%s, %d runs\n", imported, imported == 1 ? "" : "s", total);
+  if (!failed.empty()) {
+    std::string names;
+    for (const auto& f : failed) names += (names.empty() ? "" : ", ") + f;
+    Fail(name, kExitBadInput,
+         std::to_string(failed.size()) + " set" + (failed.size() == 1 ? "" : "s") +
+             " not imported (why above): " + names);
+  }
+  if (imported == 0)
+    Fail(name, kExitBadInput, args.dir + ": no differential-drive set among the OptiOdom sets found");
 }
 
 void RegisterImportCommand(CLI::App& app) {

@@ -39,6 +39,7 @@ bool ToNumber(const std::string& field, double* value) {
 }
 
 struct Metadata {
+  std::string type = "diff";  // the robot's drive: diff, omni3, omni4, tricycle
   double ticks_per_rev = 0.0;
   double track_m = 0.0;
   double right_diameter_m = 0.0;
@@ -80,6 +81,14 @@ std::optional<Metadata> ReadMetadata(const std::string& path, std::string* error
     return true;
   };
   Metadata m;
+  // Older layouts have no `type` row: they are all differential drives.
+  if (const auto it = rows.find("type"); it != rows.end() && !it->second.second.empty())
+    m.type = it->second.second.front();
+  if (m.type != "diff") {
+    *error = path + ":" + std::to_string(rows["type"].first) + ": type " + m.type +
+             ": not a differential-drive robot (type diff); odocal calibrates differential drives";
+    return m;  // read no further: the other rows mean other things for other drives
+  }
   double ngear = 0.0, enc = 0.0, n = 0.0;
   if (!number("ngear", 0, &ngear) || !number("encRes", 0, &enc) || !number("Li", 0, &m.track_m) ||
       !number("Di", 0, &m.right_diameter_m) || !number("Di", 1, &m.left_diameter_m) ||
@@ -169,7 +178,7 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
                                      const fs::path& out_dir, std::string* error) {
   const std::string set = set_dir.filename().string();
   const auto meta = ReadMetadata((set_dir / (set + "_metadata.csv")).string(), error);
-  if (!meta) return std::nullopt;
+  if (!meta || meta->type != "diff") return std::nullopt;
   if (auto e = EnsureDirectory(out_dir.string())) {
     *error = *e;
     return std::nullopt;
@@ -232,6 +241,12 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
     return std::nullopt;
   }
   return meta->runs;
+}
+
+std::string OptiodomRobotType(const fs::path& set_dir) {
+  std::string error;
+  const auto meta = ReadMetadata((set_dir / (set_dir.filename().string() + "_metadata.csv")).string(), &error);
+  return meta ? meta->type : "diff";
 }
 
 bool IsOptiodomSet(const fs::path& dir) {

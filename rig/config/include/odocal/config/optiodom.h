@@ -4,6 +4,7 @@
 // Robot. Syst. 2022, MIT licence) into pose-log sessions (session.h,
 // docs/formats.md). Its layout:
 //   diff/<category>/<set>/<set>_metadata.csv   rows `key,values...`:
+//       type (diff; the data set's omni3, omni4 and tricycle sets are refused),
 //       ngear, encRes (ticks per wheel turn = encRes x ngear), Li (track, m),
 //       Di (right, left wheel diameters, m), N (runs), L (square side, m, or empty)
 //   diff/<category>/<set>/<set>_run-NN.csv     no header, one row per 50 ms cycle:
@@ -27,10 +28,15 @@ namespace odocal::config {
 // Whether `dir` is one OptiOdom set (a folder <set> holding <set>_metadata.csv).
 bool IsOptiodomSet(const std::filesystem::path& dir);
 
+// The robot type the set's metadata names (`diff` when it names none, as the
+// oldest sets do; also `diff` when the metadata cannot be read, so that the
+// import then reports why).
+std::string OptiodomRobotType(const std::filesystem::path& set_dir);
+
 // Converts the set in `set_dir` (of `category`: square, circular, ...) into a
 // pose-log session in `out_dir` (session.yaml, poses and telemetry per run,
 // SOURCE.md with the attribution). The number of runs, or nullopt with one
-// error line naming the file.
+// error line naming the file (also for a set of another robot type).
 std::optional<int> ImportOptiodomSet(const std::filesystem::path& set_dir, const std::string& category,
                                      const std::filesystem::path& out_dir, std::string* error);
 

@@ -4,6 +4,7 @@
 // The images live outside the repository, in ../shared/realdata.
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -113,7 +114,7 @@ TEST(RealData, WrapperMatchesReferenceCornersOnRealPhotographs) {
   int tags_within = 0, tags_total = 0;
   std::vector<double> all;
   const std::vector<fs::path> photos = ReferencedPhotos(dir);
-  ASSERT_GE(photos.size(), 3u) << "photographs with reference corners in " << dir;
+  ASSERT_FALSE(photos.empty()) << "no photograph with reference corners in " << dir;
   for (const fs::path& photo : photos) {
     const std::string name = photo.filename().string();
     const auto worst = CompareImage(photo, created.detector.get());
@@ -169,9 +170,10 @@ TEST(RealData, ConventionOffsetIsHalfAPixel) {
 // a quarter or half turn of the image moves every pixel exactly, so refined
 // corners must turn exactly with it. A pixel convention off by half a pixel
 // anywhere in the refinement chain (sampling, crop origin, the detector's
-// offset) shows as a 0.5-1 px disagreement. The photographs' tags are 15-25
-// px, too small to refine (cells < 3 px), so each photograph is enlarged 3x
-// first (bicubic; OpenCV's pixel-centre convention). Both refinements of the
+// offset) shows as a 0.5-1 px disagreement. The Swarmathon photographs' tags
+// are 15-25 px, too small to refine (cells < 3 px), so a photograph up to
+// 800 px is enlarged 3x first, a larger one less (bicubic; OpenCV's
+// pixel-centre convention). Both refinements of the
 // pipeline are checked: the half-level lines (every frame) and the
 // PSF/tone-free edge model (the rests). These tags sit on small cubes, with
 // a quiet zone a fraction of a cell wide and the cube's edge or shadow right
@@ -224,17 +226,23 @@ TEST(RealData, RefinedCornersTurnWithTheImage) {
   auto created = TagDetector::Create(DetectorOptions{});
   ASSERT_TRUE(created.ok) << created.message;
   std::vector<double> half_level, usable, refused;
+  size_t tried = 0;  // tag orientations that had to be found again
   for (const fs::path& photo : ReferencedPhotos(dir)) {
     const cv::Mat original = cv::imread(photo.string(), cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(original.empty()) << photo;
-    cv::Mat large;
-    cv::resize(original, large, cv::Size(), 3.0, 3.0, cv::INTER_CUBIC);
+    // Enlarged 3x, or less for a photograph larger than 800 px (at most
+    // 2400 px across: a larger one is used as it is).
+    const double scale =
+        std::clamp(2400.0 / std::max(original.cols, original.rows), 1.0, 3.0);
+    cv::Mat large = original;
+    if (scale > 1.0) cv::resize(original, large, cv::Size(), scale, scale, cv::INTER_CUBIC);
     const std::vector<RefinedTag> upright = RefineAll(large, created.detector.get());
     cv::Mat turned = large;
     for (int turns = 1; turns <= 2; ++turns) {
       cv::rotate(turned.clone(), turned, cv::ROTATE_90_CLOCKWISE);
       const std::vector<RefinedTag> seen = RefineAll(turned, created.detector.get());
       for (const RefinedTag& tag : upright) {
+        ++tried;
         std::array<cv::Point2d, 4> expected_h, expected_m;
         for (int k = 0; k < 4; ++k) {
           expected_h[k] = RotatePoint(tag.half_level[k], large.size(), turns);
@@ -250,7 +258,10 @@ TEST(RealData, RefinedCornersTurnWithTheImage) {
       }
     }
   }
-  ASSERT_GE(half_level.size(), 40u) << "too few real tags refined in both orientations";
+  // Whatever photographs are there: nearly every tag refined upright is
+  // found and refined again when turned (77 of 79 on the Swarmathon set).
+  ASSERT_FALSE(half_level.empty()) << "no real tag refined in both orientations";
+  EXPECT_GE(half_level.size() * 10, tried * 9) << half_level.size() << " of " << tried;
   auto sorted = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v;
@@ -258,19 +269,19 @@ TEST(RealData, RefinedCornersTurnWithTheImage) {
   const std::vector<double> h = sorted(half_level), u = sorted(usable), r = sorted(refused);
   std::printf("%zu real tags turned: half-level corners agree to %.4f px (median), %.4f (max); the edge model "
               "passes %zu, agreeing to %.4f px (median), %.4f (max); refuses %zu, which disagree by up to "
-              "%.3f px (3x pixels)\n",
+              "%.3f px (enlarged pixels)\n",
               h.size(), h[h.size() / 2], h.back(), u.size(), u.empty() ? 0.0 : u[u.size() / 2],
               u.empty() ? 0.0 : u.back(), r.size(), r.empty() ? 0.0 : r.back());
   // The conventions: half a pixel anywhere would put the median near 0.5.
   EXPECT_LT(h[h.size() / 2], 0.05);
   // What the gate passes turns with the image, typically (measured: median
-  // 0.056 px in 3x pixels; the largest, 0.74 px, on a tag whose quiet zone
-  // is the cube's shaded edge: found, not fixed).
-  ASSERT_GE(u.size(), 8u);
+  // 0.063 px in 3x pixels over 16; the largest, 0.74 px, on a tag whose
+  // quiet zone is the cube's shaded edge: found, not fixed). On these cube
+  // mounts the gate refuses most tags, some of whose corners do not turn
+  // with the image at all (up to 3 px); on photographs with clean quiet
+  // zones it may refuse none, so that is printed, not asserted.
+  ASSERT_FALSE(u.empty()) << "the edge model's gate passed no real tag";
   EXPECT_LT(u[u.size() / 2], 0.1);
-  // What it refuses includes corners that do not turn with the image at all.
-  ASSERT_FALSE(r.empty());
-  EXPECT_GT(r.back(), 1.0);
 }
 
 }  // namespace

@@ -11,6 +11,10 @@
 //
 //   camera_profiles_bench [frames=10] [places=12] [seed=1]
 //
+// ODOCAL_BENCH_ONLY_PRESETS=1: the preset table alone, pipeline estimator.
+// ODOCAL_BENCH_TAG_SIZES=1: machine-vision and webcam with the tag 80-240 mm
+// wide, to say how many pixels a target needs.
+//
 // Then the PSF sweep: the webcam preset with a Gaussian, a disk and a
 // disk+Gaussian PSF of equal width (per-axis sigma 0.8 px), with its noise
 // and codec, and again without them (2 frames a rest), where what is left
@@ -48,11 +52,11 @@ CameraModel StandardCamera() {
                      CameraMount{0.0, -1000.0, 2000.0, 0.0, 3.0, 0.0});
 }
 
-TagSpec StandardTag() {
+TagSpec StandardTag(double size_mm = 80.0) {
   TagSpec tag;
   tag.family = "tag36h11";
   tag.id = 5;
-  tag.size_mm = 80.0;
+  tag.size_mm = size_mm;
   tag.height_mm = 150.0;
   return tag;
 }
@@ -116,9 +120,10 @@ void Print(const std::string& label, const std::string& estimator, const Summary
 
 // One preset: every rest rendered, coded, measured by every estimator.
 void RunPreset(const std::string& label, const ImageFormationOptions& formation, int frames,
-               int places, uint64_t seed, const std::vector<Estimator>& estimators) {
+               int places, uint64_t seed, const std::vector<Estimator>& estimators,
+               double tag_size_mm = 80.0) {
   const CameraModel camera = StandardCamera();
-  const TagSpec tag = StandardTag();
+  const TagSpec tag = StandardTag(tag_size_mm);
   RenderOptions ro;
   ro.noise_sigma = 2.0;
   ro.blur_sigma_px = 0.8;
@@ -235,6 +240,20 @@ int main(int argc, char** argv) {
               frames, places, static_cast<unsigned long long>(seed));
   std::printf("| preset | estimator | pos mean mm | pos max mm | |heading| mean deg | max deg | bias x, y ± spread mm | bias heading ± spread deg | rests |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  if (std::getenv("ODOCAL_BENCH_TAG_SIZES")) {
+    // How large must the tag be in the image for a target? The lossy
+    // presets with the tag printed 80, 120, 160 and 240 mm wide (about 60,
+    // 90, 120 and 180 px in this camera), the pipeline's estimator only.
+    for (const std::string name : {"machine-vision", "webcam"}) {
+      for (const double size : {80.0, 120.0, 160.0, 240.0}) {
+        char label[96];
+        std::snprintf(label, sizeof(label), "%s, tag %.0f mm (%.0f px)", name.c_str(), size,
+                      size * 1400.0 / (2000.0 - 150.0));
+        RunPreset(label, *ImageFormationPreset(name), frames, places, seed, {estimators.back()}, size);
+      }
+    }
+    return 0;
+  }
   if (std::getenv("ODOCAL_BENCH_ONLY_PRESETS")) {
     // Quick look: the presets only, the pipeline's estimator only.
     RunPresetTable(frames, places, seed, {estimators.back()});

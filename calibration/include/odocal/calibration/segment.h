@@ -1,0 +1,89 @@
+// Runs found in one continuous recording, and matched to a plan.
+//
+// A long video (or pose log) holds several runs separated by rests. The
+// rests are found as everywhere else (rest.h, FindRests); each stretch of
+// motion between two rests is a segment, and what the robot did in it is
+// read off the measured poses alone:
+//   turned     the heading change summed along the motion (unwrapped, CCW +)
+//   path       the distance travelled by the tag's centre
+//   returned   the distance from the start rest to the end rest
+//   in place   the share of |turning| done while the centre barely moved
+// A segment is then
+//   spin          |turned| ~ N turns, path short
+//   umbmark       |turned| ~ 1 turn, returned near the start, turning in
+//                 place; side = path / 4; cw when turned < 0
+//   circle        |turned| ~ N turns, returned near the start, turning while
+//                 moving; radius = path / (2 pi N)
+//   out_and_back  |turned| ~ 0 net, returned near the start, 180 deg turns in
+//                 place; distance = path / (2 repeats); cw when the first
+//                 turn is to the right
+//   straight      |turned| small, returned ~ path
+//   recorded      anything else
+// MatchSegmentsToPlan aligns the segments with the plan in order (an edit
+// distance: a run missing, a segment extra, a segment that is not the run
+// planned at its place) and names every disagreement with its times.
+//
+// Units: SI (m, rad, s). Pure math: poses in, segments out.
+#ifndef ODOCAL_CALIBRATION_SEGMENT_H_
+#define ODOCAL_CALIBRATION_SEGMENT_H_
+
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/procedures.h"
+#include "odocal/calibration/rest.h"
+
+namespace odocal::calibration {
+
+struct MotionSegment {
+  RestWindow start_rest, end_rest;  // the rests either side
+  double turned_rad = 0.0;          // signed, unwrapped, CCW positive
+  double first_turn_rad = 0.0;      // the first in-place turn's sign and size (out_and_back)
+  double path_m = 0.0;
+  double returned_m = 0.0;          // |end rest - start rest| (positions)
+  double excursion_m = 0.0;         // the farthest the centre got from the start rest
+  double in_place_fraction = 0.0;   // of |turning| done while the centre barely moved
+  double in_place_turning_rad = 0.0;  // |turning| done in place
+  RunSpec inferred;                 // kRecorded when nothing fits
+
+  // The span a run measured over this segment needs: from the start of
+  // the rest before to the end of the rest after.
+  double begin_s() const { return start_rest.t_begin_s; }
+  double end_s() const { return end_rest.t_end_s; }
+};
+
+// Segments of the motion in `samples` (time ordered; invalid samples are
+// gaps), each between two rests of `rest_options`. Motion before the first
+// rest or after the last has no rest on one side and is not a segment.
+std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
+                                         const RestOptions& rest_options = {});
+
+// "umbmark cw, side 2.000 m", "spin ccw, 3 turns", ... (mm in the text).
+std::string Describe(const RunSpec& spec);
+
+// Whether a segment's inferred spec is the planned run: same procedure and
+// direction (and turns), size within `size_tolerance` (relative) of it.
+bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size_tolerance = 0.25);
+
+struct PlanMatch {
+  bool ok = false;
+  // Per planned run, the index of its segment (when ok: every run has one).
+  std::vector<int> segment_of_run;
+  // Every disagreement, one line each, naming the run and the segment's
+  // times: "run 'ccw2' (umbmark ccw, side 2000 mm): missing (nothing between
+  // 81.2 s and 83.0 s)", "extra segment 112.4-140.9 s (spin cw, 2 turns):
+  // not in the plan", "run 'cw3' (umbmark cw, ...): the segment at
+  // 150.1-201.4 s is umbmark ccw, side 1998 mm".
+  std::vector<std::string> problems;
+};
+
+// Aligns `segments` with the runs `planned` (names for the messages) in
+// order, at the least number of disagreements.
+PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments,
+                              const std::vector<RunSpec>& planned,
+                              const std::vector<std::string>& names,
+                              double size_tolerance = 0.25);
+
+}  // namespace odocal::calibration
+
+#endif  // ODOCAL_CALIBRATION_SEGMENT_H_

@@ -1,0 +1,227 @@
+#include "odocal/calibration/segment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace odocal::calibration {
+namespace {
+
+constexpr double kTwoPi = 2.0 * M_PI;
+// Heading is read in steps of this much, so that frame noise does not add up.
+constexpr double kHeadingStepRad = 5.0 * M_PI / 180.0;
+// A heading step is "in place" when the centre moved less than this per
+// radian: a turning radius under 120 mm (an in-place turn seen by a tag off
+// the axle, not a circle or a square's corner driven as an arc).
+constexpr double kInPlaceRadiusM = 0.12;
+// A spin's centre stays within this of where it started (the tag's offset
+// from the axle draws a small circle).
+constexpr double kSpinExcursionM = 0.15;
+
+std::string Format(const char* fmt, double a, double b = 0.0) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), fmt, a, b);
+  return buf;
+}
+
+RunSpec Infer(const MotionSegment& s, double excursion_m) {
+  const double turns_real = std::abs(s.turned_rad) / kTwoPi;
+  const int turns = static_cast<int>(std::lround(turns_real));
+  const bool whole_turns = turns >= 1 && std::abs(turns_real - turns) < 0.17;  // +-60 deg
+  const Direction dir = s.turned_rad < 0.0 ? Direction::kCw : Direction::kCcw;
+  if (excursion_m < kSpinExcursionM) {
+    if (whole_turns && s.in_place_fraction > 0.8) return RunSpec::Spin(turns, dir);
+    RunSpec none;
+    none.procedure = Procedure::kRecorded;
+    return none;
+  }
+  const Pose2 net = s.start_rest.mean.inverse() * s.end_rest.mean;
+  if (std::abs(s.turned_rad) < 30.0 * M_PI / 180.0 && s.returned_m > 0.8 * excursion_m)
+    return RunSpec::Straight(net.x());
+  const bool closed = s.returned_m < 0.25 * excursion_m;
+  if (closed && whole_turns && turns == 1 && s.in_place_fraction > 0.5)
+    return RunSpec::Umbmark(dir, excursion_m / std::sqrt(2.0));
+  if (closed && whole_turns && s.in_place_fraction <= 0.5)
+    return RunSpec::Circle(excursion_m / 2.0, turns, dir);
+  if (closed && turns_real < 0.17 && s.in_place_fraction > 0.5 && s.first_turn_rad != 0.0) {
+    // Each repeat turns +180 and -180 in place: count the in-place turning.
+    const int repeats = std::max(1, static_cast<int>(std::lround(s.in_place_turning_rad / kTwoPi)));
+    return RunSpec::OutAndBack(excursion_m, repeats,
+                               s.first_turn_rad < 0.0 ? Direction::kCw : Direction::kCcw);
+  }
+  RunSpec other;
+  other.procedure = Procedure::kRecorded;
+  return other;
+}
+
+}  // namespace
+
+std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
+                                         const RestOptions& rest_options) {
+  const RestSummary summary = FindRests(samples, rest_options);
+  std::vector<MotionSegment> out;
+  for (size_t k = 0; k + 1 < summary.rests.size(); ++k) {
+    MotionSegment s;
+    s.start_rest = summary.rests[k];
+    s.end_rest = summary.rests[k + 1];
+    // The motion: the start rest's mean, the valid samples between, the end
+    // rest's mean.
+    std::vector<Pose2> poses = {s.start_rest.mean};
+    for (const PoseSample& p : samples)
+      if (p.valid && p.t_s > s.start_rest.t_end_s && p.t_s < s.end_rest.t_begin_s) poses.push_back(p.pose);
+    poses.push_back(s.end_rest.mean);
+    const Eigen::Vector2d origin = s.start_rest.mean.translation();
+    double heading = 0.0, excursion = 0.0;
+    // The anchor of the current heading step and of the path.
+    double anchor_heading = 0.0;
+    Eigen::Vector2d anchor_position = origin, path_anchor = origin;
+    double turning = 0.0, in_place = 0.0;
+    bool first_turn_done = false;
+    for (size_t i = 1; i < poses.size(); ++i) {
+      heading += WrapAngle(poses[i].heading() - poses[i - 1].heading());
+      const Eigen::Vector2d p = poses[i].translation();
+      excursion = std::max(excursion, (p - origin).norm());
+      if ((p - path_anchor).norm() > 0.01) {
+        s.path_m += (p - path_anchor).norm();
+        path_anchor = p;
+      }
+      const double step = heading - anchor_heading;
+      if (std::abs(step) >= kHeadingStepRad) {
+        const bool still = (p - anchor_position).norm() < kInPlaceRadiusM * std::abs(step);
+        turning += std::abs(step);
+        if (still) {
+          in_place += std::abs(step);
+          if (!first_turn_done) {
+            if (s.first_turn_rad == 0.0 || std::signbit(step) == std::signbit(s.first_turn_rad))
+              s.first_turn_rad += step;
+            else
+              first_turn_done = true;
+          }
+        } else if (s.first_turn_rad != 0.0) {
+          first_turn_done = true;
+        }
+        anchor_heading = heading;
+        anchor_position = p;
+      } else if ((p - anchor_position).norm() > 0.05) {
+        // Driven on at a steady heading: the next turn starts from here.
+        anchor_heading = heading;
+        anchor_position = p;
+        if (s.first_turn_rad != 0.0) first_turn_done = true;
+      }
+    }
+    s.turned_rad = heading;
+    s.returned_m = (s.end_rest.mean.translation() - origin).norm();
+    s.in_place_fraction = turning > 0.0 ? in_place / turning : 0.0;
+    s.in_place_turning_rad = in_place;
+    s.inferred = Infer(s, excursion);
+    s.excursion_m = excursion;
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::string Describe(const RunSpec& spec) {
+  std::string text(ToString(spec.procedure));
+  const std::string dir = " " + std::string(ToString(spec.direction));
+  switch (spec.procedure) {
+    case Procedure::kUmbmark:
+      return text + dir + Format(", side %.0f mm", spec.side_m * 1e3);
+    case Procedure::kStraight:
+      return text + Format(" %.0f mm", spec.distance_m * 1e3);
+    case Procedure::kSpin:
+      return text + dir + ", " + std::to_string(spec.turns) + (spec.turns == 1 ? " turn" : " turns");
+    case Procedure::kOutAndBack:
+      return text + dir + Format(" %.0f mm", spec.distance_m * 1e3) + ", " + std::to_string(spec.repeats) +
+             (spec.repeats == 1 ? " repeat" : " repeats");
+    case Procedure::kCircle:
+      return text + dir + Format(", radius %.0f mm", spec.radius_m * 1e3) + ", " + std::to_string(spec.turns) +
+             (spec.turns == 1 ? " turn" : " turns");
+    case Procedure::kRecorded:
+      return "a motion that is none of the procedures";
+  }
+  return text;
+}
+
+bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size_tolerance) {
+  if (planned.procedure == Procedure::kRecorded) return true;  // any path
+  if (planned.procedure != inferred.procedure) return false;
+  auto near = [&](double a, double b) { return std::abs(std::abs(a) - std::abs(b)) <= size_tolerance * std::abs(a); };
+  switch (planned.procedure) {
+    case Procedure::kUmbmark:
+      return planned.direction == inferred.direction && near(planned.side_m, inferred.side_m);
+    case Procedure::kStraight:
+      return std::signbit(planned.distance_m) == std::signbit(inferred.distance_m) &&
+             near(planned.distance_m, inferred.distance_m);
+    case Procedure::kSpin:
+      return planned.direction == inferred.direction && planned.turns == inferred.turns;
+    case Procedure::kOutAndBack:
+      return planned.direction == inferred.direction && planned.repeats == inferred.repeats &&
+             near(planned.distance_m, inferred.distance_m);
+    case Procedure::kCircle:
+      return planned.direction == inferred.direction && planned.turns == inferred.turns &&
+             near(planned.radius_m, inferred.radius_m);
+    case Procedure::kRecorded:
+      return true;
+  }
+  return false;
+}
+
+PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
+                              const std::vector<std::string>& names, double size_tolerance) {
+  const size_t n = segments.size(), m = planned.size();
+  // cost[i][j]: the least disagreements aligning the first i segments with
+  // the first j runs.
+  std::vector<std::vector<int>> cost(n + 1, std::vector<int>(m + 1, 0));
+  for (size_t i = 0; i <= n; ++i) cost[i][0] = static_cast<int>(i);
+  for (size_t j = 0; j <= m; ++j) cost[0][j] = static_cast<int>(j);
+  for (size_t i = 1; i <= n; ++i)
+    for (size_t j = 1; j <= m; ++j) {
+      const int pair = SegmentMatches(planned[j - 1], segments[i - 1].inferred, size_tolerance) ? 0 : 1;
+      cost[i][j] = std::min({cost[i - 1][j - 1] + pair, cost[i - 1][j] + 1, cost[i][j - 1] + 1});
+    }
+  PlanMatch match;
+  match.segment_of_run.assign(m, -1);
+  auto span = [&](size_t i) {
+    return Format("%.1f-%.1f s", segments[i].start_rest.t_end_s, segments[i].end_rest.t_begin_s);
+  };
+  auto run = [&](size_t j) {
+    return "run '" + (j < names.size() ? names[j] : std::to_string(j + 1)) + "' (" + Describe(planned[j]) + ")";
+  };
+  std::vector<std::string> problems;
+  size_t i = n, j = m;
+  while (i > 0 || j > 0) {
+    if (i > 0 && j > 0) {
+      const bool same = SegmentMatches(planned[j - 1], segments[i - 1].inferred, size_tolerance);
+      if (cost[i][j] == cost[i - 1][j - 1] + (same ? 0 : 1)) {
+        if (same) {
+          match.segment_of_run[j - 1] = static_cast<int>(i - 1);
+        } else {
+          problems.push_back(run(j - 1) + ": the segment at " + span(i - 1) + " is " +
+                             Describe(segments[i - 1].inferred));
+        }
+        --i, --j;
+        continue;
+      }
+    }
+    if (i > 0 && cost[i][j] == cost[i - 1][j] + 1) {
+      problems.push_back("extra segment at " + span(i - 1) + " (" + Describe(segments[i - 1].inferred) +
+                         "): not in the plan");
+      --i;
+      continue;
+    }
+    // A run with no segment: where it should have been.
+    const double after = i > 0 ? segments[i - 1].end_rest.t_begin_s : 0.0;
+    const double before = i < n ? segments[i].start_rest.t_end_s : std::numeric_limits<double>::infinity();
+    problems.push_back(run(j - 1) + ": missing (no motion segment for it" +
+                       (std::isfinite(before) ? Format(" between %.1f s and %.1f s)", after, before)
+                                              : Format(" after %.1f s)", after)));
+    --j;
+  }
+  std::reverse(problems.begin(), problems.end());
+  match.problems = problems;
+  match.ok = problems.empty();
+  return match;
+}
+
+}  // namespace odocal::calibration

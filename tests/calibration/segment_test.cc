@@ -1,0 +1,145 @@
+// Runs found in one continuous recording: the virtual robot (its own time
+// integration, wheel noise, accelerations, pauses between primitives) drives
+// a plan run after run; a camera-like sampler sees a point 40 mm ahead of
+// the axle (an unknown tag offset) at 30 Hz, with noise and lost frames. The
+// segmenter reads the plan back from those poses alone, and the matcher
+// names a missing run, a run driven the wrong way and an extra one.
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "odocal/calibration/segment.h"
+#include "odocal/sim/trajectory.h"
+#include "odocal/sim/virtual_robot.h"
+#include "odocal/test_util/robots.h"
+
+namespace odocal::calibration {
+namespace {
+
+using ::testing::HasSubstr;
+
+struct Recording {
+  std::vector<PoseSample> samples;
+  std::vector<std::pair<double, double>> run_times;  // true start, end of each run driven
+};
+
+Recording Drive(const std::vector<RunSpec>& specs, uint32_t seed) {
+  sim::RobotConfig config = test_util::ExactRobot(1.002, 1.01);
+  config.rest_s = 1.0;   // a camera's plan: rests of a second either side
+  config.pause_s = 0.3;
+  config.noise.wheel_sigma_m_per_sqrt_m = 2e-4;
+  sim::VirtualRobot robot(config);
+  std::vector<sim::RunRecord> runs;
+  Recording rec;
+  for (const RunSpec& spec : specs) {
+    runs.push_back(robot.Execute(spec));
+    rec.run_times.emplace_back(runs.back().start_time_s, runs.back().end_time_s);
+  }
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double t_end = runs.back().end_time_s;
+  size_t r = 0;
+  for (double t = 0.0; t <= t_end; t += 1.0 / 30.0) {
+    while (r + 1 < runs.size() && t > runs[r].end_time_s) ++r;
+    const Pose2 robot_pose = sim::PoseAt(runs[r], std::clamp(t, runs[r].start_time_s, runs[r].end_time_s));
+    const Pose2 tag = robot_pose * Pose2::FromXYHeading(0.04, 0.0, 0.0);
+    PoseSample s;
+    s.t_s = t;
+    s.valid = u(rng) > 0.05;
+    s.pose = Pose2::FromXYHeading(tag.x() + 1e-4 * noise(rng), tag.y() + 1e-4 * noise(rng),
+                                  tag.heading() + 0.0005 * noise(rng));
+    rec.samples.push_back(s);
+  }
+  return rec;
+}
+
+std::vector<RunSpec> TenRuns() {
+  return {RunSpec::Umbmark(Direction::kCw, 1.0),  RunSpec::Umbmark(Direction::kCcw, 1.0),
+          RunSpec::Straight(1.2),                 RunSpec::Spin(2, Direction::kCcw),
+          RunSpec::OutAndBack(0.8, 1, Direction::kCcw), RunSpec::Umbmark(Direction::kCw, 1.0),
+          RunSpec::Umbmark(Direction::kCcw, 1.0), RunSpec::Spin(1, Direction::kCw),
+          RunSpec::Circle(0.5, 1, Direction::kCcw), RunSpec::Straight(0.6)};
+}
+
+std::vector<std::string> Names(size_t n) {
+  std::vector<std::string> names;
+  for (size_t i = 0; i < n; ++i) names.push_back("run" + std::to_string(i + 1));
+  return names;
+}
+
+TEST(Segment, TenRunsAreFoundAndTheirProceduresReadFromThePoses) {
+  const std::vector<RunSpec> plan = TenRuns();
+  const Recording rec = Drive(plan, 3);
+  const std::vector<MotionSegment> segments = SegmentMotion(rec.samples);
+  ASSERT_EQ(segments.size(), plan.size());
+  for (size_t k = 0; k < plan.size(); ++k) {
+    const MotionSegment& s = segments[k];
+    SCOPED_TRACE("run " + std::to_string(k + 1) + ": planned " + Describe(plan[k]) + ", read " +
+                 Describe(s.inferred));
+    std::printf("  %.1f-%.1f s: %s (turned %.1f deg, in place %.2f, returned %.3f m)\n", s.begin_s(),
+                s.end_s(), Describe(s.inferred).c_str(), s.turned_rad * 180.0 / M_PI, s.in_place_fraction,
+                s.returned_m);
+    EXPECT_TRUE(SegmentMatches(plan[k], s.inferred));
+    EXPECT_EQ(s.inferred.procedure, plan[k].procedure);
+    // The segment's span holds the whole run's motion, rests either side.
+    EXPECT_LE(s.begin_s(), rec.run_times[k].first + 1.0);
+    EXPECT_GE(s.end_s(), rec.run_times[k].second - 1.0);
+    EXPECT_LT(s.start_rest.t_end_s, rec.run_times[k].first + 1.1);
+    EXPECT_GT(s.end_rest.t_begin_s, rec.run_times[k].second - 1.1);
+  }
+  // Sizes read from the poses alone (tag 40 mm off the axle).
+  EXPECT_NEAR(segments[0].inferred.side_m, 1.0, 0.05);
+  EXPECT_NEAR(segments[2].inferred.distance_m, 1.2, 0.02);
+  EXPECT_EQ(segments[3].inferred.turns, 2);
+  EXPECT_NEAR(segments[4].inferred.distance_m, 0.8, 0.06);
+  EXPECT_EQ(segments[4].inferred.direction, Direction::kCcw);
+  EXPECT_NEAR(segments[8].inferred.radius_m, 0.5, 0.05);
+  const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
+  EXPECT_TRUE(match.ok) << ::testing::PrintToString(match.problems);
+  for (size_t k = 0; k < plan.size(); ++k) EXPECT_EQ(match.segment_of_run[k], static_cast<int>(k));
+}
+
+// The case: ten planned runs, one not driven, one driven the wrong
+// way; both named, with the segment's times, nothing silently reassigned.
+TEST(Segment, AMissingRunAndOneDrivenTheWrongWayAreNamed) {
+  const std::vector<RunSpec> plan = TenRuns();
+  std::vector<RunSpec> driven = plan;
+  driven.erase(driven.begin() + 3);                      // run4, the 2-turn spin, not driven
+  driven[5] = RunSpec::Umbmark(Direction::kCw, 1.0);     // run7 (ccw square) driven cw
+  const Recording rec = Drive(driven, 4);
+  const std::vector<MotionSegment> segments = SegmentMotion(rec.samples);
+  ASSERT_EQ(segments.size(), driven.size());
+  const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
+  EXPECT_FALSE(match.ok);
+  ASSERT_EQ(match.problems.size(), 2u) << ::testing::PrintToString(match.problems);
+  EXPECT_THAT(match.problems[0], HasSubstr("run 'run4' (spin ccw, 2 turns): missing"));
+  EXPECT_THAT(match.problems[1], HasSubstr("run 'run7' (umbmark ccw, side 1000 mm): the segment at"));
+  EXPECT_THAT(match.problems[1], HasSubstr("is umbmark cw"));
+  // The others still matched where they were driven.
+  EXPECT_EQ(match.segment_of_run[3], -1);
+  EXPECT_EQ(match.segment_of_run[4], 3);
+  EXPECT_EQ(match.segment_of_run[9], 8);
+}
+
+TEST(Segment, AnExtraRunIsNamedNotAssigned) {
+  const std::vector<RunSpec> plan = {RunSpec::Straight(0.8), RunSpec::Spin(1, Direction::kCcw)};
+  const Recording rec = Drive({RunSpec::Straight(0.8), RunSpec::Spin(3, Direction::kCw),
+                               RunSpec::Spin(1, Direction::kCcw)},
+                              5);
+  const std::vector<MotionSegment> segments = SegmentMotion(rec.samples);
+  ASSERT_EQ(segments.size(), 3u);
+  const PlanMatch match = MatchSegmentsToPlan(segments, plan, {"straight", "spin"});
+  ASSERT_EQ(match.problems.size(), 1u) << ::testing::PrintToString(match.problems);
+  EXPECT_THAT(match.problems[0], HasSubstr("extra segment at"));
+  EXPECT_THAT(match.problems[0], HasSubstr("(spin cw, 3 turns): not in the plan"));
+  EXPECT_EQ(match.segment_of_run[0], 0);
+  EXPECT_EQ(match.segment_of_run[1], 2);
+}
+
+}  // namespace
+}  // namespace odocal::calibration

@@ -15,9 +15,9 @@ constexpr double kHeadingStepRad = 5.0 * M_PI / 180.0;
 // radian: a turning radius under 120 mm (an in-place turn seen by a tag off
 // the axle, not a circle or a square's corner driven as an arc).
 constexpr double kInPlaceRadiusM = 0.12;
-// A spin's centre stays within this of where it started (the tag's offset
-// from the axle draws a small circle).
-constexpr double kSpinExcursionM = 0.15;
+// A spin drives less than this at a steady heading (a square, a straight,
+// an out-and-back drive metres).
+constexpr double kSpinStraightM = 0.1;
 
 std::string Format(const char* fmt, double a, double b = 0.0) {
   char buf[96];
@@ -30,15 +30,20 @@ RunSpec Infer(const MotionSegment& s, double excursion_m) {
   const int turns = static_cast<int>(std::lround(turns_real));
   const bool whole_turns = turns >= 1 && std::abs(turns_real - turns) < 0.17;  // +-60 deg
   const Direction dir = s.turned_rad < 0.0 ? Direction::kCw : Direction::kCcw;
-  if (excursion_m < kSpinExcursionM) {
-    if (whole_turns && s.in_place_fraction > 0.8) return RunSpec::Spin(turns, dir);
+  // Nothing but turning (the tracked point, off the axle, draws a circle):
+  // a spin, whatever the offset.
+  if (s.straight_m < kSpinStraightM && s.in_place_fraction > 0.8) {
+    if (whole_turns) return RunSpec::Spin(turns, dir);
     RunSpec none;
     none.procedure = Procedure::kRecorded;
     return none;
   }
+  // The tracked point may sit off the axle and at a yaw to the robot's
+  // axis: the distance driven is the displacement, forward when the point
+  // moved ahead of where it looked (within 90 deg).
   const Pose2 net = s.start_rest.mean.inverse() * s.end_rest.mean;
   if (std::abs(s.turned_rad) < 30.0 * M_PI / 180.0 && s.returned_m > 0.8 * excursion_m)
-    return RunSpec::Straight(net.x());
+    return RunSpec::Straight(net.x() < 0.0 ? -s.returned_m : s.returned_m);
   const bool closed = s.returned_m < 0.25 * excursion_m;
   if (closed && whole_turns && turns == 1 && s.in_place_fraction > 0.5)
     return RunSpec::Umbmark(dir, excursion_m / std::sqrt(2.0));
@@ -105,6 +110,7 @@ std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
         anchor_position = p;
       } else if ((p - anchor_position).norm() > 0.05) {
         // Driven on at a steady heading: the next turn starts from here.
+        s.straight_m += (p - anchor_position).norm();
         anchor_heading = heading;
         anchor_position = p;
         if (s.first_turn_rad != 0.0) first_turn_done = true;

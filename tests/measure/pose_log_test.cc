@@ -455,6 +455,145 @@ TEST(PoseLogScenario, ARecordedRunCannotBeSimulated) {
 }
 
 // ---------------------------------------------------------------------------
+// One continuous log for several runs (issue 13, automatic segmentation):
+// the session names the same pose log and telemetry for every run and no
+// start_s/end_s; batch finds the runs in the log, matches them to the plan,
+// and measures each as if its span had been written by hand.
+
+simulation::SimulationResult SimulateMixedPlan(std::uint64_t seed) {
+  config::Scenario s;
+  s.seed = seed;
+  s.robot = test_util::ExactRobot(1.004, 1.015);
+  s.robot.seed = seed;
+  s.robot.rest_s = 1.0;
+  s.robot.noise.wheel_sigma_m_per_sqrt_m = 0.1e-3;
+  using calibration::Direction;
+  using calibration::RunSpec;
+  s.runs = {RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0),
+            RunSpec::Straight(1.0),                RunSpec::Spin(2, Direction::kCcw),
+            RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0)};
+  return simulation::Simulate(s);
+}
+
+std::string SpecYaml(const calibration::RunSpec& spec) {
+  std::ostringstream y;
+  y << "procedure: " << calibration::ToString(spec.procedure);
+  switch (spec.procedure) {
+    case calibration::Procedure::kUmbmark:
+      y << ", direction: " << calibration::ToString(spec.direction) << ", side_mm: " << spec.side_m * 1e3;
+      break;
+    case calibration::Procedure::kStraight:
+      y << ", distance_mm: " << spec.distance_m * 1e3;
+      break;
+    case calibration::Procedure::kSpin:
+      y << ", direction: " << calibration::ToString(spec.direction) << ", turns: " << spec.turns;
+      break;
+    default:
+      break;
+  }
+  return y.str();
+}
+
+// One pose log and one telemetry file for all runs; the session lists
+// `plan` (names and specs) against them.
+std::string WriteContinuousSession(const std::string& dir, const simulation::SimulationResult& result,
+                                   const std::vector<std::pair<std::string, calibration::RunSpec>>& plan) {
+  const std::vector<simulation::SimulatedRunRecord> runs = simulation::SimulatedRunRecordsOf(result);
+  const Pose2 T_robot_body =
+      Pose2::FromXYHeading(kBodyX_mm * 1e-3, kBodyY_mm * 1e-3, kBodyYaw_deg / kRadToDeg);
+  std::mt19937_64 rng(43);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::ofstream poses(dir + "/all.poses.csv"), telemetry(dir + "/all.telemetry.csv");
+  poses << "t_s,x_mm,y_mm,heading_deg\n";
+  telemetry << "t_s,left_ticks,right_ticks\n";
+  double last_pose_t = -1.0, last_tel_t = -1.0;
+  char line[160];
+  for (const simulation::SimulatedRunRecord& run : runs) {
+    for (double k = std::ceil(run.truth_t_s.front() * kTrackerHz); k / kTrackerHz <= run.truth_t_s.back(); k += 1.0) {
+      const double t = k / kTrackerHz;
+      if (t <= last_pose_t + 1e-9) continue;
+      last_pose_t = t;
+      const Pose2 body = InterpolateTruth(run, t) * T_robot_body;
+      std::snprintf(line, sizeof(line), "%.4f,%.4f,%.4f,%.5f\n", t, body.x() * 1e3 + kNoise_mm * normal(rng),
+                    body.y() * 1e3 + kNoise_mm * normal(rng), body.heading() * kRadToDeg + kNoise_deg * normal(rng));
+      poses << line;
+    }
+    for (const calibration::TelemetryRecord& r : run.telemetry) {
+      if (r.t_s <= last_tel_t + 1e-9) continue;
+      last_tel_t = r.t_s;
+      telemetry << r.t_s << "," << r.left_ticks << "," << r.right_ticks << "\n";
+    }
+  }
+  const calibration::WheelParams nominal = test_util::ExactRobot(1.0, 1.0).nominal;
+  std::ostringstream yaml;
+  yaml << "tracker: {offset_mm: {x: " << kBodyX_mm << ", y: " << kBodyY_mm << "}, yaw_deg: " << kBodyYaw_deg
+       << "}\nrobot:\n  nominal: {left_wheel_diameter_mm: " << nominal.left_wheel_diameter_m * 1e3
+       << ", right_wheel_diameter_mm: " << nominal.right_wheel_diameter_m * 1e3
+       << ", track_mm: " << nominal.track_m * 1e3 << ", ticks_per_rev: " << nominal.ticks_per_rev << "}\nruns:\n";
+  for (const auto& [name, spec] : plan)
+    yaml << "  - {name: " << name << ", " << SpecYaml(spec)
+         << ", poses: all.poses.csv, telemetry: all.telemetry.csv}\n";
+  std::ofstream(dir + "/session.yaml") << yaml.str();
+  return dir + "/session.yaml";
+}
+
+TEST(PoseLogSegmentation, RunsInOneLogAreFoundMatchedAndMeasured) {
+  const simulation::SimulationResult result = SimulateMixedPlan(21);
+  std::vector<std::pair<std::string, calibration::RunSpec>> plan;
+  for (size_t i = 0; i < result.runs.size(); ++i)
+    plan.push_back({"run" + std::to_string(i + 1), result.runs[i].spec});
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_segment_");
+  const std::string session = WriteContinuousSession(dir, result, plan);
+  const CommandResult r = RunCommand(Odocal("batch " + session + " --out " + dir + "/report"));
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_THAT(r.out, HasSubstr("found run4 at"));
+  EXPECT_THAT(r.out, HasSubstr("spin ccw, 2 turns"));
+  const nlohmann::json report = ReadJson(dir + "/report/report.json");
+  ASSERT_EQ(report["sessions"][0]["segmented_runs"].size(), result.runs.size());
+  ASSERT_EQ(report["runs"].size(), result.runs.size());
+  for (size_t i = 0; i < result.runs.size(); ++i) {
+    const nlohmann::json& run = report["runs"][i];
+    const nlohmann::json& seg = report["sessions"][0]["segmented_runs"][i];
+    // The span found holds the run (the simulator's start and end).
+    EXPECT_LE(seg["start_s"].get<double>(), result.runs[i].start_time_s + 0.5) << i;
+    EXPECT_GE(seg["end_s"].get<double>(), result.runs[i].end_time_s - 0.5) << i;
+    ASSERT_TRUE(run.contains("return_error") && run["return_error"].is_object()) << run.dump();
+    const Pose2 truth = TrueReturnError(result.runs[i]);
+    // Within the stated sigma (a rest between two runs is split between
+    // them, ~0.8 s of 100 Hz frames each: 0.09 mm, 0.016 deg here).
+    const nlohmann::json& e = run["return_error"];
+    const nlohmann::json& sigma = run["sigma"];
+    EXPECT_NEAR(e["x_mm"].get<double>(), truth.x() * 1e3, 4.0 * sigma["x_mm"].get<double>()) << i;
+    EXPECT_NEAR(e["y_mm"].get<double>(), truth.y() * 1e3, 4.0 * sigma["y_mm"].get<double>()) << i;
+    EXPECT_NEAR(e["theta_deg"].get<double>(), truth.heading() * kRadToDeg, 4.0 * sigma["theta_deg"].get<double>())
+        << i;
+    EXPECT_LT(sigma["theta_deg"].get<double>(), 0.03) << i;
+  }
+  EXPECT_EQ(report["umbmark"]["n_cw"].get<int>(), 2);
+  EXPECT_EQ(report["umbmark"]["n_ccw"].get<int>(), 2);
+}
+
+TEST(PoseLogSegmentation, APlannedRunNotInTheLogIsAnErrorNamingIt) {
+  const simulation::SimulationResult result = SimulateMixedPlan(22);
+  std::vector<std::pair<std::string, calibration::RunSpec>> plan;
+  for (size_t i = 0; i < result.runs.size(); ++i) {
+    plan.push_back({"run" + std::to_string(i + 1), result.runs[i].spec});
+    if (i == 2) plan.push_back({"extra_spin", calibration::RunSpec::Spin(1, calibration::Direction::kCw)});
+  }
+  // ... and run5 (a cw square) listed as ccw.
+  plan[5].second.direction = calibration::Direction::kCcw;
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_segment_bad_");
+  const std::string session = WriteContinuousSession(dir, result, plan);
+  const CommandResult r = RunCommand(Odocal("batch " + session + " --out " + dir + "/report"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("all.poses.csv: the runs found in it do not match the session's plan"));
+  EXPECT_THAT(r.err, HasSubstr("run 'extra_spin' (spin cw, 1 turn): missing"));
+  EXPECT_THAT(r.err, HasSubstr("run 'run5' (umbmark ccw, side 1000 mm): the segment at"));
+  EXPECT_THAT(r.err, HasSubstr("is umbmark cw"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/report/report.json"));
+}
+
+// ---------------------------------------------------------------------------
 // OptiOdom, the real data.
 
 std::string OptiOdomSquareSet() {

@@ -104,6 +104,13 @@ void RegisterBatchCommand(CLI::App& app) {
            {"camera_plane", report::PlaneJson(sm)},
            {"camera_scale", report::CameraScaleJson(sm)},
            {"flags", sm.flags}});
+      if (!sm.segments.empty()) {
+        nlohmann::json found = nlohmann::json::array();
+        for (const measure::SegmentAssignment& a : sm.segments)
+          found.push_back({{"run", a.run}, {"source", a.source}, {"start_s", a.begin_s}, {"end_s", a.end_s},
+                           {"found", a.found}});
+        report["sessions"].back()["segmented_runs"] = found;
+      }
       for (const measure::RunMeasurement& rm : sm.runs) {
         nlohmann::json j = report::RunJson(rm);
         j["session"] = sm.session.path;
@@ -143,6 +150,10 @@ void RegisterBatchCommand(CLI::App& app) {
       Fail(name, kExitFailure, *e);
     if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
+    for (const measure::SessionMeasurement& sm : *measured)
+      for (const measure::SegmentAssignment& a : sm.segments)
+        std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
+                    a.found.c_str());
     PrintRuns(*measured);
     for (const measure::SessionMeasurement& sm : *measured)
       if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
@@ -189,7 +200,11 @@ void RegisterMeasureCommand(CLI::App& app) {
       for (const measure::RunMeasurement& rm : measured->front().runs) j["runs"].push_back(report::RunJson(rm));
       std::cout << j.dump(2) << std::endl;
     } else {
-      PrintRuns(*measured);
+      for (const measure::SessionMeasurement& sm : *measured)
+      for (const measure::SegmentAssignment& a : sm.segments)
+        std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
+                    a.found.c_str());
+    PrintRuns(*measured);
     }
     if (measure::CountUsableRuns(*measured) == 0)
       Fail(name, kExitFailure, "no run could be measured (see the flags above)");

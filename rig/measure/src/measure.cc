@@ -12,6 +12,7 @@
 
 #include "odocal/base/parallel.h"
 #include "odocal/base/units.h"
+#include "odocal/measure/segment_runs.h"
 #include "odocal/media/video.h"
 
 namespace odocal::measure {
@@ -438,13 +439,27 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
   };
   std::vector<Job> jobs;
   long expected_frames = 0;
+  // Runs sharing one video are tracked once: (session, run) -> the run
+  // whose track it shares.
+  std::vector<std::pair<Job, Job>> shared_tracks;
   for (size_t s = 0; s < sessions.size(); ++s) {
     out[s].session = sessions[s];
-    out[s].runs.resize(sessions[s].runs.size());
-    for (size_t r = 0; r < sessions[s].runs.size(); ++r) {
-      const config::SessionRun& run = sessions[s].runs[r];
+    // Pose-log runs sharing one log: found in it (segment_runs.h).
+    std::string error;
+    if (!AssignPoseLogSpans(&out[s].session, options.pose_log.rest, &out[s].segments, &error))
+      return Measured::Error(StatusCode::kBadFile, error);
+    out[s].runs.resize(out[s].session.runs.size());
+    std::map<std::pair<std::string, std::string>, size_t> tracked;  // (video, timestamps) -> run
+    for (size_t r = 0; r < out[s].session.runs.size(); ++r) {
+      const config::SessionRun& run = out[s].session.runs[r];
       out[s].runs[r].run = run;
       if (!run.poses.empty()) continue;  // no video to decode
+      const auto key = std::make_pair(run.video, run.timestamps);
+      if (const auto it = tracked.find(key); it != tracked.end()) {
+        shared_tracks.push_back({{s, r}, {s, it->second}});
+        continue;
+      }
+      tracked[key] = r;
       jobs.push_back({s, r});
       if (std::isfinite(run.end_s)) expected_frames += static_cast<long>((run.end_s - run.start_s) * 30.0) + 1;
     }
@@ -469,6 +484,7 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
                                });
   });
   if (progress) progress(frames_done, frames_done);
+  for (const auto& [to, from] : shared_tracks) out[to.session].runs[to.run].track = out[from.session].runs[from.run].track;
 
   // Phase 2, per session: the plane, the poses, the rests.
   for (SessionMeasurement& sm : out) {
@@ -515,6 +531,37 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
     }
     sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
     const vision::CameraModel camera(sm.session.intrinsics, mount);
+    // Video runs sharing one video with no spans of their own: found in it.
+    {
+      std::map<std::string, std::vector<RunMeasurement*>> groups;
+      std::vector<std::string> order;
+      for (RunMeasurement& rm : sm.runs) {
+        if (rm.pose_log) continue;
+        if (!groups.count(rm.run.video)) order.push_back(rm.run.video);
+        groups[rm.run.video].push_back(&rm);
+      }
+      for (const std::string& video : order) {
+        const std::vector<RunMeasurement*>& group = groups[video];
+        if (group.size() < 2 || !group.front()->track.ok) continue;
+        std::vector<calibration::PoseSample> samples;
+        for (const vision::FrameObservation& f : group.front()->track.frames) {
+          calibration::PoseSample p;
+          p.t_s = f.t_s;
+          p.valid = false;
+          if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {
+            const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
+            p.valid = pose.ok;
+            if (pose.ok) p.pose = pose.T_world_robot;
+          }
+          samples.push_back(p);
+        }
+        std::vector<config::SessionRun*> runs;
+        for (RunMeasurement* rm : group) runs.push_back(&rm->run);
+        std::string error;
+        if (!AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error))
+          return Measured::Error(StatusCode::kBadFile, error);
+      }
+    }
     for (RunMeasurement& rm : sm.runs) {
       if (rm.pose_log) continue;
       calibration::MeasuredRun& m = rm.measured;

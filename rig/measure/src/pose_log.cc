@@ -346,6 +346,14 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   const auto telemetry = ReadTelemetryCsv(run.telemetry, nominal, error);
   if (!telemetry) return false;
   m->telemetry = *telemetry;
+  // A telemetry file shared by several runs: the run's span of it (the two
+  // clocks share an origin, as below; 0.1 s either side for a small offset).
+  if (run.start_s != 0.0 || std::isfinite(run.end_s)) {
+    std::vector<calibration::TelemetryRecord> span;
+    for (const calibration::TelemetryRecord& r : m->telemetry)
+      if (r.t_s >= run.start_s - 0.1 && r.t_s <= run.end_s + 0.1) span.push_back(r);
+    if (span.size() >= 2) m->telemetry = std::move(span);
+  }
 
   // The run's span of the log (tracker clock).
   std::vector<PoseLogRow> frames;

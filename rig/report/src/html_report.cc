@@ -302,6 +302,11 @@ std::string ReportHtml(const json& report, const std::string& title) {
         if (s.contains("camera_scale") && s["camera_scale"].is_object())
           os << "<div class='note'>camera scale: "
              << Escape(s["camera_scale"].value("explanation", std::string())) << "</div>\n";
+        if (s.contains("segmented_runs") && s["segmented_runs"].is_array())
+          for (const json& a : s["segmented_runs"])
+            os << "<div class='note'>found " << Escape(a.value("run", std::string())) << " at "
+               << Fixed(a.value("start_s", 0.0), 1) << "-" << Fixed(a.value("end_s", 0.0), 1) << " s: "
+               << Escape(a.value("found", std::string())) << "</div>\n";
       }
 
   if (report.contains("verdict")) {

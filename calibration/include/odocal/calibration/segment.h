@@ -9,7 +9,8 @@
 //   returned   the distance from the start rest to the end rest
 //   in place   the share of |turning| done while the centre barely moved
 // A segment is then
-//   spin          |turned| ~ N turns, path short
+//   spin          |turned| ~ N turns, all of it in place, nothing driven at a
+//                 steady heading (the tracked point may circle the axle)
 //   umbmark       |turned| ~ 1 turn, returned near the start, turning in
 //                 place; side = path / 4; cw when turned < 0
 //   circle        |turned| ~ N turns, returned near the start, turning while
@@ -17,7 +18,8 @@
 //   out_and_back  |turned| ~ 0 net, returned near the start, 180 deg turns in
 //                 place; distance = path / (2 repeats); cw when the first
 //                 turn is to the right
-//   straight      |turned| small, returned ~ path
+//   straight      |turned| small, returned ~ excursion (the distance is the
+//                 displacement: the tracked point may be yawed on the robot)
 //   recorded      anything else
 // MatchSegmentsToPlan aligns the segments with the plan in order (an edit
 // distance: a run missing, a segment extra, a segment that is not the run
@@ -42,6 +44,7 @@ struct MotionSegment {
   double path_m = 0.0;
   double returned_m = 0.0;          // |end rest - start rest| (positions)
   double excursion_m = 0.0;         // the farthest the centre got from the start rest
+  double straight_m = 0.0;          // driven at a steady heading (in 50 mm steps)
   double in_place_fraction = 0.0;   // of |turning| done while the centre barely moved
   double in_place_turning_rad = 0.0;  // |turning| done in place
   RunSpec inferred;                 // kRecorded when nothing fits

@@ -19,6 +19,7 @@
 #include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
+#include "odocal/measure/segment_runs.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/pose_log.h"
 #include "odocal/measure/video_track.h"
@@ -180,6 +181,8 @@ struct SessionMeasurement {
   CameraScale camera_scale;
   std::vector<RunMeasurement> runs;
   std::vector<std::string> flags;  // session-wide
+  // Runs found in a shared recording (segment_runs.h): what each was matched to.
+  std::vector<SegmentAssignment> segments;
 
   // The session as estimators see it. Each valid frame states the noise of
   // one frame's pose: the scatter of the per-frame poses about their rest

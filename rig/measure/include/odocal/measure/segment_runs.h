@@ -1,0 +1,51 @@
+// Runs of a session that share one recording, each given its time span.
+//
+// A session may name one long video (or one pose log) for several runs and
+// leave their `start_s`/`end_s` out: the runs are then found in the
+// recording (calibration/segment.h: motion between rests, the procedure read
+// from the poses) and matched to the session's runs in order. A run with its
+// own `start_s` or `end_s` keeps them (an override) and the motion within
+// them is left out of the matching. A mismatch -- a run not driven, a run
+// more, one driven the wrong way -- is an error naming every such run with
+// the segment's times, never a silent reassignment.
+#ifndef ODOCAL_MEASURE_SEGMENT_RUNS_H_
+#define ODOCAL_MEASURE_SEGMENT_RUNS_H_
+
+#include <string>
+#include <vector>
+
+#include "odocal/calibration/rest.h"
+#include "odocal/calibration/segment.h"
+#include "odocal/config/session.h"
+
+namespace odocal::measure {
+
+// What was matched, for the report: one per segmented run.
+struct SegmentAssignment {
+  std::string run;
+  std::string source;  // the video or pose log
+  double begin_s = 0.0, end_s = 0.0;
+  std::string found;  // what the poses show, calibration::Describe
+};
+
+// Whether the run names its own span (either key set).
+bool HasOwnSpan(const config::SessionRun& run);
+
+// The runs of `runs` (pointers into a session; in plan order) sharing the
+// recording `source`, whose poses are `samples`: assigns each run without a
+// span of its own the span of its matched segment. Only a group of two or
+// more runs is segmented (one run takes the whole recording, as before).
+// False with `error` naming the source and every disagreement.
+bool AssignSpansFromRecording(const std::string& source, const std::vector<calibration::PoseSample>& samples,
+                              const std::vector<config::SessionRun*>& runs,
+                              const calibration::RestOptions& rest_options,
+                              std::vector<SegmentAssignment>* assignments, std::string* error);
+
+// The session's pose-log runs that share a pose log: read, segmented and
+// given their spans (before MeasurePoseLogRun reads each span).
+bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
+                        std::vector<SegmentAssignment>* assignments, std::string* error);
+
+}  // namespace odocal::measure
+
+#endif  // ODOCAL_MEASURE_SEGMENT_RUNS_H_

@@ -1,4 +1,5 @@
 // odocal simulate --scenario S.yaml --out DIR
+#include <set>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -44,12 +45,14 @@ void RunSimulate(const SimulateArgs& args) {
   }
   if (scenario->camera) {
     int frames = 0, visible = 0;
+    std::set<std::string> videos;
     for (const simulation::RecordedRun& r : recorded) {
+      if (!videos.insert(r.video).second) continue;  // one video for every run
       frames += r.frames_written;
       visible += r.frames_visible;
     }
-    std::printf("recorded %d frames (tag in view in %d) to %zu videos\n", frames, visible,
-                recorded.size());
+    std::printf("recorded %d frames (tag in view in %d) to %zu video%s\n", frames, visible, videos.size(),
+                videos.size() == 1 ? "" : "s");
     std::printf("wrote %s/session.yaml (what the operator knows)\n", args.out.c_str());
   }
   std::printf("wrote %s/truth.json\n", args.out.c_str());

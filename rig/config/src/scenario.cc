@@ -71,8 +71,9 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
             {"width", "height", "fx", "fy", "cx", "cy", "distortion", "pose", "fps", "noise_sigma",
              "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
              "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag",
-             "floor_tags"});
+             "floor_tags", "one_video"});
   CameraScenario c;
+  if (node["one_video"]) c.one_video = Bool(node["one_video"], "camera.one_video");
   auto whole = [&](const char* key) {
     if (!node[key]) Fail(node, Join(path, key), "missing (required)");
     const long long v = Integer(node[key], Join(path, key));

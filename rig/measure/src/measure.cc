@@ -587,6 +587,8 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
         continue;
       }
       for (const vision::FrameObservation& f : rm.track.frames) {
+        // The run's span of its video (a video may hold several runs).
+        if (f.t_s < rm.run.start_s - 1e-6 || f.t_s > rm.run.end_s + 1e-6) continue;
         calibration::CameraRecord c;
         c.t_s = f.t_s;
         if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {

@@ -17,7 +17,8 @@ namespace odocal::simulation {
 namespace {
 
 
-std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim::RunRecord& run,
+// Records `runs` (consecutive in the robot's time) as one video `name`.
+std::optional<std::string> RecordOne(const config::Scenario& scenario, const std::vector<const sim::RunRecord*>& runs,
                                      const std::string& name, const std::string& dir,
                                      RecordedRun* out) {
   const config::CameraScenario& cam = *scenario.camera;
@@ -59,12 +60,16 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const sim
   std::string truth =
       "frame,t_capture_s,stamp_s,visible,robot_x_mm,robot_y_mm,robot_heading_deg,tag_x_mm,"
       "tag_y_mm,tag_heading_deg,c0x,c0y,c1x,c1y,c2x,c2y,c3x,c3y\n";
-  const auto trajectory = [&run](double t) { return sim::PoseAt(run, t); };
-  const int frame_count =
-      static_cast<int>(std::floor((run.end_time_s - run.start_time_s) * cam.fps + 1e-9)) + 1;
+  const auto trajectory = [&runs](double t) {
+    size_t k = 0;
+    while (k + 1 < runs.size() && t >= runs[k + 1]->start_time_s) ++k;
+    return sim::PoseAt(*runs[k], t);
+  };
+  const double start_s = runs.front()->start_time_s, end_s = runs.back()->end_time_s;
+  const int frame_count = static_cast<int>(std::floor((end_s - start_s) * cam.fps + 1e-9)) + 1;
   char line[512];
   for (int k = 0; k < frame_count; ++k) {
-    const double t = run.start_time_s + k / cam.fps;
+    const double t = start_s + k / cam.fps;
     const vision::RenderedFrame frame = renderer.RenderExposure(trajectory, t);
     const double stamp = t - latency_s;
     const odocal::Status wrote = writer.Write(frame.image, stamp);
@@ -130,11 +135,25 @@ std::optional<std::string> RecordRuns(const config::Scenario& scenario, const Si
   if (!scenario.camera || !scenario.tag) return "scenario has no camera and tag";
   const size_t n = result.runs.size();
   recorded->assign(n, RecordedRun{});
+  if (scenario.camera->one_video) {
+    // One video for the whole plan (a single encoder: no parallelism).
+    std::vector<const sim::RunRecord*> runs;
+    for (const sim::RunRecord& r : result.runs) runs.push_back(&r);
+    RecordedRun all;
+    if (auto e = RecordOne(scenario, runs, "recording", dir, &all)) return e;
+    for (size_t i = 0; i < n; ++i) {
+      (*recorded)[i] = all;
+      (*recorded)[i].start_s = result.runs[i].start_time_s;
+      (*recorded)[i].end_s = result.runs[i].end_time_s;
+    }
+    if (progress) std::cerr << "recorded " << n << " runs in one video (" << all.frames_written << " frames)\n";
+    return std::nullopt;
+  }
   std::vector<std::optional<std::string>> errors(n);
   std::atomic<size_t> done{0};
   std::mutex print;
   ParallelFor(n, 0, [&](size_t i) {
-    errors[i] = RecordOne(scenario, result.runs[i], result.run_names[i], dir, &(*recorded)[i]);
+    errors[i] = RecordOne(scenario, {&result.runs[i]}, result.run_names[i], dir, &(*recorded)[i]);
     const size_t finished = ++done;
     if (progress) {
       std::lock_guard<std::mutex> lock(print);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -110,8 +111,9 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
     j["telemetry"] = name + ".telemetry.csv";
     j["trajectory"] = name + ".trajectory.csv";
     if (recorded) {
-      j["video"] = name + ".mp4";
-      j["frames"] = name + ".frames.csv";
+      // The file names as written (one video for every run with camera.one_video).
+      j["video"] = std::filesystem::path((*recorded)[i].video).filename().string();
+      j["frames"] = std::filesystem::path((*recorded)[i].frames).filename().string();
       j["frames_written"] = (*recorded)[i].frames_written;
       j["frames_visible"] = (*recorded)[i].frames_visible;
     }
@@ -162,8 +164,10 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
       run.video = (*recorded)[i].video;
       run.timestamps = (*recorded)[i].timestamps;
       run.telemetry = dir + "/" + run.name + ".telemetry.csv";
-      run.start_s = (*recorded)[i].start_s;
-      run.end_s = (*recorded)[i].end_s;
+      if (!cam.one_video) {  // one video: batch finds the runs in it
+        run.start_s = (*recorded)[i].start_s;
+        run.end_s = (*recorded)[i].end_s;
+      }
       session.runs.push_back(run);
     }
     if (auto error = config::WriteSession(session, dir + "/session.yaml")) return error;

@@ -54,6 +54,11 @@ struct CameraScenario {
     double tape_error_mm = 0.0;
   };
   std::optional<FloorTags> floor_tags;
+  // Every run in one continuous video (`camera.one_video: true`), as a
+  // camera left recording through a whole plan: the session file then names
+  // that video for every run and no start_s/end_s, and batch finds the runs
+  // in it (measure/segment_runs.h).
+  bool one_video = false;
 };
 
 struct Scenario {

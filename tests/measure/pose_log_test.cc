@@ -593,6 +593,38 @@ TEST(PoseLogSegmentation, APlannedRunNotInTheLogIsAnErrorNamingIt) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/report/report.json"));
 }
 
+// No plan at all: one run with `procedure: auto` stands for the whole log;
+// batch infers the six runs (squares with their direction and side, the
+// straight, the spin) and estimates from them as from a written plan.
+TEST(PoseLogSegmentation, WithoutAPlanTheRunsAreInferred) {
+  const simulation::SimulationResult result = SimulateMixedPlan(23);
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_segment_auto_");
+  WriteContinuousSession(dir, result, {});
+  {
+    std::ofstream yaml(dir + "/session.yaml", std::ios::app);
+    yaml << "  - {name: log, procedure: auto, poses: all.poses.csv, telemetry: all.telemetry.csv}\n";
+  }
+  const CommandResult r = RunCommand(Odocal("batch " + dir + "/session.yaml --out " + dir + "/report"));
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const nlohmann::json report = ReadJson(dir + "/report/report.json");
+  ASSERT_EQ(report["runs"].size(), result.runs.size()) << r.out;
+  const char* expected[] = {"umbmark cw, side", "umbmark ccw, side", "straight 10", "spin ccw, 2 turns",
+                            "umbmark cw, side", "umbmark ccw, side"};
+  for (size_t i = 0; i < result.runs.size(); ++i) {
+    EXPECT_EQ(report["runs"][i]["name"], "log_0" + std::to_string(i + 1));
+    EXPECT_THAT(report["sessions"][0]["segmented_runs"][i]["found"].get<std::string>(), HasSubstr(expected[i]));
+    const Pose2 truth = TrueReturnError(result.runs[i]);
+    const nlohmann::json& e = report["runs"][i]["return_error"];
+    const nlohmann::json& sigma = report["runs"][i]["sigma"];
+    if (result.runs[i].spec.procedure == calibration::Procedure::kStraight) continue;
+    EXPECT_NEAR(e["x_mm"].get<double>(), truth.x() * 1e3, 4.0 * sigma["x_mm"].get<double>()) << i;
+    EXPECT_NEAR(e["theta_deg"].get<double>(), truth.heading() * kRadToDeg, 4.0 * sigma["theta_deg"].get<double>())
+        << i;
+  }
+  EXPECT_EQ(report["umbmark"]["n_cw"].get<int>(), 2);
+  EXPECT_EQ(report["umbmark"]["n_ccw"].get<int>(), 2);
+}
+
 // ---------------------------------------------------------------------------
 // OptiOdom, the real data.
 

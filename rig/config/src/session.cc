@@ -34,8 +34,9 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
   const calibration::RunSpec& spec = run.spec;
   out << YAML::Flow << YAML::BeginMap;
   out << YAML::Key << "name" << YAML::Value << run.name;
-  out << YAML::Key << "procedure" << YAML::Value << std::string(calibration::ToString(spec.procedure));
-  switch (spec.procedure) {
+  out << YAML::Key << "procedure" << YAML::Value
+      << (run.infer_procedure ? std::string("auto") : std::string(calibration::ToString(spec.procedure)));
+  switch (run.infer_procedure ? calibration::Procedure::kRecorded : spec.procedure) {
     case calibration::Procedure::kUmbmark:
       out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
       out << YAML::Key << "side_mm" << YAML::Value << spec.side_m * 1e3;
@@ -218,7 +219,14 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
       const std::string rp = "runs[" + std::to_string(i) + "]";
       const YAML::Node r = runs[i];
       SessionRun run;
-      run.spec = ParseRun(r, rp, {"name", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
+      // `procedure: auto`: whatever the recording shows (segment_runs.h).
+      if (r["procedure"] && r["procedure"].IsScalar() && r["procedure"].Scalar() == "auto") {
+        CheckKeys(r, rp, {"name", "procedure", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
+        run.spec.procedure = calibration::Procedure::kRecorded;
+        run.infer_procedure = true;
+      } else {
+        run.spec = ParseRun(r, rp, {"name", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
+      }
       run.name = r["name"] ? String(r["name"], Join(rp, "name")) : RunName(static_cast<int>(i), run.spec);
       if (r["video"] && r["poses"]) Fail(r["poses"], Join(rp, "poses"), "a run has a video or a pose log, not both");
       if (const YAML::Node p = r["poses"]) {

@@ -531,20 +531,25 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
     }
     sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
     const vision::CameraModel camera(sm.session.intrinsics, mount);
-    // Video runs sharing one video with no spans of their own: found in it.
+    // Video runs sharing one video with no spans of their own: found in it
+    // (a lone `procedure: auto` run: every run it holds).
     {
-      std::map<std::string, std::vector<RunMeasurement*>> groups;
+      std::map<std::string, std::vector<size_t>> groups;
       std::vector<std::string> order;
-      for (RunMeasurement& rm : sm.runs) {
-        if (rm.pose_log) continue;
-        if (!groups.count(rm.run.video)) order.push_back(rm.run.video);
-        groups[rm.run.video].push_back(&rm);
+      for (size_t i = 0; i < sm.runs.size(); ++i) {
+        if (sm.runs[i].pose_log) continue;
+        if (!groups.count(sm.runs[i].run.video)) order.push_back(sm.runs[i].run.video);
+        groups[sm.runs[i].run.video].push_back(i);
       }
+      std::map<size_t, std::vector<config::SessionRun>> expanded;  // run index -> its runs
       for (const std::string& video : order) {
-        const std::vector<RunMeasurement*>& group = groups[video];
-        if (group.size() < 2 || !group.front()->track.ok) continue;
+        const std::vector<size_t>& group = groups[video];
+        std::vector<config::SessionRun*> runs;
+        for (size_t i : group) runs.push_back(&sm.runs[i].run);
+        const bool lone_auto = IsLoneAutoRun(runs);
+        if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok) continue;
         std::vector<calibration::PoseSample> samples;
-        for (const vision::FrameObservation& f : group.front()->track.frames) {
+        for (const vision::FrameObservation& f : sm.runs[group.front()].track.frames) {
           calibration::PoseSample p;
           p.t_s = f.t_s;
           p.valid = false;
@@ -555,11 +560,29 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
           }
           samples.push_back(p);
         }
-        std::vector<config::SessionRun*> runs;
-        for (RunMeasurement* rm : group) runs.push_back(&rm->run);
         std::string error;
-        if (!AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error))
-          return Measured::Error(StatusCode::kBadFile, error);
+        const bool ok = lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest,
+                                                  &expanded[group.front()], &sm.segments, &error)
+                                  : AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error);
+        if (!ok) return Measured::Error(StatusCode::kBadFile, error);
+      }
+      if (!expanded.empty()) {
+        std::vector<RunMeasurement> all;
+        for (size_t i = 0; i < sm.runs.size(); ++i) {
+          const auto it = expanded.find(i);
+          if (it == expanded.end()) {
+            all.push_back(std::move(sm.runs[i]));
+            continue;
+          }
+          for (const config::SessionRun& run : it->second) {
+            RunMeasurement copy = sm.runs[i];
+            copy.run = run;
+            all.push_back(std::move(copy));
+          }
+        }
+        sm.runs = std::move(all);
+        sm.session.runs.clear();
+        for (const RunMeasurement& rm : sm.runs) sm.session.runs.push_back(rm.run);
       }
     }
     for (RunMeasurement& rm : sm.runs) {

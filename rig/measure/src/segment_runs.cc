@@ -2,11 +2,37 @@
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <map>
+#include <optional>
 
 #include "odocal/measure/pose_log.h"
 
 namespace odocal::measure {
+
+namespace {
+
+// Each segment's span for its run. A rest between two runs is both the end
+// rest of one and the start rest of the next: split at its middle, so that
+// each run's span holds no motion of its neighbour's (its telemetry's first
+// and last wheel motion are its own) and each keeps half the rest's frames.
+std::vector<std::pair<double, double>> RunSpans(const std::vector<calibration::MotionSegment>& segments) {
+  auto shared = [&](const calibration::RestWindow& r) {
+    int uses = 0;
+    for (const calibration::MotionSegment& s : segments)
+      uses += (std::abs(s.start_rest.t_begin_s - r.t_begin_s) < 1e-9) +
+              (std::abs(s.end_rest.t_begin_s - r.t_begin_s) < 1e-9);
+    return uses > 1;
+  };
+  auto middle = [](const calibration::RestWindow& r) { return 0.5 * (r.t_begin_s + r.t_end_s); };
+  std::vector<std::pair<double, double>> spans;
+  for (const calibration::MotionSegment& s : segments)
+    spans.emplace_back(shared(s.start_rest) ? middle(s.start_rest) : s.begin_s(),
+                       shared(s.end_rest) ? middle(s.end_rest) : s.end_s());
+  return spans;
+}
+
+}  // namespace
 
 bool HasOwnSpan(const config::SessionRun& run) { return run.start_s != 0.0 || std::isfinite(run.end_s); }
 
@@ -54,24 +80,63 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
     *error = text;
     return false;
   }
-  // A rest between two runs is both the end rest of one and the start rest
-  // of the next: split at its middle, so that each run's span holds no
-  // motion of its neighbour's (its telemetry's first and last wheel motion
-  // are its own) and each keeps half the rest's frames.
-  auto shared = [&](const calibration::RestWindow& r) {
-    int uses = 0;
-    for (const calibration::MotionSegment& s : segments)
-      uses += (std::abs(s.start_rest.t_begin_s - r.t_begin_s) < 1e-9) + (std::abs(s.end_rest.t_begin_s - r.t_begin_s) < 1e-9);
-    return uses > 1;
-  };
-  auto middle = [](const calibration::RestWindow& r) { return 0.5 * (r.t_begin_s + r.t_end_s); };
+  const std::vector<std::pair<double, double>> spans = RunSpans(segments);
   for (size_t k = 0; k < open.size(); ++k) {
-    const calibration::MotionSegment& s = segments[match.segment_of_run[k]];
-    open[k]->start_s = shared(s.start_rest) ? middle(s.start_rest) : s.begin_s();
-    open[k]->end_s = shared(s.end_rest) ? middle(s.end_rest) : s.end_s();
+    const int i = match.segment_of_run[k];
+    const calibration::MotionSegment& s = segments[i];
+    open[k]->start_s = spans[i].first;
+    open[k]->end_s = spans[i].second;
+    if (open[k]->infer_procedure && s.inferred.procedure != calibration::Procedure::kRecorded)
+      open[k]->spec = s.inferred;  // `procedure: auto`: what the poses show
     if (assignments)
       assignments->push_back({open[k]->name, source, open[k]->start_s, open[k]->end_s,
                               calibration::Describe(s.inferred)});
+  }
+  return true;
+}
+
+bool IsLoneAutoRun(const std::vector<config::SessionRun*>& group) {
+  return group.size() == 1 && group.front()->infer_procedure && !HasOwnSpan(*group.front());
+}
+
+bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
+                   const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
+                   std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments,
+                   std::string* error) {
+  const std::vector<calibration::MotionSegment> segments = calibration::SegmentMotion(samples, rest_options);
+  if (segments.empty()) {
+    *error = source + ": run '" + run.name + "' (procedure auto): no motion between two rests found in it" +
+             " (a run needs a still second before and after)";
+    return false;
+  }
+  const std::vector<std::pair<double, double>> spans = RunSpans(segments);
+  // The squares of one recording were planned alike: read from the poses
+  // their sides differ by a few % (a tracked point off the axle lengthens
+  // one direction's excursion and shortens the other's), and UMBMark pools
+  // only squares of one side. Within 30 % of each other they get their
+  // median.
+  std::vector<double> sides;
+  for (const calibration::MotionSegment& s : segments)
+    if (s.inferred.procedure == calibration::Procedure::kUmbmark) sides.push_back(s.inferred.side_m);
+  std::optional<double> pooled_side;
+  if (!sides.empty()) {
+    std::sort(sides.begin(), sides.end());
+    const size_t n = sides.size();
+    if (sides.back() < 1.3 * sides.front())
+      pooled_side = n % 2 ? sides[n / 2] : 0.5 * (sides[n / 2 - 1] + sides[n / 2]);
+  }
+  for (size_t i = 0; i < segments.size(); ++i) {
+    config::SessionRun r = run;
+    char suffix[16];
+    std::snprintf(suffix, sizeof(suffix), "_%02zu", i + 1);
+    r.name = run.name + suffix;
+    r.spec = segments[i].inferred;
+    if (r.spec.procedure == calibration::Procedure::kUmbmark && pooled_side) r.spec.side_m = *pooled_side;
+    r.start_s = spans[i].first;
+    r.end_s = spans[i].second;
+    runs->push_back(r);
+    if (assignments)
+      assignments->push_back({r.name, source, r.start_s, r.end_s, calibration::Describe(r.spec)});
   }
   return true;
 }
@@ -85,15 +150,34 @@ bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions
     if (!groups.count(run.poses)) order.push_back(run.poses);
     groups[run.poses].push_back(&run);
   }
+  std::map<std::string, std::vector<config::SessionRun>> expanded;  // a lone auto run's runs
   for (const std::string& path : order) {
     const std::vector<config::SessionRun*>& runs = groups[path];
-    if (runs.size() < 2) continue;
+    const bool lone_auto = IsLoneAutoRun(runs);
+    if (runs.size() < 2 && !lone_auto) continue;
     const auto rows = ReadPoseLog(path, error);
     if (!rows) return false;
     std::vector<calibration::PoseSample> samples;
     samples.reserve(rows->size());
     for (const PoseLogRow& r : *rows) samples.push_back({r.t_s, r.T_world_body, r.valid});
-    if (!AssignSpansFromRecording(path, samples, runs, rest_options, assignments, error)) return false;
+    if (lone_auto) {
+      if (!ExpandAutoRun(*runs.front(), path, samples, rest_options, &expanded[path], assignments, error))
+        return false;
+    } else if (!AssignSpansFromRecording(path, samples, runs, rest_options, assignments, error)) {
+      return false;
+    }
+  }
+  if (!expanded.empty()) {
+    std::vector<config::SessionRun> all;
+    for (const config::SessionRun& run : session->runs) {
+      const auto it = run.poses.empty() ? expanded.end() : expanded.find(run.poses);
+      if (it == expanded.end()) {
+        all.push_back(run);
+      } else {
+        all.insert(all.end(), it->second.begin(), it->second.end());
+      }
+    }
+    session->runs = std::move(all);
   }
   return true;
 }

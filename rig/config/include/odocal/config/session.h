@@ -48,6 +48,10 @@ struct SessionRun {
   std::string telemetry;   // resolved path; empty when not recorded
   double start_s = 0.0;    // the run's span in video time
   double end_s = std::numeric_limits<double>::infinity();  // unset: to the end
+  // `procedure: auto`: the procedure is read from the recording (spec is
+  // `recorded` until then); alone in its recording, one run per motion
+  // segment found (measure/segment_runs.h).
+  bool infer_procedure = false;
 };
 
 // Where the tracked body of a pose log sits on the robot: T_robot_body.

@@ -8,6 +8,10 @@
 // them is left out of the matching. A mismatch -- a run not driven, a run
 // more, one driven the wrong way -- is an error naming every such run with
 // the segment's times, never a silent reassignment.
+//
+// Without a plan: a run with `procedure: auto` takes the procedure its
+// segment shows; one such run alone in its recording stands for every run
+// the recording holds (the plan inferred).
 #ifndef ODOCAL_MEASURE_SEGMENT_RUNS_H_
 #define ODOCAL_MEASURE_SEGMENT_RUNS_H_
 
@@ -41,8 +45,24 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
                               const calibration::RestOptions& rest_options,
                               std::vector<SegmentAssignment>* assignments, std::string* error);
 
+// Whether `group` (the runs of one recording) is one run with `procedure:
+// auto` and no span: the recording's runs are then whatever it holds.
+bool IsLoneAutoRun(const std::vector<config::SessionRun*>& group);
+
+// That lone run expanded: one run per motion segment found in `samples`,
+// named NAME_01, NAME_02, ..., each with its span and the procedure its poses
+// show, appended to `runs`. Squares within 30 % of one side get their median
+// side (read from the poses: a few % off; state side_mm in a plan for UMBMark
+// to the last digit). False (error naming source and run) when no
+// motion between two rests is found.
+bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
+                   const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
+                   std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments,
+                   std::string* error);
+
 // The session's pose-log runs that share a pose log: read, segmented and
-// given their spans (before MeasurePoseLogRun reads each span).
+// given their spans (before MeasurePoseLogRun reads each span); a lone auto
+// run becomes the runs its log holds.
 bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
                         std::vector<SegmentAssignment>* assignments, std::string* error);
 

@@ -22,6 +22,7 @@ void RegisterValidateCommand(CLI::App& app);
 void RegisterStationCommand(CLI::App& app);
 void RegisterImportCommand(CLI::App& app);
 void RegisterCheckCommand(CLI::App& app);
+void RegisterSetupCheckCommand(CLI::App& app);
 
 }  // namespace odocal::app
 

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   odocal::app::RegisterStationCommand(app);
   odocal::app::RegisterImportCommand(app);
   odocal::app::RegisterCheckCommand(app);
+  odocal::app::RegisterSetupCheckCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

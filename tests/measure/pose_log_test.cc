@@ -707,6 +707,7 @@ TEST(OptiOdomImport, OtherRobotTypesAreSkippedAndABrokenSetIsNamed) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/out/circular/231220200310"));
   EXPECT_THAT(r.err, HasSubstr("square/231220209999 not imported"));
   EXPECT_THAT(r.err, HasSubstr("231220209999_run-01.csv: no such file (the metadata says N = 2)"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out/square/231220209999")) << "a partial import left behind";
   EXPECT_THAT(r.out, HasSubstr("imported 1 set,"));
 
   const CommandResult one = RunCommand(Odocal("import optiodom " + omni + " --out " + dir + "/one"));

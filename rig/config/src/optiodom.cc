@@ -179,6 +179,17 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
   const std::string set = set_dir.filename().string();
   const auto meta = ReadMetadata((set_dir / (set + "_metadata.csv")).string(), error);
   if (!meta || meta->type != "diff") return std::nullopt;
+  // Every run file the metadata names, before anything is written: a set
+  // that cannot be imported leaves no partial output behind.
+  for (int k = 1; k <= meta->runs; ++k) {
+    char nn[16];
+    std::snprintf(nn, sizeof(nn), "%02d", k);
+    const fs::path source = set_dir / (set + "_run-" + nn + ".csv");
+    if (!fs::exists(source)) {
+      *error = source.string() + ": no such file (the metadata says N = " + std::to_string(meta->runs) + ")";
+      return std::nullopt;
+    }
+  }
   if (auto e = EnsureDirectory(out_dir.string())) {
     *error = *e;
     return std::nullopt;

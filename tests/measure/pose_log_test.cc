@@ -40,20 +40,27 @@ constexpr double kBodyX_mm = 80.0, kBodyY_mm = -35.0, kBodyYaw_deg = 25.0;
 constexpr double kTrackerHz = 100.0;
 constexpr double kNoise_mm = 0.5, kNoise_deg = 0.1;
 
-// 3 cw + 3 ccw squares of 1 m on a robot with Ed = 1.004, Eb = 1.015, a
-// little wheel noise so that the repeats spread as a real robot's do.
-simulation::SimulationResult SimulateSquares(int per_direction, std::uint64_t seed) {
+// `runs` on a robot with Ed = 1.004, Eb = 1.015, a little wheel noise so
+// that repeats spread as a real robot's do, 1 s rests.
+simulation::SimulationResult SimulatePlan(const std::vector<calibration::RunSpec>& runs, std::uint64_t seed) {
   config::Scenario s;
   s.seed = seed;
   s.robot = test_util::ExactRobot(1.004, 1.015);
   s.robot.seed = seed;
   s.robot.rest_s = 1.0;
   s.robot.noise.wheel_sigma_m_per_sqrt_m = 0.1e-3;
-  for (int i = 0; i < per_direction; ++i) {
-    s.runs.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, 1.0));
-    s.runs.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, 1.0));
-  }
+  s.runs = runs;
   return simulation::Simulate(s);
+}
+
+// 3 cw + 3 ccw squares of 1 m.
+simulation::SimulationResult SimulateSquares(int per_direction, std::uint64_t seed) {
+  std::vector<calibration::RunSpec> runs;
+  for (int i = 0; i < per_direction; ++i) {
+    runs.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, 1.0));
+    runs.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, 1.0));
+  }
+  return SimulatePlan(runs, seed);
 }
 
 // The true return error (true - odometry, start frame) of a simulated run.
@@ -461,18 +468,12 @@ TEST(PoseLogScenario, ARecordedRunCannotBeSimulated) {
 // and measures each as if its span had been written by hand.
 
 simulation::SimulationResult SimulateMixedPlan(std::uint64_t seed) {
-  config::Scenario s;
-  s.seed = seed;
-  s.robot = test_util::ExactRobot(1.004, 1.015);
-  s.robot.seed = seed;
-  s.robot.rest_s = 1.0;
-  s.robot.noise.wheel_sigma_m_per_sqrt_m = 0.1e-3;
   using calibration::Direction;
   using calibration::RunSpec;
-  s.runs = {RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0),
-            RunSpec::Straight(1.0),                RunSpec::Spin(2, Direction::kCcw),
-            RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0)};
-  return simulation::Simulate(s);
+  return SimulatePlan({RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0),
+                       RunSpec::Straight(1.0), RunSpec::Spin(2, Direction::kCcw),
+                       RunSpec::Umbmark(Direction::kCw, 1.0), RunSpec::Umbmark(Direction::kCcw, 1.0)},
+                      seed);
 }
 
 std::string SpecYaml(const calibration::RunSpec& spec) {

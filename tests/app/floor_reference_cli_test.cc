@@ -22,6 +22,8 @@ using ::testing::HasSubstr;
 
 class FloorReferenceCli : public ::testing::Test {
  protected:
+  static void FindsTheHiddenPrintScaleAndKeepsEsRight();
+  static void WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUncertainItIs();
   static void SetUpTestSuite() {
     dir_ = test_util::MakeTempDir("odocal_floor_cli_");
     const CommandResult sim = RunCommand(
@@ -36,7 +38,7 @@ class FloorReferenceCli : public ::testing::Test {
 std::string FloorReferenceCli::dir_;
 nlohmann::json FloorReferenceCli::truth_;
 
-TEST_F(FloorReferenceCli, FindsTheHiddenPrintScaleAndKeepsEsRight) {
+void FloorReferenceCli::FindsTheHiddenPrintScaleAndKeepsEsRight() {
   ASSERT_NEAR(truth_["floor_tags"]["print_scale"].get<double>(), 1.005, 1e-12);
   const CommandResult r = RunCommand(Odocal("batch " + dir_ + "/sim/session.yaml --out " + dir_ + "/with"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
@@ -67,7 +69,7 @@ TEST_F(FloorReferenceCli, FindsTheHiddenPrintScaleAndKeepsEsRight) {
   EXPECT_NEAR(cvra["sigma_camera_scale"].get<double>(), scale["relative_sigma"].get<double>(), 1e-5);
 }
 
-TEST_F(FloorReferenceCli, WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUncertainItIs) {
+void FloorReferenceCli::WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUncertainItIs() {
   // The same session without its floor_reference block.
   std::ifstream in(dir_ + "/sim/session.yaml");
   std::string line, text;
@@ -92,6 +94,19 @@ TEST_F(FloorReferenceCli, WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUnc
   EXPECT_NEAR(es["value"].get<double>() / es_true, 1.0 / 1.005, 1e-3);
   EXPECT_GT(es["sigma"].get<double>(), 2.5e-3);  // the 0.3 % print tolerance
   EXPECT_NEAR(es["value"].get<double>(), es_true, 1.96 * es["sigma"].get<double>());
+}
+
+// One test for both checks: ctest runs each test in its own process, and the
+// suite's rendering would be made once per test.
+TEST_F(FloorReferenceCli, WithAndWithoutTheReference) {
+  {
+    SCOPED_TRACE("FindsTheHiddenPrintScaleAndKeepsEsRight");
+    FindsTheHiddenPrintScaleAndKeepsEsRight();
+  }
+  {
+    SCOPED_TRACE("WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUncertainItIs");
+    WithoutTheReferenceEsCarriesThePrintErrorAndSaysHowUncertainItIs();
+  }
 }
 
 }  // namespace

@@ -50,6 +50,16 @@ bool AwayFromBorder(const vision::CameraModel& camera, const vision::TagCorners&
   return true;
 }
 
+// A frame's robot pose: nullopt without corners, too near the border, or
+// when the pose cannot be measured.
+std::optional<calibration::Pose2> FramePose(const vision::CameraModel& camera, const vision::TagSpec& tag,
+                                            const vision::FrameObservation& f, double margin_px) {
+  if (!f.corners_px || !AwayFromBorder(camera, *f.corners_px, margin_px)) return std::nullopt;
+  const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *f.corners_px);
+  if (!pose.ok) return std::nullopt;
+  return pose.T_world_robot;
+}
+
 // The views for the plane estimate. With `exact`, each picked view is
 // refined by the exact edge model from its kept crop (the per-frame corners
 // make a 30 px tag look 0.025 px too large: the camera's height came out
@@ -550,15 +560,8 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
         if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok) continue;
         std::vector<calibration::PoseSample> samples;
         for (const vision::FrameObservation& f : sm.runs[group.front()].track.frames) {
-          calibration::PoseSample p;
-          p.t_s = f.t_s;
-          p.valid = false;
-          if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {
-            const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
-            p.valid = pose.ok;
-            if (pose.ok) p.pose = pose.T_world_robot;
-          }
-          samples.push_back(p);
+          const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
+          samples.push_back({f.t_s, pose.value_or(calibration::Pose2()), pose.has_value()});
         }
         std::string error;
         const bool ok = lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest,
@@ -614,11 +617,10 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
         if (f.t_s < rm.run.start_s - 1e-6 || f.t_s > rm.run.end_s + 1e-6) continue;
         calibration::CameraRecord c;
         c.t_s = f.t_s;
-        if (f.corners_px && AwayFromBorder(camera, *f.corners_px, options.border_margin_px)) {
-          const vision::PlanarPoseResult pose =
-              vision::MeasureTagPose(camera, sm.session.tag, *f.corners_px);
-          c.valid = pose.ok;
-          if (pose.ok) c.T_world_robot = pose.T_world_robot;
+        const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
+        c.valid = pose.has_value();
+        if (pose) {
+          c.T_world_robot = *pose;
           // The tag centre's image row, v / (H - 1), for the rolling_shutter candidate.
           const vision::TagCorners& q = *f.corners_px;
           c.image_row_fraction = (q[0].y + q[1].y + q[2].y + q[3].y) / 4.0 /

@@ -25,7 +25,14 @@ std::string Format(const char* fmt, double a, double b = 0.0) {
   return buf;
 }
 
-RunSpec Infer(const MotionSegment& s, double excursion_m) {
+RunSpec Recorded() {
+  RunSpec spec;
+  spec.procedure = Procedure::kRecorded;
+  return spec;
+}
+
+RunSpec Infer(const MotionSegment& s) {
+  const double excursion_m = s.excursion_m;
   const double turns_real = std::abs(s.turned_rad) / kTwoPi;
   const int turns = static_cast<int>(std::lround(turns_real));
   const bool whole_turns = turns >= 1 && std::abs(turns_real - turns) < 0.17;  // +-60 deg
@@ -33,10 +40,7 @@ RunSpec Infer(const MotionSegment& s, double excursion_m) {
   // Nothing but turning (the tracked point, off the axle, draws a circle):
   // a spin, whatever the offset.
   if (s.straight_m < kSpinStraightM && s.in_place_fraction > 0.8) {
-    if (whole_turns) return RunSpec::Spin(turns, dir);
-    RunSpec none;
-    none.procedure = Procedure::kRecorded;
-    return none;
+    return whole_turns ? RunSpec::Spin(turns, dir) : Recorded();
   }
   // The tracked point may sit off the axle and at a yaw to the robot's
   // axis: the distance driven is the displacement, forward when the point
@@ -55,9 +59,7 @@ RunSpec Infer(const MotionSegment& s, double excursion_m) {
     return RunSpec::OutAndBack(excursion_m, repeats,
                                s.first_turn_rad < 0.0 ? Direction::kCw : Direction::kCcw);
   }
-  RunSpec other;
-  other.procedure = Procedure::kRecorded;
-  return other;
+  return Recorded();
 }
 
 }  // namespace
@@ -120,8 +122,8 @@ std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
     s.returned_m = (s.end_rest.mean.translation() - origin).norm();
     s.in_place_fraction = turning > 0.0 ? in_place / turning : 0.0;
     s.in_place_turning_rad = in_place;
-    s.inferred = Infer(s, excursion);
     s.excursion_m = excursion;
+    s.inferred = Infer(s);
     out.push_back(s);
   }
   return out;
@@ -129,7 +131,8 @@ std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
 
 std::string Describe(const RunSpec& spec) {
   std::string text(ToString(spec.procedure));
-  const std::string dir = " " + std::string(ToString(spec.direction));
+  std::string dir(" ");
+  dir += ToString(spec.direction);
   switch (spec.procedure) {
     case Procedure::kUmbmark:
       return text + dir + Format(", side %.0f mm", spec.side_m * 1e3);

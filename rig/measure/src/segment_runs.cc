@@ -1,8 +1,8 @@
 #include "odocal/measure/segment_runs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <algorithm>
 #include <map>
 #include <optional>
 

@@ -44,6 +44,7 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
                       {"frames", fit.n_frames},
                       {"gap_mm", fit.gap_m * 1e3},
                       {"noise_floor_mm", fit.noise_floor_m * 1e3},
+                      {"lag1_autocorrelation", fit.lag1_autocorrelation},
                       {"unidentifiable", fit.unidentifiable}};
   int runs_used = 0;
   for (bool used : fit.run_used) runs_used += used ? 1 : 0;

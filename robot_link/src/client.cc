@@ -105,6 +105,8 @@ RunCommand RunCommand::FromRunSpec(const calibration::RunSpec& spec) {
     case calibration::Procedure::kRecorded: break;
     case calibration::Procedure::kCircle: break;  // refused by WireProcedure
   }
+  if (spec.speed_m_s) c.speed_mm_s = *spec.speed_m_s * 1e3;
+  if (spec.turn_rate_rad_s) c.turn_rate_deg_s = *spec.turn_rate_rad_s * 180.0 / M_PI;
   return c;
 }
 
@@ -410,12 +412,16 @@ Result<ParamSet> Client::Rollback() {
 
 Result<uint16_t> Client::StartRun(const RunCommand& c) {
   using R = Result<uint16_t>;
-  Bytes body = ByteWriter()
-                   .U8(WireProcedure(c.procedure))
-                   .U8(c.direction == calibration::Direction::kCw ? OLF_DIR_CW : OLF_DIR_CCW)
-                   .F64(c.amount_mm)
-                   .U32(c.count)
-                   .Take();
+  ByteWriter w;
+  w.U8(WireProcedure(c.procedure))
+      .U8(c.direction == calibration::Direction::kCw ? OLF_DIR_CW : OLF_DIR_CCW)
+      .F64(c.amount_mm)
+      .U32(c.count);
+  if (c.speed_mm_s > 0.0 || c.turn_rate_deg_s > 0.0) {
+    const auto u16 = [](double v) { return static_cast<uint16_t>(std::clamp(std::lround(v), 0L, 65535L)); };
+    w.U16(u16(c.speed_mm_s)).U16(u16(c.turn_rate_deg_s * 10.0));
+  }
+  Bytes body = w.Take();
   Result<Bytes> r = Transact(OLF_MSG_RUN_START, body);
   if (!r) return R::From(r);
   ByteReader in(*r.value);

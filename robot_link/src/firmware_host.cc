@@ -218,6 +218,8 @@ int FirmwareRobot::StartRunCb(void* user, const olf_run_cmd_t* cmd) {
                                              : calibration::Direction::kCcw;
   c.amount_mm = cmd->amount_mm;
   c.count = cmd->count;
+  c.speed_mm_s = cmd->speed_mm_s;
+  c.turn_rate_deg_s = cmd->turn_rate_ddeg_s * 0.1;
   return self->backend_.StartRun(c) ? 1 : 0;
 }
 

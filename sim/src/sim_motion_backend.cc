@@ -17,6 +17,8 @@ calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
     case calibration::Procedure::kRecorded: break;  // nothing to drive: an empty plan
     case calibration::Procedure::kCircle: break;    // not on the wire (client refuses it)
   }
+  if (command.speed_mm_s > 0.0) spec.speed_m_s = command.speed_mm_s * 1e-3;
+  if (command.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = command.turn_rate_deg_s * M_PI / 180.0;
   return spec;
 }
 

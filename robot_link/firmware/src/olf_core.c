@@ -349,7 +349,8 @@ static int run_cmd_valid(const olf_run_cmd_t* cmd) {
 static void handle_run_start(olf_ctx_t* ctx, const request_t* req) {
   olf_run_cmd_t cmd;
   size_t at;
-  if (req->body_len != 14) {
+  /* 14 bytes; 18 with the optional speed and turn rate. */
+  if (req->body_len != 14 && req->body_len != 18) {
     nack(ctx, req, OLF_ERR_MALFORMED);
     return;
   }
@@ -361,6 +362,8 @@ static void handle_run_start(olf_ctx_t* ctx, const request_t* req) {
   cmd.direction = req->body[1];
   cmd.amount_mm = olf_get_f64(req->body + 2);
   cmd.count = olf_get_u32(req->body + 10);
+  cmd.speed_mm_s = req->body_len == 18 ? olf_get_u16(req->body + 14) : 0u;
+  cmd.turn_rate_ddeg_s = req->body_len == 18 ? olf_get_u16(req->body + 16) : 0u;
   if (!run_cmd_valid(&cmd)) {
     nack(ctx, req, OLF_ERR_BAD_PROCEDURE);
     return;

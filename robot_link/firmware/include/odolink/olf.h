@@ -123,6 +123,10 @@ typedef struct {
   uint8_t direction; /* enum olf_direction */
   double amount_mm;  /* side (umbmark), distance (straight, out_and_back) */
   uint32_t count;    /* turns (spin), repeats (out_and_back) */
+  /* The run's speeds; 0: the robot's own default. Optional on the wire (a
+   * 14-byte RUN_START body carries none). */
+  uint16_t speed_mm_s;          /* straights */
+  uint16_t turn_rate_ddeg_s;    /* in-place turns, 0.1 deg/s */
 } olf_run_cmd_t;
 
 typedef struct {

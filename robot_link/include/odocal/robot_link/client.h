@@ -63,6 +63,10 @@ struct RunCommand {
   calibration::Direction direction = calibration::Direction::kCw;
   double amount_mm = 0.0;  // side (umbmark), distance (straight, out_and_back)
   uint32_t count = 0;      // turns (spin), repeats (out_and_back)
+  // The run's speeds, 0: the robot's default. Sent only when one is set
+  // (a RUN_START of 18 bytes instead of 14); rounded to 1 mm/s, 0.1 deg/s.
+  double speed_mm_s = 0.0;
+  double turn_rate_deg_s = 0.0;
 
   static RunCommand FromRunSpec(const calibration::RunSpec& spec);
 };

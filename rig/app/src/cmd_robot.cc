@@ -1,8 +1,15 @@
-// odocal robot info|get|set|push|rollback --port DEV: hand use of the robot
-// link. Every failure prints one line on stderr naming the cause and exits
+// odocal robot info|get|set|push|rollback|run --port DEV: hand use of the robot
+// link (`run` drives one procedure: what a station `command` driver's script
+// or a person at the keyboard calls). Every failure prints one line on stderr naming the cause and exits
 // with a code per cause (see kExit* below), after which the robot holds
 // exactly what it held before, or the verified new set.
+#include <atomic>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
 #include <iostream>
+#include <thread>
 #include <map>
 #include <memory>
 #include <string>
@@ -11,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "odocal/calibration/procedures.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/serial_transport.h"
 
@@ -28,6 +36,8 @@ constexpr int kExitVersion = 5;     // other protocol version or parameter table
 constexpr int kExitLineCut = 6;     // cable pulled, device gone
 constexpr int kExitRefused = 7;     // robot refused (NACK)
 constexpr int kExitVerify = 8;      // read-back differs
+constexpr int kExitRunFailed = 9;   // run: stopped, failed, timed out
+constexpr int kExitInterrupted = 130;  // run: SIGINT/SIGTERM, the robot stopped
 
 int ExitCode(odocal::StatusCode s) {
   switch (s) {
@@ -122,6 +132,90 @@ void AddLinkFlags(CLI::App* cmd, LinkFlags* f) {
       ->check(CLI::PositiveNumber);
 }
 
+
+// `robot run`: one procedure, driven to its end.
+struct RunFlags {
+  std::string procedure;
+  std::string direction = "ccw";
+  double side_mm = 0.0, distance_mm = 0.0;
+  int turns = 0, repeats = 1;
+  double speed_mm_s = 0.0, turn_rate_deg_s = 0.0;
+  double timeout_s = 300.0;
+  std::string telemetry;
+};
+
+std::atomic<bool> g_run_stop{false};
+void OnRunSignal(int) { g_run_stop = true; }
+
+calibration::RunSpec RunSpecOrFail(const RunFlags& f) {
+  using calibration::Procedure;
+  const std::optional<Procedure> p = calibration::ParseProcedure(f.procedure);
+  if (!p || (*p != Procedure::kUmbmark && *p != Procedure::kStraight && *p != Procedure::kSpin &&
+             *p != Procedure::kOutAndBack))
+    Fail(kExitOther, "--procedure '" + f.procedure + "': expected umbmark, straight, spin or out_and_back");
+  const calibration::Direction d = f.direction == "cw" ? calibration::Direction::kCw : calibration::Direction::kCcw;
+  calibration::RunSpec spec;
+  switch (*p) {
+    case Procedure::kUmbmark: spec = calibration::RunSpec::Umbmark(d, f.side_mm * 1e-3); break;
+    case Procedure::kStraight: spec = calibration::RunSpec::Straight(f.distance_mm * 1e-3); break;
+    case Procedure::kSpin: spec = calibration::RunSpec::Spin(f.turns, d); break;
+    default: spec = calibration::RunSpec::OutAndBack(f.distance_mm * 1e-3, f.repeats, d); break;
+  }
+  if (f.speed_mm_s > 0.0) spec.speed_m_s = f.speed_mm_s * 1e-3;
+  if (f.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = f.turn_rate_deg_s * M_PI / 180.0;
+  std::string why;
+  if (!spec.IsValid(&why)) Fail(kExitOther, "run: " + why + " (--side-mm, --distance-mm, --turns, --repeats)");
+  return spec;
+}
+
+// Starts the run and polls STATUS until it ends; telemetry (with --telemetry)
+// to a CSV as batch reads it (docs/formats.md). SIGINT/SIGTERM or the
+// timeout stop the robot over the link before exiting.
+void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
+  const calibration::RunSpec spec = RunSpecOrFail(f);
+  std::ofstream csv;
+  if (!f.telemetry.empty()) {
+    csv.open(f.telemetry);
+    if (!csv) Fail(kExitOther, "--telemetry " + f.telemetry + ": cannot write");
+    csv << "t_s,left_ticks,right_ticks,x_mm,y_mm,heading_deg,moving\n";
+  }
+  Session s = Connect(link);
+  if (!f.telemetry.empty()) {
+    s.client->SetTelemetryCallback([&csv](const rl::TelemetrySample& t) {
+      char line[160];
+      std::snprintf(line, sizeof(line), "%.3f,%d,%d,%.4f,%.4f,%.6f,%d\n", t.t_ms * 1e-3, t.left_ticks,
+                    t.right_ticks, t.x_mm, t.y_mm, t.heading_rad * 180.0 / M_PI,
+                    t.state == rl::RunState::kRunning ? 1 : 0);
+      csv << line;
+    });
+    Check(s.client->SetTelemetryRate(50));
+  }
+  std::signal(SIGINT, OnRunSignal);
+  std::signal(SIGTERM, OnRunSignal);
+  const uint16_t id = Check(s.client->StartRun(rl::RunCommand::FromRunSpec(spec)));
+  std::cerr << "odocal robot: run " << id << " started\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  for (;;) {
+    const bool timed_out = std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(f.timeout_s);
+    if (g_run_stop || timed_out) {
+      const odocal::Status stopped = s.client->Stop();
+      Fail(timed_out ? kExitRunFailed : kExitInterrupted,
+           std::string(timed_out ? "run not completed within --timeout-s" : "interrupted") +
+               (stopped.ok() ? ": robot stopped" : ": could not stop the robot (" + stopped.message + ")"));
+    }
+    const rl::RobotStatus status = Check(s.client->GetStatus());
+    if (status.state == rl::RunState::kIdle) {
+      if (status.last_run_id != id) Fail(kExitRunFailed, "the robot is idle and does not know run " + std::to_string(id));
+      if (status.last_run.status != rl::RunStatus::kCompleted)
+        Fail(kExitRunFailed, "the robot reports the run " + std::string(rl::ToString(status.last_run.status)));
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (!f.telemetry.empty()) s.client->SetTelemetryRate(0);
+  std::cout << "run " << id << " completed\n";
+}
+
 }  // namespace
 
 void RegisterRobotCommand(CLI::App& app) {
@@ -210,6 +304,26 @@ void RegisterRobotCommand(CLI::App& app) {
     Session s = Connect(*flags);
     PrintSet(Check(s.client->Rollback()));
   });
+  auto run = std::make_shared<RunFlags>();
+  CLI::App* run_cmd = robot->add_subcommand(
+      "run", "drive one procedure to its end (exit 0: completed; 9: stopped, failed or timed out; "
+             "130: interrupted, the robot stopped)");
+  AddLinkFlags(run_cmd, flags.get());
+  run_cmd->add_option("--procedure", run->procedure, "umbmark, straight, spin, out_and_back")->required();
+  run_cmd->add_option("--direction", run->direction, "cw or ccw")
+      ->check(CLI::IsMember({"cw", "ccw"}))
+      ->capture_default_str();
+  run_cmd->add_option("--side-mm", run->side_mm, "umbmark: the square's side");
+  run_cmd->add_option("--distance-mm", run->distance_mm, "straight (negative: backwards), out_and_back");
+  run_cmd->add_option("--turns", run->turns, "spin: whole turns");
+  run_cmd->add_option("--repeats", run->repeats, "out_and_back: repeats")->capture_default_str();
+  run_cmd->add_option("--speed-mm-s", run->speed_mm_s, "straights' speed (0: the robot's default)");
+  run_cmd->add_option("--turn-rate-deg-s", run->turn_rate_deg_s, "in-place turns' rate (0: the robot's default)");
+  run_cmd->add_option("--timeout-s", run->timeout_s, "stop the robot and fail after this long")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--telemetry", run->telemetry, "write the run's telemetry CSV (docs/formats.md)");
+  run_cmd->callback([flags, run] { DriveOneRun(*flags, *run); });
 }
 
 }  // namespace odocal::app

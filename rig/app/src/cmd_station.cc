@@ -1,20 +1,30 @@
 // odocal station --scenario S.yaml --out DIR   the built-in virtual robot on a
 //                                               pseudo-terminal, the virtual camera
+//     [--driver link|command|operator --run-command T --stop-command T --apply-command T]
+//     [--plan scenario|default]
 // odocal station --config station.yaml [--out DIR]   a real robot and camera
 //
-// The hands-off loop of station.h. Progress on stderr, DIR/report.json at the
-// end (also after a failure, with its status and message), Ctrl-C stops the
-// robot and leaves its parameters as they were.
+// The hands-off loop of station.h. Progress on stderr, the operator's
+// instructions on stdout, DIR/report.json at the end (also after a failure,
+// with its status and message), each run's driver log in DIR/runs/, Ctrl-C
+// stops the robot and leaves its parameters as they were. With the virtual
+// robot, a command driver's commands find its device in $ODOCAL_ROBOT_PORT
+// and this odocal in $ODOCAL.
 //
 // station.yaml (millimetres and degrees; paths relative to the file):
-//   robot:  {port: /dev/ttyUSB0, baud: 115200, timeout_ms: 200}
+//   robot:  {driver: link, port: /dev/ttyUSB0, baud: 115200, timeout_ms: 200, run_timeout_s: 120}
+//        or {driver: command, command: "...{direction} {side_mm}...", stop_command, apply: "... {file}",
+//            apply_timeout_s, run_timeout_s, params: {left_wheel_diameter_mm, ..., ticks_per_rev}}
+//        or {driver: operator, apply, params}
 //   camera: {device: "0" | "rtsp://...", calibration: camera.yaml,
 //            mount_guess: {x_mm, y_mm, height_mm, roll_deg, pitch_deg, yaw_deg},
 //            flush_frames: 5, settle_s: 0.5}
 //   tag:    {family, id, size_mm, size_sigma_mm, height_mm, offset_mm: {x, y}, yaw_deg}
 //   floor_reference: {family, tags: [{id, size_mm}], distances: [{between: [A, B], mm, sigma_mm}],
 //                     tag_height_sigma_mm}              # optional, as in session.yaml
-//   plan:   {side_mm: 2000, runs_per_direction: 3}
+//   plan:   {side_mm: 2000, runs_per_direction: 3} | default | {default: {slow_turn_rate_deg_s,
+//            fast_turn_rate_deg_s}} | [{procedure: umbmark, direction, side_mm}, {procedure: straight,
+//            distance_mm}, {procedure: spin, turns, direction, turn_rate_deg_s}, {procedure: out_and_back, ...}]
 //   max_rounds: 3
 #include <atomic>
 #include <cmath>
@@ -23,6 +33,9 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <tuple>
+
+#include <unistd.h>
 
 #include "cli_util.h"
 #include "commands.h"
@@ -69,31 +82,84 @@ int ExitCode(station::StationStatus status) {
 void Progress(const std::string& line) { std::cerr << "station: " << line << std::endl; }
 
 // Runs the loop, writes the report, prints the outcome; exits non-zero on failure.
-void Finish(const station::StationSetup& setup, const station::StationOptions& options, const std::string& out,
+void Finish(station::StationSetup& setup, const station::StationOptions& options, const std::string& out,
             nlohmann::json extra, const report::ExportRequests& exports) {
+  setup.run_log_dir = out + "/runs";
   const station::StationResult result = station::RunStation(setup, options);
   nlohmann::json report = station::StationReportJson(result);
   for (auto it = extra.begin(); it != extra.end(); ++it) report[it.key()] = it.value();
   std::optional<std::string> write_error = config::EnsureDirectory(out);
   if (!write_error) write_error = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n");
   if (!write_error) write_error = report::WriteReportHtml(report, "odocal station", out + "/report.html");
+  // A set the driver could not apply: written for the user to load.
+  if (!write_error && result.params_recommended && result.params_initial) {
+    const calibration::WheelParams nominal = robot_link::ToWheelParams(*result.params_initial);
+    const calibration::WheelParams corrected = robot_link::ToWheelParams(*result.params_recommended);
+    write_error = config::WriteFileAtomically(out + "/corrected.firmware.yaml", report::FirmwareExportYaml(corrected));
+    if (!write_error)
+      write_error = config::WriteFileAtomically(out + "/corrected.ros2.yaml", report::Ros2ExportYaml(nominal, corrected));
+  }
   if (!result.ok()) {
     Fail("station", ExitCode(result.status),
          result.message + (result.cleanup.empty() ? "" : " (" + result.cleanup + ")"));
   }
   if (write_error) Fail("station", kExitFailure, *write_error);
-  // Exports: the robot's set at the start is the nominal, the read-back set the corrected.
-  if (result.params_initial && result.params_final) {
+  // Exports: the robot's set at the start is the nominal; the read-back set,
+  // or the one to load, the corrected.
+  const std::optional<robot_link::ParamSet> corrected =
+      result.params_recommended ? result.params_recommended : result.params_final;
+  if (result.params_initial && corrected) {
     if (auto e = report::WriteExports(exports, robot_link::ToWheelParams(*result.params_initial),
-                              robot_link::ToWheelParams(*result.params_final)))
+                                      robot_link::ToWheelParams(*corrected)))
       Fail("station", kExitFailure, *e);
   }
   const station::StationIteration& first = result.iterations.front();
   const station::StationIteration& last = result.iterations.back();
-  std::fprintf(stderr, "station: E_max,syst %.3f mm -> %.3f mm in %zu rounds (%.0fx), %.1f s\n",
-               first.estimate.emax_syst_m * 1e3, last.estimate.emax_syst_m * 1e3, result.iterations.size(),
-               result.improvement.value_or(1.0), result.wall_s);
+  if (first.estimate.ok() && last.estimate.ok())
+    std::fprintf(stderr, "station: E_max,syst %.3f mm -> %.3f mm in %zu rounds (%.0fx), %.1f s\n",
+                 first.estimate.emax_syst_m * 1e3, last.estimate.emax_syst_m * 1e3, result.iterations.size(),
+                 result.improvement.value_or(1.0), result.wall_s);
+  else
+    std::fprintf(stderr, "station: %zu rounds, %.1f s\n", result.iterations.size(), result.wall_s);
+  for (const std::string& f : result.findings) std::fprintf(stderr, "station: finding: %s\n", f.c_str());
+  if (result.params_recommended)
+    std::printf("corrected set (not applied): %s/corrected.firmware.yaml, %s/corrected.ros2.yaml\n", out.c_str(),
+                out.c_str());
   std::printf("report: %s/report.json and report.html\n", out.c_str());
+}
+
+// The command and operator drivers' options from the templates and the set.
+station::ExternalDriverOptions ExternalOptions(const std::string& run, const std::string& stop,
+                                               const std::string& apply, double apply_timeout_s,
+                                               const calibration::WheelParams& params, const std::string& out) {
+  station::ExternalDriverOptions o;
+  o.run_command = run;
+  o.stop_command = stop;
+  o.apply_command = apply;
+  o.apply_timeout = std::chrono::milliseconds(static_cast<long>(apply_timeout_s * 1e3));
+  std::string why;
+  const std::optional<robot_link::ParamSet> set = robot_link::ToParamSet(params, &why);
+  if (!set) Fail("station", kExitBadInput, "robot.params: " + why);
+  o.params = *set;
+  o.work_dir = out;
+  o.prompt = &std::cout;
+  for (const auto& [text, kind, name] : {std::tuple{run, "run", "the run command"},
+                                         std::tuple{stop, "run", "the stop command"},
+                                         std::tuple{apply, "apply", "the apply command"}}) {
+    if (!text.empty() && !station::CheckTemplate(text, kind, &why)) Fail("station", kExitBadInput, std::string(name) + ": " + why);
+  }
+  return o;
+}
+
+std::unique_ptr<station::RobotDriver> MakeExternalDriver(bool command, const station::ExternalDriverOptions& o) {
+  if (command && o.run_command.empty()) Fail("station", kExitBadInput, "the command driver needs a run command");
+  return command ? station::MakeCommandDriver(o) : station::MakeOperatorDriver(o);
+}
+
+std::string SelfPath() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? "odocal" : self.string();
 }
 
 }  // namespace
@@ -107,6 +173,11 @@ struct StationArgs {
   int rest_frames = 12;
   report::ExportRequests exports;
   bool max_rounds_given = false;  // --max-rounds on the command line (else the station file's)
+  // The virtual robot's driver (a station file names its own).
+  std::string driver = "link";
+  std::string run_command, stop_command, apply_command;
+  double run_timeout_s = 120.0;
+  std::string plan = "scenario";
 };
 
 void RunStation(const StationArgs& args) {
@@ -131,10 +202,20 @@ void RunStation(const StationArgs& args) {
       Fail(name, kExitBadInput, args.scenario + ": the station needs the scenario's camera: and tag:");
     if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
       Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
-    for (const calibration::RunSpec& spec : s->runs)
-      if (spec.procedure == calibration::Procedure::kUmbmark) setup.plan.push_back(spec);
-    if (setup.plan.size() != s->runs.size())
-      Progress("only the scenario's UMBMark squares are driven; its other runs are skipped");
+    if (args.plan == "default") {
+      setup.default_plan = station::DefaultPlanOptions{};
+    } else {
+      for (const calibration::RunSpec& spec : s->runs) {
+        const bool drivable = spec.procedure == calibration::Procedure::kUmbmark ||
+                              spec.procedure == calibration::Procedure::kStraight ||
+                              spec.procedure == calibration::Procedure::kSpin ||
+                              spec.procedure == calibration::Procedure::kOutAndBack;
+        if (drivable) setup.plan.push_back(spec);
+      }
+      if (setup.plan.size() != s->runs.size())
+        Progress("the scenario's recorded and circle runs are not driven by the station; they are skipped");
+    }
+    options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * 1e3));
     sim::SimMotionBackend backend(s->robot);
     robot_link::FirmwareHostOptions host_options;
     host_options.time_scale = args.time_scale;
@@ -152,7 +233,21 @@ void RunStation(const StationArgs& args) {
     char scale[64];
     std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args.time_scale);
     Progress("virtual robot on " + (*host.value)->device_path() + scale);
-    setup.transport = port.value->get();
+    std::unique_ptr<station::RobotDriver> driver;
+    if (args.driver == "link") {
+      if (!args.run_command.empty() || !args.apply_command.empty() || !args.stop_command.empty())
+        Fail(name, kExitBadInput, "--run-command, --stop-command and --apply-command need --driver command or operator");
+      setup.transport = port.value->get();
+    } else {
+      // The commands reach the virtual robot through its device; the
+      // station's own connection is closed so they have it alone.
+      port.value->reset();
+      station::ExternalDriverOptions o = ExternalOptions(args.run_command, args.stop_command, args.apply_command,
+                                                         60.0, s->robot.nominal, args.out);
+      o.environment = {{"ODOCAL_ROBOT_PORT", (*host.value)->device_path()}, {"ODOCAL", SelfPath()}};
+      driver = MakeExternalDriver(args.driver == "command", o);
+      setup.driver = driver.get();
+    }
     setup.camera = camera.get();
     setup.intrinsics = s->camera->intrinsics;
     // The operator's guess is where the camera was hung; the station
@@ -172,10 +267,9 @@ void RunStation(const StationArgs& args) {
     const double Eb = t.track_m / n.track_m;
     const double Es = (t.left_wheel_diameter_m + t.right_wheel_diameter_m) /
                       (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
-    Finish(setup, options, args.out,
-           {{"scenario", args.scenario},
-            {"truth", {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}}}},
-           args.exports);
+    nlohmann::json truth = {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}};
+    if (s->robot.effects.turn_slip) truth["turn_slip_at_1rad_s"] = s->robot.effects.turn_slip->fraction_at_1rad_s;
+    Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports);
     return;
   }
 
@@ -186,18 +280,38 @@ void RunStation(const StationArgs& args) {
   options.settle_s = c->settle_s;
   const auto camera_file = config::ReadCameraFile(c->camera_file);
   if (!camera_file) Fail(name, kExitBadInput, camera_file.message);
-  robot_link::SerialOptions serial;
-  serial.baud = c->baud;
-  auto port = robot_link::SerialTransport::Open(c->port, serial);
-  if (!port) Fail(name, kExitBadInput, "robot: " + port.message);
+  std::unique_ptr<robot_link::SerialTransport> port;
+  std::unique_ptr<station::RobotDriver> driver;
+  if (c->driver == config::StationDriver::kLink) {
+    robot_link::SerialOptions serial;
+    serial.baud = c->baud;
+    auto opened = robot_link::SerialTransport::Open(c->port, serial);
+    if (!opened) Fail(name, kExitBadInput, "robot: " + opened.message);
+    port = std::move(*opened.value);
+    setup.transport = port.get();
+    setup.client.reply_timeout = std::chrono::milliseconds(c->timeout_ms);
+  } else {
+    const station::ExternalDriverOptions o = ExternalOptions(c->run_command, c->stop_command, c->apply_command,
+                                                             c->apply_timeout_s, *c->params, args.out);
+    driver = MakeExternalDriver(c->driver == config::StationDriver::kCommand, o);
+    setup.driver = driver.get();
+  }
+  options.run_timeout = std::chrono::milliseconds(static_cast<long>(c->run_timeout_s * 1e3));
   auto camera = media::CaptureSource::Open(c->camera_device, &error);
   if (!camera) Fail(name, kExitBadInput, error);
-  for (int i = 0; i < c->runs_per_direction; ++i) {
-    setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * 1e-3));
-    setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * 1e-3));
+  if (c->default_plan) {
+    station::DefaultPlanOptions d;
+    if (c->slow_turn_rate_deg_s) d.slow_turn_rate_rad_s = *c->slow_turn_rate_deg_s * M_PI / 180.0;
+    if (c->fast_turn_rate_deg_s) d.fast_turn_rate_rad_s = *c->fast_turn_rate_deg_s * M_PI / 180.0;
+    setup.default_plan = d;
+  } else if (!c->runs.empty()) {
+    setup.plan = c->runs;
+  } else {
+    for (int i = 0; i < c->runs_per_direction; ++i) {
+      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * 1e-3));
+      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * 1e-3));
+    }
   }
-  setup.transport = port.value->get();
-  setup.client.reply_timeout = std::chrono::milliseconds(c->timeout_ms);
   setup.camera = camera.get();
   setup.intrinsics = camera_file->intrinsics;
   setup.mount_guess = c->mount_guess;
@@ -222,9 +336,28 @@ void RegisterStationCommand(CLI::App& app) {
   cmd->add_option("--time-scale", args->time_scale, "Virtual robot: robot seconds per wall second")
       ->capture_default_str();
   cmd->add_option("--rest-frames", args->rest_frames, "Frames averaged per rest")->capture_default_str();
+  cmd->add_option("--driver", args->driver, "Virtual robot: how it is driven (link, command, operator)")
+      ->check(CLI::IsMember({"link", "command", "operator"}))
+      ->capture_default_str();
+  cmd->add_option("--run-command", args->run_command,
+                  "Virtual robot, command driver: the command per run ({procedure} {direction} {side_mm} "
+                  "{distance_mm} {turns} {repeats} {speed_mm_s} {turn_rate_deg_s} {run} {run_name} {log} "
+                  "{telemetry}; $ODOCAL_ROBOT_PORT, $ODOCAL)");
+  cmd->add_option("--stop-command", args->stop_command, "Virtual robot, command driver: run after a kill");
+  cmd->add_option("--apply-command", args->apply_command,
+                  "Virtual robot, command or operator driver: applies a corrected set ({file} {ros2} "
+                  "{left_wheel_diameter_mm} {right_wheel_diameter_mm} {track_mm} {ticks_per_rev})");
+  cmd->add_option("--run-timeout-s", args->run_timeout_s, "Virtual robot: a run longer than this fails")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--plan", args->plan, "Virtual robot: the scenario's runs, or the default plan sized to the view")
+      ->check(CLI::IsMember({"scenario", "default"}))
+      ->capture_default_str();
   cmd->footer(
-      "Exit codes: 0 calibrated, 2 bad input, 3 robot link (not answering, line cut), 4 tag not found "
-      "or camera lost, 5 run not completed, 7 push refused, 1 estimate failed, 130 interrupted.");
+      "Exit codes: 0 calibrated (or measured, when the driver cannot apply), 2 bad input, 3 robot link (not "
+      "answering, line cut), 4 tag not found or camera lost, 5 run not completed (refused, failed, a command "
+      "that exits non-zero or times out, no motion seen, the wrong run driven), 7 push or apply refused, "
+      "1 estimate failed, 130 interrupted.");
   AddExportOption(cmd, &args->exports);
   cmd->callback([args, rounds]() {
     args->max_rounds_given = rounds->count() > 0;

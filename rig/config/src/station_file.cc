@@ -36,11 +36,45 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
       if (!root[key]) yaml_util::Fail(root, key, "missing (required)");
     const YAML::Node robot = root["robot"];
     ExpectMap(robot, "robot");
-    CheckKeys(robot, "robot", {"port", "baud", "timeout_ms"});
-    if (!robot["port"]) yaml_util::Fail(robot, "robot.port", "missing (required)");
-    c.port = String(robot["port"], "robot.port");
-    c.baud = static_cast<int>(OptionalNumber(robot, "robot", "baud", 115200));
-    c.timeout_ms = static_cast<int>(Positive(OptionalNumber(robot, "robot", "timeout_ms", 200), robot, "robot.timeout_ms"));
+    CheckKeys(robot, "robot",
+              {"driver", "port", "baud", "timeout_ms", "command", "stop_command", "apply", "apply_timeout_s",
+               "run_timeout_s", "params"});
+    const std::string driver = robot["driver"] ? String(robot["driver"], "robot.driver") : "link";
+    if (driver == "link") {
+      c.driver = StationDriver::kLink;
+    } else if (driver == "command") {
+      c.driver = StationDriver::kCommand;
+    } else if (driver == "operator") {
+      c.driver = StationDriver::kOperator;
+    } else {
+      yaml_util::Fail(robot["driver"], "robot.driver", "'" + driver + "': expected link, command or operator");
+    }
+    auto only_for = [&](const char* key, bool allowed, const char* drivers) {
+      if (robot[key] && !allowed)
+        yaml_util::Fail(robot[key], Join("robot", key), "not used by the " + driver + " driver (only " + drivers + ")");
+    };
+    const bool link = c.driver == StationDriver::kLink, command = c.driver == StationDriver::kCommand;
+    for (const char* key : {"port", "baud", "timeout_ms"}) only_for(key, link, "link");
+    for (const char* key : {"command", "stop_command"}) only_for(key, command, "command");
+    for (const char* key : {"apply", "apply_timeout_s", "params"}) only_for(key, !link, "command and operator");
+    if (link) {
+      if (!robot["port"]) yaml_util::Fail(robot, "robot.port", "missing (required by the link driver)");
+      c.port = String(robot["port"], "robot.port");
+      c.baud = static_cast<int>(OptionalNumber(robot, "robot", "baud", 115200));
+      c.timeout_ms =
+          static_cast<int>(Positive(OptionalNumber(robot, "robot", "timeout_ms", 200), robot, "robot.timeout_ms"));
+    } else {
+      if (command && !robot["command"]) yaml_util::Fail(robot, "robot.command", "missing (required by the command driver)");
+      if (!robot["params"])
+        yaml_util::Fail(robot, "robot.params",
+                        "missing (required by the " + driver + " driver: the set the robot runs with, which it cannot read)");
+      c.params = ParseWheels(robot["params"], "robot.params", true, 0.0);
+      if (command) c.run_command = String(robot["command"], "robot.command");
+      if (robot["stop_command"]) c.stop_command = String(robot["stop_command"], "robot.stop_command");
+      if (robot["apply"]) c.apply_command = String(robot["apply"], "robot.apply");
+      c.apply_timeout_s = Positive(OptionalNumber(robot, "robot", "apply_timeout_s", 60.0), robot, "robot.apply_timeout_s");
+    }
+    c.run_timeout_s = Positive(OptionalNumber(robot, "robot", "run_timeout_s", 120.0), robot, "robot.run_timeout_s");
     const YAML::Node camera = root["camera"];
     ExpectMap(camera, "camera");
     CheckKeys(camera, "camera", {"device", "calibration", "mount_guess", "flush_frames", "settle_s"});
@@ -69,10 +103,34 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
     if (const YAML::Node floor = root["floor_reference"])
       c.floor_reference = ParseFloorReference(floor, "floor_reference");
     if (const YAML::Node plan = root["plan"]) {
-      ExpectMap(plan, "plan");
-      CheckKeys(plan, "plan", {"side_mm", "runs_per_direction"});
-      c.side_mm = Positive(OptionalNumber(plan, "plan", "side_mm", 2000.0), plan, "plan.side_mm");
-      c.runs_per_direction = static_cast<int>(Positive(OptionalNumber(plan, "plan", "runs_per_direction", 3), plan, "plan.runs_per_direction"));
+      if (plan.IsScalar()) {
+        if (String(plan, "plan") != "default")
+          yaml_util::Fail(plan, "plan", "expected `default`, a list of runs, or {side_mm, runs_per_direction}");
+        c.default_plan = true;
+      } else if (plan.IsSequence()) {
+        if (plan.size() == 0) yaml_util::Fail(plan, "plan", "an empty list");
+        for (size_t i = 0; i < plan.size(); ++i)
+          c.runs.push_back(ParseRun(plan[i], "plan[" + std::to_string(i) + "]"));
+      } else if (plan["default"]) {
+        ExpectMap(plan, "plan");
+        CheckKeys(plan, "plan", {"default"});
+        c.default_plan = true;
+        const YAML::Node d = plan["default"];
+        ExpectMap(d, "plan.default");
+        CheckKeys(d, "plan.default", {"slow_turn_rate_deg_s", "fast_turn_rate_deg_s"});
+        if (d["slow_turn_rate_deg_s"])
+          c.slow_turn_rate_deg_s = Positive(Number(d["slow_turn_rate_deg_s"], "plan.default.slow_turn_rate_deg_s"), d,
+                                            "plan.default.slow_turn_rate_deg_s");
+        if (d["fast_turn_rate_deg_s"])
+          c.fast_turn_rate_deg_s = Positive(Number(d["fast_turn_rate_deg_s"], "plan.default.fast_turn_rate_deg_s"), d,
+                                            "plan.default.fast_turn_rate_deg_s");
+      } else {
+        ExpectMap(plan, "plan");
+        CheckKeys(plan, "plan", {"side_mm", "runs_per_direction"});
+        c.side_mm = Positive(OptionalNumber(plan, "plan", "side_mm", 2000.0), plan, "plan.side_mm");
+        c.runs_per_direction = static_cast<int>(
+            Positive(OptionalNumber(plan, "plan", "runs_per_direction", 3), plan, "plan.runs_per_direction"));
+      }
     }
     if (root["max_rounds"]) c.max_rounds = static_cast<int>(Integer(root["max_rounds"], "max_rounds"));
     return c;

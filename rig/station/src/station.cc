@@ -6,11 +6,15 @@
 #include <limits>
 #include <cstdio>
 #include <sstream>
+#include <filesystem>
 #include <thread>
+#include <variant>
 
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/calibration/corrections.h"
+#include "odocal/calibration/segment.h"
+#include "odocal/config/scenario.h"
 #include "odocal/measure/measure.h"
 
 namespace odocal::station {
@@ -29,11 +33,44 @@ std::string Format(const char* format, auto... args) {
   return buffer;
 }
 
+// What a run's heading should change by (CCW +), from the plan.
+double PlannedTurn(const calibration::RunSpec& spec) {
+  const double sign = spec.direction == calibration::Direction::kCw ? -1.0 : 1.0;
+  switch (spec.procedure) {
+    case calibration::Procedure::kUmbmark: return sign * 2.0 * M_PI;
+    case calibration::Procedure::kSpin: return sign * 2.0 * M_PI * spec.turns;
+    case calibration::Procedure::kOutAndBack: return sign * 2.0 * M_PI * spec.repeats;
+    default: return 0.0;
+  }
+}
+
+StationStatus StatusOf(DriverFault fault) {
+  switch (fault) {
+    case DriverFault::kRobotLink: return StationStatus::kRobotLink;
+    case DriverFault::kRunNotCompleted: return StationStatus::kRunNotCompleted;
+    case DriverFault::kApplyFailed: return StationStatus::kPushRefused;
+  }
+  return StationStatus::kRunNotCompleted;
+}
+
+// The corners' centre and the farthest any corner is from `reference`.
+double MaxCornerDistance(const vision::TagCorners& a, const vision::TagCorners& b) {
+  double d = 0.0;
+  for (int k = 0; k < 4; ++k) d = std::max(d, std::hypot(a[k].x - b[k].x, a[k].y - b[k].y));
+  return d;
+}
+
 // One pass of the loop. Members hold what the failure handling needs.
 class Station {
  public:
-  Station(const StationSetup& setup, const StationOptions& options)
-      : setup_(setup), options_(options), client_(*setup.transport, setup.client) {}
+  Station(const StationSetup& setup, const StationOptions& options) : setup_(setup), options_(options) {
+    if (setup.driver) {
+      driver_ = setup.driver;
+    } else if (setup.transport) {
+      owned_driver_ = MakeLinkDriver(*setup.transport, setup.client);
+      driver_ = owned_driver_.get();
+    }
+  }
 
   StationResult Run();
 
@@ -53,59 +90,43 @@ class Station {
   }
   bool StopRequested() const { return setup_.stop_requested && setup_.stop_requested->load(); }
 
-  std::optional<Failure> Connect();
   // With `keep_grey`, the first options_.floor_frames full frames are kept
   // there too (for the floor reference).
   std::optional<Failure> CaptureRest(RestFrames* rest, std::vector<cv::Mat>* keep_grey = nullptr);
   void EstimateScale(vision::CameraMount* mount);
+  // The camera for the heading check and the default plan: the plane's
+  // once known, the operator's guess before.
+  const vision::CameraModel& WatchCamera() const { return camera_ ? *camera_ : *guess_camera_; }
+  std::optional<double> HeadingOf(const vision::TagCorners& corners) const;
+  std::vector<calibration::RunSpec> MakeDefaultPlan(const RestFrames& rest, std::string* why);
   // Drives one run; its end rest (the next run's start rest) goes to `rest`.
-  std::optional<Failure> DriveRun(const calibration::RunSpec& spec, int index, int total,
-                                  StationRun* run, RestFrames* rest);
+  std::optional<Failure> DriveRun(const calibration::RunSpec& spec, int index, int total, StationRun* run,
+                                  RestFrames* rest);
   std::optional<Failure> MeasureRound(StationIteration* iteration,
                                       const std::vector<std::pair<RestFrames, RestFrames>>& rests);
   void Cleanup(StationResult* result);
 
   const StationSetup& setup_;
   const StationOptions& options_;
-  robot_link::Client client_;
+  std::unique_ptr<RobotDriver> owned_driver_;
+  RobotDriver* driver_ = nullptr;
+  std::vector<calibration::RunSpec> plan_;
+  int round_ = 0;
   std::unique_ptr<vision::TagObserver> observer_;
   std::vector<vision::TagCorners> view_candidates_;
+  std::optional<vision::CameraModel> guess_camera_;
   std::optional<vision::CameraModel> camera_;
-  std::optional<uint16_t> running_run_;
+  bool run_in_progress_ = false;
   ParamSet initial_;
   ParamSet current_;
-  bool pushed_since_start_ = false;
-  bool link_ok_ = true;
+  bool applied_since_start_ = false;
   vision::CameraPlaneResult plane_;
   bool plane_estimated_ = false;
   std::vector<cv::Mat> floor_frames_;
   std::optional<measure::CameraScale> camera_scale_;
   std::vector<std::string> flags_;
-
- public:
-  std::optional<robot_link::RobotInfo> info_;
+  std::string plan_summary_;
 };
-
-std::optional<Station::Failure> Station::Connect() {
-  Log("connecting to the robot on " + setup_.transport->Describe());
-  const auto hello = client_.Hello();
-  if (!hello) return Failure{StationStatus::kRobotLink, "handshake: " + hello.message};
-  info_ = *hello.value;
-  std::ostringstream os;
-  os << *hello.value;
-  Log(os.str());
-  const auto params = client_.GetParams();
-  if (!params) return Failure{StationStatus::kRobotLink, "reading the parameters: " + params.message};
-  initial_ = current_ = *params.value;
-  std::ostringstream ps;
-  ps << "robot parameters: " << initial_;
-  Log(ps.str());
-  // The station polls STATUS and measures with the camera: telemetry would
-  // only fill the line.
-  if (const auto r = client_.SetTelemetryRate(0); !r)
-    return Failure{StationStatus::kRobotLink, "setting the telemetry rate: " + r.message};
-  return std::nullopt;
-}
 
 // Frames of the robot standing still: the tag's corners, kept with their crops
 // for the exact refinement once the camera plane is known.
@@ -142,58 +163,133 @@ std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest, std::vect
   return std::nullopt;
 }
 
-std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& spec, int index,
-                                                  int total, StationRun* run, RestFrames* rest) {
-  run->spec = spec;
-  const std::string what = Format("run %d/%d (UMBMark %s, %.0f mm)", index, total,
-                                  std::string(calibration::ToString(spec.direction)).c_str(), spec.side_m * 1e3);
-  const auto started = client_.StartRun(robot_link::RunCommand::FromRunSpec(spec));
-  if (!started) {
-    return Failure{started.status == odocal::StatusCode::kNack ? StationStatus::kRunNotCompleted
-                                                                : StationStatus::kRobotLink,
-                   what + ": start: " + started.message};
+std::optional<double> Station::HeadingOf(const vision::TagCorners& corners) const {
+  const vision::PlanarPoseResult pose = vision::MeasureTagPose(WatchCamera(), setup_.tag, corners);
+  if (!pose.ok) return std::nullopt;
+  return pose.T_world_robot.heading();
+}
+
+std::vector<calibration::RunSpec> Station::MakeDefaultPlan(const RestFrames& rest, std::string* why) {
+  const vision::CameraModel& camera = WatchCamera();
+  const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, setup_.tag, *rest.found.back().corners_px);
+  if (!pose.ok) {
+    *why = "the default plan: the robot's pose at the start could not be measured (" + pose.message + ")";
+    return {};
   }
-  run->run_id = *started.value;
-  running_run_ = run->run_id;
-  Log(what + ": started, run id " + std::to_string(run->run_id));
+  const vision::TagCorners& c = *rest.found.back().corners_px;
+  const double side_px = std::hypot(c[1].x - c[0].x, c[1].y - c[0].y);
+  const double margin = 10.0 + side_px / std::sqrt(2.0);
+  auto in_view = [&](const Eigen::Vector2d& p) {
+    const auto px = camera.ProjectWorld(Eigen::Vector3d(p.x(), p.y(), setup_.tag.height_m()));
+    return px && camera.InImage(*px, margin);
+  };
+  const calibration::Pose2 T_robot_tag = calibration::Pose2::FromXYHeading(
+      setup_.tag.offset_x_mm * 1e-3, setup_.tag.offset_y_mm * 1e-3, 0.0);
+  return DefaultPlan(in_view, pose.T_world_robot, T_robot_tag, *setup_.default_plan, why);
+}
+
+std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& spec, int index, int total,
+                                                  StationRun* run, RestFrames* rest) {
+  run->spec = spec;
+  run->name = config::RunName(index - 1, spec);
+  run->run_id = static_cast<uint16_t>(index);
+  const std::string what = Format("run %d/%d (%s)", index, total, calibration::Describe(spec).c_str());
+  RunRequest request{spec, index, total, run->name, "", ""};
+  if (!setup_.run_log_dir.empty()) {
+    const std::string dir = setup_.run_log_dir + "/round" + std::to_string(round_);
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    request.log_path = dir + "/" + run->name + ".log";
+    request.telemetry_path = dir + "/" + run->name + ".telemetry.csv";
+    run->log_path = request.log_path;
+  }
+  // Where the tag stood: the start rest's last corners.
+  const vision::TagCorners start_corners = *rest->found.back().corners_px;
+  if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), what + ": " + e->message};
+  run_in_progress_ = true;
+  Log(what + ": started (" + driver_->Describe() + ")");
   const Clock::time_point t0 = Clock::now();
   std::string error;
+  bool moved = false, driver_done = false;
+  // Stillness (operator): the frame stillness started at, and its corners.
+  std::optional<std::pair<double, vision::TagCorners>> still_since;
+  // The heading change, unwrapped between consecutive sightings.
+  std::optional<double> last_heading = HeadingOf(start_corners);
+  double turned = 0.0;
+  bool turn_known = last_heading.has_value();
+  // Whether the tag was out of sight for at least three frames in a row and
+  // half a second (camera clock): a robot that leaves the view has moved; a
+  // frame or two missed tells nothing.
+  double last_found_t = rest->found.back().t_s;
+  int lost_streak = 0;
+  bool out_of_view = false;
   for (;;) {
     if (StopRequested()) return Failure{StationStatus::kInterrupted, what + ": interrupted"};
-    // Asking STATUS ourselves (rather than waiting for the event) tells a
-    // robot that stopped answering from a run that is merely long.
-    const auto status = client_.GetStatus();
-    if (!status) {
-      link_ok_ = status.status != odocal::StatusCode::kLineCut;
-      return Failure{StationStatus::kRobotLink, what + ": " + status.message};
-    }
-    if (status.value->state == robot_link::RunState::kIdle) {
-      running_run_.reset();
-      if (status.value->last_run_id != run->run_id) {
-        return Failure{StationStatus::kRobotLink,
-                       what + ": the robot is idle and does not know the run (restarted?)"};
+    if (!driver_->EndsByCamera()) {
+      const auto progress = driver_->Poll();
+      if (const DriverError* e = std::get_if<DriverError>(&progress)) {
+        run_in_progress_ = false;
+        return Failure{StatusOf(e->fault), what + ": " + e->message};
       }
-      const robot_link::RunComplete& done = status.value->last_run;
-      if (done.status != robot_link::RunStatus::kCompleted) {
-        return Failure{StationStatus::kRunNotCompleted,
-                       what + ": the robot reports the run " + std::string(robot_link::ToString(done.status))};
-      }
-      break;
+      driver_done = std::get<RunProgress>(progress) == RunProgress::kDone;
+      if (driver_done) break;
     }
-    if (Clock::now() - t0 > options_.run_timeout) {
+    const Clock::duration elapsed = Clock::now() - t0;
+    if (elapsed > options_.run_timeout) {
       return Failure{StationStatus::kRunNotCompleted,
                      what + Format(": not completed within %.0f s", Seconds(options_.run_timeout))};
     }
-    // A frame while moving: keeps the track and adds views for the plane.
+    if (!moved && !out_of_view && driver_->EndsByCamera() && elapsed > options_.start_timeout) {
+      return Failure{StationStatus::kRunNotCompleted,
+                     what + Format(": the camera saw no motion within %.0f s", Seconds(options_.start_timeout))};
+    }
+    // A frame while moving: keeps the track, adds views for the plane,
+    // watches the motion.
     const auto frame = setup_.camera->Grab(&error);
     if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
     ++run->moving_frames;
+    lost_streak = obs.corners_px ? 0 : lost_streak + 1;
+    out_of_view = out_of_view || (lost_streak >= 3 && frame->t_s - last_found_t >= 0.5);
     if (obs.corners_px) {
+      last_found_t = frame->t_s;
       ++run->moving_found;
       view_candidates_.push_back(*obs.corners_px);
+      const double d = MaxCornerDistance(*obs.corners_px, start_corners);
+      run->max_motion_px = std::max(run->max_motion_px, d);
+      moved = moved || d > options_.motion_threshold_px;
+      if (const auto h = HeadingOf(*obs.corners_px); h && last_heading) {
+        const double step = calibration::WrapAngle(*h - *last_heading);
+        // Beyond 120 deg between sightings the unwrapping is a guess.
+        if (std::abs(step) > 2.0 * M_PI / 3.0) turn_known = false;
+        turned += step;
+        last_heading = h;
+      } else if (h) {
+        last_heading = h;
+      }
+      if (driver_->EndsByCamera() && (moved || out_of_view)) {
+        if (!still_since || MaxCornerDistance(*obs.corners_px, still_since->second) > options_.still_px) {
+          still_since.emplace(frame->t_s, *obs.corners_px);
+        } else if (frame->t_s - still_since->first >= options_.still_s) {
+          break;  // the robot stopped
+        }
+      }
+    } else {
+      turn_known = false;  // a gap: the turn between is unknown
+      still_since.reset();
     }
     std::this_thread::sleep_for(options_.poll_interval);
+  }
+  run_in_progress_ = false;
+  // No motion: the tag seen, in place, in every frame while the run lasted.
+  // (A tag out of view for a while is taken as motion: a square larger
+  // than the view leaves it.)
+  if (!moved && !out_of_view) {
+    return Failure{StationStatus::kRunNotCompleted,
+                   what + Format(": %s, but the camera saw the tag move at most %.1f px (tag in %d of %d frames "
+                                 "while it ran): the robot did not move",
+                                 driver_->EndsByCamera() ? "the operator finished" : "the driver reports the run done",
+                                 run->max_motion_px, run->moving_found, run->moving_frames)};
   }
   RestFrames end_rest;
   if (auto f = CaptureRest(&end_rest)) return f;
@@ -204,8 +300,27 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
                           "(robot out of view, or the camera blocked or moved)",
                           setup_.tag.id, end_rest.found.size(), end_rest.grabbed, what.c_str())};
   }
-  Log(Format("%s: completed in %.1f s, tag in %zu/%d rest frames", what.c_str(),
-             Seconds(Clock::now() - t0), end_rest.found.size(), end_rest.grabbed));
+  // The heading change, closed on the end rest.
+  if (turn_known && last_heading) {
+    if (const auto h = HeadingOf(*end_rest.found.back().corners_px)) {
+      const double step = calibration::WrapAngle(*h - *last_heading);
+      turned += step;
+      run->turned_rad = turned;
+      const double planned = PlannedTurn(spec);
+      if (std::abs(turned - planned) > options_.heading_check_rad) {
+        return Failure{StationStatus::kRunNotCompleted,
+                       what + Format(": the camera saw the robot turn %+.0f deg, the plan turns %+.0f deg: "
+                                     "was another run driven (the wrong direction, the wrong number of turns)?",
+                                     turned * 180.0 / M_PI, planned * 180.0 / M_PI)};
+      }
+    }
+  }
+  if (!run->turned_rad)
+    Log(what + ": heading change not checked (the tag out of view for part of the run, or frames too far apart)");
+  Log(Format("%s: completed in %.1f s, tag in %d/%d frames while moving (%.0f px), %zu/%d rest frames%s",
+             what.c_str(), Seconds(Clock::now() - t0), run->moving_found, run->moving_frames, run->max_motion_px,
+             end_rest.found.size(), end_rest.grabbed,
+             run->turned_rad ? Format(", turned %+.1f deg", *run->turned_rad * 180.0 / M_PI).c_str() : ""));
   *rest = std::move(end_rest);
   return std::nullopt;
 }
@@ -233,8 +348,12 @@ std::optional<Station::Failure> Station::MeasureRound(
     EstimateScale(&mount);
     camera_.emplace(setup_.intrinsics, mount);
   }
-  calibration::UmbmarkInput& input = iteration->input;
-  input.track_m = current_.track_mm * 1e-3;
+  // The round as batch sees a session: the set the robot ran with, each
+  // run's return error; then batch's estimators.
+  measure::SessionMeasurement session;
+  session.session.nominal = ToWheelParams(current_);
+  session.camera_scale_sigma = camera_scale_ ? camera_scale_->relative_sigma : 0.0;
+  if (camera_scale_) session.camera_scale = *camera_scale_;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < iteration->runs.size(); ++i) {
     StationRun& run = iteration->runs[i];
@@ -247,17 +366,48 @@ std::optional<Station::Failure> Station::MeasureRound(
     }
     run.start_rest = *start;
     run.end_rest = *end;
+    // The rests' relative pose: for a closed path the return error (true -
+    // odometry, which believes it came back), for a straight the driven
+    // displacement (as batch's runs without telemetry).
     const calibration::RelativePose r = calibration::Between(*start, *end, options_.systematic_floor);
+    measure::RunMeasurement m;
+    m.measured.name = run.name;
+    m.measured.spec = run.spec;
+    m.measured.start_rest = *start;
+    m.measured.end_rest = *end;
     run.return_error = r;
-    std::string why;
-    if (!input.AddRun(run.spec, r.pose, &why))
-      return Failure{StationStatus::kEstimateFailed, "UMBMark input: " + why};
+    m.measured.return_error = r;
+    session.runs.push_back(std::move(m));
   }
-  std::string why;
-  if (!input.IsValid(&why)) return Failure{StationStatus::kEstimateFailed, "UMBMark input: " + why};
-  iteration->estimate = calibration::EstimateUmbmark(input);
-  if (!iteration->estimate.ok())
-    return Failure{StationStatus::kEstimateFailed, "UMBMark: " + iteration->estimate.message};
+  iteration->session_estimate = measure::EstimateSession({session});
+  const measure::SessionEstimate& e = iteration->session_estimate;
+  if (!e.any()) {
+    std::string notes;
+    for (const std::string& n : e.notes) notes += "; " + n;
+    return Failure{StationStatus::kEstimateFailed, "no estimate from the round's runs" + notes};
+  }
+  iteration->corrected = ToParamSet(measure::CorrectedParams(ToWheelParams(current_), e), current_.ticks_per_rev);
+  // CVRA factors: how far from 1, in standard errors.
+  for (const auto* pooled : {&e.ratio, &e.scale, &e.track}) {
+    if (!*pooled || !(*pooled)->standard_error) continue;
+    const double se = std::hypot(*(*pooled)->standard_error, pooled == &e.scale ? (*pooled)->camera_scale_sigma : 0.0);
+    if (se > 0.0) {
+      const double z = std::abs((*pooled)->mean - 1.0) / se;
+      iteration->cvra_max_z = std::max(iteration->cvra_max_z.value_or(0.0), z);
+    }
+  }
+  // Turn slip: the spins' track factors by rate.
+  if (e.track) {
+    std::vector<SpinTrack> spins;
+    for (size_t k = 0; k < e.track->runs.size(); ++k)
+      for (const StationRun& run : iteration->runs)
+        if (run.name == e.track->runs[k] && run.spec.turn_rate_rad_s)
+          spins.push_back({*run.spec.turn_rate_rad_s, e.track->values[k]});
+    iteration->turn_slip = AnalyzeTurnRates(spins, options_.turn_slip_sigmas);
+  }
+  if (!e.umbmark) return std::nullopt;
+  iteration->input = *e.umbmark_input;
+  iteration->estimate = *e.umbmark;
   // Standard error of E_max,syst: radial, for the larger centre of gravity;
   // from the spread of repeated runs, else from the camera's own sigmas.
   const calibration::UmbmarkSummary& s = iteration->estimate;
@@ -266,6 +416,7 @@ std::optional<Station::Failure> Station::MeasureRound(
   double camera_var_x = 0.0, camera_var_y = 0.0;
   int n = 0;
   for (const StationRun& run : iteration->runs) {
+    if (run.spec.procedure != calibration::Procedure::kUmbmark) continue;
     if ((run.spec.direction == calibration::Direction::kCw) != cw_larger) continue;
     camera_var_x += run.return_error.covariance(0, 0);
     camera_var_y += run.return_error.covariance(1, 1);
@@ -275,12 +426,10 @@ std::optional<Station::Failure> Station::MeasureRound(
     const double sx = cg.sigma_x_m.value_or(std::sqrt(camera_var_x) / n);
     const double sy = cg.sigma_y_m.value_or(std::sqrt(camera_var_y) / n);
     const double r = cg.radius_m();
-    iteration->emax_sigma_m =
-        r > 0.0 ? std::hypot(cg.x_m * sx, cg.y_m * sy) / r : std::hypot(sx, sy);
+    iteration->emax_sigma_m = r > 0.0 ? std::hypot(cg.x_m * sx, cg.y_m * sy) / r : std::hypot(sx, sy);
   }
   return std::nullopt;
 }
-
 // The camera's length scale, as batch finds it: with a floor reference the
 // mount's height becomes the reference's; otherwise, or when the reference
 // cannot be used (the log says why), the robot tag's printed size stands.
@@ -308,35 +457,36 @@ void Station::EstimateScale(vision::CameraMount* mount) {
 }
 
 void Station::Cleanup(StationResult* result) {
-  std::vector<std::string> done;
-  if (!link_ok_) {
-    result->robot_stopped = false;
-    result->cleanup = "the line is gone: the robot could not be stopped or read over the link";
+  std::vector<std::string> done(1);
+  result->robot_stopped = driver_->Stop(&done.front());
+  if (!driver_->Reachable()) {
+    result->cleanup = done.front();
     return;
   }
-  // Stop whatever runs, even when we believe nothing does: a stop is harmless.
-  const auto stop = client_.Stop();
-  if (stop) {
-    done.push_back(running_run_ ? "robot stopped" : "robot idle");
-  } else {
-    result->robot_stopped = false;
-    done.push_back("could not stop the robot over the link (" + stop.message + ")");
-  }
-  if (pushed_since_start_) {
-    const auto restore = client_.PushParams(initial_);
-    if (restore) {
+  if (applied_since_start_) {
+    ParamSet active;
+    if (const auto e = driver_->Apply(initial_, 0, &active); !e) {
       result->restored = true;
+      current_ = active;
       done.push_back("the unverified parameter set was replaced by the initial one");
     } else {
-      done.push_back("could not restore the initial parameters (" + restore.message + ")");
+      done.push_back("could not restore the initial parameters (" + e->message + ")");
     }
   }
-  if (const auto back = client_.GetParams(); back) {
-    result->params_final = *back.value;
-    done.push_back(back.value->SameBits(initial_) ? "parameters as they were"
-                                                  : "PARAMETERS DIFFER FROM THE INITIAL SET");
+  if (driver_->CanReadBack()) {
+    if (const auto back = driver_->ReadBack()) {
+      result->params_final = *back;
+      done.push_back(back->SameBits(initial_) ? "parameters as they were" : "PARAMETERS DIFFER FROM THE INITIAL SET");
+    } else {
+      done.push_back("could not read the parameters back");
+    }
+  } else if (!applied_since_start_ || result->restored) {
+    // What the driver was last told to apply (it cannot be read back).
+    result->params_final = current_;
+    done.push_back(current_.SameBits(initial_) ? "parameters as they were (as applied; the driver cannot read them)"
+                                               : "PARAMETERS DIFFER FROM THE INITIAL SET");
   } else {
-    done.push_back("could not read the parameters back (" + back.message + ")");
+    done.push_back("the robot may keep the unverified set: restoring it failed and the driver cannot read it");
   }
   std::string joined;
   for (const std::string& d : done) joined += (joined.empty() ? "" : "; ") + d;
@@ -358,12 +508,13 @@ StationResult Station::Run() {
     } else {
       result.status = StationStatus::kOk;
     }
-    result.robot = info_;
     result.plane = plane_;
     result.plane_estimated = plane_estimated_;
     result.camera_scale = camera_scale_;
     result.flags = flags_;
-    if (result.iterations.size() >= 2 && result.iterations.back().estimate.emax_syst_m > 0.0) {
+    result.plan_summary = plan_summary_;
+    if (result.iterations.size() >= 2 && result.iterations.front().estimate.ok() &&
+        result.iterations.back().estimate.ok() && result.iterations.back().estimate.emax_syst_m > 0.0) {
       result.improvement =
           result.iterations.front().estimate.emax_syst_m / result.iterations.back().estimate.emax_syst_m;
     }
@@ -375,23 +526,41 @@ StationResult Station::Run() {
   if (!options_.IsValid(&why)) return finish(Failure{StationStatus::kInvalidInput, "options: " + why});
   if (setup_.floor_reference && !setup_.floor_reference->IsValid(&why))
     return finish(Failure{StationStatus::kInvalidInput, "floor reference: " + why});
-  if (!setup_.transport || !setup_.camera)
-    return finish(Failure{StationStatus::kInvalidInput, "no robot link or no camera"});
+  if (!driver_ || !setup_.camera)
+    return finish(Failure{StationStatus::kInvalidInput, "no robot driver or no camera"});
+  result.driver = driver_->Describe();
+  if (setup_.plan.empty() && !setup_.default_plan)
+    return finish(Failure{StationStatus::kInvalidInput, "the plan is empty"});
   int cw = 0, ccw = 0;
   for (const calibration::RunSpec& spec : setup_.plan) {
-    if (spec.procedure != calibration::Procedure::kUmbmark || spec.side_m != setup_.plan.front().side_m) {
+    using calibration::Procedure;
+    if (spec.procedure != Procedure::kUmbmark && spec.procedure != Procedure::kStraight &&
+        spec.procedure != Procedure::kSpin && spec.procedure != Procedure::kOutAndBack) {
       return finish(Failure{StationStatus::kInvalidInput,
-                            "the plan must be UMBMark squares of one side (CVRA runs are not driven yet)"});
+                            "the plan's " + std::string(calibration::ToString(spec.procedure)) +
+                                " run: the station drives umbmark, straight, spin and out_and_back"});
     }
+    if (!spec.IsValid(&why)) return finish(Failure{StationStatus::kInvalidInput, "the plan: " + why});
+    if (spec.procedure != Procedure::kUmbmark) continue;
     (spec.direction == calibration::Direction::kCw ? cw : ccw)++;
   }
-  if (cw == 0 || ccw == 0)
-    return finish(Failure{StationStatus::kInvalidInput, "the plan needs cw and ccw UMBMark squares"});
+  if ((cw == 0) != (ccw == 0))
+    return finish(Failure{StationStatus::kInvalidInput, "the plan's UMBMark squares need both cw and ccw runs"});
+  if (!driver_->CanApply() && options_.max_rounds > 1)
+    Log("the driver cannot apply parameters: one round, then the corrected set is written for you to load");
   observer_ = vision::TagObserver::Create(setup_.tag, setup_.intrinsics, options_.track, &why);
   if (!observer_) return finish(Failure{StationStatus::kInvalidInput, "tag detector: " + why});
+  guess_camera_.emplace(setup_.intrinsics, setup_.mount_guess);
 
-  if (auto f = Connect()) return finish(f);
+  if (auto e = driver_->Connect(&initial_, [this](const std::string& l) { Log(l); }))
+    return finish(Failure{StatusOf(e->fault), e->message});
+  current_ = initial_;
   result.params_initial = initial_;
+  {
+    std::ostringstream ps;
+    ps << "robot parameters: " << initial_;
+    Log(ps.str());
+  }
 
   RestFrames rest;
   if (auto f = CaptureRest(&rest, setup_.floor_reference ? &floor_frames_ : nullptr)) return finish(f);
@@ -405,18 +574,26 @@ StationResult Station::Run() {
                rest.wrong_id > 0 ? ", other tag ids seen" : "")});
   }
   Log(Format("tag %d found at the start in %zu/%d frames", setup_.tag.id, rest.found.size(), rest.grabbed));
+  plan_ = setup_.plan;
+  if (plan_.empty()) {
+    plan_ = MakeDefaultPlan(rest, &plan_summary_);
+    if (plan_.empty()) return finish(Failure{StationStatus::kInvalidInput, plan_summary_});
+    Log(plan_summary_);
+  }
 
-  for (int round = 1; round <= options_.max_rounds; ++round) {
+  const int max_rounds = driver_->CanApply() ? options_.max_rounds : 1;
+  for (int round = 1; round <= max_rounds; ++round) {
     StationIteration iteration;
     iteration.params_used = current_;
-    Log(Format("round %d of at most %d", round, options_.max_rounds));
+    round_ = round;
+    Log(Format("round %d of at most %d", round, max_rounds));
     std::vector<std::pair<RestFrames, RestFrames>> rests;
-    for (size_t i = 0; i < setup_.plan.size(); ++i) {
+    for (size_t i = 0; i < plan_.size(); ++i) {
       if (StopRequested()) return finish(Failure{StationStatus::kInterrupted, "interrupted"});
       StationRun run;
       RestFrames start = rest;
-      if (auto f = DriveRun(setup_.plan[i], static_cast<int>(i) + 1, static_cast<int>(setup_.plan.size()),
-                            &run, &rest)) {
+      if (auto f = DriveRun(plan_[i], static_cast<int>(i) + 1, static_cast<int>(plan_.size()), &run, &rest)) {
+        iteration.runs.push_back(run);
         result.iterations.push_back(std::move(iteration));
         return finish(f);
       }
@@ -428,66 +605,83 @@ StationResult Station::Run() {
       return finish(f);
     }
     const calibration::UmbmarkSummary& s = iteration.estimate;
-    Log(Format("round %d: E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f", round, s.emax_syst_m * 1e3,
-               iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * 1e3).c_str() : "",
-               s.coupled.Ed, s.coupled.Eb));
+    const measure::SessionEstimate& e = iteration.session_estimate;
+    std::string line = Format("round %d:", round);
+    if (s.ok())
+      line += Format(" E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f;", s.emax_syst_m * 1e3,
+                     iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * 1e3).c_str() : "",
+                     s.coupled.Ed, s.coupled.Eb);
+    for (const auto& [label, pooled] : {std::pair{"ratio", &e.ratio}, std::pair{"scale", &e.scale},
+                                        std::pair{"track", &e.track}})
+      if (*pooled)
+        line += Format(" %s %.6f%s;", label, (*pooled)->mean,
+                       (*pooled)->standard_error ? Format(" ± %.6f", *(*pooled)->standard_error).c_str() : "");
+    Log(line);
+    if (!iteration.turn_slip.advice.empty()) Log(iteration.turn_slip.advice);
+    const bool umbmark_small = !s.ok() || (iteration.emax_sigma_m &&
+                                           s.emax_syst_m <= options_.converge_sigmas * *iteration.emax_sigma_m);
+    const bool cvra_small = !iteration.cvra_max_z || *iteration.cvra_max_z <= options_.converge_sigmas;
     if (round >= 2) {
-      const double previous = result.iterations.back().estimate.emax_syst_m;
-      if (iteration.emax_sigma_m && s.emax_syst_m <= options_.converge_sigmas * *iteration.emax_sigma_m) {
+      const StationIteration& previous = result.iterations.back();
+      if (umbmark_small && cvra_small) {
         iteration.converged = true;
-        iteration.note = "converged: E_max,syst within the measurement uncertainty";
-      } else if (s.emax_syst_m >= previous) {
+        iteration.note = "converged: what is left is within the measurement uncertainty";
+      } else if (s.ok() && previous.estimate.ok() && s.emax_syst_m >= previous.estimate.emax_syst_m) {
         iteration.converged = true;
         iteration.note = "stopped: no improvement on the previous round";
       }
     }
-    if (!iteration.converged && round == options_.max_rounds)
-      iteration.note = "maximum number of rounds reached";
-    if (iteration.converged || round == options_.max_rounds) {
+    if (!driver_->CanApply()) {
+      iteration.note = "not applied: the driver has no apply command; load the corrected set and run the "
+                       "station again to verify it";
+      result.params_recommended = iteration.corrected;
       Log(iteration.note);
       result.iterations.push_back(std::move(iteration));
       break;
     }
-    // The correction of the set the robot ran with (Borenstein & Feng eq. 17-18).
-    const ParamSet target =
-        ToParamSet(calibration::ApplyUmbmarkCorrection(ToWheelParams(current_), s.coupled.Ed, s.coupled.Eb),
-                   current_.ticks_per_rev);
+    if (!iteration.converged && round == max_rounds) iteration.note = "maximum number of rounds reached";
+    if (iteration.converged || round == max_rounds) {
+      Log(iteration.note);
+      result.iterations.push_back(std::move(iteration));
+      break;
+    }
+    const ParamSet target = *iteration.corrected;
     if (!target.IsValid(&why)) {
       result.iterations.push_back(std::move(iteration));
       return finish(Failure{StationStatus::kEstimateFailed, "corrected parameters out of range: " + why});
     }
-    // The last point where Ctrl-C is honoured before the push; the push
-    // itself runs to its end (staged, read back, committed, verified).
+    // The last point where Ctrl-C is honoured before the apply; the apply
+    // itself runs to its end (a push: staged, read back, committed, verified).
     if (StopRequested()) {
       result.iterations.push_back(std::move(iteration));
       return finish(Failure{StationStatus::kInterrupted, "interrupted before the push"});
     }
     std::ostringstream os;
-    os << "pushing " << target;
+    os << (driver_->CanReadBack() ? "pushing " : "applying ") << target;
     Log(os.str());
-    const auto push = client_.PushParams(target);
-    if (!push) {
+    ParamSet active;
+    if (const auto e = driver_->Apply(target, round, &active)) {
       result.iterations.push_back(std::move(iteration));
-      if (push.status == odocal::StatusCode::kLineCut) link_ok_ = false;
-      const bool refused = push.status == odocal::StatusCode::kNack ||
-                           push.status == odocal::StatusCode::kVerifyFailed;
-      return finish(Failure{refused ? StationStatus::kPushRefused : StationStatus::kRobotLink,
-                            "push: " + push.message});
+      return finish(Failure{StatusOf(e->fault), e->message});
     }
-    pushed_since_start_ = !push.value->active.SameBits(initial_);
-    current_ = push.value->active;
+    applied_since_start_ = !active.SameBits(initial_);
+    current_ = active;
     iteration.pushed = target;
-    Log("pushed and verified (checksum " + Format("%08x", push.value->checksum) + ")");
+    Log(driver_->CanReadBack() ? "pushed and verified (read back)" : "applied (the next round verifies it)");
     result.iterations.push_back(std::move(iteration));
   }
-  const auto final_params = client_.GetParams();
-  if (!final_params) {
-    return finish(Failure{StationStatus::kRobotLink, "reading the final parameters: " + final_params.message});
+  // What the last round found, for the user.
+  for (const StationIteration& it : result.iterations)
+    if (!it.turn_slip.advice.empty()) result.findings = {it.turn_slip.advice};
+  if (driver_->CanReadBack()) {
+    const auto back = driver_->ReadBack();
+    if (!back) return finish(Failure{StationStatus::kRobotLink, "reading the final parameters failed"});
+    result.params_final = *back;
+  } else {
+    result.params_final = current_;
   }
-  result.params_final = *final_params.value;
   return finish(std::nullopt);
 }
-
 }  // namespace
 
 const char* ToString(StationStatus status) {

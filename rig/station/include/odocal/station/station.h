@@ -1,15 +1,25 @@
-// The hands-off station: one loop that connects to a robot over
-// the odolink protocol, drives its UMBMark squares, measures each run's start
-// and end rest from an overhead camera as the frames come, estimates Ed and
-// the turn gain Eb (coupled UMBMark), pushes the corrected parameter set
-// (staged, read back, committed with its checksum, verified) and verifies it
-// with new runs, until the improvement is within the measurement uncertainty
-// or a maximum number of rounds.
+// The hands-off station: one loop that makes the robot drive a plan
+// (UMBMark squares, straights, spins, out-and-backs: plan.h) through a
+// driver (driver.h: the odolink serial protocol, a shell command per run, or
+// a person at the terminal), measures each run's start and end rest from an
+// overhead camera as the frames come, estimates what the plan measures
+// (measure::EstimateSession, as batch: UMBMark's coupled Ed and Eb, CVRA's
+// ratio, scale and track; turn slip from spins at two rates), applies the
+// corrected parameter set (the link pushes it: staged, read back, committed
+// with its checksum, verified; command and operator run the `apply`
+// command) and verifies it with new runs, until what is left is within the
+// measurement uncertainty or a maximum number of rounds. A driver that
+// cannot apply measures one round and leaves the corrected set to the user.
 //
-// The same loop drives a real robot (serial device) and camera
-// (media::CaptureSource), or the built-in virtual robot on a pseudo-terminal with
-// the virtual camera rendering it live (simulation::SimCameraSource): RunStation
-// sees a robot_link::Transport and a media::FrameSource, nothing else.
+// The camera also watches each run: a run during which the tag never moved
+// fails ("the command exited 0 but the robot did not move"), and a run whose
+// heading change is not the plan's (a square driven the wrong way, a spin of
+// the wrong number of turns) fails naming both.
+//
+// The same loop drives a real robot and camera (media::CaptureSource), or
+// the built-in virtual robot on a pseudo-terminal with the virtual camera
+// rendering it live (simulation::SimCameraSource): RunStation sees a
+// RobotDriver and a media::FrameSource, nothing else.
 //
 // The camera's length scale is batch's (measure::EstimateCameraScale): from
 // a floor reference (StationSetup::floor_reference) when one is given and
@@ -23,9 +33,11 @@
 //
 // Failure rule: whatever goes wrong (camera lost, tag not found at the start,
 // robot not answering, run not completed, push refused, Ctrl-C), the robot is
-// stopped over the link and its parameters are left as they were at the start:
-// a set pushed by an earlier round and not yet verified is pushed back out.
-// A push itself is never interrupted (the stop request is read between steps).
+// stopped where the driver allows (over the link; the command killed and the
+// stop command run; the operator told) and its parameters are left as they
+// were at the start: a set applied by an earlier round and not yet verified
+// is applied back out. An apply itself is never interrupted (the stop request
+// is read between steps).
 #ifndef ODOCAL_STATION_STATION_H_
 #define ODOCAL_STATION_STATION_H_
 
@@ -44,12 +56,15 @@
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/config/scenario.h"
+#include "odocal/measure/estimate_session.h"
 #include "odocal/measure/measure.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/params.h"
 #include "odocal/robot_link/transport.h"
 #include "odocal/sim/sim_motion_backend.h"
+#include "odocal/station/driver.h"
+#include "odocal/station/plan.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/floor_reference.h"
 #include "odocal/vision/planar_pose.h"
@@ -76,7 +91,13 @@ struct StationOptions {
   std::chrono::milliseconds poll_interval{30};
   // The camera plane (tilt, height) from the first round's distinct views;
   // the operator's guess when there are too few.
-  vision::VideoTrackOptions track;
+  // The tracker searches the whole frame at every frame the tag is lost:
+  // the station sees a moving robot at its poll rate, far apart in time.
+  vision::VideoTrackOptions track = [] {
+    vision::VideoTrackOptions o;
+    o.reacquire_every = 1;
+    return o;
+  }();
   vision::CameraPlaneOptions plane;
   int max_plane_views = 300;
   double min_view_separation_px = 8.0;
@@ -87,9 +108,24 @@ struct StationOptions {
   // saw verification rounds 3.1 sigma from zero with no error left to correct.
   calibration::SystematicFloor systematic_floor{0.02e-3, 0.005 * M_PI / 180.0};
   // Converged when E_max,syst is within this many of its standard errors
-  // (the remaining error is not measurably different from zero), or when a
-  // round does not improve on the one before.
+  // and every CVRA factor within this many of 1 (the remaining error is not
+  // measurably different from zero), or when a round does not improve on
+  // the one before.
   double converge_sigmas = 3.0;
+  // The camera watching a run: the tag has moved once a corner is this far
+  // from where it stood; it has stopped (drivers that end by the camera:
+  // operator) once every corner stayed within still_px for still_s of the
+  // camera's clock. An operator who has not started after start_timeout
+  // fails the run.
+  double motion_threshold_px = 3.0;
+  double still_px = 0.7;
+  double still_s = 1.5;
+  std::chrono::milliseconds start_timeout{60000};
+  // A run's heading change (camera, unwrapped) further than this from the
+  // plan's fails it (a square the wrong way turns 720 deg from the plan).
+  double heading_check_rad = 60.0 * M_PI / 180.0;
+  // Turn slip is reported when the slow and fast spins differ by this many sigmas.
+  double turn_slip_sigmas = 3.0;
   // The camera's length scale (measure::EstimateCameraScale, as batch): the
   // print tolerance assumed for the robot tag, the apparent size's floor, the
   // quality gate of the floor tags; and with a floor reference, how many full
@@ -101,8 +137,14 @@ struct StationOptions {
 };
 
 struct StationSetup {
-  robot_link::Transport* transport = nullptr;  // must outlive RunStation
+  // How the robot moves (driver.h); must outlive RunStation. Without one,
+  // `transport` (must outlive RunStation) is driven by the link driver.
+  RobotDriver* driver = nullptr;
+  robot_link::Transport* transport = nullptr;
   robot_link::ClientOptions client;
+  // Where a driver writes each run's log ("DIR/runs/run01_umbmark_cw.log");
+  // empty: no logs.
+  std::string run_log_dir;
   media::FrameSource* camera = nullptr;
   vision::Intrinsics intrinsics;
   vision::CameraMount mount_guess;  // the operator's; tilt and height are refined
@@ -115,8 +157,11 @@ struct StationSetup {
   // print. Measured in the first start rest's frames once the plane is known;
   // when it cannot be used the station says why and keeps the tag-size scale.
   std::optional<vision::FloorReference> floor_reference;
-  // The runs of one round: UMBMark squares of one side, cw and ccw.
+  // The runs of one round (umbmark, straight, spin, out_and_back; squares
+  // cw and ccw of one side). Empty with `default_plan`: the default plan,
+  // sized to the camera's view from where the robot stands (plan.h).
   std::vector<calibration::RunSpec> plan;
+  std::optional<DefaultPlanOptions> default_plan;
   // Set (e.g. from a signal handler) to stop cleanly; may be null.
   const std::atomic<bool>* stop_requested = nullptr;
   // One line of progress at a time (the CLI prints them on stderr).
@@ -130,7 +175,7 @@ enum class StationStatus {
   kTagNotFound,       // not at the start
   kCameraLost,        // no frame, or the tag not seen at a later rest
   kRunNotCompleted,   // refused, stopped, failed or timed out
-  kPushRefused,       // the robot refused or could not verify the new set
+  kPushRefused,       // the robot refused or could not verify the new set; apply failed
   kEstimateFailed,
   kInterrupted,       // stop requested (Ctrl-C)
 };
@@ -138,21 +183,35 @@ const char* ToString(StationStatus status);
 
 struct StationRun {
   calibration::RunSpec spec;
-  uint16_t run_id = 0;
+  std::string name;  // run01_umbmark_cw
+  uint16_t run_id = 0;  // index in the round
   calibration::RestWindow start_rest;
   calibration::RestWindow end_rest;
   calibration::RelativePose return_error;
   int moving_frames = 0;
   int moving_found = 0;
+  double max_motion_px = 0.0;  // farthest a corner got from the start rest
+  // The heading change the camera saw (unwrapped, CCW +), when its frames
+  // were close enough in time to unwrap.
+  std::optional<double> turned_rad;
+  std::string log_path;  // the driver's log of the run, if any
 };
 
 struct StationIteration {
   robot_link::ParamSet params_used;  // what the robot ran with
   std::vector<StationRun> runs;
+  // Everything the round measured, as batch estimates it.
+  measure::SessionEstimate session_estimate;
+  // UMBMark's, when the plan has squares (estimate.ok() false otherwise).
   calibration::UmbmarkInput input;
   calibration::UmbmarkSummary estimate;
   std::optional<double> emax_sigma_m;  // standard error of E_max,syst
-  std::optional<robot_link::ParamSet> pushed;
+  TurnSlipResult turn_slip;
+  // The corrected set this round's estimate gives (from params_used).
+  std::optional<robot_link::ParamSet> corrected;
+  // The largest deviation from 1 of a CVRA factor, in its standard errors.
+  std::optional<double> cvra_max_z;
+  std::optional<robot_link::ParamSet> pushed;  // applied by the driver
   bool converged = false;
   std::string note;  // why nothing was pushed
 };
@@ -162,8 +221,15 @@ struct StationResult {
   std::string message;
   std::optional<robot_link::RobotInfo> robot;
   std::optional<robot_link::ParamSet> params_initial;
-  // Read back from the robot at the end (after a restore on failure).
+  // Read back from the robot at the end (after a restore on failure); for a
+  // driver that cannot read, what it was last applied.
   std::optional<robot_link::ParamSet> params_final;
+  // The corrected set the last round gives, when the driver could not apply
+  // it (no apply command): for the user to load.
+  std::optional<robot_link::ParamSet> params_recommended;
+  std::string driver;  // Describe()
+  std::string plan_summary;  // the default plan's sizes, when it was used
+  std::vector<std::string> findings;  // significant effects, with what to do
   bool restored = false;  // an unverified push was undone
   bool robot_stopped = true;  // false: a stop over the link failed
   std::string cleanup;  // what the failure handling did, in words

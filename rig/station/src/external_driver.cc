@@ -1,0 +1,387 @@
+// The command and operator drivers (driver.h): the robot moves by a shell
+// command per run or by a person; parameters reach it through an `apply`
+// command, if any.
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <ostream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "odocal/config/files.h"
+#include "odocal/report/exports.h"
+#include "odocal/station/driver.h"
+
+extern char** environ;
+
+namespace odocal::station {
+namespace {
+
+using robot_link::ParamSet;
+using Clock = std::chrono::steady_clock;
+
+std::string Number(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.10g", v);
+  return buffer;
+}
+// Every bit of a parameter (an applied set must be the one estimated).
+std::string Exact(double v) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.17g", v);
+  return buffer;
+}
+
+const std::set<std::string>& RunKeys() {
+  static const std::set<std::string> keys = {"procedure", "direction", "side_mm",         "distance_mm",
+                                             "turns",     "repeats",   "speed_mm_s",      "turn_rate_deg_s",
+                                             "run",       "run_name",  "log",             "telemetry"};
+  return keys;
+}
+const std::set<std::string>& ApplyKeys() {
+  static const std::set<std::string> keys = {"file",     "ros2",         "left_wheel_diameter_mm",
+                                             "right_wheel_diameter_mm", "track_mm", "ticks_per_rev"};
+  return keys;
+}
+
+std::map<std::string, std::string> RunValues(const RunRequest& run) {
+  const calibration::RunSpec& s = run.spec;
+  return {{"procedure", std::string(calibration::ToString(s.procedure))},
+          {"direction", s.direction == calibration::Direction::kCw ? "cw" : "ccw"},
+          {"side_mm", Number(s.side_m * 1e3)},
+          {"distance_mm", Number(s.distance_m * 1e3)},
+          {"turns", std::to_string(s.turns)},
+          {"repeats", std::to_string(s.repeats)},
+          {"speed_mm_s", Number(s.speed_m_s.value_or(0.0) * 1e3)},
+          {"turn_rate_deg_s", Number(s.turn_rate_rad_s.value_or(0.0) * 180.0 / M_PI)},
+          {"run", std::to_string(run.index)},
+          {"run_name", run.name},
+          {"log", run.log_path},
+          {"telemetry", run.telemetry_path}};
+}
+
+// The last non-empty line of a log, for an error message.
+std::string LastLine(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+// A shell command in its own process group, output to a log file.
+class Child {
+ public:
+  ~Child() { Kill(); }
+
+  bool Spawn(const std::string& command, const std::string& log_path,
+             const std::map<std::string, std::string>& env, std::string* why) {
+    posix_spawn_file_actions_t actions;
+    posix_spawnattr_t attr;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawnattr_init(&attr);
+    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    const std::string log = log_path.empty() ? "/dev/null" : log_path;
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attr, 0);
+    std::vector<std::string> env_text;
+    for (char** e = environ; *e; ++e) {
+      const std::string entry = *e;
+      const std::string key = entry.substr(0, entry.find('='));
+      if (!env.count(key)) env_text.push_back(entry);
+    }
+    for (const auto& [k, v] : env) env_text.push_back(k + "=" + v);
+    std::vector<char*> envp;
+    for (std::string& e : env_text) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    std::string shell = "/bin/sh", dash_c = "-c", text = command;
+    char* argv[] = {shell.data(), dash_c.data(), text.data(), nullptr};
+    const int rc = posix_spawn(&pid_, "/bin/sh", &actions, &attr, argv, envp.data());
+    posix_spawn_file_actions_destroy(&actions);
+    posix_spawnattr_destroy(&attr);
+    if (rc != 0) {
+      pid_ = -1;
+      *why = std::string("cannot start /bin/sh: ") + std::strerror(rc);
+      return false;
+    }
+    return true;
+  }
+
+  // nullopt while it runs; its wait status once it ended.
+  std::optional<int> Poll() {
+    if (pid_ <= 0) return exit_status_;
+    int status = 0;
+    const pid_t r = waitpid(pid_, &status, WNOHANG);
+    if (r == pid_) {
+      pid_ = -1;
+      exit_status_ = status;
+    }
+    return exit_status_;
+  }
+
+  // SIGTERM to the group, SIGKILL after `grace`; true when something was killed.
+  bool Kill(std::chrono::milliseconds grace = std::chrono::milliseconds(2000)) {
+    if (pid_ <= 0 || Poll()) return false;
+    ::kill(-pid_, SIGTERM);
+    const Clock::time_point until = Clock::now() + grace;
+    while (Clock::now() < until) {
+      if (Poll()) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ::kill(-pid_, SIGKILL);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    exit_status_ = status;
+    return true;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  std::optional<int> exit_status_;
+};
+
+std::string DescribeExit(int status) {
+  if (WIFEXITED(status)) return "exited with " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
+  return "ended";
+}
+
+// What command and operator share: the believed set, and apply.
+class ExternalDriver : public RobotDriver {
+ public:
+  explicit ExternalDriver(const ExternalDriverOptions& options) : options_(options) {}
+
+  std::optional<DriverError> Connect(ParamSet* params,
+                                     const std::function<void(const std::string&)>& log) override {
+    *params = options_.params;
+    std::ostringstream os;
+    os << "robot parameters (as configured: this driver cannot read them): " << options_.params;
+    log(os.str());
+    if (options_.apply_command.empty())
+      log("no apply command: the station measures, writes the corrected set and stops");
+    return std::nullopt;
+  }
+
+  bool CanApply() const override { return !options_.apply_command.empty(); }
+
+  std::optional<DriverError> Apply(const ParamSet& target, int round, ParamSet* active) override {
+    const std::string stem = options_.work_dir + "/apply/round" + std::to_string(round);
+    if (auto e = config::EnsureDirectory(options_.work_dir + "/apply"))
+      return DriverError{DriverFault::kApplyFailed, *e};
+    const calibration::WheelParams corrected = robot_link::ToWheelParams(target);
+    const std::string firmware = stem + ".firmware.yaml", ros2 = stem + ".ros2.yaml", log = stem + ".log";
+    for (const auto& [path, text] :
+         {std::pair{firmware, report::FirmwareExportYaml(corrected)},
+          std::pair{ros2, report::Ros2ExportYaml(robot_link::ToWheelParams(options_.params), corrected)}}) {
+      if (auto e = config::WriteFileAtomically(path, text)) return DriverError{DriverFault::kApplyFailed, *e};
+    }
+    std::string why;
+    const auto command = ExpandTemplate(options_.apply_command,
+                                        {{"file", firmware},
+                                         {"ros2", ros2},
+                                         {"left_wheel_diameter_mm", Exact(target.left_wheel_diameter_mm)},
+                                         {"right_wheel_diameter_mm", Exact(target.right_wheel_diameter_mm)},
+                                         {"track_mm", Exact(target.track_mm)},
+                                         {"ticks_per_rev", std::to_string(target.ticks_per_rev)}},
+                                        &why);
+    if (!command) return DriverError{DriverFault::kApplyFailed, "apply: " + why};
+    Child child;
+    if (!child.Spawn(*command, log, options_.environment, &why))
+      return DriverError{DriverFault::kApplyFailed, "apply: " + why};
+    const Clock::time_point until = Clock::now() + options_.apply_timeout;
+    std::optional<int> status;
+    while (!(status = child.Poll())) {
+      if (Clock::now() > until) {
+        child.Kill();
+        return DriverError{DriverFault::kApplyFailed,
+                           "apply: no answer within " + Number(options_.apply_timeout.count() * 1e-3) +
+                               " s, killed (log: " + log + ")"};
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!WIFEXITED(*status) || WEXITSTATUS(*status) != 0) {
+      const std::string last = LastLine(log);
+      return DriverError{DriverFault::kApplyFailed, "apply: the command " + DescribeExit(*status) +
+                                                        (last.empty() ? "" : ": " + last) + " (log: " + log + ")"};
+    }
+    *active = target;
+    return std::nullopt;
+  }
+
+ protected:
+  // Runs the stop command, when there is one; says what happened.
+  std::string RunStopCommand() {
+    if (options_.stop_command.empty()) return "";
+    Child child;
+    std::string why;
+    if (!child.Spawn(options_.stop_command, options_.work_dir + "/stop.log", options_.environment, &why))
+      return "; stop command: " + why;
+    const Clock::time_point until = Clock::now() + std::chrono::seconds(10);
+    while (!child.Poll() && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const std::optional<int> status = child.Poll();
+    if (!status) {
+      child.Kill();
+      return "; the stop command hung and was killed";
+    }
+    return "; stop command " + DescribeExit(*status);
+  }
+
+  ExternalDriverOptions options_;
+};
+
+class CommandDriver final : public ExternalDriver {
+ public:
+  using ExternalDriver::ExternalDriver;
+  std::string Describe() const override { return "command \"" + options_.run_command + "\""; }
+
+  std::optional<DriverError> Start(const RunRequest& run) override {
+    std::string why;
+    const auto command = ExpandTemplate(options_.run_command, RunValues(run), &why);
+    if (!command) return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
+    log_ = run.log_path;
+    if (!log_.empty()) {
+      std::ofstream(log_, std::ios::app) << "$ " << *command << "\n";
+    }
+    child_ = std::make_unique<Child>();
+    if (!child_->Spawn(*command, log_, options_.environment, &why))
+      return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
+    return std::nullopt;
+  }
+
+  std::variant<RunProgress, DriverError> Poll() override {
+    if (!child_) return RunProgress::kDone;
+    const std::optional<int> status = child_->Poll();
+    if (!status) return RunProgress::kRunning;
+    child_.reset();
+    if (WIFEXITED(*status) && WEXITSTATUS(*status) == 0) return RunProgress::kDone;
+    const std::string last = log_.empty() ? "" : LastLine(log_);
+    return DriverError{DriverFault::kRunNotCompleted,
+                       "the command " + DescribeExit(*status) + (last.empty() ? "" : ": " + last) +
+                           (log_.empty() ? "" : " (log: " + log_ + ")")};
+  }
+
+  bool Stop(std::string* what) override {
+    *what = (child_ && child_->Kill() ? "the run's command killed" : "no command running") + RunStopCommand();
+    child_.reset();
+    return true;
+  }
+
+ private:
+  std::unique_ptr<Child> child_;
+  std::string log_;
+};
+
+class OperatorDriver final : public ExternalDriver {
+ public:
+  using ExternalDriver::ExternalDriver;
+  std::string Describe() const override { return "operator at the terminal"; }
+
+  std::optional<DriverError> Start(const RunRequest& run) override {
+    running_ = true;
+    Say("==> run " + std::to_string(run.index) + "/" + std::to_string(run.total) + ": drive " +
+        DescribeForOperator(run.spec) + " now. The camera sees when you start and when you stop.");
+    return std::nullopt;
+  }
+  std::variant<RunProgress, DriverError> Poll() override { return RunProgress::kRunning; }
+  bool EndsByCamera() const override { return true; }
+  bool Stop(std::string* what) override {
+    if (!running_) {
+      *what = "no run in progress" + RunStopCommand();
+      return true;
+    }
+    running_ = false;
+    Say("==> STOP the robot now and leave it where it is.");
+    *what = "the operator was told to stop the robot" + RunStopCommand();
+    return true;
+  }
+
+ private:
+  void Say(const std::string& line) {
+    if (options_.prompt) *options_.prompt << line << std::endl;
+  }
+  bool running_ = false;
+};
+
+}  // namespace
+
+std::string DescribeForOperator(const calibration::RunSpec& s) {
+  const std::string way = s.direction == calibration::Direction::kCw ? "clockwise" : "counter-clockwise";
+  char buffer[200];
+  const std::string rate =
+      s.turn_rate_rad_s ? " at " + Number(std::round(*s.turn_rate_rad_s * 180.0 / M_PI)) + " deg/s" : "";
+  switch (s.procedure) {
+    case calibration::Procedure::kUmbmark:
+      std::snprintf(buffer, sizeof(buffer), "the %s %.0f mm UMBMark square", way.c_str(), s.side_m * 1e3);
+      break;
+    case calibration::Procedure::kStraight:
+      std::snprintf(buffer, sizeof(buffer), "straight %s %.0f mm", s.distance_m < 0 ? "backwards" : "ahead",
+                    std::abs(s.distance_m) * 1e3);
+      break;
+    case calibration::Procedure::kSpin:
+      std::snprintf(buffer, sizeof(buffer), "%d %s turn%s in place%s", s.turns, way.c_str(),
+                    s.turns == 1 ? "" : "s", rate.c_str());
+      break;
+    case calibration::Procedure::kOutAndBack:
+      std::snprintf(buffer, sizeof(buffer), "out %.0f mm and back, turning %s, %d time%s", s.distance_m * 1e3,
+                    way.c_str(), s.repeats, s.repeats == 1 ? "" : "s");
+      break;
+    default: std::snprintf(buffer, sizeof(buffer), "%s", std::string(calibration::ToString(s.procedure)).c_str());
+  }
+  return buffer;
+}
+
+std::optional<std::string> ExpandTemplate(const std::string& text, const std::map<std::string, std::string>& values,
+                                          std::string* why) {
+  std::string out;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '}') {
+      *why = "'}' without '{' at character " + std::to_string(i + 1) + " of \"" + text + "\"";
+      return std::nullopt;
+    }
+    if (text[i] != '{') {
+      out += text[i];
+      continue;
+    }
+    const size_t close = text.find('}', i);
+    if (close == std::string::npos) {
+      *why = "'{' without '}' in \"" + text + "\"";
+      return std::nullopt;
+    }
+    const std::string key = text.substr(i + 1, close - i - 1);
+    const auto it = values.find(key);
+    if (it == values.end()) {
+      *why = "unknown placeholder {" + key + "} in \"" + text + "\"";
+      return std::nullopt;
+    }
+    out += it->second;
+    i = close;
+  }
+  return out;
+}
+
+bool CheckTemplate(const std::string& text, const std::string& kind, std::string* why) {
+  std::map<std::string, std::string> blanks;
+  for (const std::string& k : kind == "apply" ? ApplyKeys() : RunKeys()) blanks[k] = "";
+  return ExpandTemplate(text, blanks, why).has_value();
+}
+
+std::unique_ptr<RobotDriver> MakeCommandDriver(const ExternalDriverOptions& options) {
+  return std::make_unique<CommandDriver>(options);
+}
+std::unique_ptr<RobotDriver> MakeOperatorDriver(const ExternalDriverOptions& options) {
+  return std::make_unique<OperatorDriver>(options);
+}
+
+}  // namespace odocal::station

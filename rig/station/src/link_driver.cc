@@ -1,0 +1,123 @@
+// The link driver (driver.h): odocal's serial protocol.
+#include <sstream>
+
+#include "odocal/station/driver.h"
+
+namespace odocal::station {
+namespace {
+
+using robot_link::ParamSet;
+
+class LinkDriver final : public RobotDriver {
+ public:
+  LinkDriver(robot_link::Transport& transport, const robot_link::ClientOptions& options)
+      : transport_(transport), client_(transport, options) {}
+
+  std::string Describe() const override { return "link on " + transport_.Describe(); }
+
+  std::optional<DriverError> Connect(ParamSet* params,
+                                     const std::function<void(const std::string&)>& log) override {
+    log("connecting to the robot on " + transport_.Describe());
+    const auto hello = client_.Hello();
+    if (!hello) return Lost("handshake: " + hello.message, hello.status);
+    std::ostringstream os;
+    os << *hello.value;
+    log(os.str());
+    const auto read = client_.GetParams();
+    if (!read) return Lost("reading the parameters: " + read.message, read.status);
+    *params = *read.value;
+    // The station polls STATUS and measures with the camera: telemetry
+    // would only fill the line.
+    if (const auto r = client_.SetTelemetryRate(0); !r)
+      return Lost("setting the telemetry rate: " + r.message, r.status);
+    return std::nullopt;
+  }
+
+  std::optional<DriverError> Start(const RunRequest& run) override {
+    const auto started = client_.StartRun(robot_link::RunCommand::FromRunSpec(run.spec));
+    if (!started) {
+      if (started.status == StatusCode::kNack)
+        return DriverError{DriverFault::kRunNotCompleted, "start: " + started.message};
+      return Lost("start: " + started.message, started.status);
+    }
+    run_id_ = *started.value;
+    running_ = true;
+    return std::nullopt;
+  }
+
+  // Asking STATUS ourselves (rather than waiting for the event) tells a
+  // robot that stopped answering from a run that is merely long.
+  std::variant<RunProgress, DriverError> Poll() override {
+    const auto status = client_.GetStatus();
+    if (!status) return *Lost(status.message, status.status);
+    if (status.value->state != robot_link::RunState::kIdle) return RunProgress::kRunning;
+    running_ = false;
+    if (status.value->last_run_id != run_id_)
+      return DriverError{DriverFault::kRobotLink, "the robot is idle and does not know the run (restarted?)"};
+    const robot_link::RunComplete& done = status.value->last_run;
+    if (done.status != robot_link::RunStatus::kCompleted)
+      return DriverError{DriverFault::kRunNotCompleted,
+                         "the robot reports the run " + std::string(robot_link::ToString(done.status))};
+    return RunProgress::kDone;
+  }
+
+  // Stop whatever runs, even when we believe nothing does: a stop is harmless.
+  bool Stop(std::string* what) override {
+    if (!line_ok_) {
+      *what = "the line is gone: the robot could not be stopped or read over the link";
+      return false;
+    }
+    const auto stop = client_.Stop();
+    if (!stop) {
+      *what = "could not stop the robot over the link (" + stop.message + ")";
+      return false;
+    }
+    *what = running_ ? "robot stopped" : "robot idle";
+    running_ = false;
+    return true;
+  }
+
+  bool CanApply() const override { return true; }
+
+  std::optional<DriverError> Apply(const ParamSet& target, int, ParamSet* active) override {
+    const auto push = client_.PushParams(target);
+    if (!push) {
+      if (push.status == StatusCode::kLineCut) line_ok_ = false;
+      const bool refused = push.status == StatusCode::kNack || push.status == StatusCode::kVerifyFailed;
+      return DriverError{refused ? DriverFault::kApplyFailed : DriverFault::kRobotLink, "push: " + push.message};
+    }
+    *active = push.value->active;
+    return std::nullopt;
+  }
+
+  bool CanReadBack() const override { return true; }
+  std::optional<ParamSet> ReadBack() override {
+    if (!line_ok_) return std::nullopt;
+    const auto back = client_.GetParams();
+    if (!back) return std::nullopt;
+    return *back.value;
+  }
+
+  bool Reachable() const override { return line_ok_; }
+
+ private:
+  std::optional<DriverError> Lost(const std::string& message, StatusCode code) {
+    if (code == StatusCode::kLineCut) line_ok_ = false;
+    return DriverError{DriverFault::kRobotLink, message};
+  }
+
+  robot_link::Transport& transport_;
+  robot_link::Client client_;
+  uint16_t run_id_ = 0;
+  bool running_ = false;
+  bool line_ok_ = true;
+};
+
+}  // namespace
+
+std::unique_ptr<RobotDriver> MakeLinkDriver(robot_link::Transport& transport,
+                                            const robot_link::ClientOptions& options) {
+  return std::make_unique<LinkDriver>(transport, options);
+}
+
+}  // namespace odocal::station

@@ -65,7 +65,9 @@ CvraResult ScaleFromStraight(double asked_m, double true_dx_m, double true_dy_m,
                              double true_heading_rad) {
   if (!Finite({asked_m, true_dx_m, true_dy_m, true_heading_rad}))
     return Invalid("a value is not a finite number");
-  if (!(asked_m > 0.0)) return Invalid("asked-mm must be positive");
+  // A run backwards (negative asked) measures the same scale.
+  if (!(std::abs(asked_m) > 0.0)) return Invalid("asked-mm must not be zero");
+  asked_m = std::abs(asked_m);
   const double chord = std::hypot(true_dx_m, true_dy_m);
   if (!(chord > 0.0)) return Invalid("real distance must be positive");
   if (std::abs(true_heading_rad) >= M_PI / 2.0)

@@ -96,7 +96,8 @@ bool RunSpec::IsValid(std::string* why) const {
       if (!positive(side_m)) return fail("side_mm must be a positive number");
       break;
     case Procedure::kStraight:
-      if (!positive(distance_m)) return fail("distance_mm must be a positive number");
+      // Negative: backwards (the station's default plan drives back to where it started).
+      if (!std::isfinite(distance_m) || distance_m == 0.0) return fail("distance_mm must be a non-zero number");
       break;
     case Procedure::kSpin:
       if (turns <= 0) return fail("turns must be a positive integer");

@@ -166,9 +166,7 @@ class ExternalDriver : public RobotDriver {
   std::optional<DriverError> Connect(ParamSet* params,
                                      const std::function<void(const std::string&)>& log) override {
     *params = options_.params;
-    std::ostringstream os;
-    os << "robot parameters (as configured: this driver cannot read them): " << options_.params;
-    log(os.str());
+    log("driver: " + Describe() + "; the robot's parameters as configured (this driver cannot read them)");
     if (options_.apply_command.empty())
       log("no apply command: the station measures, writes the corrected set and stops");
     return std::nullopt;

@@ -3,6 +3,7 @@
 #include "odocal/base/units.h"
 #include "odocal/report/json.h"
 #include "odocal/report/measurement_json.h"
+#include "odocal/report/session_estimate_json.h"
 
 namespace odocal::station {
 
@@ -13,18 +14,47 @@ nlohmann::json ParamSetJson(const robot_link::ParamSet& p) {
           {"ticks_per_rev", p.ticks_per_rev}};
 }
 
+nlohmann::json TurnSlipJson(const TurnSlipResult& t) {
+  nlohmann::json groups = nlohmann::json::array();
+  for (const TurnRateGroup& g : t.groups)
+    groups.push_back({{"turn_rate_deg_s", g.turn_rate_rad_s * 180.0 / M_PI},
+                      {"runs", g.runs},
+                      {"track_factor", g.mean},
+                      {"sigma", g.standard_error ? nlohmann::json(*g.standard_error) : nlohmann::json()}});
+  auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+  return {{"by_rate", groups},
+          {"slip_at_1rad_s", opt(t.slip_per_rad_s)},
+          {"sigma_slip_at_1rad_s", opt(t.slip_sigma)},
+          {"track_factor_at_rest", opt(t.track_factor_at_rest)},
+          {"sigma_track_factor_at_rest", opt(t.track_factor_at_rest_sigma)},
+          {"significant", t.significant},
+          {"advice", t.advice},
+          {"model", "an in-place turn at omega achieves (1 - f omega) of the wheels' rotation; "
+                    "track_factor(omega) = track_factor_at_rest / (1 - f omega)"}};
+}
+
 nlohmann::json StationReportJson(const StationResult& result) {
   nlohmann::json iterations = nlohmann::json::array();
   for (const StationIteration& it : result.iterations) {
     nlohmann::json runs = nlohmann::json::array();
     for (const StationRun& run : it.runs) {
-      nlohmann::json r = {{"procedure", calibration::ToString(run.spec.procedure)},
+      nlohmann::json r = {{"name", run.name},
+                          {"procedure", calibration::ToString(run.spec.procedure)},
                           {"direction", calibration::ToString(run.spec.direction)},
                           {"side_mm", run.spec.side_m * 1e3},
                           {"run_id", run.run_id},
                           {"moving_frames", run.moving_frames},
                           {"moving_frames_tag_found", run.moving_found},
+                          {"max_motion_px", run.max_motion_px},
+                          {"turned_deg", run.turned_rad ? nlohmann::json(*run.turned_rad * 180.0 / M_PI)
+                                                        : nlohmann::json()},
                           {"rest_frames", {{"start", run.start_rest.n}, {"end", run.end_rest.n}}}};
+      if (run.spec.procedure == calibration::Procedure::kStraight ||
+          run.spec.procedure == calibration::Procedure::kOutAndBack)
+        r["distance_mm"] = run.spec.distance_m * 1e3;
+      if (run.spec.procedure == calibration::Procedure::kSpin) r["turns"] = run.spec.turns;
+      if (run.spec.turn_rate_rad_s) r["turn_rate_deg_s"] = *run.spec.turn_rate_rad_s * 180.0 / M_PI;
+      if (!run.log_path.empty()) r["log"] = run.log_path;
       if (run.start_rest.n > 0 && run.end_rest.n > 0) {
         r["return_error"] = report::ReturnErrorJson(run.return_error.pose);
         r["sigma"] = {{"x_mm", run.return_error.sigma_x_m() * 1e3},
@@ -48,6 +78,10 @@ nlohmann::json StationReportJson(const StationResult& result) {
       j["emax_syst_mm"] = nullptr;
       j["estimate"] = nullptr;
     }
+    j["cvra"] = report::CvraJson(it.session_estimate);
+    if (!it.session_estimate.notes.empty()) j["notes"] = it.session_estimate.notes;
+    if (!it.turn_slip.groups.empty()) j["turn_slip"] = TurnSlipJson(it.turn_slip);
+    j["corrected"] = it.corrected ? ParamSetJson(*it.corrected) : nlohmann::json();
     j["pushed"] = it.pushed ? ParamSetJson(*it.pushed) : nlohmann::json();
     j["converged"] = it.converged;
     if (!it.note.empty()) j["note"] = it.note;
@@ -68,6 +102,10 @@ nlohmann::json StationReportJson(const StationResult& result) {
         {"views", result.plane.views_used}}},
       {"camera_scale", result.camera_scale ? report::CameraScaleJson(*result.camera_scale) : nlohmann::json()},
       {"flags", result.flags},
+      {"driver", result.driver},
+      {"findings", result.findings},
+      {"robot_params_recommended",
+       result.params_recommended ? ParamSetJson(*result.params_recommended) : nlohmann::json()},
       {"wall_s", result.wall_s},
   };
   if (!result.ok()) {
@@ -75,6 +113,7 @@ nlohmann::json StationReportJson(const StationResult& result) {
     report["restored"] = result.restored;
   }
   if (result.robot) report["robot_name"] = result.robot->robot_name;
+  if (!result.plan_summary.empty()) report["plan"] = result.plan_summary;
   return report;
 }
 

@@ -275,7 +275,8 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
         }
       }
     } else {
-      turn_known = false;  // a gap: the turn between is unknown
+      // A missed frame: the next sighting's step says whether the turn
+      // between can still be unwrapped.
       still_since.reset();
     }
     std::this_thread::sleep_for(options_.poll_interval);

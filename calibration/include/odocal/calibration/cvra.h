@@ -60,7 +60,8 @@ double WheelGainFactor(double Ed);
 
 // 2. `asked_m` is the odometry distance, `true_dx_m`, `true_dy_m` and
 // `true_heading_rad` the true end pose in the start frame (camera). The arc
-// length is recovered from the chord and the heading change.
+// length is recovered from the chord and the heading change. A negative
+// `asked_m` is a run backwards: the same scale.
 CvraResult ScaleFromStraight(double asked_m, double true_dx_m, double true_dy_m,
                              double true_heading_rad);
 

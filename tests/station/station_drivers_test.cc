@@ -252,7 +252,7 @@ TEST(StationFullPlan, RecoversEdEsAndTheHiddenTurnSlip) {
   // Turn slip from the spins at 30 and 120 deg/s. The model takes the
   // commanded rate; the robot's acceleration ramps make the mean rate of a
   // fast spin lower, biasing f low by up to w^2 / (alpha Theta) relative
-  // (alpha 360 deg/s^2, Theta 2 turns: 5.6 % at 120 deg/s, docs/station.md).
+  // (alpha 360 deg/s^2, Theta 2 turns: 5.6 % at 120 deg/s; docs/calibration.md, "Turn slip").
   const nlohmann::json& slip = first["turn_slip"];
   ASSERT_TRUE(slip["significant"].get<bool>()) << slip.dump(1);
   const double f = truth["turn_slip_at_1rad_s"].get<double>();

@@ -189,7 +189,10 @@ void FirmwareRobot::Feed(std::span<const uint8_t> bytes) {
 
 void FirmwareRobot::Tick(double dt_s) {
   clock_s_ += dt_s;
-  if (ctx_.state != OLF_STATE_RUNNING) return;
+  if (ctx_.state != OLF_STATE_RUNNING) {
+    backend_.Idle(dt_s);
+    return;
+  }
   const StepResult r = backend_.Step(dt_s);
   const olf_telemetry_t t{now_ms(),       r.sample.left_ticks, r.sample.right_ticks,
                           r.sample.x_mm, r.sample.y_mm,       r.sample.heading_rad};

@@ -41,6 +41,7 @@ bool SimMotionBackend::StartRun(const robot_link::RunCommand& command) {
 robot_link::StepResult SimMotionBackend::Step(double dt_s) {
   std::lock_guard<std::mutex> lock(mutex_);
   robot_link::StepResult out;
+  clock_s_ += dt_s;
   if (running_ && !stopped_) {
     pending_s_ += dt_s;
     const double period = robot_.control_period_s();
@@ -91,7 +92,12 @@ calibration::Pose2 SimMotionBackend::TruePose() const {
 
 double SimMotionBackend::RobotTime() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return robot_.time_s();
+  return clock_s_;
+}
+
+void SimMotionBackend::Idle(double dt_s) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  clock_s_ += dt_s;
 }
 
 calibration::WheelParams SimMotionBackend::BelievedParams() const {

@@ -249,6 +249,7 @@ void RunStation(const StationArgs& args) {
       setup.driver = driver.get();
     }
     setup.camera = camera.get();
+    setup.camera_on_robot_clock = true;  // the virtual camera renders robot time
     setup.intrinsics = s->camera->intrinsics;
     // The operator's guess is where the camera was hung; the station
     // refines its tilt and height from the views.

@@ -11,7 +11,13 @@ using robot_link::ParamSet;
 class LinkDriver final : public RobotDriver {
  public:
   LinkDriver(robot_link::Transport& transport, const robot_link::ClientOptions& options)
-      : transport_(transport), client_(transport, options) {}
+      : transport_(transport), client_(transport, options) {
+    client_.SetTelemetryCallback([this](const robot_link::TelemetrySample& t) {
+      if (!running_ || t.run_id != run_id_) return;
+      telemetry_.push_back({t.t_ms * 1e-3, std::chrono::steady_clock::now(), t.left_ticks, t.right_ticks,
+                            calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.heading_rad)});
+    });
+  }
 
   std::string Describe() const override { return "link on " + transport_.Describe(); }
 
@@ -34,6 +40,10 @@ class LinkDriver final : public RobotDriver {
   }
 
   std::optional<DriverError> Start(const RunRequest& run) override {
+    // Telemetry while the run lasts: the ticks for the station's explain.
+    telemetry_.clear();
+    if (const auto r = client_.SetTelemetryRate(kTelemetryHz); !r)
+      return Lost("setting the telemetry rate: " + r.message, r.status);
     const auto started = client_.StartRun(robot_link::RunCommand::FromRunSpec(run.spec));
     if (!started) {
       if (started.status == StatusCode::kNack)
@@ -52,6 +62,7 @@ class LinkDriver final : public RobotDriver {
     if (!status) return *Lost(status.message, status.status);
     if (status.value->state != robot_link::RunState::kIdle) return RunProgress::kRunning;
     running_ = false;
+    if (const auto r = client_.SetTelemetryRate(0); !r) return *Lost("setting the telemetry rate: " + r.message, r.status);
     if (status.value->last_run_id != run_id_)
       return DriverError{DriverFault::kRobotLink, "the robot is idle and does not know the run (restarted?)"};
     const robot_link::RunComplete& done = status.value->last_run;
@@ -99,6 +110,7 @@ class LinkDriver final : public RobotDriver {
   }
 
   bool Reachable() const override { return line_ok_; }
+  std::vector<DriverTelemetry> TakeTelemetry() override { return std::move(telemetry_); }
 
  private:
   std::optional<DriverError> Lost(const std::string& message, StatusCode code) {
@@ -106,7 +118,9 @@ class LinkDriver final : public RobotDriver {
     return DriverError{DriverFault::kRobotLink, message};
   }
 
+  static constexpr uint16_t kTelemetryHz = 50;
   robot_link::Transport& transport_;
+  std::vector<DriverTelemetry> telemetry_;
   robot_link::Client client_;
   uint16_t run_id_ = 0;
   bool running_ = false;

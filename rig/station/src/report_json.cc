@@ -1,6 +1,7 @@
 #include "odocal/station/report_json.h"
 
 #include "odocal/base/units.h"
+#include "odocal/report/explain_report.h"
 #include "odocal/report/json.h"
 #include "odocal/report/measurement_json.h"
 #include "odocal/report/session_estimate_json.h"
@@ -114,6 +115,10 @@ nlohmann::json StationReportJson(const StationResult& result) {
   }
   if (result.robot) report["robot_name"] = result.robot->robot_name;
   if (!result.plan_summary.empty()) report["plan"] = result.plan_summary;
+  if (result.explain && result.recorded && result.explain->ok())
+    report["explain"] = report::ExplainJson(*result.recorded, *result.explain);
+  else if (result.explain)
+    report["explain"] = {{"error", result.explain->message}};
   return report;
 }
 

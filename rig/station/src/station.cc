@@ -112,6 +112,16 @@ class Station {
   RobotDriver* driver_ = nullptr;
   std::vector<calibration::RunSpec> plan_;
   int round_ = 0;
+  // The first round's frames and telemetry, for explain.
+  struct Recording {
+    std::vector<vision::FrameObservation> frames;  // corners and times (crops dropped)
+    std::vector<DriverTelemetry> telemetry;
+    std::vector<std::pair<Clock::time_point, double>> clock;  // (steady, camera t_s) at grabs
+  };
+  std::vector<Recording> recording_;
+  std::optional<calibration::MeasuredSession> recorded_;
+  void BuildRecordedSession(const StationIteration& iteration,
+                            const std::vector<std::pair<RestFrames, RestFrames>>& rests);
   std::unique_ptr<vision::TagObserver> observer_;
   std::vector<vision::TagCorners> view_candidates_;
   std::optional<vision::CameraModel> guess_camera_;
@@ -207,6 +217,8 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   const vision::TagCorners start_corners = *rest->found.back().corners_px;
   if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), what + ": " + e->message};
   run_in_progress_ = true;
+  Recording* recording = nullptr;
+  if (round_ == 1) recording = &recording_.emplace_back();
   Log(what + ": started (" + driver_->Describe() + ")");
   const Clock::time_point t0 = Clock::now();
   std::string error;
@@ -247,7 +259,14 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     // watches the motion.
     const auto frame = setup_.camera->Grab(&error);
     if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
+    if (recording) recording->clock.emplace_back(Clock::now(), frame->t_s);
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
+    if (recording && obs.corners_px) {
+      vision::FrameObservation kept;
+      kept.t_s = obs.t_s;
+      kept.corners_px = obs.corners_px;
+      recording->frames.push_back(std::move(kept));
+    }
     ++run->moving_frames;
     lost_streak = obs.corners_px ? 0 : lost_streak + 1;
     out_of_view = out_of_view || (lost_streak >= 3 && frame->t_s - last_found_t >= 0.5);
@@ -282,10 +301,11 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     std::this_thread::sleep_for(options_.poll_interval);
   }
   run_in_progress_ = false;
+  if (recording) recording->telemetry = driver_->TakeTelemetry();
   // No motion: the tag seen, in place, in every frame while the run lasted.
-  // (A tag out of view for a while is taken as motion: a square larger
-  // than the view leaves it.)
-  if (!moved && !out_of_view) {
+  // (A tag lost in a frame may have moved: a square larger than the view
+  // leaves it.)
+  if (!moved && run->moving_found == run->moving_frames) {
     return Failure{StationStatus::kRunNotCompleted,
                    what + Format(": %s, but the camera saw the tag move at most %.1f px (tag in %d of %d frames "
                                  "while it ran): the robot did not move",
@@ -302,6 +322,10 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
                           setup_.tag.id, end_rest.found.size(), end_rest.grabbed, what.c_str())};
   }
   // The heading change, closed on the end rest.
+  // Unwrapping needs a sighting every 60 deg of the plan's turning on
+  // average (a whole square between two frames wraps to nothing).
+  const int sightings_needed = static_cast<int>(std::ceil(std::abs(PlannedTurn(spec)) / (M_PI / 3.0))) + 2;
+  if (run->moving_found < sightings_needed) turn_known = false;
   if (turn_known && last_heading) {
     if (const auto h = HeadingOf(*end_rest.found.back().corners_px)) {
       const double step = calibration::WrapAngle(*h - *last_heading);
@@ -380,6 +404,7 @@ std::optional<Station::Failure> Station::MeasureRound(
     m.measured.return_error = r;
     session.runs.push_back(std::move(m));
   }
+  if (round_ == 1 && options_.explain) BuildRecordedSession(*iteration, rests);
   iteration->session_estimate = measure::EstimateSession({session});
   const measure::SessionEstimate& e = iteration->session_estimate;
   if (!e.any()) {
@@ -455,6 +480,83 @@ void Station::EstimateScale(vision::CameraMount* mount) {
       Log(Format("camera height %.1f mm from the floor reference (sigma %.2f mm); the plane said %.1f mm",
                  mount->height_mm, camera_scale_->sigma_camera_height_mm, plane_.mount.height_mm));
   }
+}
+
+// The first round as a measured session for explain: each frame's pose on
+// the camera's final model, the telemetry put on the camera's clock. The
+// clocks: the camera's time against the host's at each grab, fitted by a
+// line (a real camera: slope 1; the virtual one: the time scale); a sample
+// then arrived at a + b * received, at least the link's latency after the
+// robot stamped it, so robot time + min(a + b * received - robot time) is
+// the camera time of the least delayed sample and of every other. (The
+// virtual camera's clock is the robot's: no mapping, camera_on_robot_clock.)
+void Station::BuildRecordedSession(const StationIteration& iteration,
+                                   const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
+  // A line through (steady s, camera s), for each run on its own grabs: the
+  // virtual camera's clock (robot time) runs at the time scale only on
+  // average.
+  const Clock::time_point origin = Clock::now();
+  auto fit = [&](const std::vector<std::pair<Clock::time_point, double>>& clock) -> std::optional<std::pair<double, double>> {
+    if (clock.size() < 2) return std::nullopt;
+    double mx = 0.0, my = 0.0;
+    for (const auto& [steady, t] : clock) mx += Seconds(steady - origin), my += t;
+    mx /= clock.size(), my /= clock.size();
+    double sxx = 0.0, sxy = 0.0;
+    for (const auto& [steady, t] : clock) {
+      const double x = Seconds(steady - origin) - mx;
+      sxx += x * x, sxy += x * (t - my);
+    }
+    if (!(sxx > 0.0)) return std::nullopt;
+    return std::pair{my - sxy / sxx * mx, sxy / sxx};
+  };
+  calibration::MeasuredSession session;
+  session.believed = ToWheelParams(current_);
+  session.camera_scale_sigma = camera_scale_ ? camera_scale_->relative_sigma : 0.0;
+  std::vector<const calibration::MeasuredRun*> runs;
+  for (size_t i = 0; i < iteration.runs.size() && i < recording_.size(); ++i) {
+    const StationRun& run = iteration.runs[i];
+    calibration::MeasuredRun m;
+    m.name = run.name;
+    m.spec = run.spec;
+    m.start_rest = run.start_rest;
+    m.end_rest = run.end_rest;
+    m.return_error = run.return_error;
+    auto add_frame = [&](const vision::FrameObservation& f) {
+      calibration::CameraRecord c;
+      c.t_s = f.t_s;
+      if (f.corners_px) {
+        const vision::PlanarPoseResult pose = vision::MeasureTagPose(*camera_, setup_.tag, *f.corners_px);
+        c.valid = pose.ok;
+        c.T_world_robot = pose.T_world_robot;
+      }
+      m.camera.push_back(c);
+    };
+    for (const auto& f : rests[i].first.found) add_frame(f);
+    for (const auto& f : recording_[i].frames) add_frame(f);
+    for (const auto& f : rests[i].second.found) add_frame(f);
+    const std::vector<DriverTelemetry>& tel = recording_[i].telemetry;
+    const auto line = setup_.camera_on_robot_clock ? std::optional<std::pair<double, double>>() : fit(recording_[i].clock);
+    if (tel.size() >= 2 && setup_.camera_on_robot_clock) {
+      for (const DriverTelemetry& t : tel) m.telemetry.push_back({t.robot_t_s, t.left_ticks, t.right_ticks, t.odometry});
+    } else if (tel.size() >= 2 && line) {
+      const auto [a, b] = *line;
+      double offset = std::numeric_limits<double>::infinity();
+      for (const DriverTelemetry& t : tel) offset = std::min(offset, a + b * Seconds(t.received - origin) - t.robot_t_s);
+      for (const DriverTelemetry& t : tel)
+        m.telemetry.push_back({t.robot_t_s + offset, t.left_ticks, t.right_ticks, t.odometry});
+    }
+    session.runs.push_back(std::move(m));
+  }
+  for (const calibration::MeasuredRun& m : session.runs) runs.push_back(&m);
+  // Each frame's noise: the rests' scatter, pooled (as batch states it).
+  const calibration::RestScatter scatter = calibration::PooledRestScatter(runs);
+  for (calibration::MeasuredRun& m : session.runs)
+    for (calibration::CameraRecord& c : m.camera) {
+      c.sigma_position_m = scatter.dof > 0 ? scatter.sigma_position_m : 1e-4;
+      c.sigma_heading_rad = scatter.dof > 0 ? scatter.sigma_heading_rad : 1e-3;
+    }
+  recorded_ = std::move(session);
+  recording_.clear();
 }
 
 void Station::Cleanup(StationResult* result) {
@@ -674,6 +776,29 @@ StationResult Station::Run() {
   // What the last round found, for the user.
   for (const StationIteration& it : result.iterations)
     if (!it.turn_slip.advice.empty()) result.findings = {it.turn_slip.advice};
+  // Explain on the first round as recorded (the robot as it came), when
+  // the driver gave its ticks.
+  int with_telemetry = 0;
+  if (recorded_)
+    for (const calibration::MeasuredRun& m : recorded_->runs) with_telemetry += m.telemetry.size() >= 2 ? 1 : 0;
+  if (with_telemetry > 0) {
+    Log(Format("explain: the first round's %d runs with telemetry", with_telemetry));
+    calibration::ExplainResult explain = calibration::Explain(*recorded_);
+    std::istringstream brief(explain.BriefReport());
+    for (std::string line; std::getline(brief, line);) Log("explain: " + line);
+    if (explain.ok()) {
+      for (const calibration::ExplainStep& step : explain.steps) {
+        std::string text = "explain: " + std::string(calibration::ToString(step.effect)) + " explains the camera's gap";
+        for (const calibration::ParameterEstimate& p : step.params)
+          text += Format(" (%s %.5g ± %.2g)", p.name.c_str(), p.value, p.sigma);
+        result.findings.push_back(text);
+      }
+    }
+    result.explain = std::move(explain);
+  } else if (options_.explain) {
+    Log("explain: no telemetry from the driver; only the camera's estimators ran");
+  }
+  result.recorded = std::move(recorded_);
   if (driver_->CanReadBack()) {
     const auto back = driver_->ReadBack();
     if (!back) return finish(Failure{StationStatus::kRobotLink, "reading the final parameters failed"});

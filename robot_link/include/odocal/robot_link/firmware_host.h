@@ -63,6 +63,9 @@ class MotionBackend {
   virtual StepResult Step(double dt_s) = 0;
   // Immediate stop: the next Step reports finished with kStopped.
   virtual void Stop() = 0;
+  // The robot clock advanced by dt_s with no run (Step is called only while
+  // one runs): a backend that keeps the robot's clock counts it.
+  virtual void Idle(double /*dt_s*/) {}
   // The active parameter set changed (boot, commit, set, rollback): the
   // odometry must use these from now on.
   virtual void SetParams(const ParamSet& params) = 0;

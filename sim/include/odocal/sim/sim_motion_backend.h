@@ -22,9 +22,12 @@ class SimMotionBackend final : public robot_link::MotionBackend {
   robot_link::StepResult Step(double dt_s) override;
   void Stop() override;
   void SetParams(const robot_link::ParamSet& params) override;
+  void Idle(double dt_s) override;
 
   // Thread-safe views for the virtual camera and tests (truth).
   calibration::Pose2 TruePose() const;
+  // The robot's clock: every dt the host stepped or idled by, the clock its
+  // telemetry is stamped with (the virtual camera stamps frames with it).
   double RobotTime() const;
   calibration::WheelParams BelievedParams() const;
 
@@ -34,6 +37,7 @@ class SimMotionBackend final : public robot_link::MotionBackend {
   bool running_ = false;
   bool stopped_ = false;
   double pending_s_ = 0.0;
+  double clock_s_ = 0.0;
   std::int64_t start_left_ = 0;
   std::int64_t start_right_ = 0;
 };

@@ -38,6 +38,7 @@
 #include <variant>
 #include <vector>
 
+#include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/params.h"
@@ -71,6 +72,16 @@ std::string DescribeForOperator(const calibration::RunSpec& spec);
 
 enum class RunProgress { kRunning, kDone };
 
+// One telemetry sample of the last run as the driver received it: the
+// robot's clock, and when it arrived (for the station to put it on the
+// camera's clock).
+struct DriverTelemetry {
+  double robot_t_s = 0.0;
+  std::chrono::steady_clock::time_point received;
+  int64_t left_ticks = 0, right_ticks = 0;
+  calibration::Pose2 odometry;  // the robot's belief, in the run's start frame
+};
+
 class RobotDriver {
  public:
   virtual ~RobotDriver() = default;
@@ -99,6 +110,9 @@ class RobotDriver {
   virtual std::optional<robot_link::ParamSet> ReadBack() { return std::nullopt; }
   // False once the driver can no longer reach the robot at all.
   virtual bool Reachable() const { return true; }
+  // The last run's telemetry (moved out), where the driver has any: the
+  // link's, at 50 Hz while a run lasts.
+  virtual std::vector<DriverTelemetry> TakeTelemetry() { return {}; }
 };
 
 // ---- link -------------------------------------------------------------------

@@ -52,6 +52,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/calibration/explain.h"
+#include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/umbmark.h"
@@ -126,6 +128,8 @@ struct StationOptions {
   double heading_check_rad = 60.0 * M_PI / 180.0;
   // Turn slip is reported when the slow and fast spins differ by this many sigmas.
   double turn_slip_sigmas = 3.0;
+  // Run explain on the first round when it has telemetry.
+  bool explain = true;
   // The camera's length scale (measure::EstimateCameraScale, as batch): the
   // print tolerance assumed for the robot tag, the apparent size's floor, the
   // quality gate of the floor tags; and with a floor reference, how many full
@@ -162,6 +166,11 @@ struct StationSetup {
   // sized to the camera's view from where the robot stands (plan.h).
   std::vector<calibration::RunSpec> plan;
   std::optional<DefaultPlanOptions> default_plan;
+  // The camera stamps its frames with the robot's clock (the virtual
+  // camera renders robot time): telemetry needs no mapping for explain.
+  // Otherwise it is put on the camera's clock by the times the frames and
+  // the samples arrived at the host.
+  bool camera_on_robot_clock = false;
   // Set (e.g. from a signal handler) to stop cleanly; may be null.
   const std::atomic<bool>* stop_requested = nullptr;
   // One line of progress at a time (the CLI prints them on stderr).
@@ -230,6 +239,11 @@ struct StationResult {
   std::string driver;  // Describe()
   std::string plan_summary;  // the default plan's sizes, when it was used
   std::vector<std::string> findings;  // significant effects, with what to do
+  // The first round as recorded (the robot as it came): camera poses of
+  // every frame seen, telemetry on the camera's clock where the driver has
+  // it (link); and what explain (calibration/explain.h) found in it.
+  std::optional<calibration::MeasuredSession> recorded;
+  std::optional<calibration::ExplainResult> explain;
   bool restored = false;  // an unverified push was undone
   bool robot_stopped = true;  // false: a stop over the link failed
   std::string cleanup;  // what the failure handling did, in words

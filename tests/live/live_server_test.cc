@@ -69,6 +69,7 @@ TEST(LiveServer, ThePageIsSelfContainedAndLaidOutForAPhone) {
 
 TEST(LiveServer, StateJsonIsTheStates) {
   LiveState state;
+  state.SetSource("caf\xe9.mp4");  // Latin-1, not UTF-8: replaced, not a failed request
   state.SetProgress(2, 6, "UMBMark ccw", "round 1");
   state.SetEstimate("Ed", 1.001, 0.0002, "");
   auto server = StartOrDie(state);
@@ -80,7 +81,8 @@ TEST(LiveServer, StateJsonIsTheStates) {
   EXPECT_THAT(res->get_header_value("Content-Type"), HasSubstr("application/json"));
   EXPECT_EQ(res->get_header_value("Cache-Control"), "no-store");
   const nlohmann::json j = nlohmann::json::parse(res->body);
-  EXPECT_EQ(j, state.StateJson());
+  EXPECT_EQ(j["source"], "caf\xef\xbf\xbd.mp4");  // U+FFFD
+  EXPECT_EQ(j["frame"], state.StateJson()["frame"]);
   EXPECT_EQ(j["progress"]["run_index"], 2);
   EXPECT_EQ(j["estimates"][0]["name"], "Ed");
 }

@@ -284,10 +284,11 @@ TEST(LiveState, FrameJpegIsScaledForThePageWithTheOutlineDrawn) {
   };
   for (int i = 0; i < 4; ++i) {
     const cv::Point2d m = 0.5 * (d.corners[i] + d.corners[(i + 1) % 4]);
+    const cv::Point shown(static_cast<int>(std::lround((m.x + 0.5) / 2 - 0.5)),
+                          static_cast<int>(std::lround((m.y + 0.5) / 2 - 0.5)));
     bool near = false;
     for (int dy = -2; dy <= 2; ++dy)
-      for (int dx = -2; dx <= 2; ++dx) near = near || magenta(cv::Point(static_cast<int>(std::lround((m.x + 0.5) / 2 - 0.5)) + dx,
-                                                                        static_cast<int>(std::lround((m.y + 0.5) / 2 - 0.5)) + dy));
+      for (int dx = -2; dx <= 2; ++dx) near = near || magenta(shown + cv::Point(dx, dy));
     EXPECT_TRUE(near) << "side " << i;
   }
   EXPECT_FALSE(magenta({100, 100}));

@@ -76,7 +76,9 @@ void LiveServer::Impl::Routes() {
     res.set_content(LivePageHtml(), "text/html; charset=utf-8");
   });
   server.Get("/state.json", [this](const httplib::Request&, httplib::Response& res) {
-    res.set_content(state.StateJson().dump(), "application/json");
+    // Labels come from file names and producers: never let a stray byte throw.
+    res.set_content(state.StateJson().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+                    "application/json");
   });
   server.Get("/frame.jpg", [this](const httplib::Request&, httplib::Response& res) {
     const std::optional<LiveJpeg> jpeg = state.FrameJpeg();
@@ -105,7 +107,8 @@ void LiveServer::Impl::ServeStream(httplib::Response& res) {
     Clock::time_point next_due = Clock::now();
   };
   auto cursor = std::make_shared<Cursor>();
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.stream_max_fps));
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.stream_max_fps));
   res.set_chunked_content_provider(
       std::string("multipart/x-mixed-replace; boundary=") + kBoundary,
       [this, cursor, period](size_t, httplib::DataSink& sink) {

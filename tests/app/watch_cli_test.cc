@@ -145,7 +145,9 @@ std::optional<int> BodyInt(const std::string& dom, const std::string& name) {
 
 // The page's colours (live_page.cc, live_state.h), with room for JPEG and anti-aliasing.
 bool IsOutline(const cv::Vec3b& bgr) { return bgr[2] > 170 && bgr[0] > 170 && bgr[1] < 110; }     // magenta
-bool IsTrajectory(const cv::Vec3b& bgr) { return bgr[0] > 200 && bgr[2] < 80 && bgr[1] > 60 && bgr[1] < 150; }  // #0066ff
+bool IsTrajectory(const cv::Vec3b& bgr) {  // #0066ff
+  return bgr[0] > 200 && bgr[2] < 80 && bgr[1] > 60 && bgr[1] < 150;
+}
 bool IsWarning(const cv::Vec3b& bgr) { return bgr[2] > 170 && bgr[1] < 80 && bgr[0] < 80; }       // #c62828
 
 struct Found {
@@ -181,11 +183,12 @@ class WatchCli : public ::testing::Test {
   }
   void Render() {
     std::ofstream(dir_ + "/scenario.yaml") << kScenario;
-    const CommandResult sim = RunCommand(Odocal("simulate --scenario " + dir_ + "/scenario.yaml --out " + dir_ + "/sim"));
+    const CommandResult sim =
+        RunCommand(Odocal("simulate --scenario " + dir_ + "/scenario.yaml --out " + dir_ + "/sim"));
     ASSERT_EQ(sim.exit_code, 0) << sim.err;
   }
   CommandResult Chromium(const std::string& args, const std::string& url) {
-    return RunCommand("chromium --headless=new --no-sandbox --disable-gpu --hide-scrollbars --user-data-dir=" + dir_ +
+    return RunCommand("chromium --headless=new --no-sandbox --disable-gpu --disable-dev-shm-usage --hide-scrollbars --user-data-dir=" + dir_ +
                       "/chromium --virtual-time-budget=4000 " + args + " " + url);
   }
   std::string dir_, video_, calibration_;

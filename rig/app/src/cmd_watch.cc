@@ -1,6 +1,6 @@
 // odocal watch CAMERA --calibration camera.yaml --tag FAMILY:ID:SIZE_MM[:HEIGHT_MM]
 //     [--mount-guess x,y,height,roll,pitch,yaw] [--bind 127.0.0.1] [--port 8080]
-//     [--seconds S] [--realtime] [--hold-s S]
+//     [--seconds S] [--realtime] [--delay-s S] [--hold-s S]
 //
 // The live view (issue 13 §4, rig/live) on a camera or a video file without a
 // robot: every frame's tag found and tracked (vision::TagObserver), its pose
@@ -58,6 +58,7 @@ struct WatchArgs {
   int port = 8080;
   double seconds = 0.0;
   bool realtime = false;
+  double delay_s = 0.0;
   double hold_s = 0.0;
 };
 
@@ -156,6 +157,7 @@ void RunWatch(const WatchArgs& args) {
   if (!server_options.IsValid(&why)) Fail(kName, kExitBadInput, "--bind " + args.bind + ": " + why);
   if (args.seconds < 0.0) Fail(kName, kExitBadInput, "--seconds must be >= 0 (0: until the source ends)");
   if (args.hold_s < 0.0) Fail(kName, kExitBadInput, "--hold-s must be >= 0");
+  if (args.delay_s < 0.0) Fail(kName, kExitBadInput, "--delay-s must be >= 0");
   const auto file = config::ReadCameraFile(args.calibration);
   if (!file) Fail(kName, kExitBadInput, "--calibration: " + file.message);
   const vision::Intrinsics& intrinsics = file->intrinsics;
@@ -179,6 +181,10 @@ void RunWatch(const WatchArgs& args) {
   g_stop = false;
   std::signal(SIGINT, OnWatchSignal);
   std::signal(SIGTERM, OnWatchSignal);
+
+  // Time to open the page before a video starts.
+  const Clock::time_point delay_from = Clock::now();
+  while (!g_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 
   std::optional<vision::CameraModel> camera;
   vision::CameraMount mount;
@@ -306,6 +312,9 @@ void RegisterWatchCommand(CLI::App& app) {
   cmd->add_option("--seconds", args->seconds, "Stop after this much of the camera or video (0: until it ends)")
       ->default_val(0.0);
   cmd->add_flag("--realtime", args->realtime, "Play a video file at its frame rate (default: as fast as possible)");
+  cmd->add_option("--delay-s", args->delay_s,
+                  "Wait this long after printing the URL before reading the source (to open the page first)")
+      ->default_val(0.0);
   cmd->add_option("--hold-s", args->hold_s, "Keep serving the page this long after the video ends")
       ->default_val(0.0);
   cmd->callback([args]() { RunWatch(*args); });

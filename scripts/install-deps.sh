@@ -8,6 +8,8 @@ packages=(
   libeigen3-dev libceres-dev
   libopencv-dev libapriltag-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libboost-dev
+  libcpp-httplib-dev  # the live view's HTTP server (rig/live)
+  chromium  # headless, for the live view's screenshot test (tests/live)
   ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
 )
 missing=()

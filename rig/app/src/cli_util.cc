@@ -7,6 +7,8 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <sstream>
+#include <stdexcept>
 
 #include <unistd.h>
 
@@ -35,6 +37,51 @@ std::optional<std::vector<double>> ParseNumberList(const std::string& text) {
     start = comma + 1;
   }
   return values;
+}
+
+vision::TagSpec ParseTagOption(const std::string& command, const std::string& option, const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string p; std::getline(in, p, ':');) parts.push_back(p);
+  auto fail = [&](const std::string& why) {
+    Fail(command, kExitBadInput,
+         option + " " + text + ": " + why + " (expected FAMILY:ID:SIZE_MM[:HEIGHT_MM], e.g. tag36h11:5:80:150)");
+  };
+  if (parts.size() < 3 || parts.size() > 4) fail("wrong number of fields");
+  vision::TagSpec tag;
+  tag.family = parts[0];
+  try {
+    size_t used = 0;
+    tag.id = std::stoi(parts[1], &used);
+    if (used != parts[1].size() || tag.id < 0) fail("ID must be a whole number >= 0");
+    tag.size_mm = std::stod(parts[2], &used);
+    if (used != parts[2].size() || !(tag.size_mm > 0.0)) fail("SIZE_MM must be a positive number");
+    if (parts.size() == 4) {
+      tag.height_mm = std::stod(parts[3], &used);
+      if (used != parts[3].size() || tag.height_mm < 0.0) fail("HEIGHT_MM must be a number >= 0");
+    }
+  } catch (const std::exception&) {
+    fail("not a number");
+  }
+  return tag;
+}
+
+vision::CameraMount ParseMountOption(const std::string& command, const std::string& option,
+                                     const std::string& text) {
+  std::vector<double> v;
+  std::stringstream in(text);
+  for (std::string p; std::getline(in, p, ',');) {
+    try {
+      size_t used = 0;
+      v.push_back(std::stod(p, &used));
+      if (used != p.size()) throw std::invalid_argument(p);
+    } catch (const std::exception&) {
+      Fail(command, kExitBadInput, option + " " + text + ": '" + p + "' is not a number");
+    }
+  }
+  if (v.size() != 6)
+    Fail(command, kExitBadInput, option + " " + text + ": expected x,y,height,roll,pitch,yaw (mm, deg)");
+  return {v[0], v[1], v[2], v[3], v[4], v[5]};
 }
 
 std::function<void(long, long)> TerminalProgressBar(const std::string& label) {

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "odocal/report/exports.h"
+#include "odocal/vision/camera_model.h"
+#include "odocal/vision/tag.h"
 
 namespace CLI {
 class App;
@@ -26,6 +28,15 @@ inline constexpr int kExitBadInput = 2;
 
 // "1.5,-2,0.25" -> {1.5, -2, 0.25}; nullopt unless every field is a finite number.
 std::optional<std::vector<double>> ParseNumberList(const std::string& text);
+
+// `--OPTION FAMILY:ID:SIZE_MM[:HEIGHT_MM]` (e.g. tag36h11:5:80:150): the robot's tag;
+// fails `command` with exit 2 naming the option and the field otherwise.
+vision::TagSpec ParseTagOption(const std::string& command, const std::string& option, const std::string& text);
+
+// `--OPTION x,y,height,roll,pitch,yaw` (mm, deg; as session.yaml's camera_mount_guess):
+// where the camera hangs; fails `command` with exit 2 otherwise.
+vision::CameraMount ParseMountOption(const std::string& command, const std::string& option,
+                                     const std::string& text);
 
 // A progress bar on stderr when it is a terminal, nothing otherwise.
 std::function<void(long, long)> TerminalProgressBar(const std::string& label);

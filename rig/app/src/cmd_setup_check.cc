@@ -13,7 +13,6 @@
 #include <filesystem>
 #include <cstdio>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -47,50 +46,6 @@ struct SetupCheckArgs {
 };
 
 constexpr const char* kName = "setup-check";
-
-// FAMILY:ID:SIZE_MM[:HEIGHT_MM]
-vision::TagSpec ParseTag(const std::string& text) {
-  std::vector<std::string> parts;
-  std::stringstream in(text);
-  for (std::string p; std::getline(in, p, ':');) parts.push_back(p);
-  auto fail = [&](const std::string& why) {
-    Fail(kName, kExitBadInput, "--tag " + text + ": " + why + " (expected FAMILY:ID:SIZE_MM[:HEIGHT_MM], e.g. tag36h11:5:80:150)");
-  };
-  if (parts.size() < 3 || parts.size() > 4) fail("wrong number of fields");
-  vision::TagSpec tag;
-  tag.family = parts[0];
-  try {
-    size_t used = 0;
-    tag.id = std::stoi(parts[1], &used);
-    if (used != parts[1].size() || tag.id < 0) fail("ID must be a whole number >= 0");
-    tag.size_mm = std::stod(parts[2], &used);
-    if (used != parts[2].size() || !(tag.size_mm > 0.0)) fail("SIZE_MM must be a positive number");
-    if (parts.size() == 4) {
-      tag.height_mm = std::stod(parts[3], &used);
-      if (used != parts[3].size() || tag.height_mm < 0.0) fail("HEIGHT_MM must be a number >= 0");
-    }
-  } catch (const std::exception&) {
-    fail("not a number");
-  }
-  return tag;
-}
-
-// x,y,height,roll,pitch,yaw (mm, degrees), as session.yaml's camera_mount_guess.
-vision::CameraMount ParseMount(const std::string& text) {
-  std::vector<double> v;
-  std::stringstream in(text);
-  for (std::string p; std::getline(in, p, ',');) {
-    try {
-      size_t used = 0;
-      v.push_back(std::stod(p, &used));
-      if (used != p.size()) throw std::invalid_argument(p);
-    } catch (const std::exception&) {
-      Fail(kName, kExitBadInput, "--mount-guess " + text + ": '" + p + "' is not a number");
-    }
-  }
-  if (v.size() != 6) Fail(kName, kExitBadInput, "--mount-guess " + text + ": expected x,y,height,roll,pitch,yaw (mm, deg)");
-  return {v[0], v[1], v[2], v[3], v[4], v[5]};
-}
 
 // A video file: its frames with their own times (index / fps, or the
 // timestamps file beside it); a device: live frames for `seconds`.
@@ -222,8 +177,8 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
 
 void RunSetupCheck(const SetupCheckArgs& args) {
   measure::SetupCheckOptions o;
-  o.tag = ParseTag(args.tag);
-  if (!args.mount.empty()) o.mount_guess = ParseMount(args.mount);
+  o.tag = ParseTagOption(kName, "--tag", args.tag);
+  if (!args.mount.empty()) o.mount_guess = ParseMountOption(kName, "--mount-guess", args.mount);
   const auto file = config::ReadCameraFile(args.calibration);
   if (!file) Fail(kName, kExitBadInput, file.message);
   o.intrinsics = file->intrinsics;

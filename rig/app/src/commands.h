@@ -23,6 +23,7 @@ void RegisterStationCommand(CLI::App& app);
 void RegisterImportCommand(CLI::App& app);
 void RegisterCheckCommand(CLI::App& app);
 void RegisterSetupCheckCommand(CLI::App& app);
+void RegisterWatchCommand(CLI::App& app);
 
 }  // namespace odocal::app
 

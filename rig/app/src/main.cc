@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   odocal::app::RegisterImportCommand(app);
   odocal::app::RegisterCheckCommand(app);
   odocal::app::RegisterSetupCheckCommand(app);
+  odocal::app::RegisterWatchCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

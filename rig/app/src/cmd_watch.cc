@@ -1,0 +1,323 @@
+// odocal watch CAMERA --calibration camera.yaml --tag FAMILY:ID:SIZE_MM[:HEIGHT_MM]
+//     [--mount-guess x,y,height,roll,pitch,yaw] [--bind 127.0.0.1] [--port 8080]
+//     [--seconds S] [--realtime] [--delay-s S] [--hold-s S]
+//
+// The live view (issue 13 §4, rig/live) on a camera or a video file without a
+// robot: every frame's tag found and tracked (vision::TagObserver), its pose
+// measured on the tag's plane, and both served as a web page. The camera's
+// mount starts as the --mount-guess, or a level camera at the height the
+// tag's apparent size implies (as setup-check does); its tilt and height are
+// fitted once to the first `kPlaneViews` views of the tag, and the path so
+// far is measured again on the fitted plane. Prints "live view: URL" first and a
+// summary line (frames, frames/s) at the end; exit 0 when the video ended
+// or Ctrl-C stopped it, 1 when a camera stopped delivering, 2 for bad input
+// (an option, a camera that cannot be opened, a port in use).
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "odocal/base/units.h"
+#include "odocal/config/camera_file.h"
+#include "odocal/live/live_server.h"
+#include "odocal/live/live_state.h"
+#include "odocal/media/frame_source.h"
+#include "odocal/media/video.h"
+#include "odocal/vision/planar_pose.h"
+#include "odocal/vision/tag_observer.h"
+
+namespace odocal::app {
+namespace {
+
+constexpr const char* kName = "watch";
+// Views of the tag the camera's tilt and height are fitted to (evenly
+// thinned to kMaxPlaneViews): about a second of a 30 fps camera.
+constexpr int kPlaneViews = 30;
+constexpr int kMaxPlaneViews = 15;
+
+std::atomic<bool> g_stop{false};
+void OnWatchSignal(int) { g_stop = true; }
+
+struct WatchArgs {
+  std::string camera;
+  std::string calibration;
+  std::string tag;
+  std::string mount;
+  std::string bind = "127.0.0.1";
+  int port = 8080;
+  double seconds = 0.0;
+  bool realtime = false;
+  double delay_s = 0.0;
+  double hold_s = 0.0;
+};
+
+template <typename... A>
+std::string Fmt(const char* fmt, A... a) {
+  char buf[300];
+  std::snprintf(buf, sizeof(buf), fmt, a...);
+  return buf;
+}
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// A video file (frames at index / fps) or a camera (its own clock), one frame at a time.
+class Source {
+ public:
+  explicit Source(const std::string& camera) : name_(camera) {
+    if (std::filesystem::is_regular_file(camera)) {
+      const Status opened = video_.Open(camera);
+      if (!opened.ok()) Fail(kName, kExitBadInput, "CAMERA " + camera + ": " + opened.message);
+      fps_ = video_.fps() > 0.0 ? video_.fps() : 30.0;
+      is_file_ = true;
+      return;
+    }
+    const bool device_like = camera.find("://") != std::string::npos || camera.rfind("/dev/", 0) == 0 ||
+                             camera.find_first_not_of("0123456789") == std::string::npos;
+    if (!device_like) Fail(kName, kExitBadInput, "CAMERA " + camera + ": no such file, and not a device or URL");
+    std::string error;
+    capture_ = media::CaptureSource::Open(camera, &error);
+    if (!capture_) Fail(kName, kExitBadInput, "CAMERA " + camera + ": cannot be opened: " + error);
+  }
+  bool is_file() const { return is_file_; }
+  std::string Describe() const { return is_file_ ? name_ : capture_->Describe(); }
+  // The next frame, or nullopt at the end (`*error` empty) or on a failure.
+  std::optional<media::CameraFrame> Next(std::string* error) {
+    error->clear();
+    if (is_file_) {
+      cv::Mat grey;
+      if (!video_.Read(&grey)) return std::nullopt;
+      return media::CameraFrame{grey, index_++ / fps_};
+    }
+    std::optional<media::CameraFrame> frame = capture_->Grab(error);
+    if (!frame) return std::nullopt;
+    if (!t0_) t0_ = frame->t_s;
+    frame->t_s -= *t0_;
+    return frame;
+  }
+
+ private:
+  std::string name_;
+  bool is_file_ = false;
+  media::VideoReader video_;
+  double fps_ = 30.0;
+  long index_ = 0;
+  std::unique_ptr<media::CaptureSource> capture_;
+  std::optional<double> t0_;
+};
+
+// The pose the page shows, with a one-frame sigma: the corners' closure of
+// this frame alone (vision::EstimateRestCornerError with one frame puts the
+// whole image error in the shared part).
+std::optional<live::LivePose> PoseOf(const vision::CameraModel& camera, const vision::TagSpec& tag,
+                                     const vision::TagCorners& corners) {
+  const vision::PlanarPoseResult m = vision::MeasureTagPose(camera, tag, corners);
+  if (!m.ok) return std::nullopt;
+  const double heading = m.T_world_robot.heading();
+  const vision::RestCornerError e = vision::EstimateRestCornerError({m.closure_mm}, tag, heading);
+  live::LivePose p;
+  p.x_mm = m.T_world_robot.x() * kMToMm;
+  p.y_mm = m.T_world_robot.y() * kMToMm;
+  p.heading_deg = heading * kRadToDeg;
+  p.sigma_x_mm = std::sqrt(e.shared_covariance(0, 0)) * kMToMm;
+  p.sigma_y_mm = std::sqrt(e.shared_covariance(1, 1)) * kMToMm;
+  p.sigma_heading_deg = std::sqrt(e.shared_covariance(2, 2)) * kRadToDeg;
+  return p;
+}
+
+double MeanSidePx(const vision::TagCorners& c) {
+  double sum = 0.0;
+  for (int i = 0; i < 4; ++i) sum += cv::norm(c[(i + 1) % 4] - c[i]);
+  return sum / 4.0;
+}
+
+void RunWatch(const WatchArgs& args) {
+  const vision::TagSpec tag = ParseTagOption(kName, "--tag", args.tag);
+  std::string why;
+  if (!vision::IsKnownTagFamily(tag.family))
+    Fail(kName, kExitBadInput, "--tag " + args.tag + ": unknown family '" + tag.family + "'");
+  std::optional<vision::CameraMount> mount_guess;
+  if (!args.mount.empty()) mount_guess = ParseMountOption(kName, "--mount-guess", args.mount);
+  if (args.port < 0 || args.port > 65535)
+    Fail(kName, kExitBadInput, "--port " + std::to_string(args.port) + ": not in 0..65535 (0: any free port)");
+  live::LiveServerOptions server_options;
+  server_options.bind_address = args.bind;
+  server_options.port = args.port;
+  if (!server_options.IsValid(&why)) Fail(kName, kExitBadInput, "--bind " + args.bind + ": " + why);
+  if (args.seconds < 0.0) Fail(kName, kExitBadInput, "--seconds must be >= 0 (0: until the source ends)");
+  if (args.hold_s < 0.0) Fail(kName, kExitBadInput, "--hold-s must be >= 0");
+  if (args.delay_s < 0.0) Fail(kName, kExitBadInput, "--delay-s must be >= 0");
+  const auto file = config::ReadCameraFile(args.calibration);
+  if (!file) Fail(kName, kExitBadInput, "--calibration: " + file.message);
+  const vision::Intrinsics& intrinsics = file->intrinsics;
+
+  Source source(args.camera);
+  vision::VideoTrackOptions track;
+  track.keep_crops = false;
+  std::unique_ptr<vision::TagObserver> observer = vision::TagObserver::Create(tag, intrinsics, track, &why);
+  if (!observer) Fail(kName, kExitBadInput, "--tag " + args.tag + ": " + why);
+
+  live::LiveState state;
+  state.SetSource(source.Describe());
+  state.SetProgress(0, 0, "", "watch: no plan, the camera only");
+  auto server = live::LiveServer::Start(state, server_options);
+  if (!server)
+    Fail(kName, kExitBadInput, "--bind " + args.bind + " --port " + std::to_string(args.port) + ": " + server.message);
+  const std::string url = (*server)->url();
+  std::printf("live view: %s%s\n", url.c_str(),
+              args.bind == "0.0.0.0" ? " (every interface: open this machine's address on the phone)" : "");
+  std::fflush(stdout);
+  g_stop = false;
+  std::signal(SIGINT, OnWatchSignal);
+  std::signal(SIGTERM, OnWatchSignal);
+
+  // Time to open the page before a video starts.
+  const Clock::time_point delay_from = Clock::now();
+  while (!g_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+
+  std::optional<vision::CameraModel> camera;
+  vision::CameraMount mount;
+  std::vector<vision::TagCorners> plane_candidates;
+  bool plane_done = false;
+  long frames = 0, found = 0;
+  std::string error, ended;
+  const Clock::time_point t0 = Clock::now();
+  while (!g_stop) {
+    std::optional<media::CameraFrame> frame = source.Next(&error);
+    if (!frame) {
+      ended = error;
+      break;
+    }
+    if (args.seconds > 0.0 && frame->t_s > args.seconds) break;
+    if (frame->grey.cols != intrinsics.width || frame->grey.rows != intrinsics.height) {
+      Fail(kName, kExitBadInput,
+           source.Describe() + " delivers " + std::to_string(frame->grey.cols) + "x" +
+               std::to_string(frame->grey.rows) + " frames, --calibration " + args.calibration + " is for " +
+               std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+    }
+    if (args.realtime && source.is_file()) {
+      const double ahead = frame->t_s - Since(t0);
+      if (ahead > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(ahead));
+    }
+    ++frames;
+    const vision::FrameObservation obs = observer->Observe(frame->grey, frame->t_s);
+    if (obs.status == vision::DetectStatus::kWrongId) {
+      state.SetWarning("wrong_id", "tags seen, but not id " + std::to_string(tag.id) + " of " + tag.family +
+                                       ": check --tag");
+    } else if (obs.status == vision::DetectStatus::kDuplicateId) {
+      state.SetWarning("duplicate_id", "tag id " + std::to_string(tag.id) +
+                                           " seen twice: another tag with the same id is in view; remove it");
+    } else if (obs.corners_px) {
+      state.ClearWarning("wrong_id");
+      state.ClearWarning("duplicate_id");
+    }
+    std::optional<live::LivePose> pose;
+    if (obs.corners_px) {
+      ++found;
+      if (!camera) {
+        if (mount_guess) {
+          mount = *mount_guess;
+          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
+        } else {
+          // A level camera at the height the tag's apparent size implies.
+          const double f = 0.5 * (intrinsics.fx + intrinsics.fy);
+          mount = vision::CameraMount{};
+          mount.height_mm = tag.height_mm + f * tag.size_mm / MeanSidePx(*obs.corners_px);
+          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
+        }
+        camera.emplace(intrinsics, mount);
+      }
+      if (!plane_done) {
+        plane_candidates.push_back(*obs.corners_px);
+        if (static_cast<int>(plane_candidates.size()) >= kPlaneViews) {
+          plane_done = true;
+          std::vector<vision::TagCorners> views;
+          const int step = std::max(1, static_cast<int>(plane_candidates.size()) / kMaxPlaneViews);
+          for (size_t k = 0; k < plane_candidates.size(); k += step) views.push_back(plane_candidates[k]);
+          const vision::CameraPlaneResult plane = vision::EstimateCameraOverTagPlane(intrinsics, tag, views, mount);
+          if (plane.ok) {
+            mount = plane.mount;
+            camera.emplace(intrinsics, mount);
+            // The path so far, measured again on the fitted plane.
+            std::vector<cv::Point2d> path;
+            for (const vision::TagCorners& c : plane_candidates)
+              if (const auto p = PoseOf(*camera, tag, c)) path.emplace_back(p->x_mm, p->y_mm);
+            state.SetTrajectory(path);
+            state.SetEstimate("camera height", mount.height_mm, plane.sigma_height_mm, "mm");
+            state.SetEstimate("camera roll", mount.roll_deg, plane.sigma_roll_deg, "deg");
+            state.SetEstimate("camera pitch", mount.pitch_deg, plane.sigma_pitch_deg, "deg");
+          } else {
+            state.SetWarning("camera_plane", "the camera's tilt could not be fitted to the tag (" + plane.message +
+                                                 "): poses assume a level camera");
+          }
+        }
+      }
+      pose = PoseOf(*camera, tag, *obs.corners_px);
+    }
+    state.OnFrame(frame->grey, frame->t_s, obs.corners_px, pose);
+  }
+  const double elapsed = Since(t0);
+  std::printf("watched %ld frames in %.2f s (%.1f frames/s), tag found in %ld\n", frames, elapsed,
+              elapsed > 0.0 ? frames / elapsed : 0.0, found);
+  if (g_stop) {
+    std::printf("stopped (Ctrl-C)\n");
+    return;
+  }
+  const bool failed = !ended.empty();
+  const std::string end_text = failed ? source.Describe() + " stopped delivering frames: " + ended
+                               : source.is_file() ? Fmt("the video ended after %ld frames", frames)
+                                                  : Fmt("stopped after %ld frames (--seconds)", frames);
+  if (args.hold_s > 0.0) {
+    state.SetWarning("source_ended", end_text + "; the page stays for " + Fmt("%.0f s", args.hold_s));
+    std::fflush(stdout);
+    const Clock::time_point hold_from = Clock::now();
+    while (!g_stop && Since(hold_from) < args.hold_s) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  (*server)->Stop();
+  if (failed) Fail(kName, kExitFailure, end_text);
+}
+
+}  // namespace
+
+void RegisterWatchCommand(CLI::App& app) {
+  auto args = std::make_shared<WatchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "watch",
+      "The live view without a robot: a camera or a video watched frame by frame, the tag's outline, pose\n"
+      "and trajectory served as a web page (bound to 127.0.0.1 unless --bind says otherwise; keys of\n"
+      "/state.json in docs/formats.md). Prints \"live view: URL\"; Ctrl-C stops");
+  cmd->add_option("camera", args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
+      ->required();
+  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
+      ->required();
+  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
+  cmd->add_option("--mount-guess", args->mount,
+                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
+                  "from the tag's apparent size (the tilt is then fitted to the tag)");
+  cmd->add_option("--bind", args->bind, "Address to serve on; 0.0.0.0 for a phone on the same network")
+      ->default_val("127.0.0.1");
+  cmd->add_option("--port", args->port, "Port to serve on; 0 for any free one (the URL printed says which)")
+      ->default_val(8080);
+  cmd->add_option("--seconds", args->seconds, "Stop after this much of the camera or video (0: until it ends)")
+      ->default_val(0.0);
+  cmd->add_flag("--realtime", args->realtime, "Play a video file at its frame rate (default: as fast as possible)");
+  cmd->add_option("--delay-s", args->delay_s,
+                  "Wait this long after printing the URL before reading the source (to open the page first)")
+      ->default_val(0.0);
+  cmd->add_option("--hold-s", args->hold_s, "Keep serving the page this long after the video ends")
+      ->default_val(0.0);
+  cmd->callback([args]() { RunWatch(*args); });
+}
+
+}  // namespace odocal::app

@@ -24,6 +24,7 @@
 #include "odocal/sim/sim_motion_backend.h"
 #include "odocal/simulation/camera_sim.h"
 #include "odocal/simulation/sim_camera_source.h"
+#include "odocal/live/live_state.h"
 #include "odocal/station/report_json.h"
 #include "odocal/station/station.h"
 #include "odocal/test_util/test_util.h"
@@ -491,6 +492,31 @@ TEST(StationFailure, InterruptDuringAPushLetsItFinishThenRestores) {
   EXPECT_TRUE(verified);
   EXPECT_TRUE(r.restored);
   ExpectLeftAsItWas(*vs, r);
+}
+
+// The live view (rig/live) sees what the station saw: the last run of the
+// plan, the tag where the robot ended, the round's path, the estimates.
+TEST(StationLive, TheLiveStateFollowsTheRunsAndTheEstimates) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
+  ASSERT_TRUE(vs);
+  live::LiveState live;
+  vs->setup.live = &live;
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  ASSERT_TRUE(r.ok()) << r.message;
+  const nlohmann::json j = live.StateJson();
+  EXPECT_EQ(j["progress"]["run_index"], 2) << j["progress"].dump();
+  EXPECT_EQ(j["progress"]["run_total"], 2);
+  EXPECT_THAT(j["progress"]["run_label"].get<std::string>(), ::testing::HasSubstr("umbmark ccw"));
+  ASSERT_TRUE(j["tag"]["seen"].get<bool>()) << j["tag"].dump();
+  // The pose shown is the robot's, where the simulator put it (the camera
+  // model of the round, within the plane estimate's millimetres).
+  const calibration::Pose2 truth = vs->backend->TruePose();
+  EXPECT_NEAR(j["pose"]["x_mm"].get<double>(), truth.x() * 1e3, 15.0);
+  EXPECT_NEAR(j["pose"]["y_mm"].get<double>(), truth.y() * 1e3, 15.0);
+  EXPECT_GE(j["trajectory_mm"].size(), 2u);
+  bool emax = false;
+  for (const nlohmann::json& e : j["estimates"]) emax = emax || e["name"] == "E_max,syst";
+  EXPECT_TRUE(emax) << j["estimates"].dump();
 }
 
 // ---- The command line --------------------------------------------------------

@@ -43,6 +43,8 @@
 #include "odocal/config/files.h"
 #include "odocal/config/scenario.h"
 #include "odocal/config/station_file.h"
+#include "odocal/live/live_server.h"
+#include "odocal/live/live_state.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/report/exports.h"
 #include "odocal/report/html_report.h"
@@ -83,9 +85,28 @@ void Progress(const std::string& line) { std::cerr << "station: " << line << std
 
 // Runs the loop, writes the report, prints the outcome; exits non-zero on failure.
 void Finish(station::StationSetup& setup, const station::StationOptions& options, const std::string& out,
-            nlohmann::json extra, const report::ExportRequests& exports) {
+            nlohmann::json extra, const report::ExportRequests& exports, const std::string& live_bind, int live_port) {
   setup.run_log_dir = out + "/runs";
+  // The live view (rig/live): the page shows what the station sees while it runs.
+  std::unique_ptr<live::LiveState> live_state;
+  std::unique_ptr<live::LiveServer> live_server;
+  if (live_port >= 0) {
+    live::LiveServerOptions o;
+    o.bind_address = live_bind;
+    o.port = live_port;
+    std::string why;
+    if (!o.IsValid(&why)) Fail("station", kExitBadInput, "--live-bind " + live_bind + ": " + why);
+    live_state = std::make_unique<live::LiveState>();
+    live_state->SetSource(setup.camera->Describe());
+    auto started = live::LiveServer::Start(*live_state, o);
+    if (!started) Fail("station", kExitBadInput, "--live-port " + std::to_string(live_port) + ": " + started.message);
+    live_server = std::move(*started.value);
+    Progress("live view: " + live_server->url());
+    setup.live = live_state.get();
+  }
   const station::StationResult result = station::RunStation(setup, options);
+  live_server.reset();
+  setup.live = nullptr;
   nlohmann::json report = station::StationReportJson(result);
   for (auto it = extra.begin(); it != extra.end(); ++it) report[it.key()] = it.value();
   std::optional<std::string> write_error = config::EnsureDirectory(out);
@@ -178,6 +199,8 @@ struct StationArgs {
   std::string run_command, stop_command, apply_command;
   double run_timeout_s = 120.0;
   std::string plan = "scenario";
+  int live_port = -1;  // -1: no live view
+  std::string live_bind = "127.0.0.1";
 };
 
 void RunStation(const StationArgs& args) {
@@ -270,7 +293,8 @@ void RunStation(const StationArgs& args) {
                       (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
     nlohmann::json truth = {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}};
     if (s->robot.effects.turn_slip) truth["turn_slip_at_1rad_s"] = s->robot.effects.turn_slip->fraction_at_1rad_s;
-    Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports);
+    Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports, args.live_bind,
+           args.live_port);
     return;
   }
 
@@ -319,7 +343,7 @@ void RunStation(const StationArgs& args) {
   setup.tag = c->tag;
   setup.tag_size_sigma_mm = c->tag_size_sigma_mm;
   setup.floor_reference = c->floor_reference;
-  Finish(setup, options, args.out, {{"config", args.config}}, args.exports);
+  Finish(setup, options, args.out, {{"config", args.config}}, args.exports, args.live_bind, args.live_port);
 }
 
 void RegisterStationCommand(CLI::App& app) {
@@ -351,6 +375,11 @@ void RegisterStationCommand(CLI::App& app) {
   cmd->add_option("--run-timeout-s", args->run_timeout_s, "Virtual robot: a run longer than this fails")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--live-port", args->live_port,
+                  "Serve the live view (docs/formats.md, \"Live view\") on this port (0: any free port; the URL "
+                  "is logged); off by default");
+  cmd->add_option("--live-bind", args->live_bind, "The live view's address (0.0.0.0: a phone on the network)")
+      ->capture_default_str();
   cmd->add_option("--plan", args->plan, "Virtual robot: the scenario's runs, or the default plan sized to the view")
       ->check(CLI::IsMember({"scenario", "default"}))
       ->capture_default_str();

@@ -15,6 +15,7 @@
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/segment.h"
 #include "odocal/config/scenario.h"
+#include "odocal/live/live_state.h"
 #include "odocal/measure/measure.h"
 
 namespace odocal::station {
@@ -98,6 +99,9 @@ class Station {
   // once known, the operator's guess before.
   const vision::CameraModel& WatchCamera() const { return camera_ ? *camera_ : *guess_camera_; }
   std::optional<double> HeadingOf(const vision::TagCorners& corners) const;
+  // The live view's share of a frame: the image, the outline, the pose.
+  void ShowLive(const media::CameraFrame& frame, const vision::FrameObservation& obs) const;
+  void ShowEstimates(const StationIteration& iteration) const;
   std::vector<calibration::RunSpec> MakeDefaultPlan(const RestFrames& rest, std::string* why);
   // Drives one run; its end rest (the next run's start rest) goes to `rest`.
   std::optional<Failure> DriveRun(const calibration::RunSpec& spec, int index, int total, StationRun* run,
@@ -164,6 +168,7 @@ std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest, std::vect
     if (keep_grey && static_cast<int>(keep_grey->size()) < options_.floor_frames)
       keep_grey->push_back(frame->grey.clone());
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
+    ShowLive(*frame, obs);
     rest->wrong_id += obs.status == vision::DetectStatus::kWrongId ? 1 : 0;
     if (obs.corners_px) {
       view_candidates_.push_back(*obs.corners_px);
@@ -171,6 +176,40 @@ std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest, std::vect
     }
   }
   return std::nullopt;
+}
+
+void Station::ShowLive(const media::CameraFrame& frame, const vision::FrameObservation& obs) const {
+  if (!setup_.live) return;
+  std::optional<live::LivePose> pose;
+  if (obs.corners_px) {
+    const vision::PlanarPoseResult p = vision::MeasureTagPose(WatchCamera(), setup_.tag, *obs.corners_px);
+    if (p.ok) {
+      pose = live::LivePose{};
+      pose->x_mm = p.T_world_robot.x() * 1e3;
+      pose->y_mm = p.T_world_robot.y() * 1e3;
+      pose->heading_deg = p.T_world_robot.heading() * 180.0 / M_PI;
+    }
+  }
+  setup_.live->OnFrame(frame.grey, frame.t_s, obs.corners_px, pose);
+}
+
+void Station::ShowEstimates(const StationIteration& it) const {
+  if (!setup_.live) return;
+  const calibration::UmbmarkSummary& s = it.estimate;
+  if (s.ok()) {
+    setup_.live->SetEstimate("E_max,syst", s.emax_syst_m * 1e3, it.emax_sigma_m.value_or(0.0) * 1e3, "mm");
+    setup_.live->SetEstimate("Ed (UMBMark)", s.coupled.Ed, s.coupled.sigma_Ed.value_or(0.0), "");
+    setup_.live->SetEstimate("Eb (UMBMark)", s.coupled.Eb, s.coupled.sigma_Eb.value_or(0.0), "");
+  }
+  const measure::SessionEstimate& e = it.session_estimate;
+  if (e.ratio) setup_.live->SetEstimate("Ed (CVRA)", e.ratio->mean, e.ratio->standard_error.value_or(0.0), "");
+  if (e.scale)
+    setup_.live->SetEstimate("Es", e.scale->mean,
+                             std::hypot(e.scale->standard_error.value_or(0.0), e.scale->camera_scale_sigma), "");
+  if (e.track) setup_.live->SetEstimate("track factor", e.track->mean, e.track->standard_error.value_or(0.0), "");
+  if (it.turn_slip.slip_per_rad_s)
+    setup_.live->SetEstimate("turn slip at 1 rad/s", *it.turn_slip.slip_per_rad_s * 100.0,
+                             it.turn_slip.slip_sigma.value_or(0.0) * 100.0, "%");
 }
 
 std::optional<double> Station::HeadingOf(const vision::TagCorners& corners) const {
@@ -217,6 +256,11 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   const vision::TagCorners start_corners = *rest->found.back().corners_px;
   if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), what + ": " + e->message};
   run_in_progress_ = true;
+  if (setup_.live) {
+    if (index == 1) setup_.live->ClearTrajectory();  // the round's path
+    setup_.live->SetProgress(index, total, calibration::Describe(spec),
+                             Format("round %d; %s", round_, driver_->Describe().c_str()));
+  }
   Recording* recording = nullptr;
   if (round_ == 1) recording = &recording_.emplace_back();
   Log(what + ": started (" + driver_->Describe() + ")");
@@ -261,6 +305,7 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
     if (recording) recording->clock.emplace_back(Clock::now(), frame->t_s);
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
+    ShowLive(*frame, obs);
     if (recording && obs.corners_px) {
       vision::FrameObservation kept;
       kept.t_s = obs.t_s;
@@ -604,6 +649,7 @@ StationResult Station::Run() {
       result.status = failure->status;
       result.message = failure->message;
       Log("stopping: " + failure->message);
+      if (setup_.live) setup_.live->SetWarning("station", "stopped: " + failure->message);
       if (result.params_initial) {
         Cleanup(&result);
         Log(result.cleanup);
@@ -707,6 +753,7 @@ StationResult Station::Run() {
       result.iterations.push_back(std::move(iteration));
       return finish(f);
     }
+    ShowEstimates(iteration);
     const calibration::UmbmarkSummary& s = iteration.estimate;
     const measure::SessionEstimate& e = iteration.session_estimate;
     std::string line = Format("round %d:", round);

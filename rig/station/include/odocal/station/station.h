@@ -73,6 +73,10 @@
 #include "odocal/vision/tag.h"
 #include "odocal/vision/tag_observer.h"
 
+namespace odocal::live {
+class LiveState;
+}  // namespace odocal::live
+
 namespace odocal::station {
 
 struct StationOptions {
@@ -173,6 +177,9 @@ struct StationSetup {
   bool camera_on_robot_clock = false;
   // Set (e.g. from a signal handler) to stop cleanly; may be null.
   const std::atomic<bool>* stop_requested = nullptr;
+  // The live view (rig/live): every frame with the tag's outline and pose,
+  // the run and plan, the estimates, the failure; may be null.
+  live::LiveState* live = nullptr;
   // One line of progress at a time (the CLI prints them on stderr).
   std::function<void(const std::string&)> progress;
 };

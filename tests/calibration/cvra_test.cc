@@ -196,7 +196,10 @@ TEST(CvraInput, BadNumbersAreRejectedWithTheirName) {
   EXPECT_FALSE(WheelRatioFromWall(2.0, 0.01, -0.3).ok());
   EXPECT_FALSE(WheelRatioFromCamera(2.0, std::nan(""), 0.3).ok());
   EXPECT_FALSE(WheelRatioFromCamera(0.1, 3.0, 0.3).ok()) << "ratio would be negative";
-  EXPECT_FALSE(ScaleFromStraight(-1.0, 1.0, 0.0, 0.0).ok());
+  EXPECT_FALSE(ScaleFromStraight(0.0, 1.0, 0.0, 0.0).ok());
+  // Backwards (a negative distance asked) measures the same scale.
+  ASSERT_TRUE(ScaleFromStraight(-1.0, -1.002, 0.0, 0.0).ok());
+  EXPECT_NEAR(ScaleFromStraight(-1.0, -1.002, 0.0, 0.0).value, 1.002, 1e-12);
   EXPECT_FALSE(TrackFromWall(0.5, 0.0).ok());
   EXPECT_FALSE(TrackFromCamera(2.0 * M_PI, 4.0).ok());
 }

@@ -61,10 +61,10 @@ const char* kSquares =
 // given the run's values and drives (here: over the virtual robot's pty).
 const char* kDriveScript =
     "#!/bin/sh\n"
-    "# drive.sh PROCEDURE DIRECTION SIDE_MM DISTANCE_MM TURNS TURN_RATE_DEG_S\n"
+    "# drive.sh PROCEDURE DIRECTION SIDE_MM DISTANCE_MM TURNS TURN_RATE_DEG_S TELEMETRY_CSV\n"
     "exec \"$ODOCAL\" robot run --port \"$ODOCAL_ROBOT_PORT\" --procedure \"$1\" --direction \"$2\" \\\n"
-    "  --side-mm \"$3\" --distance-mm \"$4\" --turns \"$5\" --turn-rate-deg-s \"$6\"\n";
-const char* kRunTemplate = "{procedure} {direction} {side_mm} {distance_mm} {turns} {turn_rate_deg_s}";
+    "  --side-mm \"$3\" --distance-mm \"$4\" --turns \"$5\" --turn-rate-deg-s \"$6\" --telemetry \"$7\"\n";
+const char* kRunTemplate = "{procedure} {direction} {side_mm} {distance_mm} {turns} {turn_rate_deg_s} {telemetry}";
 const char* kApplyTemplate =
     "\"$ODOCAL\" robot push --port \"$ODOCAL_ROBOT_PORT\" left_wheel_diameter_mm={left_wheel_diameter_mm} "
     "right_wheel_diameter_mm={right_wheel_diameter_mm} track_mm={track_mm}";
@@ -109,6 +109,12 @@ TEST(StationCommandDriver, AScriptDrivesTheRobotAndTheApplyCommandPushesTheSet) 
               70.06 / 69.95, 2e-5);
   EXPECT_GT(report["improvement"].get<double>(), 10.0);
   EXPECT_THAT(test_util::Slurp(b.dir + "/out/apply/round1.log"), HasSubstr("verified: checksum"));
+  // The script's telemetry CSVs, put on the camera's clock by when the
+  // motion started and ended: explain's base model fits the first round to
+  // well under a millimetre (a clock off by 0.1 s would leave centimetres).
+  const nlohmann::json& explain = report["explain"];
+  ASSERT_TRUE(explain.is_object() && explain.contains("gap_before_mm")) << explain.dump(1).substr(0, 2000);
+  EXPECT_LT(explain["gap_before_mm"].get<double>(), 1.0) << explain["base"].dump(1).substr(0, 2000);
 }
 
 TEST(StationCommandDriver, ACommandThatFailsNamesItsExitAndLeavesTheParameters) {

@@ -25,6 +25,7 @@
 #include "odocal/simulation/camera_sim.h"
 #include "odocal/simulation/sim_camera_source.h"
 #include "odocal/live/live_state.h"
+#include "odocal/station/driver.h"
 #include "odocal/station/report_json.h"
 #include "odocal/station/station.h"
 #include "odocal/test_util/test_util.h"
@@ -345,8 +346,36 @@ TEST(StationFailure, CameraUnpluggedDuringARun) {
   ExpectLeftAsItWas(*vs, r);
 }
 
+// The command driver when the camera goes mid-run: the command (here
+// `odocal robot run`, which stops the robot over the link when it is
+// terminated) is killed with its process group, the parameters untouched.
+TEST(StationFailure, CameraUnpluggedWhileACommandDrives) {
+  auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
+  ASSERT_TRUE(vs);
+  station::ExternalDriverOptions o;
+  o.run_command = "\"$ODOCAL\" robot run --port \"$ODOCAL_ROBOT_PORT\" --procedure {procedure} "
+                  "--direction {direction} --side-mm {side_mm}";
+  o.params = kNominal;
+  o.work_dir = test_util::MakeTempDir("odocal_station_command_unplugged_");
+  o.environment = {{"ODOCAL_ROBOT_PORT", vs->host->device_path()}, {"ODOCAL", test_util::OdocalBinary()}};
+  const std::unique_ptr<station::RobotDriver> driver = station::MakeCommandDriver(o);
+  vs->setup.driver = driver.get();
+  vs->setup.run_log_dir = o.work_dir + "/runs";
+  station::StationOptions options;
+  UnpluggedAfter unplugged(*vs->camera, options.rest_frames + 5);  // a few frames into the run
+  vs->setup.camera = &unplugged;
+  const station::StationResult r = station::RunStation(vs->setup, options);
+  EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
+  EXPECT_THAT(r.cleanup, ::testing::HasSubstr("the run's command killed")) << r.cleanup;
+  // The killed `robot run` stopped the robot: the square was not finished.
+  EXPECT_THAT(test_util::Slurp(o.work_dir + "/runs/round1/run01_umbmark_cw.log"),
+              ::testing::HasSubstr("interrupted: robot stopped"));
+  ExpectLeftAsItWas(*vs, r);
+}
+
 // A line on which the robot stops answering after `writes` writes (the
-// handshake, the parameter read, the telemetry rate and the run start).
+// handshake, the parameter read, telemetry off, telemetry on for the run,
+// the run start).
 class SilentAfter final : public robot_link::Transport {
  public:
   SilentAfter(robot_link::Transport& inner, int writes) : inner_(inner), left_(writes) {}
@@ -369,7 +398,7 @@ class SilentAfter final : public robot_link::Transport {
 TEST(StationFailure, RobotStopsAnsweringDuringARun) {
   auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
   ASSERT_TRUE(vs);
-  SilentAfter silent(*vs->port, 4);
+  SilentAfter silent(*vs->port, 5);
   vs->setup.transport = &silent;
   vs->setup.client.reply_timeout = 50ms;
   const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
@@ -513,7 +542,7 @@ TEST(StationLive, TheLiveStateFollowsTheRunsAndTheEstimates) {
   const calibration::Pose2 truth = vs->backend->TruePose();
   EXPECT_NEAR(j["pose"]["x_mm"].get<double>(), truth.x() * 1e3, 15.0);
   EXPECT_NEAR(j["pose"]["y_mm"].get<double>(), truth.y() * 1e3, 15.0);
-  EXPECT_GE(j["trajectory_mm"].size(), 2u);
+  EXPECT_GE(j["trajectory_mm"].size(), 1u) << "the round's path (the squares leave this view)";
   bool emax = false;
   for (const nlohmann::json& e : j["estimates"]) emax = emax || e["name"] == "E_max,syst";
   EXPECT_TRUE(emax) << j["estimates"].dump();

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "odocal/config/files.h"
+#include "odocal/measure/pose_log.h"
 #include "odocal/report/exports.h"
 #include "odocal/station/driver.h"
 
@@ -130,20 +131,26 @@ class Child {
     return exit_status_;
   }
 
-  // SIGTERM to the group, SIGKILL after `grace`; true when something was killed.
+  // SIGTERM to the group, SIGKILL after `grace`; true when something was
+  // killed. Waits for the whole group (the shell's children too: a driving
+  // program may stop the robot on SIGTERM before it exits).
   bool Kill(std::chrono::milliseconds grace = std::chrono::milliseconds(2000)) {
     if (pid_ <= 0 || Poll()) return false;
-    ::kill(-pid_, SIGTERM);
+    const pid_t group = pid_;
+    ::kill(-group, SIGTERM);
     const Clock::time_point until = Clock::now() + grace;
     while (Clock::now() < until) {
-      if (Poll()) return true;
+      Poll();
+      if (pid_ <= 0 && ::kill(-group, 0) != 0) return true;  // the group is empty
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    ::kill(-pid_, SIGKILL);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    exit_status_ = status;
+    ::kill(-group, SIGKILL);
+    if (pid_ > 0) {
+      int status = 0;
+      waitpid(pid_, &status, 0);
+      pid_ = -1;
+      exit_status_ = status;
+    }
     return true;
   }
 
@@ -249,6 +256,8 @@ class CommandDriver final : public ExternalDriver {
     const auto command = ExpandTemplate(options_.run_command, RunValues(run), &why);
     if (!command) return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
     log_ = run.log_path;
+    telemetry_path_ = run.telemetry_path;
+    if (!telemetry_path_.empty()) std::filesystem::remove(telemetry_path_);
     if (!log_.empty()) {
       std::ofstream(log_, std::ios::app) << "$ " << *command << "\n";
     }
@@ -276,9 +285,25 @@ class CommandDriver final : public ExternalDriver {
     return true;
   }
 
+  // The {telemetry} CSV, when the command wrote one (robot clock; no arrival times).
+  std::vector<DriverTelemetry> TakeTelemetry(std::string* note) override {
+    std::vector<DriverTelemetry> out;
+    if (telemetry_path_.empty() || !std::filesystem::exists(telemetry_path_)) return out;
+    std::string error;
+    const auto records = measure::ReadTelemetryCsv(telemetry_path_, robot_link::ToWheelParams(options_.params), &error);
+    if (!records) {
+      if (note) *note = "telemetry not used: " + error;
+      return out;
+    }
+    for (const calibration::TelemetryRecord& r : *records)
+      out.push_back({r.t_s, std::nullopt, r.left_ticks, r.right_ticks, r.odometry});
+    return out;
+  }
+
  private:
   std::unique_ptr<Child> child_;
   std::string log_;
+  std::string telemetry_path_;
 };
 
 class OperatorDriver final : public ExternalDriver {

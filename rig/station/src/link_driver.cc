@@ -110,7 +110,7 @@ class LinkDriver final : public RobotDriver {
   }
 
   bool Reachable() const override { return line_ok_; }
-  std::vector<DriverTelemetry> TakeTelemetry() override { return std::move(telemetry_); }
+  std::vector<DriverTelemetry> TakeTelemetry(std::string*) override { return std::move(telemetry_); }
 
  private:
   std::optional<DriverError> Lost(const std::string& message, StatusCode code) {

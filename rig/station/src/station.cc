@@ -61,6 +61,32 @@ double MaxCornerDistance(const vision::TagCorners& a, const vision::TagCorners& 
   return d;
 }
 
+// Camera clock - robot clock for telemetry without arrival times (a
+// command's CSV): when the wheels first and last turned, against when the
+// camera first saw the tag leave its start and last saw it short of its end
+// (each threshold crossing late at the start and early at the end by the
+// time the robot takes to move a few pixels: the mean of the two cancels
+// that for a symmetric ramp). nullopt when either is missing.
+std::optional<double> MotionClockOffset(const std::vector<DriverTelemetry>& tel,
+                                        const vision::FrameObservation& start, const vision::FrameObservation& end,
+                                        const std::vector<vision::FrameObservation>& moving, double threshold_px = 3.0) {
+  std::optional<double> wheels_start, wheels_end;
+  for (size_t k = 1; k < tel.size(); ++k) {
+    if (tel[k].left_ticks != tel[k - 1].left_ticks || tel[k].right_ticks != tel[k - 1].right_ticks) {
+      if (!wheels_start) wheels_start = tel[k - 1].robot_t_s;
+      wheels_end = tel[k].robot_t_s;
+    }
+  }
+  std::optional<double> camera_start, camera_end;
+  for (const vision::FrameObservation& f : moving) {
+    if (!f.corners_px) continue;
+    if (!camera_start && MaxCornerDistance(*f.corners_px, *start.corners_px) > threshold_px) camera_start = f.t_s;
+    if (MaxCornerDistance(*f.corners_px, *end.corners_px) > threshold_px) camera_end = f.t_s;
+  }
+  if (!wheels_start || !wheels_end || !camera_start || !camera_end) return std::nullopt;
+  return 0.5 * ((*camera_start - *wheels_start) + (*camera_end - *wheels_end));
+}
+
 // One pass of the loop. Members hold what the failure handling needs.
 class Station {
  public:
@@ -346,7 +372,11 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     std::this_thread::sleep_for(options_.poll_interval);
   }
   run_in_progress_ = false;
-  if (recording) recording->telemetry = driver_->TakeTelemetry();
+  if (recording) {
+    std::string note;
+    recording->telemetry = driver_->TakeTelemetry(&note);
+    if (!note.empty()) Log(what + ": " + note);
+  }
   // No motion: the tag seen, in place, in every frame while the run lasted.
   // (A tag lost in a frame may have moved: a square larger than the view
   // leaves it.)
@@ -580,15 +610,27 @@ void Station::BuildRecordedSession(const StationIteration& iteration,
     for (const auto& f : recording_[i].frames) add_frame(f);
     for (const auto& f : rests[i].second.found) add_frame(f);
     const std::vector<DriverTelemetry>& tel = recording_[i].telemetry;
-    const auto line = setup_.camera_on_robot_clock ? std::optional<std::pair<double, double>>() : fit(recording_[i].clock);
-    if (tel.size() >= 2 && setup_.camera_on_robot_clock) {
-      for (const DriverTelemetry& t : tel) m.telemetry.push_back({t.robot_t_s, t.left_ticks, t.right_ticks, t.odometry});
-    } else if (tel.size() >= 2 && line) {
-      const auto [a, b] = *line;
-      double offset = std::numeric_limits<double>::infinity();
-      for (const DriverTelemetry& t : tel) offset = std::min(offset, a + b * Seconds(t.received - origin) - t.robot_t_s);
-      for (const DriverTelemetry& t : tel)
-        m.telemetry.push_back({t.robot_t_s + offset, t.left_ticks, t.right_ticks, t.odometry});
+    if (tel.size() >= 2) {
+      std::optional<double> offset;  // camera clock - robot clock
+      if (setup_.camera_on_robot_clock) {
+        offset = 0.0;
+      } else if (tel.front().received) {
+        if (const auto line = fit(recording_[i].clock)) {
+          const auto [a, b] = *line;
+          double least = std::numeric_limits<double>::infinity();
+          for (const DriverTelemetry& t : tel)
+            least = std::min(least, a + b * Seconds(*t.received - origin) - t.robot_t_s);
+          offset = least;
+        }
+      } else {
+        offset = MotionClockOffset(tel, rests[i].first.found.back(), rests[i].second.found.front(), recording_[i].frames);
+      }
+      if (offset) {
+        for (const DriverTelemetry& t : tel)
+          m.telemetry.push_back({t.robot_t_s + *offset, t.left_ticks, t.right_ticks, t.odometry});
+      } else {
+        Log(run.name + ": its telemetry could not be put on the camera's clock; explain leaves it out");
+      }
     }
     session.runs.push_back(std::move(m));
   }

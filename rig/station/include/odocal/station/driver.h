@@ -72,12 +72,13 @@ std::string DescribeForOperator(const calibration::RunSpec& spec);
 
 enum class RunProgress { kRunning, kDone };
 
-// One telemetry sample of the last run as the driver received it: the
-// robot's clock, and when it arrived (for the station to put it on the
-// camera's clock).
+// One telemetry sample of the last run: the robot's clock, and when it
+// arrived where the driver knows (the link); the station puts it on the
+// camera's clock by the arrivals, or else by when the camera saw the motion
+// start and end.
 struct DriverTelemetry {
   double robot_t_s = 0.0;
-  std::chrono::steady_clock::time_point received;
+  std::optional<std::chrono::steady_clock::time_point> received;
   int64_t left_ticks = 0, right_ticks = 0;
   calibration::Pose2 odometry;  // the robot's belief, in the run's start frame
 };
@@ -111,8 +112,9 @@ class RobotDriver {
   // False once the driver can no longer reach the robot at all.
   virtual bool Reachable() const { return true; }
   // The last run's telemetry (moved out), where the driver has any: the
-  // link's, at 50 Hz while a run lasts.
-  virtual std::vector<DriverTelemetry> TakeTelemetry() { return {}; }
+  // link's, at 50 Hz while a run lasts; the command's {telemetry} CSV
+  // (docs/formats.md), when it wrote one. `note` says why a file was not used.
+  virtual std::vector<DriverTelemetry> TakeTelemetry(std::string* /*note*/) { return {}; }
 };
 
 // ---- link -------------------------------------------------------------------

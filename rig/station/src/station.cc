@@ -61,6 +61,25 @@ double MaxCornerDistance(const vision::TagCorners& a, const vision::TagCorners& 
   return d;
 }
 
+// What to do about an effect explain found (calibration/trajectory_fit.h's candidates).
+const char* EffectAdvice(calibration::Effect effect) {
+  using calibration::Effect;
+  switch (effect) {
+    case Effect::kTagOffset: return "measure the tag's offset from the axle and set tag.offset_mm";
+    case Effect::kCameraLatency: return "the camera's frames lag the robot's clock: harmless to return errors; "
+                                        "state it as the clock offset where poses and telemetry are combined";
+    case Effect::kTurnSlip: return "turns in place slip: calibrate the track at your operating turn rate";
+    case Effect::kLensDistortion: return "the lens calibration is off: calibrate the camera again (calibrate-camera)";
+    case Effect::kEncoderBacklash: return "the encoders lose counts when a wheel reverses: check the couplings";
+    case Effect::kCarpetDrift: return "the floor pushes the robot sideways (carpet grain): calibrate on the floor it works on";
+    case Effect::kTrackerYaw: return "the tag is turned on the robot: set tag.yaw_deg";
+    case Effect::kSpeedSlip: return "the wheels slip more at speed: calibrate at your operating speed";
+    case Effect::kArcScale: return "arcs travel a different scale than straights: calibrate on the paths you drive";
+    case Effect::kRollingShutter: return "the camera's rolling shutter skews moving frames: measure at rest, or use a global shutter";
+  }
+  return "";
+}
+
 // Camera clock - robot clock for telemetry without arrival times (a
 // command's CSV): when the wheels first and last turned, against when the
 // camera first saw the tag leave its start and last saw it short of its end
@@ -876,11 +895,15 @@ StationResult Station::Run() {
     std::istringstream brief(explain.BriefReport());
     for (std::string line; std::getline(brief, line);) Log("explain: " + line);
     if (explain.ok()) {
+      double gap_before = explain.gap_before_m();
       for (const calibration::ExplainStep& step : explain.steps) {
-        std::string text = "explain: " + std::string(calibration::ToString(step.effect)) + " explains the camera's gap";
+        std::string text = "explain: " + std::string(calibration::ToString(step.effect));
         for (const calibration::ParameterEstimate& p : step.params)
           text += Format(" (%s %.5g ± %.2g)", p.name.c_str(), p.value, p.sigma);
-        result.findings.push_back(text);
+        text += Format(" explains %.3f mm of the camera's gap: ",
+                       std::sqrt(std::max(0.0, gap_before * gap_before - step.gap_after_m * step.gap_after_m)) * 1e3);
+        gap_before = step.gap_after_m;
+        result.findings.push_back(text + EffectAdvice(step.effect));
       }
     }
     result.explain = std::move(explain);

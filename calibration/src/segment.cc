@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 
 namespace odocal::calibration {
@@ -179,57 +180,104 @@ bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size
 PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
                               const std::vector<std::string>& names, double size_tolerance) {
   const size_t n = segments.size(), m = planned.size();
-  // cost[i][j]: the least disagreements aligning the first i segments with
-  // the first j runs.
+  // What pairing segment i with run j costs: nothing when it is the run, a
+  // near miss when it is the run's procedure driven another way (direction,
+  // size, turns), a full disagreement otherwise -- as much as a run missing
+  // or a segment extra. So a run missing next to a square driven the wrong
+  // way reads as that, not as the square missing and its neighbour replaced
+  // by a square (two full disagreements).
+  constexpr int kNearMiss = 1, kWrong = 2, kGap = 2;
+  auto pair_cost = [&](size_t i, size_t j) {
+    if (SegmentMatches(planned[j], segments[i].inferred, size_tolerance)) return 0;
+    return planned[j].procedure == segments[i].inferred.procedure ? kNearMiss : kWrong;
+  };
+  // cost[i][j]: the least cost aligning the first i segments with the first
+  // j runs.
   std::vector<std::vector<int>> cost(n + 1, std::vector<int>(m + 1, 0));
-  for (size_t i = 0; i <= n; ++i) cost[i][0] = static_cast<int>(i);
-  for (size_t j = 0; j <= m; ++j) cost[0][j] = static_cast<int>(j);
+  for (size_t i = 0; i <= n; ++i) cost[i][0] = kGap * static_cast<int>(i);
+  for (size_t j = 0; j <= m; ++j) cost[0][j] = kGap * static_cast<int>(j);
   for (size_t i = 1; i <= n; ++i)
-    for (size_t j = 1; j <= m; ++j) {
-      const int pair = SegmentMatches(planned[j - 1], segments[i - 1].inferred, size_tolerance) ? 0 : 1;
-      cost[i][j] = std::min({cost[i - 1][j - 1] + pair, cost[i - 1][j] + 1, cost[i][j - 1] + 1});
-    }
-  PlanMatch match;
-  match.segment_of_run.assign(m, -1);
+    for (size_t j = 1; j <= m; ++j)
+      cost[i][j] = std::min({cost[i - 1][j - 1] + pair_cost(i - 1, j - 1), cost[i - 1][j] + kGap,
+                             cost[i][j - 1] + kGap});
   auto span = [&](size_t i) {
     return Format("%.1f-%.1f s", segments[i].start_rest.t_end_s, segments[i].end_rest.t_begin_s);
   };
   auto run = [&](size_t j) {
     return "run '" + (j < names.size() ? names[j] : std::to_string(j + 1)) + "' (" + Describe(planned[j]) + ")";
   };
-  std::vector<std::string> problems;
-  size_t i = n, j = m;
-  while (i > 0 || j > 0) {
+  // Every least-cost alignment (a few: ties are rare, and a recording that
+  // allows many readings is said to), walked back from the end. The first is
+  // the answer; the others, when their disagreements differ, are readings
+  // the recording cannot rule out.
+  struct Reading {
+    std::vector<std::string> problems;  // from the end
+    std::vector<int> segment_of_run;
+  };
+  constexpr size_t kMaxReadings = 4;
+  constexpr int kMaxSteps = 100000;
+  std::vector<Reading> readings;
+  bool truncated = false;
+  int steps = 0;
+  Reading current{{}, std::vector<int>(m, -1)};
+  std::function<void(size_t, size_t)> walk = [&](size_t i, size_t j) {
+    if (truncated) return;
+    if (++steps > kMaxSteps) {
+      truncated = true;
+      return;
+    }
+    if (i == 0 && j == 0) {
+      Reading r = current;
+      std::reverse(r.problems.begin(), r.problems.end());
+      for (const Reading& seen : readings)
+        if (seen.problems == r.problems) return;
+      if (readings.size() == kMaxReadings) {
+        truncated = true;
+        return;
+      }
+      readings.push_back(std::move(r));
+      return;
+    }
     if (i > 0 && j > 0) {
-      const bool same = SegmentMatches(planned[j - 1], segments[i - 1].inferred, size_tolerance);
-      if (cost[i][j] == cost[i - 1][j - 1] + (same ? 0 : 1)) {
-        if (same) {
-          match.segment_of_run[j - 1] = static_cast<int>(i - 1);
+      const int c = pair_cost(i - 1, j - 1);
+      if (cost[i][j] == cost[i - 1][j - 1] + c) {
+        if (c == 0) {
+          current.segment_of_run[j - 1] = static_cast<int>(i - 1);
         } else {
-          problems.push_back(run(j - 1) + ": the segment at " + span(i - 1) + " is " +
-                             Describe(segments[i - 1].inferred));
+          current.problems.push_back(run(j - 1) + ": the segment at " + span(i - 1) + " is " +
+                                     Describe(segments[i - 1].inferred));
         }
-        --i, --j;
-        continue;
+        walk(i - 1, j - 1);
+        if (c == 0)
+          current.segment_of_run[j - 1] = -1;
+        else
+          current.problems.pop_back();
       }
     }
-    if (i > 0 && cost[i][j] == cost[i - 1][j] + 1) {
-      problems.push_back("extra segment at " + span(i - 1) + " (" + Describe(segments[i - 1].inferred) +
-                         "): not in the plan");
-      --i;
-      continue;
+    if (i > 0 && cost[i][j] == cost[i - 1][j] + kGap) {
+      current.problems.push_back("extra segment at " + span(i - 1) + " (" + Describe(segments[i - 1].inferred) +
+                                 "): not in the plan");
+      walk(i - 1, j);
+      current.problems.pop_back();
     }
-    // A run with no segment: where it should have been.
-    const double after = i > 0 ? segments[i - 1].end_rest.t_begin_s : 0.0;
-    const double before = i < n ? segments[i].start_rest.t_end_s : std::numeric_limits<double>::infinity();
-    problems.push_back(run(j - 1) + ": missing (no motion segment for it" +
-                       (std::isfinite(before) ? Format(" between %.1f s and %.1f s)", after, before)
-                                              : Format(" after %.1f s)", after)));
-    --j;
-  }
-  std::reverse(problems.begin(), problems.end());
-  match.problems = problems;
-  match.ok = problems.empty();
+    if (j > 0 && cost[i][j] == cost[i][j - 1] + kGap) {
+      // A run with no segment: where it should have been.
+      const double after = i > 0 ? segments[i - 1].end_rest.t_begin_s : 0.0;
+      const double before = i < n ? segments[i].start_rest.t_end_s : std::numeric_limits<double>::infinity();
+      current.problems.push_back(run(j - 1) + ": missing (no motion segment for it" +
+                                 (std::isfinite(before) ? Format(" between %.1f s and %.1f s)", after, before)
+                                                        : Format(" after %.1f s)", after)));
+      walk(i, j - 1);
+      current.problems.pop_back();
+    }
+  };
+  walk(n, m);
+  PlanMatch match;
+  match.segment_of_run = readings.front().segment_of_run;
+  match.problems = readings.front().problems;
+  for (size_t k = 1; k < readings.size(); ++k) match.other_readings.push_back(readings[k].problems);
+  match.more_readings = truncated;
+  match.ok = match.problems.empty();
   return match;
 }
 

@@ -126,6 +126,63 @@ TEST(Segment, AMissingRunAndOneDrivenTheWrongWayAreNamed) {
   EXPECT_EQ(match.segment_of_run[9], 8);
 }
 
+// Segments as the segmenter would give them: what was read, at 10 s each.
+std::vector<MotionSegment> Read(const std::vector<RunSpec>& specs) {
+  std::vector<MotionSegment> segments;
+  for (size_t k = 0; k < specs.size(); ++k) {
+    MotionSegment s;
+    s.start_rest.t_begin_s = 10.0 * k;
+    s.start_rest.t_end_s = 10.0 * k + 1.0;
+    s.end_rest.t_begin_s = 10.0 * k + 9.0;
+    s.end_rest.t_end_s = 10.0 * k + 10.0;
+    s.inferred = specs[k];
+    segments.push_back(s);
+  }
+  return segments;
+}
+
+// A run missing right after a square driven the wrong way: counting each
+// disagreement alike, "the square missing and the next run's place taken by
+// a square" is as good as the truth, and the walk back from the end picked
+// it. A reversed square is the planned procedure driven another way: it
+// costs less than a segment that is some other procedure.
+TEST(Segment, AMissingRunNextToAReversedSquareIsReadAsThat) {
+  const RunSpec cw = RunSpec::Umbmark(Direction::kCw, 1.0), ccw = RunSpec::Umbmark(Direction::kCcw, 1.0);
+  const std::vector<RunSpec> plan = {cw, ccw, RunSpec::Straight(0.5), RunSpec::Spin(1, Direction::kCw)};
+  // ccw driven cw, the straight not driven.
+  const PlanMatch match =
+      MatchSegmentsToPlan(Read({cw, cw, RunSpec::Spin(1, Direction::kCw)}), plan, {"a", "b", "c", "d"});
+  ASSERT_EQ(match.problems.size(), 2u) << ::testing::PrintToString(match.problems);
+  EXPECT_THAT(match.problems[0], HasSubstr("run 'b' (umbmark ccw, side 1000 mm): the segment at 11.0-19.0 s is umbmark cw"));
+  EXPECT_THAT(match.problems[1], HasSubstr("run 'c' (straight 500 mm): missing (no motion segment for it between 19.0 s and 21.0 s)"));
+  EXPECT_TRUE(match.other_readings.empty()) << ::testing::PrintToString(match.other_readings);
+  EXPECT_EQ(match.segment_of_run, (std::vector<int>{0, -1, -1, 2}));
+}
+
+// Two squares driven alike where one was planned: which is the extra one
+// the recording cannot tell; both readings are given, neither silently.
+TEST(Segment, ReadingsAsGoodAreAllGiven) {
+  const RunSpec cw = RunSpec::Umbmark(Direction::kCw, 1.0), ccw = RunSpec::Umbmark(Direction::kCcw, 1.0);
+  const PlanMatch match = MatchSegmentsToPlan(Read({cw, cw, ccw}), {cw, ccw}, {"cw", "ccw"});
+  EXPECT_FALSE(match.ok);
+  ASSERT_EQ(match.problems.size(), 1u);
+  ASSERT_EQ(match.other_readings.size(), 1u);
+  ASSERT_EQ(match.other_readings[0].size(), 1u);
+  const std::vector<std::string> both = {match.problems[0], match.other_readings[0][0]};
+  EXPECT_THAT(both, ::testing::UnorderedElementsAre(HasSubstr("extra segment at 1.0-9.0 s (umbmark cw"),
+                                                     HasSubstr("extra segment at 11.0-19.0 s (umbmark cw")));
+  EXPECT_FALSE(match.more_readings);
+  // Many alike: the readings are capped and said to be more.
+  const PlanMatch many = MatchSegmentsToPlan(Read(std::vector<RunSpec>(8, cw)), {cw, cw}, {"x", "y"});
+  EXPECT_EQ(many.other_readings.size(), 3u);
+  EXPECT_TRUE(many.more_readings);
+  // A recording as planned has one reading.
+  const PlanMatch exact = MatchSegmentsToPlan(Read({cw, ccw}), {cw, ccw}, {"cw", "ccw"});
+  EXPECT_TRUE(exact.ok);
+  EXPECT_TRUE(exact.other_readings.empty());
+  EXPECT_FALSE(exact.more_readings);
+}
+
 TEST(Segment, AnExtraRunIsNamedNotAssigned) {
   const std::vector<RunSpec> plan = {RunSpec::Straight(0.8), RunSpec::Spin(1, Direction::kCcw)};
   const Recording rec = Drive({RunSpec::Straight(0.8), RunSpec::Spin(3, Direction::kCw),

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <functional>
 #include <random>
+#include <regex>
 #include <sstream>
 
 #include <gmock/gmock.h>
@@ -17,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odocal/base/units.h"
+#include "odocal/calibration/segment.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/measure.h"
@@ -592,6 +594,152 @@ TEST(PoseLogSegmentation, APlannedRunNotInTheLogIsAnErrorNamingIt) {
   EXPECT_THAT(r.err, HasSubstr("run 'run5' (umbmark ccw, side 1000 mm): the segment at"));
   EXPECT_THAT(r.err, HasSubstr("is umbmark cw"));
   EXPECT_FALSE(std::filesystem::exists(dir + "/report/report.json"));
+}
+
+// The issue's "must show" (issue 13 §3), end to end: a session plans ten
+// runs, the one log holds nine -- one planned run never driven, one square
+// driven the other way round, next to each other. batch names both runs by
+// their session names with the times the log shows, exits non-zero and
+// leaves nothing behind. The variant: a square driven twice (an eleventh
+// segment), named as extra.
+namespace ten_runs {
+
+using calibration::Direction;
+using calibration::RunSpec;
+
+std::vector<std::pair<std::string, RunSpec>> Plan() {
+  return {{"cw_a", RunSpec::Umbmark(Direction::kCw, 1.0)},   {"ccw_a", RunSpec::Umbmark(Direction::kCcw, 1.0)},
+          {"straight_long", RunSpec::Straight(1.0)},          {"spin_ccw", RunSpec::Spin(2, Direction::kCcw)},
+          {"cw_b", RunSpec::Umbmark(Direction::kCw, 1.0)},   {"ccw_b", RunSpec::Umbmark(Direction::kCcw, 1.0)},
+          {"straight_short", RunSpec::Straight(0.5)},         {"spin_cw", RunSpec::Spin(1, Direction::kCw)},
+          {"cw_c", RunSpec::Umbmark(Direction::kCw, 1.0)},   {"ccw_c", RunSpec::Umbmark(Direction::kCcw, 1.0)}};
+}
+
+// "... at 12.3-45.6 s ..." or "... between 12.3 s and 45.6 s": the two times.
+std::pair<double, double> TimesIn(const std::string& line, const std::string& pattern) {
+  std::smatch m;
+  if (!std::regex_search(line, m, std::regex(pattern))) return {NAN, NAN};
+  return {std::stod(m[1].str()), std::stod(m[2].str())};
+}
+
+// The lines of `err` that name a disagreement ("run '...", "extra segment
+// ...", indented), the other readings' included.
+std::vector<std::string> ProblemLines(const std::string& err) {
+  std::vector<std::string> lines;
+  std::stringstream in(err);
+  for (std::string line; std::getline(in, line);)
+    if (std::regex_search(line, std::regex("^ +(run '|extra segment)"))) lines.push_back(line);
+  return lines;
+}
+
+}  // namespace ten_runs
+
+// Drives the plan without `missing` and with `reversed` (a square) the other
+// way round; batch must name exactly those two, with the log's times.
+void ExpectMissingAndReversedNamed(const std::string& missing, const std::string& reversed, std::uint64_t seed) {
+  const auto plan = ten_runs::Plan();
+  std::vector<calibration::RunSpec> driven;
+  std::vector<size_t> driven_of_plan(plan.size(), SIZE_MAX);  // index in `driven`
+  for (size_t k = 0; k < plan.size(); ++k) {
+    if (plan[k].first == missing) continue;
+    calibration::RunSpec spec = plan[k].second;
+    if (plan[k].first == reversed)
+      spec.direction = spec.direction == calibration::Direction::kCw ? calibration::Direction::kCcw
+                                                                    : calibration::Direction::kCw;
+    driven_of_plan[k] = driven.size();
+    driven.push_back(spec);
+  }
+  ASSERT_EQ(driven.size(), 9u);
+  const simulation::SimulationResult result = SimulatePlan(driven, seed);
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_ten_bad_");
+  const std::string session = WriteContinuousSession(dir, result, plan);
+  const CommandResult r = RunCommand(Odocal("batch " + session + " --out " + dir + "/report"));
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_THAT(r.err, HasSubstr("all.poses.csv: the runs found in it do not match the session's plan"));
+  EXPECT_THAT(r.err, HasSubstr("found 9 motion segments between rests"));
+  // Exactly two disagreements, no other reading as good.
+  const std::vector<std::string> problems = ten_runs::ProblemLines(r.err);
+  ASSERT_EQ(problems.size(), 2u) << r.err;
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("as well"))) << r.err;
+  size_t m = 0;
+  while (m < plan.size() && plan[m].first != missing) ++m;
+  size_t v = 0;
+  while (v < plan.size() && plan[v].first != reversed) ++v;
+  ASSERT_TRUE(m > 0 && m + 1 < plan.size() && v < plan.size());
+  const std::string& missing_line = problems[m < v ? 0 : 1];
+  const std::string& reversed_line = problems[m < v ? 1 : 0];
+  // The missing run, placed in the gap between its driven neighbours.
+  EXPECT_THAT(missing_line, HasSubstr("run '" + missing + "' (" + calibration::Describe(plan[m].second) +
+                                      "): missing (no motion segment for it between"));
+  const auto [gap_from, gap_to] = ten_runs::TimesIn(missing_line, R"(between ([0-9.]+) s and ([0-9.]+) s)");
+  const sim::RunRecord& before = result.runs[driven_of_plan[m - 1]];
+  const sim::RunRecord& after = result.runs[driven_of_plan[m + 1]];
+  EXPECT_NEAR(gap_from, before.end_time_s - 1.0, 0.5) << missing_line;
+  EXPECT_NEAR(gap_to, after.start_time_s + 1.0, 0.5) << missing_line;
+  // The reversed square: the segment named is its motion in the log.
+  EXPECT_THAT(reversed_line, HasSubstr("run '" + reversed + "' (" + calibration::Describe(plan[v].second) +
+                                       "): the segment at"));
+  EXPECT_THAT(reversed_line, HasSubstr(plan[v].second.direction == calibration::Direction::kCw ? "is umbmark ccw"
+                                                                                               : "is umbmark cw"));
+  const auto [seg_from, seg_to] = ten_runs::TimesIn(reversed_line, R"(segment at ([0-9.]+)-([0-9.]+) s)");
+  const sim::RunRecord& turned = result.runs[driven_of_plan[v]];
+  EXPECT_NEAR(seg_from, turned.start_time_s + 1.0, 0.5) << reversed_line;
+  EXPECT_NEAR(seg_to, turned.end_time_s - 1.0, 0.5) << reversed_line;
+  // Nothing written: no report, not even the directory.
+  EXPECT_FALSE(std::filesystem::exists(dir + "/report")) << "debris of a failed batch";
+}
+
+// Next to each other, in both orders: a missing run next to a reversed square
+// could as well be read as "the square missing and its neighbour replaced by
+// a square" (as many disagreements when each counts one); a run driven the
+// wrong way is the likelier reading and must be the one given.
+TEST(PoseLogSegmentation, TenPlannedOneMissingOneDrivenTheWrongWayBothNamed) {
+  {
+    SCOPED_TRACE("the spin before the reversed square missing");
+    ExpectMissingAndReversedNamed("spin_ccw", "ccw_b", 31);
+  }
+  {
+    SCOPED_TRACE("the straight after the reversed square missing");
+    ExpectMissingAndReversedNamed("straight_short", "ccw_b", 33);
+  }
+  {
+    SCOPED_TRACE("apart");
+    ExpectMissingAndReversedNamed("ccw_a", "cw_c", 34);
+  }
+}
+
+TEST(PoseLogSegmentation, TenPlannedAndASquareDrivenTwiceIsNamedExtra) {
+  const auto plan = ten_runs::Plan();
+  std::vector<calibration::RunSpec> driven;
+  for (const auto& [name, spec] : plan) {
+    driven.push_back(spec);
+    if (name == "cw_b") driven.push_back(spec);  // the operator drove it again
+  }
+  const simulation::SimulationResult result = SimulatePlan(driven, 32);
+  ASSERT_EQ(result.runs.size(), 11u);
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_ten_extra_");
+  const std::string session = WriteContinuousSession(dir, result, plan);
+  const CommandResult r = RunCommand(Odocal("batch " + session + " --out " + dir + "/report"));
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_THAT(r.err, HasSubstr("found 11 motion segments between rests"));
+  const std::vector<std::string> problems = ten_runs::ProblemLines(r.err);
+  ASSERT_GE(problems.size(), 1u) << r.err;
+  EXPECT_THAT(problems[0], HasSubstr("extra segment at"));
+  EXPECT_THAT(problems[0], HasSubstr("(umbmark cw, side"));
+  EXPECT_THAT(problems[0], HasSubstr("not in the plan"));
+  // Which of the two cw squares is the extra one the log cannot tell: both
+  // readings are given, each with its times (the 5th and 6th driven runs).
+  EXPECT_THAT(r.err, HasSubstr("as well"));
+  ASSERT_EQ(problems.size(), 2u) << r.err;
+  for (size_t k = 0; k < 2; ++k) {
+    const auto [from, to] = ten_runs::TimesIn(problems[k], R"(segment at ([0-9.]+)-([0-9.]+) s)");
+    bool found = false;
+    for (size_t run : {4u, 5u})
+      found |= std::abs(from - (result.runs[run].start_time_s + 1.0)) < 0.5 &&
+               std::abs(to - (result.runs[run].end_time_s - 1.0)) < 0.5;
+    EXPECT_TRUE(found) << problems[k];
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/report")) << "debris of a failed batch";
 }
 
 // No plan at all: one run with `procedure: auto` stands for the whole log;

@@ -68,6 +68,12 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
   if (!match.ok) {
     std::string text = source + ": the runs found in it do not match the session's plan:";
     for (const std::string& p : match.problems) text += "\n  " + p;
+    // Readings as good: the recording cannot tell which is right.
+    for (const std::vector<std::string>& other : match.other_readings) {
+      text += "\n  or, as well (the recording cannot tell which):";
+      for (const std::string& p : other) text.append("\n    ").append(p);
+    }
+    if (match.more_readings) text += "\n  (and more readings as good)";
     text += "\n  found " + std::to_string(segments.size()) + " motion segment" + (segments.size() == 1 ? "" : "s") +
             " between rests:";
     for (const calibration::MotionSegment& s : segments) {
@@ -127,7 +133,7 @@ bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
   }
   for (size_t i = 0; i < segments.size(); ++i) {
     config::SessionRun r = run;
-    char suffix[16];
+    char suffix[24];
     std::snprintf(suffix, sizeof(suffix), "_%02zu", i + 1);
     r.name = run.name + suffix;
     r.spec = segments[i].inferred;

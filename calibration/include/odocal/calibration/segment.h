@@ -23,7 +23,9 @@
 //   recorded      anything else
 // MatchSegmentsToPlan aligns the segments with the plan in order (an edit
 // distance: a run missing, a segment extra, a segment that is not the run
-// planned at its place) and names every disagreement with its times.
+// planned at its place -- half as much when it is the planned procedure
+// driven another way) and names every disagreement with its times, and any
+// other reading of the recording that is as good.
 //
 // Units: SI (m, rad, s). Pure math: poses in, segments out.
 #ifndef ODOCAL_CALIBRATION_SEGMENT_H_
@@ -78,10 +80,20 @@ struct PlanMatch {
   // not in the plan", "run 'cw3' (umbmark cw, ...): the segment at
   // 150.1-201.4 s is umbmark ccw, side 1998 mm".
   std::vector<std::string> problems;
+  // Other alignments as good as the one above whose disagreements differ
+  // (e.g. which of two squares driven alike is the extra one): the
+  // recording cannot tell them apart, so the message must give them too.
+  // At most three; `more_readings` when there were more.
+  std::vector<std::vector<std::string>> other_readings;
+  bool more_readings = false;
 };
 
 // Aligns `segments` with the runs `planned` (names for the messages) in
-// order, at the least number of disagreements.
+// order, at the least cost: a run missing, a segment extra or a segment
+// that is another procedure costs 2, the planned procedure driven another
+// way (direction, size, turns) 1. So a run missing next to a square driven
+// the wrong way reads as that (3), not as the square missing and its
+// neighbour replaced by a square (4).
 PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments,
                               const std::vector<RunSpec>& planned,
                               const std::vector<std::string>& names,

@@ -5,8 +5,9 @@
 // plan and measures each against the simulator's truth. A session that plans
 // a run the video does not hold, or a square the other way round, is an error
 // naming both runs, and no report is written. And setup-check on the
-// video's first second predicts what batch then measures.
-// A small camera (640x360, 15 fps, ~45 s of video) keeps it to ~15 s.
+// video's first second predicts what batch then measures, within a factor
+// 1.5 pooled over this video and three more (issue 13 §5).
+// A small camera (640x360, 15 fps, 37-45 s of video each) keeps it to ~75 s.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -102,8 +104,39 @@ TEST_F(SegmentVideo, OneVideoForAWholePlan) {
   }
 }
 
+// The errors batch made on the closed runs (the squares and the spin: a
+// straight's x is its length, the camera's scale) against the simulator's
+// truth: x, y per axis (mm) and heading (deg) of true - odometry, as batch
+// measures a return error.
+struct ClosedRunErrors {
+  std::vector<double> position_mm, heading_deg;
+};
+
+void AddClosedRunErrors(const nlohmann::json& truth, const nlohmann::json& report, ClosedRunErrors* out) {
+  for (const nlohmann::json& run : report["runs"]) {
+    const nlohmann::json* t = nullptr;
+    for (const nlohmann::json& r : truth["runs"])
+      if (r["name"] == run["name"]) t = &r;
+    ASSERT_NE(t, nullptr) << run["name"];
+    if ((*t)["procedure"] == "straight") continue;
+    ASSERT_TRUE(run["return_error"].is_object()) << run.dump();
+    const nlohmann::json &e = run["return_error"], &te = (*t)["true_return_error"], &o = (*t)["odometry_end"];
+    out->position_mm.push_back(e["x_mm"].get<double>() - (te["x_mm"].get<double>() - o["x_mm"].get<double>()));
+    out->position_mm.push_back(e["y_mm"].get<double>() - (te["y_mm"].get<double>() - o["y_mm"].get<double>()));
+    out->heading_deg.push_back(e["theta_deg"].get<double>() -
+                               (te["theta_deg"].get<double>() - o["heading_deg"].get<double>()));
+  }
+}
+
+double Rms(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x * x / v.size();
+  return std::sqrt(s);
+}
+
 // setup-check (issue 13 §5) on the video's first 0.9 s, the robot standing
-// still, against the rendered truth and what batch then measured.
+// still, against the rendered truth; then its predicted accuracy against the
+// errors batch then made, pooled over this video and kMoreClips more.
 void SegmentVideo::SetupCheckPredictsWhatBatchThenMeasures() {
   const std::string video = dir_ + "/sim/recording.mp4", calibration = dir_ + "/sim/camera.yaml";
   const std::string common = "setup-check --camera " + video + " --calibration " + calibration +
@@ -119,33 +152,66 @@ void SegmentVideo::SetupCheckPredictsWhatBatchThenMeasures() {
   EXPECT_NEAR(j["camera_mount"]["height_mm"].get<double>(), 2000.0, 20.0);
   EXPECT_NEAR(j["camera_mount"]["pitch_deg"].get<double>(), 3.0, 0.5);
   EXPECT_TRUE(j["floor"]["squares_fit"].get<bool>());
-  // The prediction against the errors batch then made, over the squares
-  // and the spin (x, y, heading against the simulator's truth): the
-  // closure's bound is conservative on clean images (docs/vision.md: the
-  // renderer's stated sigmas are ~2.5x its errors; measured here 1.5x in
-  // position, 2.8x in heading), so the prediction may be up to 3.5x the
-  // error, never below half of it. Through a lossy codec the closure is
-  // right (z RMS ~1, docs/vision.md, "Per preset").
-  const nlohmann::json report = ReadJson(dir_ + "/report/report.json");
-  double sp = 0.0, sh = 0.0;
-  int np = 0, nh = 0;
-  for (size_t i = 0; i < 4; ++i) {
-    const nlohmann::json& truth = truth_["runs"][i];
-    if (truth["procedure"] == "straight") continue;
-    const nlohmann::json& e = report["runs"][i]["return_error"];
-    const nlohmann::json& t = truth["true_return_error"];
-    for (const char* k : {"x_mm", "y_mm"}) sp += std::pow(e[k].get<double>() - t[k].get<double>(), 2), ++np;
-    sh += std::pow(e["theta_deg"].get<double>() - t["theta_deg"].get<double>(), 2), ++nh;
+
+  // The prediction against the errors batch then made. One video holds
+  // three closed runs (6 position, 3 heading errors) and one still second
+  // (one draw of the image error setup-check reads its prediction from):
+  // too few to tell a factor 1.5. Pooled over 4 videos, each its own seed
+  // (image noise, wheel noise) and start pose: 24 position and 12 heading
+  // errors, whose RMS is known to +-14 % and +-20 % (1 sigma, chi-square),
+  // the predictions' mean square over 4 still seconds to +-9 % (of the
+  // sigma). The issue's bound, 1/1.5..1.5, is then 2.4 and 1.8 sigma of the
+  // ratio. The sweep behind the model (12 seeds, two resolutions, three
+  // camera presets): bench/setup_check/setup_check_sweep.py, docs/vision.md.
+  ClosedRunErrors errors;
+  AddClosedRunErrors(truth_, ReadJson(dir_ + "/report/report.json"), &errors);
+  ASSERT_FALSE(HasFatalFailure());
+  std::vector<double> predicted_p = {j["predicted"]["return_error_position_mm"].get<double>()};
+  std::vector<double> predicted_h = {j["predicted"]["return_error_heading_deg"].get<double>()};
+  struct Clip {
+    int seed;
+    const char* start_pose;
+  };
+  constexpr Clip kMoreClips[] = {{21, "{x_mm: -200, y_mm: 5, heading_deg: 1.2}"},
+                                 {22, "{x_mm: 150, y_mm: -5, heading_deg: 178.6}"},
+                                 {23, "{x_mm: -60, y_mm: 0, heading_deg: -1.5}"}};
+  for (const Clip& clip : kMoreClips) {
+    SCOPED_TRACE("clip seed " + std::to_string(clip.seed));
+    // The same camera and robot: the squares and the spin, no straight.
+    std::string scenario = kScenario;
+    scenario.replace(scenario.find("seed: 13"), 8, "seed: " + std::to_string(clip.seed));
+    const std::string start = "{x_mm: -125, y_mm: 0, heading_deg: 0}";
+    scenario.replace(scenario.find(start), start.size(), clip.start_pose);
+    const std::string straight = "  - {procedure: straight, distance_mm: 400}\n";
+    scenario.erase(scenario.find(straight), straight.size());
+    const std::string d = dir_ + "/clip" + std::to_string(clip.seed);
+    std::filesystem::create_directories(d);
+    std::ofstream(d + "/scenario.yaml") << scenario;
+    const CommandResult sim = RunCommand(Odocal("simulate --scenario " + d + "/scenario.yaml --out " + d + "/sim"));
+    ASSERT_EQ(sim.exit_code, 0) << sim.err;
+    const CommandResult check = RunCommand(Odocal("setup-check --camera " + d + "/sim/recording.mp4 --calibration " +
+                                                  d + "/sim/camera.yaml --tag tag36h11:5:80:150 --seconds 0.9 "
+                                                  "--runs 1 --square-mm 250 --out " + d + "/setup"));
+    ASSERT_EQ(check.exit_code, 0) << check.out << check.err;
+    const nlohmann::json p = ReadJson(d + "/setup/setup_check.json")["predicted"];
+    predicted_p.push_back(p["return_error_position_mm"].get<double>());
+    predicted_h.push_back(p["return_error_heading_deg"].get<double>());
+    const CommandResult batch = RunCommand(Odocal("batch " + d + "/sim/session.yaml --out " + d + "/report"));
+    ASSERT_EQ(batch.exit_code, 0) << batch.out << batch.err;
+    AddClosedRunErrors(ReadJson(d + "/sim/truth.json"), ReadJson(d + "/report/report.json"), &errors);
+    ASSERT_FALSE(HasFatalFailure());
   }
-  const double rms_p = std::sqrt(sp / np), rms_h = std::sqrt(sh / nh);
-  const double pred_p = j["predicted"]["return_error_position_mm"].get<double>();
-  const double pred_h = j["predicted"]["return_error_heading_deg"].get<double>();
-  std::printf("  setup-check predicted %.4f mm, %.5f deg; batch's errors RMS %.4f mm, %.5f deg\n", pred_p, pred_h,
-              rms_p, rms_h);
-  EXPECT_GT(pred_p, 0.5 * rms_p);
-  EXPECT_LT(pred_p, 3.5 * rms_p);
-  EXPECT_GT(pred_h, 0.5 * rms_h);
-  EXPECT_LT(pred_h, 3.5 * rms_h);
+  ASSERT_EQ(errors.position_mm.size(), 24u);
+  ASSERT_EQ(errors.heading_deg.size(), 12u);
+  const double pred_p = Rms(predicted_p), pred_h = Rms(predicted_h);
+  const double rms_p = Rms(errors.position_mm), rms_h = Rms(errors.heading_deg);
+  std::printf("  setup-check predicted %.4f mm, %.5f deg (RMS over 4 videos); batch's errors RMS %.4f mm (24), "
+              "%.5f deg (12): ratio %.2f, %.2f\n",
+              pred_p, pred_h, rms_p, rms_h, pred_p / rms_p, pred_h / rms_h);
+  EXPECT_GT(pred_p, rms_p / 1.5);
+  EXPECT_LT(pred_p, rms_p * 1.5);
+  EXPECT_GT(pred_h, rms_h / 1.5);
+  EXPECT_LT(pred_h, rms_h * 1.5);
 
   // A square too large for the view: said, exit 1.
   const CommandResult big = RunCommand(Odocal(common + " --square-mm 1500 --out " + dir_ + "/setup-big"));

@@ -413,6 +413,93 @@ TEST(RestCornerError, AMixtureIsNeverUnderstated) {
   EXPECT_GT(c.heading_ratio, 0.2);
 }
 
+// Each corner its own error on the tag's plane (isotropic, sigma per
+// coordinate, in the tag's frame), projected into `camera`.
+TagCorners CornersWithOwnErrors(const CameraModel& camera, const TagSpec& tag, const Pose2& robot, double sigma_mm,
+                                std::mt19937* rng) {
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const Pose2 T_world_tag = robot * tag.T_robot_tag();
+  const auto model = TagCornersInTag(tag.size_m());
+  TagCorners px;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d corner = model[k] + 1e-3 * sigma_mm * Eigen::Vector2d(unit(*rng), unit(*rng));
+    const Eigen::Vector2d w = T_world_tag * corner;
+    const auto p = camera.ProjectWorld(Eigen::Vector3d(w.x(), w.y(), tag.height_m()));
+    px[k] = cv::Point2d(p->x(), p->y());
+  }
+  return px;
+}
+
+// The expectation (not a bound): with each corner erring on its own, the
+// frozen rests' mean squared error is what expected_shared_covariance
+// states, position and heading, with the tag off the robot's centre too.
+TEST(RestCornerError, TheExpectationHoldsWhenEachCornerErrsOnItsOwn) {
+  const CameraModel camera = testing::StandardCamera();
+  for (const bool off_centre : {false, true}) {
+    SCOPED_TRACE(off_centre ? "tag off the centre" : "tag at the centre");
+    TagSpec tag = testing::StandardTag();
+    if (off_centre) {
+      tag.offset_x_mm = 60.0;
+      tag.offset_y_mm = -25.0;
+      tag.yaw_deg = 30.0;
+    }
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> ux(-0.6, 0.6), uy(-1.3, -0.7), uh(-M_PI, M_PI);
+    double err_p = 0, err_h = 0, var_p = 0, var_h = 0, bound_p = 0, bound_h = 0;
+    constexpr int kRests = 20000;
+    for (int r = 0; r < kRests; ++r) {
+      const Pose2 robot = Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng));
+      const PlanarPoseResult m = MeasureTagPose(camera, tag, CornersWithOwnErrors(camera, tag, robot, 0.05, &rng));
+      ASSERT_TRUE(m.ok) << m.message;
+      const RestCornerError e = EstimateRestCornerError({m.closure_mm, m.closure_mm}, tag, m.T_world_robot.heading());
+      err_p += (m.T_world_robot.translation() - robot.translation()).squaredNorm();
+      err_h += std::pow(WrapAngle(m.T_world_robot.heading() - robot.heading()), 2);
+      var_p += e.expected_shared_covariance(0, 0) + e.expected_shared_covariance(1, 1);
+      var_h += e.expected_shared_covariance(2, 2);
+      bound_p += e.shared_covariance(0, 0) + e.shared_covariance(1, 1);
+      bound_h += e.shared_covariance(2, 2);
+    }
+    std::printf("  each corner its own error: error / expected %.3f (position), %.3f (heading); bounds / expected "
+                "%.2f, %.2f\n", err_p / var_p, err_h / var_h, bound_p / var_p, bound_h / var_h);
+    EXPECT_NEAR(err_p / var_p, 1.0, 0.05);
+    EXPECT_NEAR(err_h / var_h, 1.0, 0.05);
+    // The edge model's bounds state more, as bounds do.
+    EXPECT_GT(bound_p, 1.2 * var_p);
+    EXPECT_GT(bound_h, 1.2 * var_h);
+  }
+}
+
+// setup-check fits the camera's roll and pitch to one still tag's views:
+// the fit makes that tag as square as it can and takes 2 of the closure's 4
+// dimensions. Counted (fitted_dof = 2), the image error read from the
+// closure left over is the one the corners carry.
+TEST(RestCornerError, ATiltFittedToTheSameFramesIsCounted) {
+  const CameraModel camera = testing::StandardCamera();
+  const TagSpec tag = testing::StandardTag();
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> ux(-0.5, 0.5), uy(-1.2, -0.8), uh(-M_PI, M_PI);
+  constexpr double kSigmaMm = 0.05;
+  double fitted = 0.0, uncounted = 0.0;
+  constexpr int kRests = 300;
+  for (int r = 0; r < kRests; ++r) {
+    const Pose2 robot = Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng));
+    // A repeated image: every view the same corners.
+    const TagCorners px = CornersWithOwnErrors(camera, tag, robot, kSigmaMm, &rng);
+    const CameraPlaneResult plane =
+        EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, {px, px, px}, testing::StandardMount());
+    ASSERT_TRUE(plane.ok) << plane.message;
+    const PlanarPoseResult m = MeasureTagPose(CameraModel(testing::StandardIntrinsics(), plane.mount), tag, px);
+    ASSERT_TRUE(m.ok);
+    fitted += std::pow(EstimateRestCornerError({m.closure_mm}, tag, 0.0, 2).sigma_shared_mm, 2) / kRests;
+    uncounted += std::pow(EstimateRestCornerError({m.closure_mm}, tag, 0.0).sigma_shared_mm, 2) / kRests;
+  }
+  std::printf("  tilt fitted to the frames: image error read %.2f (counted), %.2f (not) of the true\n",
+              fitted / (kSigmaMm * kSigmaMm), uncounted / (kSigmaMm * kSigmaMm));
+  // 300 rests of 2 dof: the mean square to +-8 % (1 sigma).
+  EXPECT_NEAR(fitted / (kSigmaMm * kSigmaMm), 1.0, 0.25);
+  EXPECT_NEAR(uncounted / (kSigmaMm * kSigmaMm), 0.5, 0.13);
+}
+
 // Frames with their own errors: the spread is the independent part, the
 // shared part comes out near zero, and one repeated image has no spread.
 TEST(RestCornerError, IndependentFramesAreToldFromASharedImage) {

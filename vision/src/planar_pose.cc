@@ -1,6 +1,7 @@
 #include "odocal/vision/planar_pose.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <sstream>
 
@@ -142,7 +143,8 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
 }
 
 RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vector2d, 4>>& closures,
-                                        const TagSpec& tag, double heading_rad) {
+                                        const TagSpec& tag, double heading_rad, int fitted_dof) {
+  assert(fitted_dof >= 0 && fitted_dof < 4);
   RestCornerError e;
   e.frames = static_cast<int>(closures.size());
   if (closures.empty()) return e;
@@ -153,15 +155,17 @@ RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vect
     for (int k = 0; k < 4; ++k) mean[k] += c[k] / n;
   double mean_sq = 0.0;
   for (const auto& m : mean) mean_sq += m.squaredNorm();
-  // Four degrees of freedom in the closure (docs in the header).
+  // Four degrees of freedom in the closure (docs in the header); a camera
+  // fitted to these frames has taken `fitted_dof` of them from their mean.
   constexpr double kDof = 4.0;
-  double independent_var = 0.0, shared_var = mean_sq / kDof;
+  const double mean_dof = kDof - fitted_dof;
+  double independent_var = 0.0, shared_var = mean_sq / mean_dof;
   if (closures.size() >= 2) {
     double within = 0.0;
     for (const auto& c : closures)
       for (int k = 0; k < 4; ++k) within += (c[k] - mean[k]).squaredNorm();
     independent_var = within / (n - 1.0) / kDof;
-    shared_var = std::max(0.0, mean_sq / kDof - independent_var / n);
+    shared_var = std::max(0.0, mean_sq / mean_dof - independent_var / n);
   }
   e.sigma_independent_mm = std::sqrt(independent_var);
   e.sigma_shared_mm = std::sqrt(shared_var);
@@ -184,6 +188,12 @@ RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vect
   J(1, 2) = lever.y();
   const Eigen::Matrix3d tag_cov = Eigen::Vector3d(var_t, var_t, var_h).asDiagonal();
   e.shared_covariance = J * tag_cov * J.transpose();
+  // Each corner its own error (every one of the 8 modes alike): the centre,
+  // a mean of four corners, var / 4 per axis; the heading, the corners'
+  // tangential errors at L / sqrt(2) from the centre, var / (2 L^2).
+  const Eigen::Matrix3d even_cov =
+      Eigen::Vector3d(var_m2 / 4.0, var_m2 / 4.0, var_m2 / (2.0 * size_m * size_m)).asDiagonal();
+  e.expected_shared_covariance = J * even_cov * J.transpose();
   return e;
 }
 

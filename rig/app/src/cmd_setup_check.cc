@@ -147,6 +147,7 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                   {"contrast_grey", r.quality.contrast_grey},
                   {"blur_sigma_px", r.quality.blur_sigma_px},
                   {"saturated_fraction", r.quality.saturated_fraction},
+                  {"grid_angle_deg", r.grid_angle_deg},
                   {"flags", r.quality_flags}};
   j["camera_mount"] = {{"x_mm", r.mount.x_mm},         {"y_mm", r.mount.y_mm},
                        {"height_mm", r.mount.height_mm}, {"roll_deg", r.mount.roll_deg},

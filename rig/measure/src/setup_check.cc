@@ -24,7 +24,7 @@ double Median(std::vector<double> v) {
 }
 
 std::string Fmt(const char* fmt, double a, double b = 0.0) {
-  char buf[256];
+  char buf[640];
   std::snprintf(buf, sizeof(buf), fmt, a, b);
   return buf;
 }
@@ -187,12 +187,21 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     }
   r.frame_sigma_position_m = std::sqrt(var_p);
   r.frame_sigma_heading_rad = std::sqrt(var_h);
-  const vision::RestCornerError shared = vision::EstimateRestCornerError(closures, options.tag, mean.z());
-  r.shared_sigma_position_m = std::sqrt(0.5 * (shared.shared_covariance(0, 0) + shared.shared_covariance(1, 1)));
-  r.shared_sigma_heading_rad = std::sqrt(shared.shared_covariance(2, 2));
+  // What the frames share, as expected (each corner its own error), not the
+  // edge model's bound that batch states: a prediction is compared with the
+  // error then made (docs/vision.md, "What a rest's error is made of").
+  // The tilt fitted to these very frames (above) has made the tag as square
+  // as roll and pitch can: 2 of the closure's 4 dimensions.
+  const vision::RestCornerError shared =
+      vision::EstimateRestCornerError(closures, options.tag, mean.z(), r.plane_from_tag ? 2 : 0);
+  const Eigen::Matrix3d& shared_cov = shared.expected_shared_covariance;
+  r.shared_sigma_position_m = std::sqrt(0.5 * (shared_cov(0, 0) + shared_cov(1, 1)));
+  r.shared_sigma_heading_rad = std::sqrt(shared_cov(2, 2));
   const double rest_frames = std::max(1.0, (r.fps > 0.0 ? r.fps : 30.0) * options.rest_s);
-  r.rest_sigma_position_m = std::sqrt(var_p / rest_frames + std::pow(r.shared_sigma_position_m, 2));
-  r.rest_sigma_heading_rad = std::sqrt(var_h / rest_frames + std::pow(r.shared_sigma_heading_rad, 2));
+  r.rest_sigma_position_m =
+      std::hypot(std::sqrt(var_p / rest_frames), options.session_position_factor * r.shared_sigma_position_m);
+  r.rest_sigma_heading_rad =
+      std::hypot(std::sqrt(var_h / rest_frames), options.session_heading_factor * r.shared_sigma_heading_rad);
   r.return_sigma_position_m = std::sqrt(2.0) * r.rest_sigma_position_m;
   r.return_sigma_heading_rad = std::sqrt(2.0) * r.rest_sigma_heading_rad;
 
@@ -255,6 +264,20 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   };
   r.sigma_Ed = spread(eds);
   r.sigma_Eb = spread(ebs);
+
+  // The edges' angle to the pixel grid, from the last frame's corners.
+  {
+    const vision::TagCorners& c = corners[posed.back()];
+    const double edge_deg = std::atan2(c[1].y - c[0].y, c[1].x - c[0].x) * 180.0 / M_PI;
+    const double off = std::fmod(std::fmod(edge_deg, 90.0) + 90.0, 90.0);
+    r.grid_angle_deg = std::min(off, 90.0 - off);
+    if (r.grid_angle_deg < 5.0)
+      r.warnings.push_back(Fmt("the tag's edges run %.1f deg off the pixel rows: a lossy video codec (H.264 at CRF "
+                               "23, a webcam's) turns such edges toward the rows, a heading error no still image "
+                               "shows (up to 2x the predicted; docs/vision.md). Start the robot turned 15-45 deg to "
+                               "the camera's rows, or record with less compression",
+                               r.grid_angle_deg));
+  }
 
   r.last_frame = frames[frame_of[posed.back()]].grey;
   r.last_corners = corners[posed.back()];

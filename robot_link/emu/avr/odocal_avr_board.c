@@ -1,0 +1,352 @@
+/*
+ * odocal-avr-board: an ATmega328P (or another simavr part) running a
+ * firmware ELF, its UART0 on a pseudo-terminal, its EEPROM in a file.
+ *
+ *   odocal-avr-board --elf odolink_avr.elf --eeprom robot.eeprom
+ *   -> prints "pty /dev/pts/N" once, then runs until SIGTERM / SIGINT.
+ *
+ * The EEPROM file behaves like the part's EEPROM across power cuts: it is
+ * mapped MAP_SHARED and simavr's EEPROM array is pointed at the mapping, so
+ * every byte the firmware writes lands in the kernel's page cache for that
+ * file the moment the simulated write happens. `kill -9` at any instant
+ * leaves the file with exactly the bytes written so far, like pulling the
+ * power between two EEPROM byte writes.
+ *
+ * Threads: simavr's uart_pty part moves bytes between the pty and two
+ * lock-free single-producer/single-consumer FIFOs in its own thread. Its
+ * stock `uart_pty_connect` also lets that thread push received bytes straight
+ * into the simulated UART, which registers cycle timers on the core from the
+ * wrong thread while the core runs. So the board connects the UART itself:
+ * the firmware's output goes to the pty FIFO (core thread writes, pty thread
+ * reads), and received bytes are taken from the pty FIFO and raised into the
+ * UART by the core thread only, only while the UART's receive FIFO has room.
+ * Nothing is dropped on the way in (the pty stops being read while the FIFO
+ * is full) and the UART delivers them to the firmware at the configured baud
+ * rate. This also skips uart_pty_connect's /tmp/simavr-uart0 symlink, which
+ * two boards running at once would fight over.
+ *
+ * Time: the core runs no faster than real time (it sleeps when simulated
+ * time is ahead of the wall clock, both while the firmware executes and while
+ * it sleeps), and as fast as the host allows when behind.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <avr_eeprom.h>
+#include <avr_uart.h>
+#include <sim_avr.h>
+#include <sim_elf.h>
+#include <sim_irq.h>
+#include <uart_pty.h>
+
+/* The headers only declare the FIFOs; these define their (static inline)
+ * accessors for this file. */
+DEFINE_FIFO(uint8_t, uart_pty_fifo);
+DEFINE_FIFO(uint16_t, uart_fifo);
+
+static volatile sig_atomic_t stop_signal;
+
+static void on_signal(int sig) { stop_signal = sig; }
+
+static void die(const char* fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void die(const char* fmt, ...) {
+  va_list ap;
+  fputs("odocal-avr-board: ", stderr);
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fputc('\n', stderr);
+  exit(1);
+}
+
+static void usage(FILE* to) {
+  fprintf(to,
+          "usage: odocal-avr-board --elf FILE --eeprom IMAGE [--mcu atmega328p] [--freq 16000000]\n"
+          "  Runs FILE under simavr with UART0 on a new pseudo-terminal and the EEPROM\n"
+          "  persisted in IMAGE (created 0xFF-filled if missing). Prints \"pty /dev/pts/N\"\n"
+          "  on stdout once the terminal is ready; runs until SIGTERM or SIGINT.\n");
+}
+
+/* ---- EEPROM ---------------------------------------------------------- */
+
+static avr_io_t* find_io(avr_t* avr, const char* kind, int uart_name) {
+  avr_io_t* io;
+  for (io = avr->io_port; io != NULL; io = io->next) {
+    if (io->kind == NULL || strcmp(io->kind, kind) != 0) continue;
+    if (uart_name && ((avr_uart_t*)io)->name != uart_name) continue;
+    return io;
+  }
+  return NULL;
+}
+
+/* Creates IMAGE as `size` bytes of 0xFF (an erased EEPROM) under a temporary
+ * name, then renames it into place: a kill during creation leaves either no
+ * image or a complete one, never a short file. */
+static void create_image(const char* path, size_t size) {
+  char tmp[4096];
+  uint8_t* erased;
+  int fd;
+  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp) {
+    die("%s: path too long", path);
+  }
+  fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) die("%s: %s", tmp, strerror(errno));
+  erased = malloc(size);
+  if (erased == NULL) die("out of memory");
+  memset(erased, 0xFF, size);
+  if (write(fd, erased, size) != (ssize_t)size || fsync(fd) != 0) {
+    die("%s: %s", tmp, strerror(errno));
+  }
+  free(erased);
+  close(fd);
+  if (rename(tmp, path) != 0) die("%s: %s", path, strerror(errno));
+}
+
+static uint8_t* map_eeprom(avr_t* avr, const char* path, size_t* size_out) {
+  avr_eeprom_t* ee = (avr_eeprom_t*)find_io(avr, "eeprom", 0);
+  struct stat st;
+  uint8_t* map;
+  int fd;
+  if (ee == NULL || ee->eeprom == NULL || ee->size == 0) die("the %s has no EEPROM", avr->mmcu);
+  if (access(path, F_OK) != 0) {
+    if (errno != ENOENT) die("%s: %s", path, strerror(errno));
+    create_image(path, ee->size);
+  }
+  fd = open(path, O_RDWR | O_CLOEXEC);
+  if (fd < 0) die("%s: %s", path, strerror(errno));
+  /* One board per image: two would both think they own the part. */
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) die("%s: in use by another board (%s)", path, strerror(errno));
+  if (fstat(fd, &st) != 0) die("%s: %s", path, strerror(errno));
+  if (st.st_size != (off_t)ee->size) {
+    die("%s: %lld bytes, but the %s's EEPROM holds %u bytes (wrong image?)", path,
+        (long long)st.st_size, avr->mmcu, (unsigned)ee->size);
+  }
+  map = mmap(NULL, ee->size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  if (map == MAP_FAILED) die("%s: mmap: %s", path, strerror(errno));
+  /* fd stays open: it holds the lock. The array simavr allocated (and that
+   * avr_load_firmware may have filled from the ELF's .eeprom section) is
+   * replaced: the image is the part's EEPROM. simavr never frees it. */
+  free(ee->eeprom);
+  ee->eeprom = map;
+  *size_out = ee->size;
+  return map;
+}
+
+/* ---- UART0 <-> pty ---------------------------------------------------- */
+
+typedef struct {
+  uart_pty_t pty;
+  avr_uart_t* uart;
+  avr_irq_t* uart_input;
+} bridge_t;
+
+static void bridge_init(avr_t* avr, bridge_t* b) {
+  uint32_t flags = 0;
+  avr_irq_t* uart_output;
+  struct termios tio;
+  int slave;
+
+  b->uart = (avr_uart_t*)find_io(avr, "uart", '0');
+  if (b->uart == NULL) die("the %s has no UART0", avr->mmcu);
+  /* No "tap" second pty, no xterm. */
+  unsetenv("SIMAVR_UART_TAP");
+  unsetenv("SIMAVR_UART_XTERM");
+  uart_pty_init(avr, &b->pty);
+  if (b->pty.pty.s == 0 || b->pty.pty.slavename[0] == '\0') die("cannot create a pseudo-terminal");
+
+  /* Binary data: no console echo of the bytes (STDIO), and no usleep when
+   * the firmware polls the status register (POLL_SLEEP would make every
+   * blocking transmit take milliseconds per byte). */
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+
+  uart_output = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT);
+  b->uart_input = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+  if (uart_output == NULL || b->uart_input == NULL) die("UART0 has no IRQs");
+  avr_connect_irq(uart_output, b->pty.irq + IRQ_UART_PTY_BYTE_IN);
+  /* pty.xon stays 0 forever: uart_pty's thread never raises into the core. */
+  b->pty.xon = 0;
+
+  /* The slave raw from the start: with the default line discipline a byte the
+   * firmware sends while no host has the port open would be echoed back into
+   * the firmware, and 0x0D turned into 0x0A. */
+  slave = open(b->pty.pty.slavename, O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (slave < 0) die("%s: %s", b->pty.pty.slavename, strerror(errno));
+  if (tcgetattr(slave, &tio) == 0) {
+    cfmakeraw(&tio);
+    cfsetispeed(&tio, B115200);
+    cfsetospeed(&tio, B115200);
+    tcsetattr(slave, TCSANOW, &tio);
+  }
+  close(slave);
+}
+
+/* Core thread: received bytes into the UART while its FIFO has room. */
+static void bridge_pump(bridge_t* b) {
+  while (!uart_pty_fifo_isempty(&b->pty.pty.out) && !uart_fifo_isfull(&b->uart->input)) {
+    avr_raise_irq(b->uart_input, uart_pty_fifo_read(&b->pty.pty.out));
+  }
+}
+
+/* ---- Time ------------------------------------------------------------ */
+
+static struct timespec wall_base;  /* wall clock when simulated cycle 0 ran */
+static uint64_t sim_frequency;
+
+static uint64_t ts_ns(const struct timespec* t) {
+  return (uint64_t)t->tv_sec * 1000000000u + (uint64_t)t->tv_nsec;
+}
+
+/* Sleeps until the wall clock reaches simulated cycle `cycle`. If the
+ * simulation is far behind (the host was busy or stopped), it forgives the
+ * backlog instead of racing to catch up. */
+static void sync_to_wall(uint64_t cycle) {
+  struct timespec now;
+  const uint64_t sim_ns = (uint64_t)((unsigned __int128)cycle * 1000000000u / sim_frequency);
+  uint64_t target, now_ns;
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  target = ts_ns(&wall_base) + sim_ns;
+  now_ns = ts_ns(&now);
+  if (target > now_ns) {
+    struct timespec t;
+    t.tv_sec = (time_t)(target / 1000000000u);
+    t.tv_nsec = (long)(target % 1000000000u);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, NULL) == EINTR && !stop_signal) {
+    }
+  } else if (now_ns - target > 200000000u) {
+    const uint64_t base = now_ns - sim_ns;
+    wall_base.tv_sec = (time_t)(base / 1000000000u);
+    wall_base.tv_nsec = (long)(base % 1000000000u);
+  }
+}
+
+/* The firmware executes SLEEP: wait until the next timer is due. */
+static void sleep_callback(avr_t* avr, avr_cycle_count_t how_long) {
+  sync_to_wall(avr->cycle + how_long);
+}
+
+/* ---- Main ------------------------------------------------------------ */
+
+int main(int argc, char** argv) {
+  static const struct option options[] = {
+      {"elf", required_argument, NULL, 'e'},   {"eeprom", required_argument, NULL, 'p'},
+      {"mcu", required_argument, NULL, 'm'},   {"freq", required_argument, NULL, 'f'},
+      {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
+  const char* elf_path = NULL;
+  const char* eeprom_path = NULL;
+  const char* mcu = "atmega328p";
+  unsigned long freq = 16000000ul;
+  static elf_firmware_t fw;
+  static bridge_t bridge;
+  avr_t* avr;
+  uint8_t* eeprom;
+  size_t eeprom_size;
+  FILE* out;
+  sigset_t block, old;
+  struct sigaction sa;
+  int opt, saved_stdout;
+
+  while ((opt = getopt_long(argc, argv, "", options, NULL)) != -1) {
+    switch (opt) {
+      case 'e': elf_path = optarg; break;
+      case 'p': eeprom_path = optarg; break;
+      case 'm': mcu = optarg; break;
+      case 'f': {
+        char* end;
+        freq = strtoul(optarg, &end, 10);
+        if (*end != '\0' || freq == 0) die("--freq: not a frequency in Hz: %s", optarg);
+        break;
+      }
+      case 'h': usage(stdout); return 0;
+      default: usage(stderr); return 2;
+    }
+  }
+  if (elf_path == NULL || eeprom_path == NULL || optind != argc) {
+    usage(stderr);
+    return 2;
+  }
+
+  /* simavr and uart_pty print progress on stdout; stdout is ours for the one
+   * "pty" line, so everything else goes to stderr. */
+  saved_stdout = dup(STDOUT_FILENO);
+  if (saved_stdout < 0 || dup2(STDERR_FILENO, STDOUT_FILENO) < 0) die("dup: %s", strerror(errno));
+  out = fdopen(saved_stdout, "w");
+  if (out == NULL) die("fdopen: %s", strerror(errno));
+
+  if (access(elf_path, R_OK) != 0) die("%s: %s", elf_path, strerror(errno));
+  if (elf_read_firmware(elf_path, &fw) != 0) die("%s: not a readable AVR ELF file", elf_path);
+  avr = avr_make_mcu_by_name(mcu);
+  if (avr == NULL) die("unknown part: %s", mcu);
+  avr_init(avr);
+  avr->log = LOG_ERROR;
+  snprintf(fw.mmcu, sizeof fw.mmcu, "%s", mcu);
+  fw.frequency = (uint32_t)freq;
+  avr_load_firmware(avr, &fw);
+  avr->frequency = (uint32_t)freq;
+  sim_frequency = freq;
+
+  eeprom = map_eeprom(avr, eeprom_path, &eeprom_size);
+
+  /* The pty thread must not take SIGTERM / SIGINT (its select would fail
+   * and the thread end): block them while it is created, then take them here. */
+  sigemptyset(&block);
+  sigaddset(&block, SIGTERM);
+  sigaddset(&block, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &block, &old);
+  bridge_init(avr, &bridge);
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigaction(SIGTERM, &sa, NULL);
+  sigaction(SIGINT, &sa, NULL);
+  pthread_sigmask(SIG_SETMASK, &old, NULL);
+
+  avr->sleep = sleep_callback;
+  clock_gettime(CLOCK_MONOTONIC, &wall_base);
+
+  fprintf(out, "pty %s\n", bridge.pty.pty.slavename);
+  fflush(out);
+
+  while (!stop_signal) {
+    int i, state = cpu_Running;
+    /* ~2000 instructions (about 0.15 ms at 16 MHz) between pumps. */
+    for (i = 0; i < 2000; ++i) {
+      state = avr_run(avr);
+      if (state == cpu_Done || state == cpu_Crashed) break;
+    }
+    if (state == cpu_Done) {
+      fprintf(stderr, "odocal-avr-board: the firmware went to sleep with interrupts disabled "
+                      "(it can never wake up) at cycle %llu\n", (unsigned long long)avr->cycle);
+      return 3;
+    }
+    if (state == cpu_Crashed) {
+      fprintf(stderr, "odocal-avr-board: the core crashed (pc 0x%05x, cycle %llu)\n",
+              (unsigned)avr->pc, (unsigned long long)avr->cycle);
+      return 3;
+    }
+    bridge_pump(&bridge);
+    /* Running code: hold simulated time within ~1 ms ahead of the wall. */
+    {
+      struct timespec now;
+      const uint64_t sim_ns =
+          (uint64_t)((unsigned __int128)avr->cycle * 1000000000u / sim_frequency);
+      clock_gettime(CLOCK_MONOTONIC, &now);
+      if (ts_ns(&wall_base) + sim_ns > ts_ns(&now) + 1000000u) sync_to_wall(avr->cycle);
+    }
+  }
+  msync(eeprom, eeprom_size, MS_SYNC);
+  return 0;
+}

@@ -211,12 +211,17 @@ static uint64_t ts_ns(const struct timespec* t) {
   return (uint64_t)t->tv_sec * 1000000000u + (uint64_t)t->tv_nsec;
 }
 
+/* Simulated time of `cycle` in ns, without overflow for any run length. */
+static uint64_t cycle_ns(uint64_t cycle) {
+  return cycle / sim_frequency * 1000000000u + cycle % sim_frequency * 1000000000u / sim_frequency;
+}
+
 /* Sleeps until the wall clock reaches simulated cycle `cycle`. If the
  * simulation is far behind (the host was busy or stopped), it forgives the
  * backlog instead of racing to catch up. */
 static void sync_to_wall(uint64_t cycle) {
   struct timespec now;
-  const uint64_t sim_ns = (uint64_t)((unsigned __int128)cycle * 1000000000u / sim_frequency);
+  const uint64_t sim_ns = cycle_ns(cycle);
   uint64_t target, now_ns;
   clock_gettime(CLOCK_MONOTONIC, &now);
   target = ts_ns(&wall_base) + sim_ns;
@@ -341,8 +346,7 @@ int main(int argc, char** argv) {
     /* Running code: hold simulated time within ~1 ms ahead of the wall. */
     {
       struct timespec now;
-      const uint64_t sim_ns =
-          (uint64_t)((unsigned __int128)avr->cycle * 1000000000u / sim_frequency);
+      const uint64_t sim_ns = cycle_ns(avr->cycle);
       clock_gettime(CLOCK_MONOTONIC, &now);
       if (ts_ns(&wall_base) + sim_ns > ts_ns(&now) + 1000000u) sync_to_wall(avr->cycle);
     }

@@ -12,18 +12,21 @@
  * leaves the file with exactly the bytes written so far, like pulling the
  * power between two EEPROM byte writes.
  *
- * Threads: simavr's uart_pty part moves bytes between the pty and two
- * lock-free single-producer/single-consumer FIFOs in its own thread. Its
- * stock `uart_pty_connect` also lets that thread push received bytes straight
- * into the simulated UART, which registers cycle timers on the core from the
- * wrong thread while the core runs. So the board connects the UART itself:
- * the firmware's output goes to the pty FIFO (core thread writes, pty thread
- * reads), and received bytes are taken from the pty FIFO and raised into the
- * UART by the core thread only, only while the UART's receive FIFO has room.
- * Nothing is dropped on the way in (the pty stops being read while the FIFO
- * is full) and the UART delivers them to the firmware at the configured baud
- * rate. This also skips uart_pty_connect's /tmp/simavr-uart0 symlink, which
- * two boards running at once would fight over.
+ * The pty: simavr's uart_pty part creates it (raw, slave name in the
+ * struct, never the /tmp/simavr-uart0 symlink that uart_pty_connect makes and
+ * that two boards running at once would fight over) and takes the firmware's
+ * output through its IRQ into its FIFO. Its thread is not used: it stops
+ * servicing a read it could not fully queue until the firmware happens to
+ * send something (a select with no fd set), so a host burst of more than
+ * ~500 bytes deadlocks it; and its stock connect raises received bytes into
+ * the core from that thread while the core runs. Here the core thread alone
+ * services the pty master: it reads only as many bytes as the simulated
+ * UART's receive FIFO has room for (the rest waits in the kernel's pty
+ * buffer, so nothing is dropped and the host's writes block when it is full)
+ * and the UART delivers them to the firmware at the configured baud rate.
+ * Output that the host does not read stays queued (64 KiB here, then the
+ * kernel's pty buffer); beyond that it is dropped, like a UART nobody
+ * listens to.
  *
  * Time: the core runs no faster than real time (it sleeps when simulated
  * time is ahead of the wall clock, both while the firmware executes and while
@@ -33,6 +36,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <poll.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -79,7 +83,9 @@ static void usage(FILE* to) {
           "usage: odocal-avr-board --elf FILE --eeprom IMAGE [--mcu atmega328p] [--freq 16000000]\n"
           "  Runs FILE under simavr with UART0 on a new pseudo-terminal and the EEPROM\n"
           "  persisted in IMAGE (created 0xFF-filled if missing). Prints \"pty /dev/pts/N\"\n"
-          "  on stdout once the terminal is ready; runs until SIGTERM or SIGINT.\n");
+          "  on stdout once the terminal is ready; runs until SIGTERM or SIGINT.\n"
+          "  --cut-after-writes N (testing): die like a power cut right after the Nth\n"
+          "  EEPROM byte the firmware changes.\n");
 }
 
 /* ---- EEPROM ---------------------------------------------------------- */
@@ -147,12 +153,62 @@ static uint8_t* map_eeprom(avr_t* avr, const char* path, size_t* size_out) {
   return map;
 }
 
+/* ---- Power cut at a chosen EEPROM write (test aid) ------------------- */
+
+/* --cut-after-writes N: the board dies (_exit, nothing flushed or cleaned,
+ * like kill -9) right after the Nth EEPROM byte that changes. The EEPROM
+ * control register's write handler is wrapped: simavr performs the byte write
+ * inside it, so a changed byte in the image after it returns is one write. */
+static struct {
+  unsigned long remaining;
+  avr_io_write_t inner;
+  void* inner_param;
+  uint8_t* image;
+  uint8_t* shadow;
+  size_t size;
+} cut;
+
+static void eecr_write_hook(avr_t* avr, avr_io_addr_t addr, uint8_t v, void* param) {
+  size_t i;
+  (void)param;
+  cut.inner(avr, addr, v, cut.inner_param);
+  for (i = 0; i < cut.size; ++i) {
+    if (cut.image[i] == cut.shadow[i]) continue;
+    cut.shadow[i] = cut.image[i];
+    if (--cut.remaining == 0) {
+      fprintf(stderr, "odocal-avr-board: power cut after EEPROM byte 0x%03zx was written\n", i);
+      _exit(137);
+    }
+  }
+}
+
+static void arm_power_cut(avr_t* avr, uint8_t* image, size_t size, unsigned long writes) {
+  avr_eeprom_t* ee = (avr_eeprom_t*)find_io(avr, "eeprom", 0);
+  const int io = AVR_DATA_TO_IO(ee->r_eecr);
+  cut.remaining = writes;
+  cut.image = image;
+  cut.size = size;
+  cut.shadow = malloc(size);
+  if (cut.shadow == NULL) die("out of memory");
+  memcpy(cut.shadow, image, size);
+  cut.inner = avr->io[io].w.c;
+  cut.inner_param = avr->io[io].w.param;
+  if (cut.inner == NULL) die("no EEPROM control register handler to wrap");
+  avr->io[io].w.c = eecr_write_hook;
+}
+
 /* ---- UART0 <-> pty ---------------------------------------------------- */
+
+#define BRIDGE_OUT_CAP 65536u
 
 typedef struct {
   uart_pty_t pty;
   avr_uart_t* uart;
   avr_irq_t* uart_input;
+  int master;
+  uint8_t out[BRIDGE_OUT_CAP]; /* firmware output not yet taken by the kernel */
+  size_t out_len;
+  unsigned long out_dropped;
 } bridge_t;
 
 static void bridge_init(avr_t* avr, bridge_t* b) {
@@ -167,7 +223,15 @@ static void bridge_init(avr_t* avr, bridge_t* b) {
   unsetenv("SIMAVR_UART_TAP");
   unsetenv("SIMAVR_UART_XTERM");
   uart_pty_init(avr, &b->pty);
-  if (b->pty.pty.s == 0 || b->pty.pty.slavename[0] == '\0') die("cannot create a pseudo-terminal");
+  if (b->pty.pty.s <= 0 || b->pty.pty.slavename[0] == '\0') die("cannot create a pseudo-terminal");
+  /* Its thread sits in select() (a cancellation point); no host has the
+   * slave yet, so no byte is in flight. */
+  pthread_cancel(b->pty.thread);
+  pthread_join(b->pty.thread, NULL);
+  b->master = b->pty.pty.s;
+  if (fcntl(b->master, F_SETFL, fcntl(b->master, F_GETFL) | O_NONBLOCK) != 0) {
+    die("pty: %s", strerror(errno));
+  }
 
   /* Binary data: no console echo of the bytes (STDIO), and no usleep when
    * the firmware polls the status register (POLL_SLEEP would make every
@@ -178,12 +242,12 @@ static void bridge_init(avr_t* avr, bridge_t* b) {
   b->uart_input = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
   if (uart_output == NULL || b->uart_input == NULL) die("UART0 has no IRQs");
   avr_connect_irq(uart_output, b->pty.irq + IRQ_UART_PTY_BYTE_IN);
-  /* pty.xon stays 0 forever: uart_pty's thread never raises into the core. */
-  b->pty.xon = 0;
 
   /* The slave raw from the start: with the default line discipline a byte the
    * firmware sends while no host has the port open would be echoed back into
-   * the firmware, and 0x0D turned into 0x0A. */
+   * the firmware, and 0x0D turned into 0x0A. uart_pty keeps a slave fd open,
+   * so the settings hold between host sessions and the master never sees
+   * EIO. */
   slave = open(b->pty.pty.slavename, O_RDWR | O_NOCTTY | O_CLOEXEC);
   if (slave < 0) die("%s: %s", b->pty.pty.slavename, strerror(errno));
   if (tcgetattr(slave, &tio) == 0) {
@@ -195,10 +259,37 @@ static void bridge_init(avr_t* avr, bridge_t* b) {
   close(slave);
 }
 
-/* Core thread: received bytes into the UART while its FIFO has room. */
+/* Room in the simulated UART's receive FIFO. */
+static size_t bridge_rx_room(bridge_t* b) {
+  if (!avr_regbit_get(b->uart->io.avr, b->uart->rxen)) return 0; /* a disabled receiver drops */
+  return uart_fifo_get_write_size(&b->uart->input);
+}
+
+/* Core thread: host bytes into the UART (only what fits), firmware bytes to
+ * the host. */
 static void bridge_pump(bridge_t* b) {
-  while (!uart_pty_fifo_isempty(&b->pty.pty.out) && !uart_fifo_isfull(&b->uart->input)) {
-    avr_raise_irq(b->uart_input, uart_pty_fifo_read(&b->pty.pty.out));
+  size_t room = bridge_rx_room(b);
+  while (room > 0) {
+    uint8_t in[64];
+    ssize_t i, n = read(b->master, in, room < sizeof in ? room : sizeof in);
+    if (n <= 0) break; /* EAGAIN: nothing waiting */
+    for (i = 0; i < n; ++i) avr_raise_irq(b->uart_input, in[i]);
+    room -= (size_t)n;
+  }
+  while (!uart_pty_fifo_isempty(&b->pty.pty.in)) {
+    const uint8_t byte = uart_pty_fifo_read(&b->pty.pty.in);
+    if (b->out_len < BRIDGE_OUT_CAP) {
+      b->out[b->out_len++] = byte;
+    } else {
+      ++b->out_dropped;
+    }
+  }
+  if (b->out_len > 0) {
+    const ssize_t n = write(b->master, b->out, b->out_len);
+    if (n > 0) {
+      memmove(b->out, b->out + n, b->out_len - (size_t)n);
+      b->out_len -= (size_t)n;
+    }
   }
 }
 
@@ -239,9 +330,31 @@ static void sync_to_wall(uint64_t cycle) {
   }
 }
 
-/* The firmware executes SLEEP: wait until the next timer is due. */
+static bridge_t* sleep_bridge;
+
+/* The firmware executes SLEEP: wait until the next timer is due, or less if
+ * the host sends something the UART can take (its interrupt wakes the part;
+ * the simulated clock still counts the whole sleep, the running-code pacing
+ * in main() lets the wall clock catch up). */
 static void sleep_callback(avr_t* avr, avr_cycle_count_t how_long) {
-  sync_to_wall(avr->cycle + how_long);
+  struct timespec now;
+  uint64_t target, now_ns;
+  if (sleep_bridge == NULL || bridge_rx_room(sleep_bridge) == 0 || sleep_bridge->out_len > 0) {
+    sync_to_wall(avr->cycle + how_long);
+    return;
+  }
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  target = ts_ns(&wall_base) + cycle_ns(avr->cycle + how_long);
+  now_ns = ts_ns(&now);
+  if (target > now_ns) {
+    struct pollfd pfd;
+    struct timespec timeout;
+    pfd.fd = sleep_bridge->master;
+    pfd.events = POLLIN;
+    timeout.tv_sec = (time_t)((target - now_ns) / 1000000000u);
+    timeout.tv_nsec = (long)((target - now_ns) % 1000000000u);
+    (void)ppoll(&pfd, 1, &timeout, NULL);
+  }
 }
 
 /* ---- Main ------------------------------------------------------------ */
@@ -250,11 +363,13 @@ int main(int argc, char** argv) {
   static const struct option options[] = {
       {"elf", required_argument, NULL, 'e'},   {"eeprom", required_argument, NULL, 'p'},
       {"mcu", required_argument, NULL, 'm'},   {"freq", required_argument, NULL, 'f'},
+      {"cut-after-writes", required_argument, NULL, 'c'},
       {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
   const char* elf_path = NULL;
   const char* eeprom_path = NULL;
   const char* mcu = "atmega328p";
   unsigned long freq = 16000000ul;
+  unsigned long cut_after = 0;
   static elf_firmware_t fw;
   static bridge_t bridge;
   avr_t* avr;
@@ -274,6 +389,12 @@ int main(int argc, char** argv) {
         char* end;
         freq = strtoul(optarg, &end, 10);
         if (*end != '\0' || freq == 0) die("--freq: not a frequency in Hz: %s", optarg);
+        break;
+      }
+      case 'c': {
+        char* end;
+        cut_after = strtoul(optarg, &end, 10);
+        if (*end != '\0' || cut_after == 0) die("--cut-after-writes: not a count: %s", optarg);
         break;
       }
       case 'h': usage(stdout); return 0;
@@ -305,6 +426,7 @@ int main(int argc, char** argv) {
   sim_frequency = freq;
 
   eeprom = map_eeprom(avr, eeprom_path, &eeprom_size);
+  if (cut_after > 0) arm_power_cut(avr, eeprom, eeprom_size, cut_after);
 
   /* The pty thread must not take SIGTERM / SIGINT (its select would fail
    * and the thread end): block them while it is created, then take them here. */
@@ -319,6 +441,7 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, NULL);
   pthread_sigmask(SIG_SETMASK, &old, NULL);
 
+  sleep_bridge = &bridge;
   avr->sleep = sleep_callback;
   clock_gettime(CLOCK_MONOTONIC, &wall_base);
 

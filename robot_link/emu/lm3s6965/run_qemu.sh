@@ -19,6 +19,8 @@
 #   QEMU_SYSTEM_ARM  the QEMU binary (default: qemu-system-arm)
 #   QEMU_PIDFILE     if set, QEMU writes its pid there (for kill -9 tests:
 #                    killing this script with SIGKILL leaves QEMU running)
+#   ODOLINK_FLASH_DELAY_MS  if set, each flash erase and word program takes
+#                    this many ms more (power-cut tests: see powercut.sh)
 set -euo pipefail
 
 if [[ $# -ne 2 ]]; then
@@ -33,13 +35,18 @@ qemu=${QEMU_SYSTEM_ARM:-qemu-system-arm}
 # "odolink IMAGE" (everything after the first word is the path). Commas are
 # doubled: QEMU's option syntax uses ',' as its separator.
 arg_image=${image//,/,,}
+semihost_args="enable=on,target=native,arg=odolink"
+if [[ -n ${ODOLINK_FLASH_DELAY_MS:-} ]]; then
+  semihost_args+=",arg=flash_delay_ms=$((ODOLINK_FLASH_DELAY_MS))"
+fi
+semihost_args+=",arg=$arg_image"
 
 qemu_args=(
   -M lm3s6965evb
   -nographic
   -monitor none          # no monitor anywhere, in particular not on stdio
   -serial pty            # UART0 on a pty; UART1 and UART2 stay unconnected
-  -semihosting-config "enable=on,target=native,arg=odolink,arg=$arg_image"
+  -semihosting-config "$semihost_args"
   -kernel "$elf"
 )
 if [[ -n ${QEMU_PIDFILE:-} ]]; then

@@ -9,15 +9,30 @@
  * -semihosting-config enable=on,target=native,arg=odolink,arg=IMAGE), i.e.
  * everything after the first word; without an argument, "odolink_flash.img"
  * in QEMU's working directory. A missing file is created; a short one
- * (fresh) is extended with 0xFF, the erased state. */
+ * (fresh) is extended with 0xFF, the erased state.
+ *
+ * For power-cut tests the command line may carry "flash_delay_ms=N" before
+ * the image ("odolink flash_delay_ms=5 IMAGE"): every page erase and every
+ * word program then takes N ms more, as if the flash were slow, so that a
+ * kill at a random moment often lands in the middle of a record. */
 #include <string.h>
 
+#include "bsp.h"
 #include "flash_hw.h"
 #include "semihost.h"
 
 #define DEFAULT_IMAGE "odolink_flash.img"
 
+#define DELAY_OPTION "flash_delay_ms="
+
 static int32_t g_handle = -1;
+static uint32_t g_delay_ms;
+
+static void slow_flash(void) {
+  const uint32_t start = bsp_millis();
+  while (bsp_millis() - start < g_delay_ms) {
+  }
+}
 
 static int fill_erased(uint32_t offset, uint32_t len) {
   uint8_t ff[128];
@@ -36,8 +51,13 @@ int flash_hw_init(void) {
   const char* name = DEFAULT_IMAGE;
   int32_t flen;
   if (semihost_get_cmdline(cmdline, sizeof cmdline)) {
-    const char* space = strchr(cmdline, ' ');
-    if (space != NULL && space[1] != '\0') name = space + 1;
+    const char* rest = strchr(cmdline, ' ');
+    if (rest != NULL && strncmp(rest + 1, DELAY_OPTION, strlen(DELAY_OPTION)) == 0) {
+      rest += 1 + strlen(DELAY_OPTION);
+      while (*rest >= '0' && *rest <= '9') g_delay_ms = g_delay_ms * 10u + (uint32_t)(*rest++ - '0');
+      if (*rest != ' ') rest = NULL;
+    }
+    if (rest != NULL && rest[1] != '\0') name = rest + 1;
   }
   g_handle = semihost_open(name, SEMIHOST_MODE_RPLUS_B);
   if (g_handle < 0) g_handle = semihost_open(name, SEMIHOST_MODE_WPLUS_B);
@@ -52,6 +72,7 @@ int flash_hw_init(void) {
 
 int flash_hw_erase_page(uint32_t page_addr) {
   if (g_handle < 0) return 0;
+  slow_flash();
   return fill_erased(page_addr - FLASH_PARAMS_BASE, 1024u);
 }
 
@@ -60,6 +81,7 @@ int flash_hw_program_word(uint32_t addr, uint32_t word) {
   uint32_t old;
   const uint32_t offset = addr - FLASH_PARAMS_BASE;
   if (g_handle < 0) return 0;
+  slow_flash();
   if (semihost_seek(g_handle, offset) != 0 || !semihost_read(g_handle, cell, 4)) return 0;
   /* NOR flash physics: programming only pulls bits from 1 to 0. */
   old = (uint32_t)cell[0] | ((uint32_t)cell[1] << 8) | ((uint32_t)cell[2] << 16) |

@@ -26,6 +26,14 @@
 
 #define PI 3.14159265358979323846
 
+/* Parameters arrive as olf_f64_t, which is a plain double on Cortex-M (the
+ * compiler's double is binary64): this file does its maths in double. On a
+ * target whose double is 32 bits (avr-gcc) olf_f64_t is a byte array instead;
+ * convert with olf_f64_to_float() there. */
+#if OLF_SOFT_F64
+#error "this example expects a 64-bit double (olf_f64_t == double)"
+#endif
+
 /* Speeds when the host leaves them to the robot (RUN_START without speeds). */
 #define DEFAULT_SPEED_MM_S 400u
 #define DEFAULT_TURN_RATE_DDEG_S 1800u /* 180 deg/s */

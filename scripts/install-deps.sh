@@ -11,6 +11,9 @@ packages=(
   libcpp-httplib-dev  # the live view's HTTP server (rig/live)
   chromium  # headless, for the live view's screenshot test (tests/live)
   ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
+  # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)
+  gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1
+  gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -24,8 +24,10 @@ if(_fuzz_clang)
     RESULT_VARIABLE _probe_rc OUTPUT_QUIET ERROR_QUIET)
   if(_probe_rc EQUAL 0)
     set(_fw ${CMAKE_CURRENT_SOURCE_DIR}/firmware)
-    set(_sources ${_fw}/src/olf_codec.c ${_fw}/src/olf_params.c ${_fw}/src/olf_core.c
-                 ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/olf_decoder_fuzzer.c)
+    # The library's own source list, so that a new file cannot be forgotten here.
+    get_target_property(_lib_sources odocal_link_firmware SOURCES)
+    list(TRANSFORM _lib_sources PREPEND ${_fw}/)
+    set(_sources ${_lib_sources} ${CMAKE_CURRENT_SOURCE_DIR}/fuzz/olf_decoder_fuzzer.c)
     set(ODOCAL_FUZZ_BINARY ${CMAKE_BINARY_DIR}/olf_decoder_fuzzer CACHE INTERNAL "")
     add_custom_command(
       OUTPUT ${ODOCAL_FUZZ_BINARY}

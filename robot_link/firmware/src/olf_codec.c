@@ -2,6 +2,7 @@
  * 256-entry table costs 512 B / 1 KiB of flash on a small MCU, and frames are
  * short. tests/robot_link/cobs_crc_test.cc checks both against Boost.CRC. */
 #include "odolink/olf.h"
+#include "olf_internal.h"
 
 uint16_t olf_crc16(const uint8_t* data, size_t len) {
   uint16_t crc = 0xFFFFu;
@@ -16,8 +17,7 @@ uint16_t olf_crc16(const uint8_t* data, size_t len) {
   return crc;
 }
 
-uint32_t olf_crc32(const uint8_t* data, size_t len) {
-  uint32_t crc = 0xFFFFFFFFu;
+uint32_t olf_crc32_update(uint32_t crc, const uint8_t* data, size_t len) {
   size_t i;
   int bit;
   for (i = 0; i < len; ++i) {
@@ -26,7 +26,11 @@ uint32_t olf_crc32(const uint8_t* data, size_t len) {
       crc = (crc & 1u) ? ((crc >> 1) ^ 0xEDB88320u) : (crc >> 1);
     }
   }
-  return crc ^ 0xFFFFFFFFu;
+  return crc;
+}
+
+uint32_t olf_crc32(const uint8_t* data, size_t len) {
+  return olf_crc32_finish(olf_crc32_update(OLF_CRC32_START, data, len));
 }
 
 size_t olf_cobs_encode(const uint8_t* in, size_t len, uint8_t* out, size_t out_cap) {

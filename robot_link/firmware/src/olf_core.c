@@ -74,25 +74,60 @@ static int apply_set(olf_ctx_t* ctx, const olf_params_t* next, const olf_params_
 
 /* ---- Output ------------------------------------------------------------ */
 
-static size_t begin_payload(olf_ctx_t* ctx, uint8_t type, uint16_t seq) {
-  ctx->tx_payload[0] = OLF_PROTOCOL_VERSION;
-  ctx->tx_payload[1] = type;
-  olf_put_u16(ctx->tx_payload + 2, seq);
-  return OLF_HEADER_SIZE;
+/* Replies and events are written through a cursor into the payload area of
+ * tx: each put returns the position after what it wrote (short code on an
+ * 8-bit CPU). */
+#define TX_PAYLOAD_AT 3u
+typedef char olf_in_place_cobs_needs_short_payloads[(OLF_MAX_PAYLOAD + OLF_CRC_SIZE < 254u) ? 1 : -1];
+typedef char olf_largest_message_fits[(OLF_LARGEST_MESSAGE <= OLF_MAX_PAYLOAD) ? 1 : -1];
+static uint8_t* put_u8(uint8_t* p, uint8_t v) {
+  *p = v;
+  return p + 1;
+}
+static uint8_t* put_u16(uint8_t* p, uint16_t v) {
+  olf_put_u16(p, v);
+  return p + 2;
+}
+static uint8_t* put_u32(uint8_t* p, uint32_t v) {
+  olf_put_u32(p, v);
+  return p + 4;
+}
+static uint8_t* put_double(uint8_t* p, double v) {
+  olf_put_double(p, v);
+  return p + 8;
+}
+/* t_ms, left and right ticks, x, y, heading: TELEMETRY and RUN_COMPLETE. */
+static uint8_t* put_sample(uint8_t* p, const olf_telemetry_t* s) {
+  p = put_u32(p, s->t_ms);
+  p = put_u32(p, (uint32_t)s->left_ticks);
+  p = put_u32(p, (uint32_t)s->right_ticks);
+  p = put_double(p, s->x_mm);
+  p = put_double(p, s->y_mm);
+  return put_double(p, s->heading_rad);
+}
+
+static uint8_t* begin_payload(olf_ctx_t* ctx, uint8_t type, uint16_t seq) {
+  uint8_t* payload = ctx->tx + TX_PAYLOAD_AT;
+  payload[0] = OLF_PROTOCOL_VERSION;
+  payload[1] = type;
+  olf_put_u16(payload + 2, seq);
+  return payload + OLF_HEADER_SIZE;
 }
 
 /* Body length, CRC, COBS, delimiters on both sides (the leading one flushes whatever
  * garbage the receiver holds), then out. Returns the frame length in tx. */
-static size_t send_payload(olf_ctx_t* ctx, size_t len) {
+static size_t send_payload(olf_ctx_t* ctx, const uint8_t* end) {
+  uint8_t* payload = ctx->tx + TX_PAYLOAD_AT;
+  const size_t len = (size_t)(end - payload);
   uint16_t crc;
   size_t n;
-  ctx->tx_payload[4] = (uint8_t)(len - OLF_HEADER_SIZE);
-  crc = olf_crc16(ctx->tx_payload, len);
-  ctx->tx_payload[len] = (uint8_t)(crc >> 8);
-  ctx->tx_payload[len + 1] = (uint8_t)crc;
-  ctx->tx[0] = 0;
-  n = olf_cobs_encode(ctx->tx_payload, len + OLF_CRC_SIZE, ctx->tx + 1, sizeof ctx->tx - 2);
+  payload[4] = (uint8_t)(len - OLF_HEADER_SIZE);
+  crc = olf_crc16(payload, len);
+  payload[len] = (uint8_t)(crc >> 8);
+  payload[len + 1] = (uint8_t)crc;
+  n = olf_cobs_encode(payload, len + OLF_CRC_SIZE, ctx->tx + 1, sizeof ctx->tx - 2);
   if (n == 0) return 0; /* cannot happen: payloads are bounded by construction */
+  ctx->tx[0] = 0;
   ctx->tx[n + 1] = 0;
   if (ctx->config.callbacks.write) {
     ctx->config.callbacks.write(ctx->config.callbacks.user, ctx->tx, n + 2);
@@ -108,8 +143,8 @@ typedef struct {
   size_t body_len;
 } request_t;
 
-static void send_reply(olf_ctx_t* ctx, const request_t* req, size_t len) {
-  const size_t n = send_payload(ctx, len);
+static void send_reply(olf_ctx_t* ctx, const request_t* req, const uint8_t* end) {
+  const size_t n = send_payload(ctx, end);
   if (n > 0) {
     memcpy(ctx->cached_reply, ctx->tx, n);
     ctx->cached_reply_len = n;
@@ -120,17 +155,27 @@ static void send_reply(olf_ctx_t* ctx, const request_t* req, size_t len) {
 }
 
 static void nack(olf_ctx_t* ctx, const request_t* req, uint8_t error) {
-  size_t at = begin_payload(ctx, OLF_MSG_NACK, req->seq);
-  ctx->tx_payload[at++] = req->type;
-  ctx->tx_payload[at++] = error;
-  if (error == OLF_ERR_BAD_VERSION) ctx->tx_payload[at++] = OLF_PROTOCOL_VERSION;
-  send_reply(ctx, req, at);
+  uint8_t* p = begin_payload(ctx, OLF_MSG_NACK, req->seq);
+  p = put_u8(p, req->type);
+  p = put_u8(p, error);
+  if (error == OLF_ERR_BAD_VERSION) p = put_u8(p, OLF_PROTOCOL_VERSION);
+  send_reply(ctx, req, p);
 }
 
-static size_t begin_ack(olf_ctx_t* ctx, const request_t* req) {
-  size_t at = begin_payload(ctx, OLF_MSG_ACK, req->seq);
-  ctx->tx_payload[at++] = req->type;
-  return at;
+static uint8_t* begin_ack(olf_ctx_t* ctx, const request_t* req) {
+  return put_u8(begin_payload(ctx, OLF_MSG_ACK, req->seq), req->type);
+}
+
+/* ACK carrying the active set's checksum: SET, COMMIT, ROLLBACK. */
+static void ack_with_active_crc(olf_ctx_t* ctx, const request_t* req) {
+  send_reply(ctx, req, put_u32(begin_ack(ctx, req), olf_params_crc(&ctx->active)));
+}
+
+/* NACK `error` unless the body is exactly `len` bytes; 1 if it is. */
+static int body_is(olf_ctx_t* ctx, const request_t* req, size_t len) {
+  if (req->body_len == len) return 1;
+  nack(ctx, req, OLF_ERR_MALFORMED);
+  return 0;
 }
 
 /* ---- Requests ---------------------------------------------------------- */
@@ -153,30 +198,25 @@ static uint8_t parse_param_value(const request_t* req, int* index, const uint8_t
 }
 
 static void handle_hello(olf_ctx_t* ctx, const request_t* req) {
-  size_t at, name_len = 0;
+  uint8_t* p;
+  uint8_t name_len = 0;
   const char* name = ctx->config.robot_name ? ctx->config.robot_name : "";
-  if (req->body_len != 0) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
+  if (!body_is(ctx, req, 0)) return;
   while (name[name_len] != '\0' && name_len < OLF_MAX_NAME) ++name_len;
-  at = begin_ack(ctx, req);
-  ctx->tx_payload[at++] = OLF_PROTOCOL_VERSION;
-  ctx->tx_payload[at++] = OLF_PARAM_COUNT;
-  olf_put_u32(ctx->tx_payload + at, olf_param_table_crc());
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, olf_params_crc(&ctx->active));
-  at += 4;
-  ctx->tx_payload[at++] = (uint8_t)ctx->boot_source;
-  ctx->tx_payload[at++] = (uint8_t)name_len;
-  memcpy(ctx->tx_payload + at, name, name_len);
-  at += name_len;
-  send_reply(ctx, req, at);
+  p = begin_ack(ctx, req);
+  p = put_u8(p, OLF_PROTOCOL_VERSION);
+  p = put_u8(p, OLF_PARAM_COUNT);
+  p = put_u32(p, olf_param_table_crc());
+  p = put_u32(p, olf_params_crc(&ctx->active));
+  p = put_u8(p, (uint8_t)ctx->boot_source);
+  p = put_u8(p, name_len);
+  memcpy(p, name, name_len);
+  send_reply(ctx, req, p + name_len);
 }
 
 static void handle_param_get(olf_ctx_t* ctx, const request_t* req) {
   int index;
-  size_t at;
+  uint8_t* p;
   if (req->body_len < 1 || req->body_len != 1u + req->body[0]) {
     nack(ctx, req, OLF_ERR_MALFORMED);
     return;
@@ -186,10 +226,8 @@ static void handle_param_get(olf_ctx_t* ctx, const request_t* req) {
     nack(ctx, req, OLF_ERR_UNKNOWN_PARAM);
     return;
   }
-  at = begin_ack(ctx, req);
-  ctx->tx_payload[at++] = olf_param_table()[index].type;
-  at += olf_param_put(&ctx->active, (unsigned)index, ctx->tx_payload + at);
-  send_reply(ctx, req, at);
+  p = put_u8(begin_ack(ctx, req), olf_param_table()[index].type);
+  send_reply(ctx, req, p + olf_param_put(&ctx->active, (unsigned)index, p));
 }
 
 static void handle_param_write(olf_ctx_t* ctx, const request_t* req) {
@@ -213,9 +251,8 @@ static void handle_param_write(olf_ctx_t* ctx, const request_t* req) {
     return;
   }
   if (req->type == OLF_MSG_STAGE_PUT) {
-    size_t at = begin_ack(ctx, req);
-    ctx->staged_mask |= 1u << index;
-    send_reply(ctx, req, at);
+    ctx->staged_mask |= (uint32_t)1 << index;
+    send_reply(ctx, req, begin_ack(ctx, req));
     return;
   }
   /* PARAM_SET: the whole set with one value changed goes through the same
@@ -224,18 +261,11 @@ static void handle_param_write(olf_ctx_t* ctx, const request_t* req) {
     nack(ctx, req, OLF_ERR_STORAGE);
     return;
   }
-  {
-    size_t at = begin_ack(ctx, req);
-    olf_put_u32(ctx->tx_payload + at, olf_params_crc(&ctx->active));
-    send_reply(ctx, req, at + 4);
-  }
+  ack_with_active_crc(ctx, req);
 }
 
 static void handle_stage_begin(olf_ctx_t* ctx, const request_t* req) {
-  if (req->body_len != 0) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
+  if (!body_is(ctx, req, 0)) return;
   ctx->staged = ctx->active;
   ctx->staged_mask = 0;
   send_reply(ctx, req, begin_ack(ctx, req));
@@ -244,12 +274,9 @@ static void handle_stage_begin(olf_ctx_t* ctx, const request_t* req) {
 static void handle_params_read(olf_ctx_t* ctx, const request_t* req) {
   const olf_params_t* set;
   uint32_t mask = OLF_ALL_PARAMS;
-  size_t at;
+  uint8_t* p;
   unsigned i;
-  if (req->body_len != 1) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
+  if (!body_is(ctx, req, 1)) return;
   switch (req->body[0]) {
     case OLF_SET_ACTIVE: set = &ctx->active; break;
     case OLF_SET_STAGED: set = &ctx->staged; mask = ctx->staged_mask; break;
@@ -262,34 +289,31 @@ static void handle_params_read(olf_ctx_t* ctx, const request_t* req) {
       break;
     default: nack(ctx, req, OLF_ERR_MALFORMED); return;
   }
-  at = begin_ack(ctx, req);
-  ctx->tx_payload[at++] = req->body[0];
-  olf_put_u32(ctx->tx_payload + at, mask);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, olf_params_crc(set));
-  at += 4;
-  ctx->tx_payload[at++] = OLF_PARAM_COUNT;
+  p = begin_ack(ctx, req);
+  p = put_u8(p, req->body[0]);
+  p = put_u32(p, mask);
+  p = put_u32(p, olf_params_crc(set));
+  p = put_u8(p, OLF_PARAM_COUNT);
   /* Table order, type and value only: the names are covered by the table
    * checksum the host verified in HELLO, and a short frame survives a noisy
    * line far more often (at 1 % byte errors, 42 bytes arrive intact 66 % of
    * the time, 120 bytes 30 %). */
   for (i = 0; i < OLF_PARAM_COUNT; ++i) {
-    ctx->tx_payload[at++] = olf_param_table()[i].type;
-    at += olf_param_put(set, i, ctx->tx_payload + at);
+    p = put_u8(p, olf_param_table()[i].type);
+    p += olf_param_put(set, i, p);
   }
-  send_reply(ctx, req, at);
+  send_reply(ctx, req, p);
+}
+
+/* NACK BUSY while a run lasts; 1 if idle. */
+static int idle(olf_ctx_t* ctx, const request_t* req) {
+  if (ctx->state != OLF_STATE_RUNNING) return 1;
+  nack(ctx, req, OLF_ERR_BUSY);
+  return 0;
 }
 
 static void handle_commit(olf_ctx_t* ctx, const request_t* req) {
-  size_t at;
-  if (req->body_len != 4) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
-  if (ctx->state == OLF_STATE_RUNNING) {
-    nack(ctx, req, OLF_ERR_BUSY);
-    return;
-  }
+  if (!body_is(ctx, req, 4) || !idle(ctx, req)) return;
   if (ctx->staged_mask != OLF_ALL_PARAMS) {
     nack(ctx, req, OLF_ERR_STAGE_INCOMPLETE);
     return;
@@ -304,21 +328,11 @@ static void handle_commit(olf_ctx_t* ctx, const request_t* req) {
   }
   /* A stale staging area must not be committed twice by accident. */
   ctx->staged_mask = 0;
-  at = begin_ack(ctx, req);
-  olf_put_u32(ctx->tx_payload + at, olf_params_crc(&ctx->active));
-  send_reply(ctx, req, at + 4);
+  ack_with_active_crc(ctx, req);
 }
 
 static void handle_rollback(olf_ctx_t* ctx, const request_t* req) {
-  size_t at;
-  if (req->body_len != 0) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
-  if (ctx->state == OLF_STATE_RUNNING) {
-    nack(ctx, req, OLF_ERR_BUSY);
-    return;
-  }
+  if (!body_is(ctx, req, 0) || !idle(ctx, req)) return;
   if (!ctx->has_previous) {
     nack(ctx, req, OLF_ERR_NO_PREVIOUS);
     return;
@@ -328,43 +342,45 @@ static void handle_rollback(olf_ctx_t* ctx, const request_t* req) {
     nack(ctx, req, OLF_ERR_STORAGE);
     return;
   }
-  at = begin_ack(ctx, req);
-  olf_put_u32(ctx->tx_payload + at, olf_params_crc(&ctx->active));
-  send_reply(ctx, req, at + 4);
+  ack_with_active_crc(ctx, req);
 }
 
-static int run_cmd_valid(const olf_run_cmd_t* cmd) {
-  const double a = cmd->amount_mm;
+/* The amount is checked on its wire bytes, exactly and without float maths
+ * (which would pull a soft-float library into an 8-bit image). */
+static int amount_within(const uint8_t* wire, double min_value, double max_value) {
+  uint8_t i, any = (uint8_t)(wire[7] & 0x7Fu);
+  for (i = 0; i < 7u; ++i) any |= wire[i];
+  return any != 0 && olf_f64_in_range(olf_get_f64(wire), min_value, max_value); /* never 0 */
+}
+
+static int run_cmd_valid(const olf_run_cmd_t* cmd, const uint8_t* amount_wire) {
+  const int count_ok = cmd->count >= 1 && cmd->count <= 100;
   if (cmd->direction != OLF_DIR_CW && cmd->direction != OLF_DIR_CCW) return 0;
   switch (cmd->procedure) {
-    case OLF_PROC_UMBMARK: return a > 0.0 && a <= 100000.0;
-    case OLF_PROC_STRAIGHT: return a >= -100000.0 && a <= 100000.0 && a != 0.0;
-    case OLF_PROC_SPIN: return cmd->count >= 1 && cmd->count <= 100;
-    case OLF_PROC_OUT_AND_BACK:
-      return a > 0.0 && a <= 100000.0 && cmd->count >= 1 && cmd->count <= 100;
+    case OLF_PROC_UMBMARK: return amount_within(amount_wire, 0.0, 100000.0);
+    case OLF_PROC_STRAIGHT: return amount_within(amount_wire, -100000.0, 100000.0);
+    case OLF_PROC_SPIN: return count_ok;
+    case OLF_PROC_OUT_AND_BACK: return amount_within(amount_wire, 0.0, 100000.0) && count_ok;
     default: return 0;
   }
 }
 
 static void handle_run_start(olf_ctx_t* ctx, const request_t* req) {
   olf_run_cmd_t cmd;
-  size_t at;
+  const int with_speeds = req->body_len == 18;
   /* 14 bytes; 18 with the optional speed and turn rate. */
-  if (req->body_len != 14 && req->body_len != 18) {
+  if (req->body_len != 14 && !with_speeds) {
     nack(ctx, req, OLF_ERR_MALFORMED);
     return;
   }
-  if (ctx->state == OLF_STATE_RUNNING) {
-    nack(ctx, req, OLF_ERR_BUSY);
-    return;
-  }
+  if (!idle(ctx, req)) return;
   cmd.procedure = req->body[0];
   cmd.direction = req->body[1];
-  cmd.amount_mm = olf_get_f64(req->body + 2);
+  cmd.amount_mm = olf_get_double(req->body + 2);
   cmd.count = olf_get_u32(req->body + 10);
-  cmd.speed_mm_s = req->body_len == 18 ? olf_get_u16(req->body + 14) : 0u;
-  cmd.turn_rate_ddeg_s = req->body_len == 18 ? olf_get_u16(req->body + 16) : 0u;
-  if (!run_cmd_valid(&cmd)) {
+  cmd.speed_mm_s = with_speeds ? olf_get_u16(req->body + 14) : 0u;
+  cmd.turn_rate_ddeg_s = with_speeds ? olf_get_u16(req->body + 16) : 0u;
+  if (!run_cmd_valid(&cmd, req->body + 2)) {
     nack(ctx, req, OLF_ERR_BAD_PROCEDURE);
     return;
   }
@@ -378,31 +394,20 @@ static void handle_run_start(olf_ctx_t* ctx, const request_t* req) {
   ctx->run_id = cmd.run_id;
   ctx->state = OLF_STATE_RUNNING;
   ctx->telemetry_sent = 0;
-  at = begin_ack(ctx, req);
-  olf_put_u16(ctx->tx_payload + at, cmd.run_id);
-  send_reply(ctx, req, at + 2);
+  send_reply(ctx, req, put_u16(begin_ack(ctx, req), cmd.run_id));
 }
 
 static void handle_stop(olf_ctx_t* ctx, const request_t* req) {
-  size_t at;
-  if (req->body_len != 0) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
+  if (!body_is(ctx, req, 0)) return;
   if (ctx->state == OLF_STATE_RUNNING && ctx->config.callbacks.stop) {
     ctx->config.callbacks.stop(ctx->config.callbacks.user);
   }
-  at = begin_ack(ctx, req);
-  ctx->tx_payload[at++] = ctx->state;
-  send_reply(ctx, req, at);
+  send_reply(ctx, req, put_u8(begin_ack(ctx, req), ctx->state));
 }
 
 static void handle_telemetry_rate(olf_ctx_t* ctx, const request_t* req) {
   uint16_t rate;
-  if (req->body_len != 2) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
+  if (!body_is(ctx, req, 2)) return;
   rate = olf_get_u16(req->body);
   if (rate > 1000) {
     nack(ctx, req, OLF_ERR_OUT_OF_RANGE);
@@ -414,56 +419,46 @@ static void handle_telemetry_rate(olf_ctx_t* ctx, const request_t* req) {
 }
 
 static void handle_status(olf_ctx_t* ctx, const request_t* req) {
-  size_t at;
-  if (req->body_len != 0) {
-    nack(ctx, req, OLF_ERR_MALFORMED);
-    return;
-  }
-  at = begin_ack(ctx, req);
-  ctx->tx_payload[at++] = ctx->state;
-  olf_put_u16(ctx->tx_payload + at, ctx->state == OLF_STATE_RUNNING ? ctx->run_id : 0);
-  at += 2;
-  olf_put_u16(ctx->tx_payload + at, ctx->last_run_id);
-  at += 2;
-  ctx->tx_payload[at++] = ctx->last_run_status;
-  olf_put_u32(ctx->tx_payload + at, ctx->last_run_end.t_ms);
-  at += 4;
-  olf_put_f64(ctx->tx_payload + at, ctx->last_run_end.x_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, ctx->last_run_end.y_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, ctx->last_run_end.heading_rad);
-  at += 8;
-  olf_put_u32(ctx->tx_payload + at, ctx->counters.frames_ok);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, ctx->counters.crc_errors);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, ctx->counters.framing_errors);
-  at += 4;
-  send_reply(ctx, req, at);
+  const olf_telemetry_t* end = &ctx->last_run_end;
+  uint8_t* p;
+  if (!body_is(ctx, req, 0)) return;
+  p = begin_ack(ctx, req);
+  p = put_u8(p, ctx->state);
+  p = put_u16(p, ctx->state == OLF_STATE_RUNNING ? ctx->run_id : 0);
+  p = put_u16(p, ctx->last_run_id);
+  p = put_u8(p, ctx->last_run_status);
+  p = put_u32(p, end->t_ms);
+  p = put_double(p, end->x_mm);
+  p = put_double(p, end->y_mm);
+  p = put_double(p, end->heading_rad);
+  p = put_u32(p, ctx->counters.frames_ok);
+  p = put_u32(p, ctx->counters.crc_errors);
+  p = put_u32(p, ctx->counters.framing_errors);
+  send_reply(ctx, req, p);
 }
 
 static void handle_frame(olf_ctx_t* ctx, size_t n) {
+  const uint8_t* frame = ctx->rx;
   request_t req;
   uint16_t crc;
   if (n < OLF_HEADER_SIZE + OLF_CRC_SIZE) {
     ++ctx->counters.framing_errors;
     return;
   }
-  crc = (uint16_t)((ctx->frame[n - 2] << 8) | ctx->frame[n - 1]);
-  if (olf_crc16(ctx->frame, n - 2) != crc) {
+  crc = (uint16_t)(((uint16_t)frame[n - 2] << 8) | frame[n - 1]);
+  if (olf_crc16(frame, n - 2) != crc) {
     ++ctx->counters.crc_errors;
     return;
   }
-  if (ctx->frame[4] != n - OLF_HEADER_SIZE - OLF_CRC_SIZE) {
+  if (frame[4] != n - OLF_HEADER_SIZE - OLF_CRC_SIZE) {
     ++ctx->counters.framing_errors;
     return;
   }
   ++ctx->counters.frames_ok;
-  req.type = ctx->frame[1];
-  req.seq = olf_get_u16(ctx->frame + 2);
+  req.type = frame[1];
+  req.seq = olf_get_u16(frame + 2);
   req.crc = crc;
-  req.body = ctx->frame + OLF_HEADER_SIZE;
+  req.body = frame + OLF_HEADER_SIZE;
   req.body_len = n - OLF_HEADER_SIZE - OLF_CRC_SIZE;
   /* Replies and events are never requests (e.g. an echoing line). */
   if (req.type >= OLF_MSG_ACK) return;
@@ -482,7 +477,7 @@ static void handle_frame(olf_ctx_t* ctx, size_t n) {
     }
     return;
   }
-  if (ctx->frame[0] != OLF_PROTOCOL_VERSION) {
+  if (frame[0] != OLF_PROTOCOL_VERSION) {
     nack(ctx, &req, OLF_ERR_BAD_VERSION);
     return;
   }
@@ -520,7 +515,8 @@ void olf_feed(olf_ctx_t* ctx, uint8_t byte) {
     if (ctx->rx_overflow) {
       ++ctx->counters.framing_errors;
     } else if (ctx->rx_len > 0) {
-      const int n = olf_cobs_decode(ctx->rx, ctx->rx_len, ctx->frame, sizeof ctx->frame);
+      /* In place: each COBS block is as long decoded as encoded. */
+      const int n = olf_cobs_decode(ctx->rx, ctx->rx_len, ctx->rx, sizeof ctx->rx);
       if (n < 0) {
         ++ctx->counters.framing_errors;
       } else {
@@ -546,7 +542,7 @@ void olf_feed_bytes(olf_ctx_t* ctx, const uint8_t* data, size_t len) {
 }
 
 int olf_emit_telemetry(olf_ctx_t* ctx, const olf_telemetry_t* s) {
-  size_t at;
+  uint8_t* p;
   if (ctx->state != OLF_STATE_RUNNING || ctx->telemetry_rate_hz == 0) return 0;
   if (ctx->telemetry_sent &&
       (uint32_t)(s->t_ms - ctx->last_telemetry_ms) < 1000u / ctx->telemetry_rate_hz) {
@@ -554,48 +550,20 @@ int olf_emit_telemetry(olf_ctx_t* ctx, const olf_telemetry_t* s) {
   }
   ctx->telemetry_sent = 1;
   ctx->last_telemetry_ms = s->t_ms;
-  at = begin_payload(ctx, OLF_MSG_TELEMETRY, ++ctx->event_seq);
-  olf_put_u32(ctx->tx_payload + at, s->t_ms);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, (uint32_t)s->left_ticks);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, (uint32_t)s->right_ticks);
-  at += 4;
-  olf_put_f64(ctx->tx_payload + at, s->x_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, s->y_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, s->heading_rad);
-  at += 8;
-  ctx->tx_payload[at++] = ctx->state;
-  olf_put_u16(ctx->tx_payload + at, ctx->run_id);
-  at += 2;
-  send_payload(ctx, at);
+  p = put_sample(begin_payload(ctx, OLF_MSG_TELEMETRY, ++ctx->event_seq), s);
+  p = put_u8(p, ctx->state);
+  send_payload(ctx, put_u16(p, ctx->run_id));
   return 1;
 }
 
 void olf_run_complete(olf_ctx_t* ctx, uint8_t status, const olf_telemetry_t* end) {
-  size_t at;
+  uint8_t* p;
   if (ctx->state != OLF_STATE_RUNNING) return;
   ctx->state = OLF_STATE_IDLE;
   ctx->last_run_id = ctx->run_id;
   ctx->last_run_status = status;
   ctx->last_run_end = *end;
-  at = begin_payload(ctx, OLF_MSG_RUN_COMPLETE, ++ctx->event_seq);
-  olf_put_u16(ctx->tx_payload + at, ctx->run_id);
-  at += 2;
-  ctx->tx_payload[at++] = status;
-  olf_put_u32(ctx->tx_payload + at, end->t_ms);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, (uint32_t)end->left_ticks);
-  at += 4;
-  olf_put_u32(ctx->tx_payload + at, (uint32_t)end->right_ticks);
-  at += 4;
-  olf_put_f64(ctx->tx_payload + at, end->x_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, end->y_mm);
-  at += 8;
-  olf_put_f64(ctx->tx_payload + at, end->heading_rad);
-  at += 8;
-  send_payload(ctx, at);
+  p = put_u16(begin_payload(ctx, OLF_MSG_RUN_COMPLETE, ++ctx->event_seq), ctx->run_id);
+  p = put_u8(p, status);
+  send_payload(ctx, put_sample(p, end));
 }

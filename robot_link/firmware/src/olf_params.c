@@ -6,9 +6,6 @@
 #include "odolink/olf.h"
 #include "olf_internal.h"
 
-/* C99 has no _Static_assert: a negative array size fails the build instead. */
-typedef char olf_double_is_binary64[(sizeof(double) == 8) ? 1 : -1];
-
 static const olf_param_desc_t kTable[OLF_PARAM_COUNT] = {
     /* Ranges reject what no differential-drive robot odocal targets could
      * have and, importantly, NaN and infinities from a corrupted host. */
@@ -30,43 +27,13 @@ int olf_param_find(const char* name, size_t len) {
   return -1;
 }
 
-void olf_put_u16(uint8_t* out, uint16_t v) {
-  out[0] = (uint8_t)v;
-  out[1] = (uint8_t)(v >> 8);
-}
-void olf_put_u32(uint8_t* out, uint32_t v) {
-  out[0] = (uint8_t)v;
-  out[1] = (uint8_t)(v >> 8);
-  out[2] = (uint8_t)(v >> 16);
-  out[3] = (uint8_t)(v >> 24);
-}
-void olf_put_f64(uint8_t* out, double v) {
-  uint64_t bits;
-  int i;
-  memcpy(&bits, &v, sizeof bits);
-  for (i = 0; i < 8; ++i) out[i] = (uint8_t)(bits >> (8 * i));
-}
-uint16_t olf_get_u16(const uint8_t* in) { return (uint16_t)(in[0] | (in[1] << 8)); }
-uint32_t olf_get_u32(const uint8_t* in) {
-  return (uint32_t)in[0] | ((uint32_t)in[1] << 8) | ((uint32_t)in[2] << 16) |
-         ((uint32_t)in[3] << 24);
-}
-double olf_get_f64(const uint8_t* in) {
-  uint64_t bits = 0;
-  double v;
-  int i;
-  for (i = 0; i < 8; ++i) bits |= (uint64_t)in[i] << (8 * i);
-  memcpy(&v, &bits, sizeof v);
-  return v;
-}
-
 size_t olf_param_size(uint8_t type) { return type == OLF_TYPE_F64 ? 8u : 4u; }
 
 size_t olf_param_put(const olf_params_t* params, unsigned index, uint8_t* out) {
   const olf_param_desc_t* d = &kTable[index];
   const unsigned char* field = (const unsigned char*)params + d->offset;
   if (d->type == OLF_TYPE_F64) {
-    double v;
+    olf_f64_t v;
     memcpy(&v, field, sizeof v);
     olf_put_f64(out, v);
     return 8;
@@ -81,16 +48,14 @@ size_t olf_param_put(const olf_params_t* params, unsigned index, uint8_t* out) {
 int olf_param_from_wire(unsigned index, const uint8_t* in, olf_params_t* params) {
   const olf_param_desc_t* d = &kTable[index];
   unsigned char* field = (unsigned char*)params + d->offset;
-  double as_double;
   if (d->type == OLF_TYPE_F64) {
-    double v = olf_get_f64(in);
-    as_double = v;
-    if (!(as_double >= d->min_value && as_double <= d->max_value)) return 0;
+    const olf_f64_t v = olf_get_f64(in);
+    if (!olf_f64_in_range(v, d->min_value, d->max_value)) return 0;
     memcpy(field, &v, sizeof v);
   } else {
-    uint32_t v = olf_get_u32(in);
-    as_double = (double)v;
-    if (!(as_double >= d->min_value && as_double <= d->max_value)) return 0;
+    /* In integers: a 32-bit double (AVR) rounds 16777217 down to 2^24. */
+    const uint32_t v = olf_get_u32(in);
+    if (v < (uint32_t)d->min_value || v > (uint32_t)d->max_value) return 0;
     memcpy(field, &v, sizeof v);
   }
   return 1;
@@ -110,7 +75,7 @@ void olf_params_deserialize(const uint8_t* in, olf_params_t* params) {
     const olf_param_desc_t* d = &kTable[i];
     unsigned char* field = (unsigned char*)params + d->offset;
     if (d->type == OLF_TYPE_F64) {
-      double v = olf_get_f64(in + at);
+      const olf_f64_t v = olf_get_f64(in + at);
       memcpy(field, &v, sizeof v);
       at += 8;
     } else {
@@ -129,16 +94,13 @@ uint32_t olf_params_crc(const olf_params_t* params) {
 
 uint32_t olf_param_table_crc(void) {
   /* Names with their NUL and the type byte, in table order. */
-  uint8_t buf[OLF_PARAM_COUNT * (OLF_MAX_NAME + 2)];
-  size_t at = 0;
+  uint32_t crc = OLF_CRC32_START;
   unsigned i;
   for (i = 0; i < OLF_PARAM_COUNT; ++i) {
-    size_t n = strlen(kTable[i].name);
-    memcpy(buf + at, kTable[i].name, n + 1);
-    at += n + 1;
-    buf[at++] = kTable[i].type;
+    crc = olf_crc32_update(crc, (const uint8_t*)kTable[i].name, strlen(kTable[i].name) + 1);
+    crc = olf_crc32_update(crc, &kTable[i].type, 1);
   }
-  return olf_crc32(buf, at);
+  return olf_crc32_finish(crc);
 }
 
 int olf_params_valid(const olf_params_t* params) {

@@ -11,8 +11,8 @@
  * olf_run_complete() for the firmware's main loop.
  *
  * Constraints: no heap, no OS calls, no floating-point maths beyond range
- * checks, fixed buffers inside olf_ctx_t (about 1 KiB; the caller owns it,
- * typically as a static). Not reentrant: call every olf_* function on one
+ * checks, fixed buffers inside olf_ctx_t (about 500 B on AVR, 600 B on a
+ * 32-bit part; the caller owns it, typically as a static). Not reentrant: call every olf_* function on one
  * context from the same execution context (main loop, not an ISR; an ISR
  * should only queue received bytes).
  *
@@ -20,12 +20,17 @@
  * poses in millimetres and radians in the odometry frame (REP-103: x forward,
  * y left, heading counter-clockwise positive, origin = pose at run start).
  *
- * Portability: assumes `double` is IEEE-754 binary64 (checked at compile
- * time); targets with a 32-bit double (AVR) need a soft binary64 encoder.
+ * Portability: C99 with <stdint.h>; `int` may be 16 bits, nothing is read
+ * unaligned, the wire is little-endian whatever the CPU is. Parameters are
+ * IEEE-754 binary64 on the wire and in storage, bit for bit, on every target:
+ * where the compiler's `double` is binary64 they are plain doubles; where it is
+ * 32 bits (avr-gcc) they are held as binary64 bit patterns (olf_f64_t below),
+ * compared exactly, and turned into a float only for the firmware's maths.
  */
 #ifndef ODOLINK_OLF_H_
 #define ODOLINK_OLF_H_
 
+#include <float.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -48,12 +53,48 @@ uint32_t olf_crc32(const uint8_t* data, size_t len);
 /* ---- COBS (Consistent Overhead Byte Stuffing) -------------------------- */
 
 /* Encodes `len` bytes into `out` (no 0x00 in the output, no delimiter
- * appended). Returns the encoded length, or 0 if `out_cap` is too small. */
+ * appended). Returns the encoded length, or 0 if `out_cap` is too small.
+ * In place is allowed when len < 254 and out <= in - 1: the output never
+ * overtakes the input. */
 size_t olf_cobs_encode(const uint8_t* in, size_t len, uint8_t* out, size_t out_cap);
-/* Decodes one COBS block (without its delimiter). Returns the decoded length,
+/* Decodes one COBS block (without its delimiter); in place (out == in) is
+ * allowed. Returns the decoded length,
  * or -1 if the block is malformed (contains 0x00, a code runs past the end)
  * or does not fit in `out_cap`. */
 int olf_cobs_decode(const uint8_t* in, size_t len, uint8_t* out, size_t out_cap);
+
+/* ---- Numbers ---------------------------------------------------------- */
+
+/* olf_f64_t: an IEEE-754 binary64 value. OLF_SOFT_F64 is 1 where `double` is
+ * not binary64 (avr-gcc before 10 makes it 32 bits); then the value is kept as
+ * its bit pattern, which the library copies and range-checks exactly, so a
+ * pushed set and its checksum survive the round trip bit for bit (and an
+ * 8-bit CPU does no 64-bit arithmetic to move it). A build may
+ * force OLF_SOFT_F64=1 on any target (the host tests do, to run this path);
+ * the library and the code including this header must agree. */
+#ifndef OLF_SOFT_F64
+#if FLT_RADIX == 2 && DBL_MANT_DIG == 53 && DBL_MAX_EXP == 1024
+#define OLF_SOFT_F64 0
+#else
+#define OLF_SOFT_F64 1
+#endif
+#endif
+
+#if OLF_SOFT_F64
+typedef struct {
+  /* The binary64 encoding, little-endian, exactly as on the wire. A struct,
+   * so that arithmetic on it does not compile. */
+  uint8_t le[8];
+} olf_f64_t;
+#else
+typedef double olf_f64_t;
+#endif
+
+/* Round to nearest (ties to even), as a hardware conversion would: what the
+ * firmware's float maths uses. Exact where float can hold the value. */
+float olf_f64_to_float(olf_f64_t value);
+/* Exact: every float is a binary64 value. */
+olf_f64_t olf_f64_from_float(float value);
 
 /* ---- Parameters ------------------------------------------------------- */
 
@@ -61,9 +102,9 @@ int olf_cobs_decode(const uint8_t* in, size_t len, uint8_t* out, size_t out_cap)
  * wire types onto these fields; the canonical serialization (for checksums
  * and storage) is the table order, f64 as 8 bytes and u32 as 4 bytes, LE. */
 typedef struct {
-  double left_wheel_diameter_mm;
-  double right_wheel_diameter_mm;
-  double track_mm;
+  olf_f64_t left_wheel_diameter_mm;
+  olf_f64_t right_wheel_diameter_mm;
+  olf_f64_t track_mm;
   uint32_t ticks_per_rev;
 } olf_params_t;
 
@@ -74,7 +115,9 @@ typedef struct {
   const char* name;
   uint8_t type;      /* enum olf_param_type */
   size_t offset;     /* offsetof(olf_params_t, field) */
-  double min_value;  /* inclusive; NaN is always out of range */
+  /* Inclusive; NaN is always out of range. Both are exact in binary32 too, so
+   * a target with a 32-bit double checks the same bounds (tested). */
+  double min_value;
   double max_value;
 } olf_param_desc_t;
 
@@ -117,6 +160,8 @@ enum olf_boot_source { OLF_BOOT_DEFAULTS = 0, OLF_BOOT_SLOT_A = 1, OLF_BOOT_SLOT
 
 /* ---- Runs ------------------------------------------------------------- */
 
+/* Runs and telemetry use the target's `double` (a float on AVR): they are
+ * commands and measurements, not values that must survive bit for bit. */
 typedef struct {
   uint16_t run_id;
   uint8_t procedure; /* enum olf_procedure */
@@ -173,14 +218,16 @@ typedef struct {
 typedef struct {
   olf_config_t config;
 
-  /* Receive: encoded bytes until the 0x00 delimiter. */
+  /* Receive: encoded bytes until the 0x00 delimiter, then decoded in place
+   * (COBS never writes ahead of where it reads). */
   uint8_t rx[OLF_MAX_ENCODED];
   size_t rx_len;
   int rx_overflow; /* drop everything until the next delimiter */
-  uint8_t frame[OLF_MAX_PAYLOAD + OLF_CRC_SIZE];
 
-  /* Transmit scratch and the cached last reply (idempotent retries). */
-  uint8_t tx_payload[OLF_MAX_PAYLOAD + OLF_CRC_SIZE];
+  /* Transmit: a payload is built at tx + 3 and COBS-encoded in place to
+   * tx + 1 (the encoder writes at most one byte ahead of where it reads, for
+   * payloads under 254 bytes), framed by delimiters at both ends. The last
+   * reply, encoded, is kept for idempotent retries. */
   uint8_t tx[OLF_MAX_ENCODED + 2];
   uint8_t cached_reply[OLF_MAX_ENCODED + 2];
   size_t cached_reply_len;

@@ -28,8 +28,12 @@
  * 256), because CRC(m, crc_hi) == crc_lo << 8 for a CRC without xorout. */
 #define OLF_HEADER_SIZE 5u
 #define OLF_CRC_SIZE 2u
-/* Largest header + body; a frame longer than this is dropped as garbage. */
-#define OLF_MAX_PAYLOAD 192u
+/* Largest header + body; a frame longer than this is dropped as garbage. The
+ * largest message the protocol defines is STATUS's reply, 52 bytes
+ * (OLF_LARGEST_MESSAGE, checked against the code by the host tests); 64 keeps
+ * a small margin and the robot's buffers small (an ATmega328P has 2 KiB). */
+#define OLF_MAX_PAYLOAD 64u
+#define OLF_LARGEST_MESSAGE 52u
 /* Largest COBS-encoded frame without its 0x00 delimiter:
  * n + ceil(n / 254) + 1 for n = payload + CRC, rounded up. */
 #define OLF_MAX_ENCODED (OLF_MAX_PAYLOAD + OLF_CRC_SIZE + 2u)

@@ -81,9 +81,12 @@ static void die(const char* fmt, ...) {
 static void usage(FILE* to) {
   fprintf(to,
           "usage: odocal-avr-board --elf FILE --eeprom IMAGE [--mcu atmega328p] [--freq 16000000]\n"
+          "                        [--eeprom-write-us 3400] [--cut-after-writes N]\n"
           "  Runs FILE under simavr with UART0 on a new pseudo-terminal and the EEPROM\n"
           "  persisted in IMAGE (created 0xFF-filled if missing). Prints \"pty /dev/pts/N\"\n"
           "  on stdout once the terminal is ready; runs until SIGTERM or SIGINT.\n"
+          "  --eeprom-write-us US: time an EEPROM byte write keeps the part busy\n"
+          "  (default 3400, as on the part; 0: instant, simavr's own behaviour).\n"
           "  --cut-after-writes N (testing): die like a power cut right after the Nth\n"
           "  EEPROM byte the firmware changes.\n");
 }
@@ -153,47 +156,76 @@ static uint8_t* map_eeprom(avr_t* avr, const char* path, size_t* size_out) {
   return map;
 }
 
-/* ---- Power cut at a chosen EEPROM write (test aid) ------------------- */
+/* ---- EEPROM write time, and a power cut at a chosen write ------------ */
 
-/* --cut-after-writes N: the board dies (_exit, nothing flushed or cleaned,
- * like kill -9) right after the Nth EEPROM byte that changes. The EEPROM
- * control register's write handler is wrapped: simavr performs the byte write
- * inside it, so a changed byte in the image after it returns is one write. */
+/* simavr performs an EEPROM byte write instantly and clears EEPE at once, so
+ * the firmware never waits; the real part takes 3.4 ms per byte (datasheet
+ * tWD_EEPROM 3.3 ms), during which EEPE reads 1 and avr-libc's
+ * eeprom_busy_wait spins. The board wraps the EEPROM control register's write
+ * handler to put that time back (--eeprom-write-us, 0 for simavr's instant
+ * writes): a push then takes as long as on the part, and a kill -9 during a
+ * push lands inside a record write as often as a power cut would.
+ *
+ * --cut-after-writes N (a test aid): the board dies (_exit, nothing flushed
+ * or cleaned, like kill -9) right after the Nth EEPROM byte that changes. */
 static struct {
-  unsigned long remaining;
+  avr_eeprom_t* ee;
   avr_io_write_t inner;
   void* inner_param;
+  uint32_t write_us;
+  unsigned long cut_remaining; /* 0: not armed */
   uint8_t* image;
   uint8_t* shadow;
   size_t size;
-} cut;
+} eew;
+
+static avr_cycle_count_t eeprom_write_done(avr_t* avr, avr_cycle_count_t when, void* param) {
+  (void)when;
+  (void)param;
+  avr_regbit_clear(avr, eew.ee->eepe);
+  return 0;
+}
 
 static void eecr_write_hook(avr_t* avr, avr_io_addr_t addr, uint8_t v, void* param) {
+  const int starts_write = avr_regbit_get(avr, eew.ee->eempe) && ((v >> eew.ee->eepe.bit) & 1u);
   size_t i;
   (void)param;
-  cut.inner(avr, addr, v, cut.inner_param);
-  for (i = 0; i < cut.size; ++i) {
-    if (cut.image[i] == cut.shadow[i]) continue;
-    cut.shadow[i] = cut.image[i];
-    if (--cut.remaining == 0) {
+  if (avr_regbit_get(avr, eew.ee->eepe)) {
+    /* Still busy: the part ignores a new write; keep EEPE set. */
+    avr->data[addr] = (uint8_t)(v | (1u << eew.ee->eepe.bit));
+    return;
+  }
+  eew.inner(avr, addr, v, eew.inner_param);
+  if (starts_write && eew.write_us > 0) {
+    avr_regbit_set(avr, eew.ee->eepe);
+    avr_cycle_timer_register_usec(avr, eew.write_us, eeprom_write_done, NULL);
+  }
+  if (eew.cut_remaining == 0) return;
+  for (i = 0; i < eew.size; ++i) {
+    if (eew.image[i] == eew.shadow[i]) continue;
+    eew.shadow[i] = eew.image[i];
+    if (--eew.cut_remaining == 0) {
       fprintf(stderr, "odocal-avr-board: power cut after EEPROM byte 0x%03zx was written\n", i);
       _exit(137);
     }
   }
 }
 
-static void arm_power_cut(avr_t* avr, uint8_t* image, size_t size, unsigned long writes) {
-  avr_eeprom_t* ee = (avr_eeprom_t*)find_io(avr, "eeprom", 0);
-  const int io = AVR_DATA_TO_IO(ee->r_eecr);
-  cut.remaining = writes;
-  cut.image = image;
-  cut.size = size;
-  cut.shadow = malloc(size);
-  if (cut.shadow == NULL) die("out of memory");
-  memcpy(cut.shadow, image, size);
-  cut.inner = avr->io[io].w.c;
-  cut.inner_param = avr->io[io].w.param;
-  if (cut.inner == NULL) die("no EEPROM control register handler to wrap");
+static void wrap_eeprom(avr_t* avr, uint8_t* image, size_t size, uint32_t write_us,
+                        unsigned long cut_after) {
+  int io;
+  eew.ee = (avr_eeprom_t*)find_io(avr, "eeprom", 0);
+  io = AVR_DATA_TO_IO(eew.ee->r_eecr);
+  eew.write_us = write_us;
+  eew.cut_remaining = cut_after;
+  eew.image = image;
+  eew.size = size;
+  eew.shadow = malloc(size);
+  if (eew.shadow == NULL) die("out of memory");
+  memcpy(eew.shadow, image, size);
+  eew.inner = avr->io[io].w.c;
+  eew.inner_param = avr->io[io].w.param;
+  if (eew.inner == NULL) die("no EEPROM control register handler to wrap");
   avr->io[io].w.c = eecr_write_hook;
 }
 
@@ -332,14 +364,18 @@ static void sync_to_wall(uint64_t cycle) {
 
 static bridge_t* sleep_bridge;
 
-/* The firmware executes SLEEP: wait until the next timer is due, or less if
- * the host sends something the UART can take (its interrupt wakes the part;
- * the simulated clock still counts the whole sleep, the running-code pacing
- * in main() lets the wall clock catch up). */
+/* The firmware executes SLEEP (its main loop is idle): move what the pty
+ * has, then wait until the next timer is due, or less if the host sends
+ * something the UART can take (its interrupt wakes the part; the simulated
+ * clock still counts the whole sleep, and the pacing in main() lets the wall
+ * clock catch up). An idle firmware sleeps between 1 ms ticks, so this is
+ * where a request's bytes get in without waiting for main()'s next pump. */
 static void sleep_callback(avr_t* avr, avr_cycle_count_t how_long) {
   struct timespec now;
   uint64_t target, now_ns;
-  if (sleep_bridge == NULL || bridge_rx_room(sleep_bridge) == 0 || sleep_bridge->out_len > 0) {
+  bridge_t* const b = sleep_bridge;
+  bridge_pump(b);
+  if (bridge_rx_room(b) == 0 || b->out_len > 0) {
     sync_to_wall(avr->cycle + how_long);
     return;
   }
@@ -349,11 +385,11 @@ static void sleep_callback(avr_t* avr, avr_cycle_count_t how_long) {
   if (target > now_ns) {
     struct pollfd pfd;
     struct timespec timeout;
-    pfd.fd = sleep_bridge->master;
+    pfd.fd = b->master;
     pfd.events = POLLIN;
     timeout.tv_sec = (time_t)((target - now_ns) / 1000000000u);
     timeout.tv_nsec = (long)((target - now_ns) % 1000000000u);
-    (void)ppoll(&pfd, 1, &timeout, NULL);
+    if (ppoll(&pfd, 1, &timeout, NULL) > 0) bridge_pump(b);
   }
 }
 
@@ -364,12 +400,14 @@ int main(int argc, char** argv) {
       {"elf", required_argument, NULL, 'e'},   {"eeprom", required_argument, NULL, 'p'},
       {"mcu", required_argument, NULL, 'm'},   {"freq", required_argument, NULL, 'f'},
       {"cut-after-writes", required_argument, NULL, 'c'},
+      {"eeprom-write-us", required_argument, NULL, 'w'},
       {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
   const char* elf_path = NULL;
   const char* eeprom_path = NULL;
   const char* mcu = "atmega328p";
   unsigned long freq = 16000000ul;
   unsigned long cut_after = 0;
+  unsigned long eeprom_write_us = 3400;
   static elf_firmware_t fw;
   static bridge_t bridge;
   avr_t* avr;
@@ -395,6 +433,12 @@ int main(int argc, char** argv) {
         char* end;
         cut_after = strtoul(optarg, &end, 10);
         if (*end != '\0' || cut_after == 0) die("--cut-after-writes: not a count: %s", optarg);
+        break;
+      }
+      case 'w': {
+        char* end;
+        eeprom_write_us = strtoul(optarg, &end, 10);
+        if (*end != '\0' || eeprom_write_us > 1000000ul) die("--eeprom-write-us: not a time in us: %s", optarg);
         break;
       }
       case 'h': usage(stdout); return 0;
@@ -426,7 +470,7 @@ int main(int argc, char** argv) {
   sim_frequency = freq;
 
   eeprom = map_eeprom(avr, eeprom_path, &eeprom_size);
-  if (cut_after > 0) arm_power_cut(avr, eeprom, eeprom_size, cut_after);
+  wrap_eeprom(avr, eeprom, eeprom_size, (uint32_t)eeprom_write_us, cut_after);
 
   /* The pty thread must not take SIGTERM / SIGINT (its select would fail
    * and the thread end): block them while it is created, then take them here. */

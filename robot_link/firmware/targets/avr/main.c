@@ -45,9 +45,9 @@ int main(void) {
   config.robot_name = "odocal-avr";
   /* The odocal virtual robot's defaults, so the documented byte examples
    * (HELLO's set checksum and the rest) hold on this board too. */
-  config.defaults.left_wheel_diameter_mm = 72.0;
-  config.defaults.right_wheel_diameter_mm = 72.0;
-  config.defaults.track_mm = 270.0;
+  config.defaults.left_wheel_diameter_mm = olf_f64_from_float(72.0f); /* exact */
+  config.defaults.right_wheel_diameter_mm = olf_f64_from_float(72.0f);
+  config.defaults.track_mm = olf_f64_from_float(270.0f);
   config.defaults.ticks_per_rev = 4096u;
   config.storage = storage_eeprom();
   config.callbacks.write = link_write;

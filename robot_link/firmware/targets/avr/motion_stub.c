@@ -4,10 +4,10 @@
 
 #include "tick.h"
 
-/* The library's wire values (parameters, amounts, poses) are binary64; the
- * motion code works in float, which is what an 8-bit part computes with. */
-#define TO_FLOAT(v) ((float)(v))
-#define FROM_FLOAT(f) (f)
+/* The motion code works in float, which is what an 8-bit part computes
+ * with. Parameters arrive as olf_f64_t (binary64 bits on AVR): converted with
+ * olf_f64_to_float. Run amounts and poses are the target's double (a float
+ * on avr-gcc 5). */
 
 #define TWO_PI 6.28318530718f
 #define HALF_PI 1.57079632679f
@@ -39,9 +39,9 @@ void motion_params_applied(void* user, const olf_params_t* params) {
   (void)user;
   /* This is where a real firmware picks up a calibration: the odometry and
    * the speed loops use mm per tick, not diameters. */
-  calibration.left_mm_per_tick = PI_F * TO_FLOAT(params->left_wheel_diameter_mm) / ticks;
-  calibration.right_mm_per_tick = PI_F * TO_FLOAT(params->right_wheel_diameter_mm) / ticks;
-  calibration.track_mm = TO_FLOAT(params->track_mm);
+  calibration.left_mm_per_tick = PI_F * olf_f64_to_float(params->left_wheel_diameter_mm) / ticks;
+  calibration.right_mm_per_tick = PI_F * olf_f64_to_float(params->right_wheel_diameter_mm) / ticks;
+  calibration.track_mm = olf_f64_to_float(params->track_mm);
 }
 
 const motion_calibration_t* motion_calibration(void) { return &calibration; }
@@ -52,7 +52,7 @@ int motion_start_run(void* user, const olf_run_cmd_t* cmd) {
   if (run.active) return 0; /* the library says BUSY first; belt and braces */
   run.procedure = cmd->procedure;
   run.sign = cmd->direction == OLF_DIR_CCW ? 1.0f : -1.0f;
-  run.amount_mm = TO_FLOAT(cmd->amount_mm);
+  run.amount_mm = (float)cmd->amount_mm;
   run.count = cmd->count;
   switch (cmd->procedure) {
     case OLF_PROC_STRAIGHT:
@@ -145,9 +145,9 @@ static void sample(uint32_t now_ms, float fraction, olf_telemetry_t* t) {
   t->t_ms = now_ms;
   t->left_ticks = (int32_t)lroundf((path - half_turn) / calibration.left_mm_per_tick);
   t->right_ticks = (int32_t)lroundf((path + half_turn) / calibration.right_mm_per_tick);
-  t->x_mm = FROM_FLOAT(x);
-  t->y_mm = FROM_FLOAT(y);
-  t->heading_rad = FROM_FLOAT(heading);
+  t->x_mm = x;
+  t->y_mm = y;
+  t->heading_rad = heading;
 }
 
 void motion_poll(olf_ctx_t* ctx, uint32_t now_ms) {

@@ -67,22 +67,20 @@ void set_motors(int left_pwm, int right_pwm) {
 
 // ---- Calibration: where the parameters are used ---------------------------
 
-// The library keeps wheel diameters and the track as binary64 on the wire and
-// in storage; the motion code works in float.
+// The library keeps wheel diameters and the track as binary64 (olf_f64_t: the
+// bits, on AVR) so that a pushed set survives bit for bit; the motion code
+// works in float, olf_f64_to_float() converts.
 float mm_per_tick_left = 0.0f;
 float mm_per_tick_right = 0.0f;
 float track_mm = 0.0f;
-
-#define OLF_TO_FLOAT(v) ((float)(v))
-#define OLF_FROM_FLOAT(f) (f)
 
 // Called by the library at boot and whenever odocal commits, sets or rolls
 // back a set: from here on, odometry uses the new calibration.
 void on_params_applied(void*, const olf_params_t* p) {
   const float ticks = (float)p->ticks_per_rev;
-  mm_per_tick_left = PI * OLF_TO_FLOAT(p->left_wheel_diameter_mm) / ticks;
-  mm_per_tick_right = PI * OLF_TO_FLOAT(p->right_wheel_diameter_mm) / ticks;
-  track_mm = OLF_TO_FLOAT(p->track_mm);
+  mm_per_tick_left = PI * olf_f64_to_float(p->left_wheel_diameter_mm) / ticks;
+  mm_per_tick_right = PI * olf_f64_to_float(p->right_wheel_diameter_mm) / ticks;
+  track_mm = olf_f64_to_float(p->track_mm);
 }
 
 // ---- Odometry ----------------------------------------------------------------
@@ -120,9 +118,9 @@ void odometry_sample(olf_telemetry_t* t) {
   t->t_ms = millis();
   t->left_ticks = odo.last_left - odo.start_left;
   t->right_ticks = odo.last_right - odo.start_right;
-  t->x_mm = OLF_FROM_FLOAT(odo.x_mm);
-  t->y_mm = OLF_FROM_FLOAT(odo.y_mm);
-  t->heading_rad = OLF_FROM_FLOAT(odo.heading_rad);
+  t->x_mm = odo.x_mm;  // poses are the target's double (a float on AVR)
+  t->y_mm = odo.y_mm;
+  t->heading_rad = odo.heading_rad;
 }
 
 // ---- Runs ---------------------------------------------------------------------
@@ -147,7 +145,7 @@ int on_start_run(void*, const olf_run_cmd_t* cmd) {
   if (run.active) return 0;
   switch (cmd->procedure) {
     case OLF_PROC_STRAIGHT:
-      run.distance_mm = OLF_TO_FLOAT(cmd->amount_mm);
+      run.distance_mm = (float)cmd->amount_mm;
       odometry_reset();
       set_motors(run.distance_mm > 0 ? kStraightPwm : -kStraightPwm,
                  run.distance_mm > 0 ? kStraightPwm : -kStraightPwm);
@@ -246,9 +244,9 @@ void setup() {
   memset(&config, 0, sizeof config);
   config.robot_name = "odolink-arduino";  // YOUR ROBOT'S NAME (up to 32 bytes)
   // YOUR ROBOT'S NOMINAL GEOMETRY: used until odocal commits a calibration.
-  config.defaults.left_wheel_diameter_mm = 72.0;
-  config.defaults.right_wheel_diameter_mm = 72.0;
-  config.defaults.track_mm = 270.0;
+  config.defaults.left_wheel_diameter_mm = olf_f64_from_float(72.0f);
+  config.defaults.right_wheel_diameter_mm = olf_f64_from_float(72.0f);
+  config.defaults.track_mm = olf_f64_from_float(270.0f);
   config.defaults.ticks_per_rev = 4096;
   config.storage.read = storage_read;
   config.storage.write = storage_write;

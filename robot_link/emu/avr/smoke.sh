@@ -64,6 +64,12 @@ run() { echo "\$ odocal robot $*" | sed "s#$work#\$WORK#g"; "$odocal" robot "$@"
 defaults=$'left_wheel_diameter_mm = 72\nright_wheel_diameter_mm = 72\ntrack_mm = 270\nticks_per_rev = 4096'
 pushed=$'left_wheel_diameter_mm = 71.5\nright_wheel_diameter_mm = 72.375\ntrack_mm = 268.25\nticks_per_rev = 2048'
 
+echo "== docs/protocol.md's push conversation, byte for byte (fresh board)"
+start_board
+python3 "$(dirname "$0")/replay_examples.py" "$port" "$image" odocal-avr || fail "protocol examples"
+power_cut
+rm -f "$image"
+
 echo "== fresh board: $(basename "$elf"), new EEPROM image"
 start_board
 echo "board on $port"

@@ -6,9 +6,10 @@
 # FW_BUILD_DIR: the firmware cross build (cmake -S robot_link/firmware
 #   -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-avr.cmake -DODOLINK_TARGET=avr),
 #   holding targets/avr/odolink_avr.elf.
-# HOST_BUILD_DIR: a build with odocal and odocal-avr-board (the host project's
-#   build: odocal, robot_link/emu/avr/odocal-avr-board). Each can be given on
-#   its own instead: ODOCAL=..., ODOCAL_AVR_BOARD=..., ODOLINK_AVR_ELF=...
+# HOST_BUILD_DIR: the host project's build, with odocal and
+#   robot_link/emu/avr/odocal-avr-board (default: build/ of the repository).
+#   Each can be given on its own instead: ODOCAL=..., ODOCAL_AVR_BOARD=...,
+#   ODOLINK_AVR_ELF=...
 #   POWERCUTS=N (default 20): also kill -9 the board at random instants of a
 #   push, N times, and check each boot comes up on the old set or the new.
 #   (Every byte position is covered deterministically before that, with the
@@ -20,8 +21,10 @@ set -euo pipefail
 fw_build=${1:?usage: smoke.sh FW_BUILD_DIR [HOST_BUILD_DIR]}
 host_build=${2:-}
 elf=${ODOLINK_AVR_ELF:-$fw_build/targets/avr/odolink_avr.elf}
-odocal=${ODOCAL:-${host_build:+$host_build/odocal}}
-board=${ODOCAL_AVR_BOARD:-${host_build:+$host_build/robot_link/emu/avr/odocal-avr-board}}
+repo=$(cd "$(dirname "$0")/../../.." && pwd)
+host_build=${host_build:-$repo/build}
+odocal=${ODOCAL:-$host_build/odocal}
+board=${ODOCAL_AVR_BOARD:-$host_build/robot_link/emu/avr/odocal-avr-board}
 powercuts=${POWERCUTS:-20}
 for f in "$elf" "$odocal" "$board"; do
   [[ -n "$f" && -e "$f" ]] || { echo "smoke: missing: '${f}' (see the usage at the top)" >&2; exit 2; }

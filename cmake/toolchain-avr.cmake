@@ -32,11 +32,23 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)
 set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE ONLY)
 
-set(_avr_flags "-mmcu=${AVR_MCU} -DF_CPU=${AVR_F_CPU} -Os -ffunction-sections -fdata-sections")
+# -flto and -mcall-prologues as the Arduino IDE builds (its platform.txt):
+# the library is ~600 B smaller with them. LTO objects in a static library need
+# the plugin-aware archiver (avr-gcc-ar), or the link sees empty archives.
+find_program(AVR_GCC_AR avr-gcc-ar REQUIRED)
+find_program(AVR_GCC_RANLIB avr-gcc-ranlib REQUIRED)
+set(CMAKE_AR ${AVR_GCC_AR} CACHE FILEPATH "LTO-aware ar" FORCE)
+set(CMAKE_C_COMPILER_AR ${AVR_GCC_AR} CACHE FILEPATH "" FORCE)
+set(CMAKE_CXX_COMPILER_AR ${AVR_GCC_AR} CACHE FILEPATH "" FORCE)
+set(CMAKE_RANLIB ${AVR_GCC_RANLIB} CACHE FILEPATH "LTO-aware ranlib" FORCE)
+set(CMAKE_C_COMPILER_RANLIB ${AVR_GCC_RANLIB} CACHE FILEPATH "" FORCE)
+set(CMAKE_CXX_COMPILER_RANLIB ${AVR_GCC_RANLIB} CACHE FILEPATH "" FORCE)
+
+set(_avr_flags "-mmcu=${AVR_MCU} -DF_CPU=${AVR_F_CPU} -Os -flto -mcall-prologues -ffunction-sections -fdata-sections")
 set(CMAKE_C_FLAGS_INIT "${_avr_flags}")
 set(CMAKE_CXX_FLAGS_INIT "${_avr_flags} -fno-exceptions -fno-rtti -fno-threadsafe-statics")
 set(CMAKE_ASM_FLAGS_INIT "-mmcu=${AVR_MCU} -DF_CPU=${AVR_F_CPU}")
-set(CMAKE_EXE_LINKER_FLAGS_INIT "-mmcu=${AVR_MCU} -Wl,--gc-sections")
+set(CMAKE_EXE_LINKER_FLAGS_INIT "-mmcu=${AVR_MCU} -Os -flto -mcall-prologues -Wl,--gc-sections")
 # -Os is in the flags above for every build type; keep the build types from
 # adding -O3 / -g on top.
 set(CMAKE_C_FLAGS_RELEASE_INIT "-DNDEBUG")

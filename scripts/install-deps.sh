@@ -12,7 +12,7 @@ packages=(
   chromium  # headless, for the live view's screenshot test (tests/live)
   ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
   # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)
-  gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1
+  gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1 arduino-core-avr
   gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 )
 missing=()

@@ -1063,13 +1063,17 @@ std::string TrajectoryFitResult::BriefReport() const {
   if (!message.empty()) os << " (" << message << ")";
   os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap "
      << Fixed(gap_m * 1e3, 3) << " mm (noise floor " << Fixed(noise_floor_m * 1e3, 3)
-     << " mm), condition " << std::setprecision(3) << condition_number << "\n";
+     << " mm), condition " << std::setprecision(3) << condition_number;
+  if (jackknife_runs > 0) os << ", jackknifed over " << jackknife_runs << " runs";
+  os << "\n";
   for (const ParameterEstimate& p : parameters) {
     os << "  " << std::left << std::setw(36) << p.name << std::right << std::setw(14)
        << std::setprecision(7) << p.value;
-    if (p.identifiable)
+    if (p.identifiable) {
       os << " +/- " << std::setprecision(3) << 1.959963985 * p.sigma << " (95 %)";
-    else
+      if (std::isfinite(p.sigma_between_runs))
+        os << ", between runs +/- " << 1.959963985 * p.sigma_between_runs;
+    } else
       os << "  (not identifiable)";
     os << "\n";
   }

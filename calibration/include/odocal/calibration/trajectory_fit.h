@@ -71,6 +71,7 @@
 #include <array>
 #include <cmath>
 #include <iosfwd>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -209,6 +210,9 @@ struct ParameterEstimate {
   double value = 0.0;
   double sigma = 0.0;  // 1-sigma; meaningless when !identifiable
   bool identifiable = true;
+  // 1-sigma from the runs' disagreement (AddRunJackknife); NaN until
+  // computed, or when a refit without some run could not determine it.
+  double sigma_between_runs = std::numeric_limits<double>::quiet_NaN();
   double lower95() const { return value - 1.959963985 * sigma; }
   double upper95() const { return value + 1.959963985 * sigma; }
 };
@@ -258,6 +262,8 @@ struct TrajectoryFitResult {
   double condition_number = 0.0;
   // Parameter combinations the data cannot determine, as readable lines.
   std::vector<std::string> unidentifiable;
+  // Runs of the delete-one jackknife behind sigma_between_runs (0: none).
+  int jackknife_runs = 0;
 
   // The whitened, robust-weighted Jacobian at the solution over every
   // parameter, enabled or not: base (r_left, r_right, Eb), the effect block
@@ -273,6 +279,23 @@ struct TrajectoryFitResult {
 TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                                   const TrajectoryFitOptions& options = {},
                                   const TrajectoryFitResult* warm_start = nullptr);
+
+// How much the parameters move from run to run, whatever moves them. The
+// model's sigma holds when the model leaves nothing but independent frame
+// and wheel noise; a real robot's runs disagree more (the OptiOdom sets:
+// the track's delete-one spread is 7-10 times its model sigma, and it is
+// what agrees with the spread between sets of one kind of path;
+// docs/realdata.md). Repeats the fit (same options) without each used run
+// in turn and sets every parameter's sigma_between_runs to the delete-one
+// jackknife's standard error
+//   sigma^2 = (n - 1) / n * sum_i (theta_(i) - mean)^2
+// over the n used runs (Efron & Stein 1981; unbiased to first order for a
+// smooth statistic of independent runs). Needs n >= 3; with few runs it is
+// itself uncertain (about 1/sqrt(2 (n - 1)) relative). A parameter that
+// some refit could not determine keeps NaN. Returns the number of refits
+// that failed (0 when every one converged); threads: up to `threads` refits
+// at once (0: the hardware's).
+int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads = 0);
 
 // The model's prediction of what the pose source measures for one run: the
 // run's ticks dead-reckoned from `start` (the robot's pose at the run's first

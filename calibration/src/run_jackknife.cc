@@ -1,0 +1,62 @@
+// The delete-one jackknife over runs: how far each parameter of a trajectory
+// fit moves when one run is left out (trajectory_fit.h, AddRunJackknife).
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "odocal/calibration/trajectory_fit.h"
+
+namespace odocal::calibration {
+
+int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads) {
+  fit->jackknife_runs = 0;
+  if (!fit->ok()) return 0;
+  std::vector<size_t> used;
+  for (size_t i = 0; i < fit->run_used.size(); ++i)
+    if (fit->run_used[i]) used.push_back(i);
+  const int n = static_cast<int>(used.size());
+  if (n < 3) return 0;
+
+  // Refit without run used[k], for every k; independent, so in parallel.
+  std::vector<TrajectoryFitResult> refits(used.size());
+  std::atomic<size_t> next{0};
+  const auto worker = [&] {
+    for (size_t k = next++; k < used.size(); k = next++) {
+      MeasuredSession without = session;
+      without.runs.erase(without.runs.begin() + static_cast<std::ptrdiff_t>(used[k]));
+      refits[k] = FitTrajectory(without, fit->options);
+    }
+  };
+  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  const size_t workers = std::min<size_t>(used.size(), threads > 0 ? static_cast<size_t>(threads) : hardware);
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+
+  int failed = 0;
+  for (const TrajectoryFitResult& r : refits) failed += r.ok() ? 0 : 1;
+  fit->jackknife_runs = n;
+  for (ParameterEstimate& p : fit->parameters) {
+    p.sigma_between_runs = std::numeric_limits<double>::quiet_NaN();
+    if (failed > 0 || !p.identifiable) continue;
+    std::vector<double> values;
+    for (const TrajectoryFitResult& r : refits) {
+      const ParameterEstimate* q = r.Find(p.name);
+      if (q == nullptr || !q->identifiable) break;
+      values.push_back(q->value);
+    }
+    if (static_cast<int>(values.size()) != n) continue;
+    double mean = 0.0;
+    for (double v : values) mean += v;
+    mean /= n;
+    double sum = 0.0;
+    for (double v : values) sum += (v - mean) * (v - mean);
+    p.sigma_between_runs = std::sqrt((n - 1.0) / n * sum);
+  }
+  return failed;
+}
+
+}  // namespace odocal::calibration

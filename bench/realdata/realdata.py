@@ -5,6 +5,7 @@
     python3 bench/realdata/realdata.py beliefs       # one robot, several believed parameter sets
     python3 bench/realdata/realdata.py heldout       # calibrate on squares + Ivanjko, check on circles
     python3 bench/realdata/realdata.py explain       # what explain finds, with cross-validation
+    python3 bench/realdata/realdata.py sigma         # the model's sigma and the runs' disagreement
     python3 bench/realdata/realdata.py all
 
 Options: --data DIR (default ../shared/realdata/optiodom), --odocal BIN (default build/odocal),
@@ -102,6 +103,31 @@ class Bench:
                   f"{pub['left_wheel_diameter_mm']:.3f} | {b_fo:.3f}, {dr_fo:.3f}, {dl_fo:.3f} | "
                   f"{b_co:.3f}, {dr_co:.3f}, {dl_co:.3f} | {rel(b_fo, pub['track_mm']):+.3f} %, "
                   f"{rel(b_co, pub['track_mm']):+.3f} % | {dd:.4f} % |")
+
+    # --- sigma -----------------------------------------------------------------------
+    def sigma(self):
+        print("\n## How sure: the model's sigma and the runs' disagreement (trajectory fit, track)\n")
+        print("| kind | set | runs | track [mm] | model sigma [mm] | between runs [mm] | ratio |")
+        print("|---|---|---|---|---|---|---|")
+        for kind in ("square", "ivanjko", "circular"):
+            rows = []
+            for name in self.sets(kind):
+                fit = load(self.batch(kind, name))["trajectory_fit"]
+                if "corrected" not in fit:
+                    continue
+                track, eb = fit["corrected"]["track_mm"], fit["Eb"]
+                model = track * eb["sigma"] / eb["value"]
+                between = eb.get("sigma_between_runs")
+                between = None if between is None else track * between / eb["value"]
+                rows.append((track, model, between))
+                print(f"| {kind} | {name} | {fit.get('jackknife_runs', 0) or fit['runs_used']} | {track:.3f} | "
+                      f"{model:.3f} | {'—' if between is None else f'{between:.3f}'} | "
+                      f"{'—' if between is None else f'{between / model:.1f}'} |")
+            pairs = [(a, b) for i, a in enumerate(rows) for b in rows[i + 1:] if a[2] and b[2]]
+            if pairs:
+                z_runs = max(abs(a[0] - b[0]) / math.hypot(a[2], b[2]) for a, b in pairs)
+                z_model = max(abs(a[0] - b[0]) / math.hypot(a[1], b[1]) for a, b in pairs)
+                print(f"| {kind} | largest pairwise difference | | | {z_model:.1f} sigma | {z_runs:.1f} sigma | |")
 
     # --- beliefs ---------------------------------------------------------------------
     def beliefs(self):
@@ -280,14 +306,14 @@ def merge_sessions(paths, out_path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["conventions", "beliefs", "heldout", "explain", "all"])
+    ap.add_argument("what", choices=["conventions", "beliefs", "heldout", "explain", "sigma", "all"])
     root = os.path.dirname(os.path.dirname(HERE))
     ap.add_argument("--data", default=os.path.join(root, "..", "shared", "realdata", "optiodom"))
     ap.add_argument("--odocal", default=os.path.join(root, "build", "odocal"))
     ap.add_argument("--out", default=os.path.join("out", "realdata"))
     a = ap.parse_args()
     b = Bench(a)
-    for what in (["conventions", "beliefs", "heldout", "explain"] if a.what == "all" else [a.what]):
+    for what in (["conventions", "beliefs", "heldout", "explain", "sigma"] if a.what == "all" else [a.what]):
         getattr(b, what)()
 
 

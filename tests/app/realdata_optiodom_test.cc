@@ -7,12 +7,15 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -142,6 +145,86 @@ TEST(RealDataOptiOdom, EveryBeliefLandsOnTheSameRobot) {
     }
     EXPECT_LT(hi - lo, limits[k]) << "parameter " << k << " spreads from " << lo << " to " << hi;
   }
+}
+
+// How sure is a calibration of a real robot? Sets of one kind of path,
+// recorded one after the other with the same robot, are repeats: their
+// tracks must agree within what each set says of its own uncertainty. The
+// model's sigma (frame and wheel noise) does not hold on this robot, and
+// batch says so; the runs' disagreement (sigma_between_runs, the delete-one
+// jackknife over runs) does.
+TEST(RealDataOptiOdom, TheRunsDisagreementIsTheSigmaThatHoldsBetweenRepeatedSets) {
+  if (!std::filesystem::is_directory(SharedSets() + "/ivanjko"))
+    GTEST_SKIP() << "the OptiOdom sets are not under " << SharedSets();
+  const std::string dir = test_util::MakeTempDir("odocal_rd_sigma");
+  const std::map<std::string, std::vector<std::string>> kinds = {
+      {"ivanjko", {"250620201618", "250620201636", "250620201655", "250620201738"}},
+      {"square", {"230620202042", "230620202144", "230620202258", "230620202317"}}};
+  for (const auto& [kind, sets] : kinds) {
+    struct Track {
+      double mm, sigma_model_mm, sigma_runs_mm;
+    };
+    std::vector<Track> tracks;
+    for (const std::string& set : sets) {
+      const std::string session = Import(SharedSets() + "/" + kind + "/" + set, dir + "/" + set + "/s");
+      const nlohmann::json report = Batch(session, dir + "/" + set + "/b");
+      const nlohmann::json& fit = report["trajectory_fit"];
+      ASSERT_TRUE(fit.contains("corrected")) << set;
+      EXPECT_GE(fit["jackknife_runs"].get<int>(), 6) << set;
+      ASSERT_TRUE(fit["Eb"]["sigma_between_runs"].is_number()) << set << fit.dump(2);
+      const double track = fit["corrected"]["track_mm"].get<double>(), eb = fit["Eb"]["value"].get<double>();
+      tracks.push_back({track, track * fit["Eb"]["sigma"].get<double>() / eb,
+                        track * fit["Eb"]["sigma_between_runs"].get<double>() / eb});
+      // batch says which sigma to trust.
+      bool noted = false;
+      for (const nlohmann::json& note : report["notes"])
+        noted = noted || note.get<std::string>().find("trust sigma_between_runs") != std::string::npos;
+      EXPECT_TRUE(noted) << set << ": " << report["notes"].dump();
+    }
+    double worst_runs = 0.0, worst_model = 0.0;  // the largest pairwise z
+    for (size_t i = 0; i < tracks.size(); ++i)
+      for (size_t j = i + 1; j < tracks.size(); ++j) {
+        const double d = std::abs(tracks[i].mm - tracks[j].mm);
+        worst_runs = std::max(worst_runs, d / std::hypot(tracks[i].sigma_runs_mm, tracks[j].sigma_runs_mm));
+        worst_model = std::max(worst_model, d / std::hypot(tracks[i].sigma_model_mm, tracks[j].sigma_model_mm));
+      }
+    std::printf("[figure] %s sets: largest pairwise track difference %.1f sigma by the runs' disagreement, "
+                "%.1f sigma by the model's\n",
+                kind.c_str(), worst_runs, worst_model);
+    // Six pairs of four sets: 3 sigma holds them all when the sigma is right.
+    EXPECT_LT(worst_runs, 3.0) << kind;
+    EXPECT_GT(worst_model, 5.0) << kind << ": the model's sigma was expected to be too small here";
+  }
+}
+
+// --estimator trajectory on runs that cannot give a fit (one Ivanjko path:
+// a straight and turns one way do not separate the track from the wheels):
+// exit non-zero, nothing exported, the reason named, and the report of what
+// was measured still written.
+TEST(RealDataOptiOdom, WithoutAFitTheTrajectoryEstimatorExportsNothingButKeepsTheReport) {
+  if (!std::filesystem::is_directory(SharedSets() + "/ivanjko"))
+    GTEST_SKIP() << "the OptiOdom sets are not under " << SharedSets();
+  const std::string dir = test_util::MakeTempDir("odocal_rd_nofit");
+  const std::string session = Import(SharedSets() + "/ivanjko/250620201618", dir + "/s");
+  // Keep the first run only.
+  std::istringstream in(test_util::Slurp(session));
+  std::string text, line;
+  int runs = 0;
+  while (std::getline(in, line))
+    if (line.find("- {name:") == std::string::npos || runs++ == 0) text += line + "\n";
+  std::ofstream(session) << text;
+  const test_util::CommandResult r = RunCommand(Odocal("batch " + session + " --out " + dir + "/b" +
+                                                       " --estimator trajectory --export firmware " +
+                                                       dir + "/fw.yaml"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("nothing exported: these runs do not determine Eb"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr(dir + "/b/report.json"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/fw.yaml"));
+  const nlohmann::json report = test_util::ReadJson(dir + "/b/report.json");
+  EXPECT_EQ(report["runs"].size(), 1u);
+  EXPECT_FALSE(report["runs"][0]["return_error"].is_null());
+  EXPECT_FALSE(report.contains("corrected"));
+  EXPECT_FALSE(report["trajectory_fit"]["Eb"]["identifiable"].get<bool>());
 }
 
 }  // namespace

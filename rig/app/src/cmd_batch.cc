@@ -131,11 +131,16 @@ void RegisterBatchCommand(CLI::App& app) {
     std::vector<std::string> notes = estimates.notes;
     const std::optional<calibration::TrajectoryFitResult> fit = measure::FitSessionTrajectories(*measured, &notes);
     if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
-    if (args->estimator == "trajectory") {
-      if (!fit || !report["trajectory_fit"].contains("corrected"))
-        Fail(name, kExitFailure,
-             "--estimator trajectory: no trajectory fit with Ed, Es and Eb determined (the runs "
-             "need telemetry and measured poses; see report notes)");
+    // Without a fit that determines Ed, Es and Eb there is nothing to export:
+    // the report (the runs, UMBMark, the notes saying why) is still written,
+    // and the command fails after it.
+    const bool trajectory_missing =
+        args->estimator == "trajectory" && (!fit || !report["trajectory_fit"].contains("corrected"));
+    if (trajectory_missing) {
+      corrected.reset();
+      report.erase("corrected");
+      report.erase("ros2");
+    } else if (args->estimator == "trajectory") {
       corrected = calibration::ApplyWheelScales(nominal, fit->scales);
       report["corrected"] = report::WheelParamsJson(*corrected);
       report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
@@ -148,7 +153,8 @@ void RegisterBatchCommand(CLI::App& app) {
       Fail(name, kExitFailure, *e);
     if (auto e = report::WriteReportHtml(report, "odocal batch", args->out + "/report.html"))
       Fail(name, kExitFailure, *e);
-    if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+    if (!trajectory_missing)
+      if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
     for (const measure::SessionMeasurement& sm : *measured)
       for (const measure::SegmentAssignment& a : sm.segments)
@@ -162,6 +168,14 @@ void RegisterBatchCommand(CLI::App& app) {
     for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
     std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
     if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
+    if (trajectory_missing)
+      Fail(name, kExitFailure,
+           "--estimator trajectory: nothing exported: " +
+               (fit ? "these runs do not determine " +
+                          std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
+                          " (a plan with straights and turns both ways does)"
+                    : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
+               "; " + args->out + "/report.json has the runs and the notes");
   });
 }
 

@@ -176,6 +176,30 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
     notes->push_back("trajectory_fit: " + fit.message);
     return std::nullopt;
   }
+  // What the runs' disagreement says of each parameter: on a real robot
+  // the model's sigmas are several times too small (docs/realdata.md,
+  // "How sure"), and this is the check a reader needs.
+  if (const int failed = calibration::AddRunJackknife(pooled, &fit); failed > 0) {
+    notes->push_back("trajectory_fit: " + std::to_string(failed) + " of the refits without one run did not " +
+                     "converge; no sigma_between_runs");
+  } else if (fit.jackknife_runs == 0) {
+    notes->push_back("trajectory_fit: fewer than 3 runs; the sigmas are the model's alone, and nothing "
+                     "checks them against the runs' disagreement (a real robot's runs disagree several "
+                     "times more than its model's sigmas say)");
+  } else {
+    std::string wider;
+    for (const calibration::ParameterEstimate& p : fit.parameters) {
+      if (!(p.sigma_between_runs > 2.0 * p.sigma) || p.name == "turn_gain") continue;
+      char item[120];
+      std::snprintf(item, sizeof(item), "%s%s %.1fx", wider.empty() ? "" : ", ", p.name.c_str(),
+                    p.sigma_between_runs / p.sigma);
+      wider += item;
+    }
+    if (!wider.empty())
+      notes->push_back("trajectory_fit: the " + std::to_string(fit.jackknife_runs) +
+                       " runs disagree more than the model's sigmas say (sigma_between_runs / sigma: " +
+                       wider + "); trust sigma_between_runs");
+  }
   // Its sigmas hold when the model leaves nothing but noise. When the
   // remainder is significant (explain's test: F against chi-square with the
   // residuals' autocorrelation), they are optimistic, and the report says so

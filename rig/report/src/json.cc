@@ -17,10 +17,6 @@ nlohmann::json OrNull(const std::optional<double>& value, double scale = 1.0) {
   return value ? nlohmann::json(*value * scale) : nlohmann::json(nullptr);
 }
 
-nlohmann::json FiniteOrNull(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
 nlohmann::json FirstOrderJson(const calibration::FirstOrderEstimate& e) {
   return {
       {"alpha_deg", e.alpha_rad * kRadToDeg},
@@ -51,6 +47,10 @@ std::string WithSigma(double value, const std::optional<double>& sigma, int prec
 }
 
 }  // namespace
+
+nlohmann::json FiniteOrNull(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
 
 nlohmann::json PoseJson(const calibration::Pose2& pose) {
   return {{"x_mm", pose.x() * 1e3}, {"y_mm", pose.y() * 1e3},

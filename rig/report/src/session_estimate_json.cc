@@ -53,6 +53,7 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
   if (const calibration::ParameterEstimate* p = fit.Find("camera_latency.latency_s")) {
     j["clock_offset_ms"] = {{"value", p->value * 1e3},
                             {"sigma", p->identifiable ? nlohmann::json(p->sigma * 1e3) : nlohmann::json(nullptr)},
+                            {"sigma_between_runs", FiniteOrNull(p->sigma_between_runs * 1e3)},
                             {"meaning", "a pose stamped s shows the robot at telemetry time s + offset"}};
   }
   bool all_identifiable = true;
@@ -62,8 +63,10 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
     if (!p->identifiable) all_identifiable = false;
     j[key] = {{"value", p->value},
               {"sigma", p->identifiable ? nlohmann::json(p->sigma) : nlohmann::json(nullptr)},
+              {"sigma_between_runs", FiniteOrNull(p->sigma_between_runs)},
               {"identifiable", p->identifiable}};
   }
+  j["jackknife_runs"] = fit.jackknife_runs;
   if (all_identifiable) {
     const calibration::WheelParams corrected = calibration::ApplyWheelScales(nominal, fit.scales);
     j["corrected"] = WheelParamsJson(corrected);

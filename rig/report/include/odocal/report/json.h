@@ -15,10 +15,10 @@
 
 namespace odocal::report {
 
-// {x_mm, y_mm, heading_deg}
 // A number, or null where it is not finite (not computed, not determined).
 nlohmann::json FiniteOrNull(double value);
 
+// {x_mm, y_mm, heading_deg}
 nlohmann::json PoseJson(const calibration::Pose2& pose);
 // {x_mm, y_mm, theta_deg}: a return error, true - odometry.
 nlohmann::json ReturnErrorJson(const calibration::Pose2& error);

@@ -10,7 +10,7 @@
 #     protocol is mostly 32-bit (CRC-32, ticks, checksums); the same source is
 #     4.4 KiB on the Cortex-M3. 9 KiB is 28 % of an Uno's 32 KiB and fails the
 #     build on ~5 % growth.
-#   AVR RAM 640: the 429-byte context (the caller's static), the parameter table
+#   AVR RAM 640: the 428-byte context (the caller's static), the parameter table
 #     and its names (avr-gcc keeps constants in RAM): 556 B measured, a quarter
 #     of the Uno's 2 KiB. The issue's 512 B would need the names in program
 #     memory, which the portable C library does not do.

@@ -45,6 +45,9 @@ TEST_F(LinkCliTest, InfoGetSetPushRollback) {
   EXPECT_THAT(r.out, HasSubstr("track_mm = 270\n"));
   EXPECT_THAT(r.out, HasSubstr("ticks_per_rev = 4096\n"));
 
+  r = RunCommand(Robot("set" + port_ + " track_mm=275.25"));  // as push writes it
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("track_mm = 275.25\n"));
   r = RunCommand(Robot("set" + port_ + " track_mm 281.5"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("track_mm = 281.5\n"));
@@ -70,6 +73,12 @@ TEST_F(LinkCliTest, BadInputIsRefusedBeforeTouchingTheRobot) {
   test_util::CommandResult r = RunCommand(Robot("set" + port_ + " track_mm banana"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.err, HasSubstr("bad value 'banana' for track_mm"));
+  r = RunCommand(Robot("set" + port_ + " track_mm=280 281"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("not both"));
+  r = RunCommand(Robot("set" + port_ + " track_mm"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("no value for 'track_mm'"));
   r = RunCommand(Robot("push" + port_ + " wheel_base=3"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_THAT(r.err, HasSubstr("unknown parameter 'wheel_base'"));

@@ -265,11 +265,19 @@ void RegisterRobotCommand(CLI::App& app) {
 
   auto set_name = std::make_shared<std::string>();
   auto set_value = std::make_shared<std::string>();
-  CLI::App* set = robot->add_subcommand("set", "change one parameter (committed atomically)");
+  CLI::App* set = robot->add_subcommand("set", "change one parameter (committed atomically): NAME VALUE or NAME=VALUE");
   AddLinkFlags(set, flags.get());
-  set->add_option("name", *set_name, "parameter name")->required();
-  set->add_option("value", *set_value, "new value")->required();
+  set->add_option("name", *set_name, "parameter name, or NAME=VALUE as push takes it")->required();
+  set->add_option("value", *set_value, "new value");
   set->callback([flags, set_name, set_value] {
+    // NAME=VALUE as push takes it, or NAME VALUE; not both, not neither.
+    if (const size_t eq = set_name->find('='); eq != std::string::npos) {
+      if (!set_value->empty())
+        Fail(kExitOther, "give NAME VALUE or NAME=VALUE, not both ('" + *set_name + "' and '" + *set_value + "')");
+      *set_value = set_name->substr(eq + 1);
+      set_name->resize(eq);
+    }
+    if (set_value->empty()) Fail(kExitOther, "no value for '" + *set_name + "': NAME VALUE or NAME=VALUE");
     const size_t index = ParamIndexOrFail(*set_name);
     const rl::ParamValue value = ValueOrFail(index, *set_value);
     Session s = Connect(*flags);

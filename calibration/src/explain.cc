@@ -271,9 +271,12 @@ std::string ExplainResult::BriefReport() const {
   for (const ExplainStep& s : steps) {
     os << "+ " << ToString(s.effect) << ": score " << Fixed(s.score, 1) << ", gap "
        << Fixed(s.gap_after_m * 1e3, 3) << " mm;";
-    for (const ParameterEstimate& p : s.params)
+    for (const ParameterEstimate& p : s.params) {
       os << " " << p.name << " " << std::setprecision(5) << p.value << " +/- "
          << std::setprecision(2) << 1.959963985 * p.sigma;
+      if (std::isfinite(p.sigma_between_runs))
+        os << " (between runs +/- " << 1.959963985 * p.sigma_between_runs << ")";
+    }
     const CrossValidation& cv = s.cross_validation;
     if (cv.possible())
       os << "; held-out RMS " << Fixed(cv.heldout_rms_before_m * 1e3, 3) << " -> "
@@ -422,6 +425,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     step.params = ParamsOf(current, best_effect);
     result.steps.push_back(step);
   }
+  if (options.jackknife_final) AddRunJackknife(session, &current);
   // Refresh the parameters of every step from the final fit (they were
   // refitted together as effects were added).
   for (ExplainStep& s : result.steps) s.params = ParamsOf(current, s.effect);

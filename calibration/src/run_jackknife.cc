@@ -20,13 +20,24 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
   if (n < 3) return 0;
 
   // Refit without run used[k], for every k; independent, so in parallel.
+  // Each starts from the full fit's solution (one run fewer moves it a
+  // little), which takes a few iterations instead of a cold start's many.
   std::vector<TrajectoryFitResult> refits(used.size());
   std::atomic<size_t> next{0};
   const auto worker = [&] {
     for (size_t k = next++; k < used.size(); k = next++) {
+      const auto at = static_cast<std::ptrdiff_t>(used[k]);
       MeasuredSession without = session;
-      without.runs.erase(without.runs.begin() + static_cast<std::ptrdiff_t>(used[k]));
-      refits[k] = FitTrajectory(without, fit->options);
+      without.runs.erase(without.runs.begin() + at);
+      TrajectoryFitResult warm;
+      warm.status = fit->status;
+      warm.scales = fit->scales;
+      warm.effects = fit->effects;
+      warm.run_used = fit->run_used;
+      warm.run_used.erase(warm.run_used.begin() + at);
+      warm.start_poses = fit->start_poses;
+      warm.start_poses.erase(warm.start_poses.begin() + at);
+      refits[k] = FitTrajectory(without, fit->options, &warm);
     }
   };
   const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());

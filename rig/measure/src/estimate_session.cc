@@ -189,7 +189,10 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
   } else {
     std::string wider;
     for (const calibration::ParameterEstimate& p : fit.parameters) {
-      if (!(p.sigma_between_runs > 2.0 * p.sigma) || p.name == "turn_gain") continue;
+      // Above 3: the jackknife reads high by itself when runs differ in
+      // kind (2-2.7x on a simulated squares + spins + out-and-back plan with
+      // the model right), and the OptiOdom sets are 5.5-15x.
+      if (!(p.sigma_between_runs > 3.0 * p.sigma) || p.name == "turn_gain") continue;
       char item[120];
       std::snprintf(item, sizeof(item), "%s%s %.1fx", wider.empty() ? "" : ", ", p.name.c_str(),
                     p.sigma_between_runs / p.sigma);

@@ -64,6 +64,7 @@ nlohmann::json FitJson(const calibration::TrajectoryFitResult& fit) {
     const auto [key, scale] = EdgeName(p.name);
     params[key] = {{"value", p.value * scale},
                    {"sigma", p.identifiable ? nlohmann::json(p.sigma * scale) : nlohmann::json(nullptr)},
+                   {"sigma_between_runs", FiniteOrNull(p.sigma_between_runs * scale)},
                    {"interval95", p.identifiable ? nlohmann::json({p.lower95() * scale, p.upper95() * scale})
                                                  : nlohmann::json(nullptr)},
                    {"identifiable", p.identifiable}};
@@ -77,6 +78,7 @@ nlohmann::json FitJson(const calibration::TrajectoryFitResult& fit) {
                                    : nlohmann::json(nullptr)},
           {"lag1_autocorrelation", fit.lag1_autocorrelation},
           {"variance_factor", fit.variance_factor},
+          {"jackknife_runs", fit.jackknife_runs},
           {"not_identifiable", fit.unidentifiable}};
 }
 

@@ -102,6 +102,10 @@ struct ExplainOptions {
   double cv_min_relative_gain = 0.05;
   double cv_min_gain_m = 0.01e-3;
   ReplayOptions replay;
+  // The final model's parameters also get sigma_between_runs (the delete-one
+  // jackknife over runs, AddRunJackknife): on a real robot the model's sigma
+  // is several times too small (docs/realdata.md, "How sure").
+  bool jackknife_final = true;
   // Unexplained remainder (step 5 above).
   double unexplained_alpha = 1e-3;
   double unexplained_min_excess_m = 0.1e-3;

@@ -289,9 +289,12 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // in turn and sets every parameter's sigma_between_runs to the delete-one
 // jackknife's standard error
 //   sigma^2 = (n - 1) / n * sum_i (theta_(i) - mean)^2
-// over the n used runs (Efron & Stein 1981; unbiased to first order for a
-// smooth statistic of independent runs). Needs n >= 3; with few runs it is
-// itself uncertain (about 1/sqrt(2 (n - 1)) relative). A parameter that
+// over the n used runs (Efron & Stein 1981: in expectation it does not read
+// low, and it reads high when the runs differ in kind, each carrying what the
+// others lack: 2-2.7x the model's sigma on a simulated plan of squares,
+// spins and an out-and-back with the model right, 0.85x on six squares).
+// Needs n >= 3; with few runs it is itself uncertain (about
+// 1/sqrt(2 (n - 1)) relative). A parameter that
 // some refit could not determine keeps NaN. Returns the number of refits
 // that failed (0 when every one converged); threads: up to `threads` refits
 // at once (0: the hardware's).

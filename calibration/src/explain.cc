@@ -277,6 +277,8 @@ std::string ExplainResult::BriefReport() const {
       if (std::isfinite(p.sigma_between_runs))
         os << " (between runs +/- " << 1.959963985 * p.sigma_between_runs << ")";
     }
+    if (std::isfinite(s.between_runs_z) && !s.holds_across_runs())
+      os << "; NOT from run to run (" << Fixed(s.between_runs_z, 1) << " sigma between runs)";
     const CrossValidation& cv = s.cross_validation;
     if (cv.possible())
       os << "; held-out RMS " << Fixed(cv.heldout_rms_before_m * 1e3, 3) << " -> "
@@ -428,7 +430,16 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   if (options.jackknife_final) AddRunJackknife(session, &current);
   // Refresh the parameters of every step from the final fit (they were
   // refitted together as effects were added).
-  for (ExplainStep& s : result.steps) s.params = ParamsOf(current, s.effect);
+  for (ExplainStep& s : result.steps) {
+    s.params = ParamsOf(current, s.effect);
+    for (const ParameterEstimate& p : s.params) {
+      if (p.name == "grain_rad" || p.name.rfind("camera_tilt", 0) == 0) continue;
+      if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)
+        s.between_runs_z = std::isnan(s.between_runs_z)
+                               ? std::abs(p.value) / p.sigma_between_runs
+                               : std::max(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
+    }
+  }
   result.final_fit = current;
   result.final_residuals = SummariseResiduals(session, current);
   for (Effect e : candidates) {

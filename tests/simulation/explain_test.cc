@@ -139,6 +139,11 @@ TEST_P(EachEffect, IsNamedRecoveredAndClosesTheGap) {
               hidden.name.c_str(), cv.heldout_rms_before_m * 1e3, cv.heldout_rms_after_m * 1e3,
               cv.method.c_str(), cv.folds);
   EXPECT_TRUE(cv.improved);
+  // A real effect holds from run to run: the runs' disagreement keeps it
+  // away from zero.
+  std::printf("[figure] %-16s %.1f sigma from zero between runs\n", hidden.name.c_str(),
+              r.steps[0].between_runs_z);
+  EXPECT_TRUE(r.steps[0].holds_across_runs()) << r.steps[0].between_runs_z;
   EXPECT_FALSE(r.unexplained.any()) << "once named, nothing is left";
   // The camera's noise floor, or with a precise camera the model's own noise
   // (camera and wheels: 0.452 mm against the camera's 0.424 mm at 0.3 mm).

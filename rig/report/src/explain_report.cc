@@ -187,6 +187,10 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
                      {"gap_after_mm", s.gap_after_m * 1e3},
                      {"score", s.score},
                      {"cross_validation", CrossValidationJson(s.cross_validation)},
+                     {"between_runs_z", FiniteOrNull(s.between_runs_z)},
+                     {"holds_across_runs", std::isfinite(s.between_runs_z)
+                                               ? nlohmann::json(s.holds_across_runs())
+                                               : nlohmann::json(nullptr)},
                      {"candidates", trials}});
   }
   nlohmann::json rejected = nlohmann::json::array();

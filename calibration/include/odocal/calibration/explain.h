@@ -74,6 +74,7 @@
 #define ODOCAL_CALIBRATION_EXPLAIN_H_
 
 #include <optional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -174,6 +175,13 @@ struct ExplainStep {
   double score = 0.0;
   CrossValidation cross_validation;
   std::vector<CandidateTrial> trials;  // every candidate of this round
+  // Does the effect hold from run to run? The largest |value| /
+  // sigma_between_runs over its size parameters (not a direction such as
+  // carpet_drift's grain, nor the lens's camera-tilt nuisance): above 1.96
+  // the runs' disagreement puts its 95 % interval away from zero. NaN when
+  // the final model was not jackknifed (fewer than 3 runs).
+  double between_runs_z = std::numeric_limits<double>::quiet_NaN();
+  bool holds_across_runs() const { return between_runs_z > 1.959963985; }
 };
 
 // A structured remainder no candidate explains, and where it is.

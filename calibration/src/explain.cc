@@ -434,10 +434,8 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     s.params = ParamsOf(current, s.effect);
     for (const ParameterEstimate& p : s.params) {
       if (p.name == "grain_rad" || p.name.rfind("camera_tilt", 0) == 0) continue;
-      if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)
-        s.between_runs_z = std::isnan(s.between_runs_z)
-                               ? std::abs(p.value) / p.sigma_between_runs
-                               : std::max(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
+      if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)  // fmax: NaN loses
+        s.between_runs_z = std::fmax(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
     }
   }
   result.final_fit = current;

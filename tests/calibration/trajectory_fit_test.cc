@@ -435,6 +435,29 @@ TEST(RunJackknife, CoversATrackThatVariesFromRunToRun) {
   EXPECT_LT(t.eb_in_model, t.eb_in_between);
 }
 
+// The camera's length scale is common to every run: the runs cannot show
+// it, so it is added to Es and Eb (which it moves 1:1), not to Ed.
+TEST(RunJackknife, AddsTheCamerasScaleTheRunsShare) {
+  SessionUnderTest s = MakeSession(SixSquares(), {}, 4300);
+  s.session.camera_scale_sigma = 0.0;
+  auto without = FitTrajectory(s.session);
+  ASSERT_TRUE(without.ok());
+  calibration::AddRunJackknife(s.session, &without);
+  s.session.camera_scale_sigma = 0.003;
+  auto with = FitTrajectory(s.session);
+  ASSERT_TRUE(with.ok());
+  calibration::AddRunJackknife(s.session, &with);
+  for (const char* name : {"Es", "Eb"}) {
+    const auto* a = without.Find(name);
+    const auto* b = with.Find(name);
+    EXPECT_NEAR(b->sigma_between_runs, std::hypot(a->sigma_between_runs, 0.003 * b->value),
+                0.02 * b->sigma_between_runs) << name;
+    EXPECT_GT(b->sigma_between_runs, 0.003 * b->value) << name;
+  }
+  EXPECT_NEAR(with.Find("Ed")->sigma_between_runs, without.Find("Ed")->sigma_between_runs,
+              0.02 * without.Find("Ed")->sigma_between_runs);
+}
+
 TEST(RunJackknife, NeedsThreeRuns) {
   const SessionUnderTest s = MakeSession(
       {RunSpec::Umbmark(Direction::kCw, 1.5), RunSpec::Umbmark(Direction::kCcw, 1.5)}, {}, 7);

@@ -294,7 +294,9 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // others lack: 2-2.7x the model's sigma on a simulated plan of squares,
 // spins and an out-and-back with the model right, 0.85x on six squares).
 // Needs n >= 3; with few runs it is itself uncertain (about
-// 1/sqrt(2 (n - 1)) relative). A parameter that
+// 1/sqrt(2 (n - 1)) relative). An error every run shares, the runs cannot
+// show: the camera's length scale (session.camera_scale_sigma) is added to
+// Es's and Eb's, which it moves 1:1. A parameter that
 // some refit could not determine keeps NaN. Returns the number of refits
 // that failed (0 when every one converged); threads: up to `threads` refits
 // at once (0: the hardware's).

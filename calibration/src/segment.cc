@@ -63,10 +63,26 @@ RunSpec Infer(const MotionSegment& s) {
   return Recorded();
 }
 
+// The farthest the plan takes the axle midpoint from the start (m): the
+// straights' ends, and arcs in small steps.
+double PlannedExcursion(const std::vector<Primitive>& plan) {
+  double x = 0.0, y = 0.0, heading = 0.0, farthest = 0.0;
+  for (const Primitive& p : plan) {
+    const int steps = p.kind == Primitive::Kind::kArc ? 64 : 1;
+    Primitive step = p;
+    step.amount = p.amount / steps;
+    for (int i = 0; i < steps; ++i) {
+      AdvanceArc(step.LeftTravel(1.0), step.RightTravel(1.0), 1.0, &x, &y, &heading);
+      farthest = std::max(farthest, std::hypot(x, y));
+    }
+  }
+  return farthest;
+}
+
 }  // namespace
 
 std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
-                                         const RestOptions& rest_options) {
+                                         const RestOptions& rest_options, const SeenTurningOptions& unwrap) {
   const RestSummary summary = FindRests(samples, rest_options);
   std::vector<MotionSegment> out;
   for (size_t k = 0; k + 1 < summary.rests.size(); ++k) {
@@ -76,9 +92,14 @@ std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
     // The motion: the start rest's mean, the valid samples between, the end
     // rest's mean.
     std::vector<Pose2> poses = {s.start_rest.mean};
+    std::vector<HeadingSighting> sightings = {{s.start_rest.t_end_s, s.start_rest.mean.heading()}};
     for (const PoseSample& p : samples)
-      if (p.valid && p.t_s > s.start_rest.t_end_s && p.t_s < s.end_rest.t_begin_s) poses.push_back(p.pose);
+      if (p.valid && p.t_s > s.start_rest.t_end_s && p.t_s < s.end_rest.t_begin_s) {
+        poses.push_back(p.pose);
+        sightings.push_back({p.t_s, p.pose.heading()});
+      }
     poses.push_back(s.end_rest.mean);
+    sightings.push_back({s.end_rest.t_begin_s, s.end_rest.mean.heading()});
     const Eigen::Vector2d origin = s.start_rest.mean.translation();
     double heading = 0.0, excursion = 0.0;
     // The anchor of the current heading step and of the path.
@@ -124,7 +145,11 @@ std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
     s.in_place_fraction = turning > 0.0 ? in_place / turning : 0.0;
     s.in_place_turning_rad = in_place;
     s.excursion_m = excursion;
-    s.inferred = Infer(s);
+    s.seen = TrackSeenTurning(sightings, unwrap);
+    // Out of view across a gap the heading is known only modulo a turn,
+    // and the path, the turning in place and the straights are partial.
+    s.readable = s.seen.whole();
+    s.inferred = s.readable ? Infer(s) : Recorded();
     out.push_back(s);
   }
   return out;
@@ -153,6 +178,12 @@ std::string Describe(const RunSpec& spec) {
   return text;
 }
 
+std::string DescribeSeen(const MotionSegment& segment) {
+  if (segment.readable) return Describe(segment.inferred);
+  return Format("a motion out of view for %.1f s of %.1f s", segment.seen.unseen_s,
+                segment.end_rest.t_begin_s - segment.start_rest.t_end_s);
+}
+
 bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size_tolerance) {
   if (planned.procedure == Procedure::kRecorded) return true;  // any path
   if (planned.procedure != inferred.procedure) return false;
@@ -177,6 +208,29 @@ bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size
   return false;
 }
 
+std::optional<std::string> SegmentContradicts(const RunSpec& planned, const MotionSegment& segment,
+                                              double size_tolerance) {
+  if (planned.procedure == Procedure::kRecorded) return std::nullopt;
+  // As the station's heading check: a square's heading error after a
+  // badly calibrated run is a few degrees; a wrong direction or number of
+  // turns is a quarter turn or more.
+  constexpr double kHeadingToleranceRad = 60.0 * M_PI / 180.0;
+  // The tracked point may sit this far off the axle (the tag's offset).
+  constexpr double kOffsetM = 0.15;
+  const std::vector<Primitive> plan = PlanPrimitives(planned);
+  if (auto why = ContradictsPlan(segment.seen, plan, kHeadingToleranceRad)) return why;
+  const Pose2 end = PlannedEnd(plan);
+  const double planned_displacement_m = std::hypot(end.x(), end.y());
+  const double reach_m = PlannedExcursion(plan);
+  if (std::abs(segment.returned_m - planned_displacement_m) > size_tolerance * reach_m + kOffsetM)
+    return Format("the robot ended %.0f mm from where it started, the plan %.0f mm", segment.returned_m * 1e3,
+                  planned_displacement_m * 1e3);
+  if (segment.excursion_m > (1.0 + size_tolerance) * reach_m + kOffsetM)
+    return Format("the camera saw the robot %.0f mm from the start, the plan goes no farther than %.0f mm",
+                  segment.excursion_m * 1e3, reach_m * 1e3);
+  return std::nullopt;
+}
+
 PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
                               const std::vector<std::string>& names, double size_tolerance) {
   const size_t n = segments.size(), m = planned.size();
@@ -188,6 +242,7 @@ PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const 
   // by a square (two full disagreements).
   constexpr int kNearMiss = 1, kWrong = 2, kGap = 2;
   auto pair_cost = [&](size_t i, size_t j) {
+    if (!segments[i].readable) return SegmentContradicts(planned[j], segments[i], size_tolerance) ? kWrong : 0;
     if (SegmentMatches(planned[j], segments[i].inferred, size_tolerance)) return 0;
     return planned[j].procedure == segments[i].inferred.procedure ? kNearMiss : kWrong;
   };
@@ -244,8 +299,13 @@ PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const 
         if (c == 0) {
           current.segment_of_run[j - 1] = static_cast<int>(i - 1);
         } else {
-          current.problems.push_back(run(j - 1) + ": the segment at " + span(i - 1) + " is " +
-                                     Describe(segments[i - 1].inferred));
+          const MotionSegment& seg = segments[i - 1];
+          current.problems.push_back(
+              run(j - 1) + ": the segment at " + span(i - 1) +
+              (seg.readable ? " is " + Describe(seg.inferred)
+                            : Format(" (out of view %.1f s of %.1f s) contradicts it: ", seg.seen.unseen_s,
+                                     seg.end_rest.t_begin_s - seg.start_rest.t_end_s) +
+                                  *SegmentContradicts(planned[j - 1], seg, size_tolerance)));
         }
         walk(i - 1, j - 1);
         if (c == 0)
@@ -255,7 +315,7 @@ PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const 
       }
     }
     if (i > 0 && cost[i][j] == cost[i - 1][j] + kGap) {
-      current.problems.push_back("extra segment at " + span(i - 1) + " (" + Describe(segments[i - 1].inferred) +
+      current.problems.push_back("extra segment at " + span(i - 1) + " (" + DescribeSeen(segments[i - 1]) +
                                  "): not in the plan");
       walk(i - 1, j);
       current.problems.pop_back();

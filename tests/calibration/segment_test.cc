@@ -5,6 +5,7 @@
 // segmenter reads the plan back from those poses alone, and the matcher
 // names a missing run, a run driven the wrong way and an extra one.
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -27,7 +28,16 @@ struct Recording {
   std::vector<std::pair<double, double>> run_times;  // true start, end of each run driven
 };
 
-Recording Drive(const std::vector<RunSpec>& specs, uint32_t seed) {
+// What the camera sees: frames at `fps`, each kept with probability `keep`
+// (a busy machine drops frames), the tag only where `sees` says (a camera
+// over the start area sees it only near the start).
+struct View {
+  double fps = 30.0;
+  double keep = 0.95;
+  std::function<bool(const Pose2&)> sees = [](const Pose2&) { return true; };
+};
+
+Recording Drive(const std::vector<RunSpec>& specs, uint32_t seed, const View& view = {}) {
   sim::RobotConfig config = test_util::ExactRobot(1.002, 1.01);
   config.rest_s = 1.0;   // a camera's plan: rests of a second either side
   config.pause_s = 0.3;
@@ -44,13 +54,13 @@ Recording Drive(const std::vector<RunSpec>& specs, uint32_t seed) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double t_end = runs.back().end_time_s;
   size_t r = 0;
-  for (double t = 0.0; t <= t_end; t += 1.0 / 30.0) {
+  for (double t = 0.0; t <= t_end; t += 1.0 / view.fps) {
     while (r + 1 < runs.size() && t > runs[r].end_time_s) ++r;
     const Pose2 robot_pose = sim::PoseAt(runs[r], std::clamp(t, runs[r].start_time_s, runs[r].end_time_s));
     const Pose2 tag = robot_pose * Pose2::FromXYHeading(0.04, 0.0, 0.0);
     PoseSample s;
     s.t_s = t;
-    s.valid = u(rng) > 0.05;
+    s.valid = u(rng) < view.keep && view.sees(tag);
     s.pose = Pose2::FromXYHeading(tag.x() + 1e-4 * noise(rng), tag.y() + 1e-4 * noise(rng),
                                   tag.heading() + 0.0005 * noise(rng));
     rec.samples.push_back(s);
@@ -196,6 +206,134 @@ TEST(Segment, AnExtraRunIsNamedNotAssigned) {
   EXPECT_THAT(match.problems[0], HasSubstr("(spin cw, 3 turns): not in the plan"));
   EXPECT_EQ(match.segment_of_run[0], 0);
   EXPECT_EQ(match.segment_of_run[1], 2);
+}
+
+
+// ---- A camera over the start area (issue 23) --------------------------------
+// A 1.2 m x 0.8 m view around the start: the 2 m squares leave it on the
+// first leg and come back on the last, the last corner turned in view.
+
+double Rad(double deg) { return deg * M_PI / 180.0; }
+
+View HomeArea(double keep) {
+  View v;
+  v.keep = keep;
+  v.sees = [](const Pose2& tag) { return std::abs(tag.x()) < 0.6 && std::abs(tag.y()) < 0.4; };
+  return v;
+}
+
+std::vector<HeadingSighting> Sightings(const std::vector<PoseSample>& samples, double t0, double t1) {
+  std::vector<HeadingSighting> out;
+  for (const PoseSample& s : samples)
+    if (s.valid && s.t_s >= t0 && s.t_s <= t1) out.push_back({s.t_s, s.pose.heading()});
+  return out;
+}
+
+// The issue's false abort: the robot leaves the view heading 0, comes back
+// 30 s later at -270 deg (seen as +90) and turns its last corner in view.
+// Summing wrapped steps reads -6 deg; a gap it could turn half a turn in is
+// not unwrapped, and nothing seen contradicts the cw square.
+TEST(SeenTurning, AGapTheRobotCouldTurnHalfATurnInIsNotUnwrapped) {
+  const std::vector<HeadingSighting> s = {{0.0, 0.0},          {0.5, Rad(-1)},  {30.0, Rad(-274)},
+                                          {30.5, Rad(-304)}, {31.0, Rad(-334)}, {31.5, Rad(-363)}};
+  SeenTurningOptions options;
+  options.max_turn_rate_rad_s = Rad(180);
+  const SeenTurning seen = TrackSeenTurning(s, options);
+  EXPECT_FALSE(seen.whole());
+  ASSERT_EQ(seen.chains.size(), 2u);
+  EXPECT_NEAR(seen.unseen_s, 29.5, 1e-9);
+  EXPECT_NEAR(seen.chains[1].turned_rad, Rad(-89), 1e-9);
+  EXPECT_FALSE(seen.total_rad());
+  const auto cw = PlanPrimitives(RunSpec::Umbmark(Direction::kCw, 2.0));
+  const auto ccw = PlanPrimitives(RunSpec::Umbmark(Direction::kCcw, 2.0));
+  EXPECT_EQ(ContradictsPlan(seen, cw, Rad(60)), std::nullopt);
+  // Against a ccw plan the last corner was turned the wrong way in view.
+  const auto why = ContradictsPlan(seen, ccw, Rad(60));
+  ASSERT_TRUE(why);
+  EXPECT_THAT(*why, HasSubstr("while in view at 30.0-31.5 s the camera saw the robot turn -89 deg before the end, "
+                              "where the plan turns between +0 and +360 deg"));
+  // Seen whole at a frame rate that bridges every gap: the total is judged.
+  std::vector<HeadingSighting> dense;
+  for (int i = 0; i <= 360; ++i) dense.push_back({0.1 * i, Rad(-i)});
+  const SeenTurning all = TrackSeenTurning(dense, options);
+  ASSERT_TRUE(all.total_rad());
+  EXPECT_NEAR(*all.total_rad(), Rad(-360), 1e-9);
+  EXPECT_EQ(ContradictsPlan(all, cw, Rad(60)), std::nullopt);
+  EXPECT_THAT(ContradictsPlan(all, ccw, Rad(60)).value_or(""),
+              HasSubstr("the camera saw the robot turn -360 deg, the plan turns +360 deg"));
+}
+
+// Start and end are always seen: an end heading a quarter turn off the plan
+// is caught whatever was out of view. An out-and-back turns +180 and -180:
+// its plan turns 0 net (the station once expected 360).
+TEST(SeenTurning, TheEndHeadingModuloATurnIsAlwaysJudged) {
+  const SeenTurning seen = TrackSeenTurning({{0.0, 0.0}, {20.0, Rad(95)}}, {});
+  EXPECT_THAT(ContradictsPlan(seen, PlanPrimitives(RunSpec::Umbmark(Direction::kCw, 2.0)), Rad(60)).value_or(""),
+              HasSubstr("the camera saw the robot end +95 deg from the plan's heading (modulo a turn"));
+  EXPECT_NEAR(PlannedHeadings(PlanPrimitives(RunSpec::OutAndBack(1.0, 2, Direction::kCw))).back(), 0.0, 1e-12);
+  const SeenTurning back = TrackSeenTurning({{0.0, 0.0}, {20.0, Rad(3)}}, {});
+  EXPECT_EQ(ContradictsPlan(back, PlanPrimitives(RunSpec::OutAndBack(1.0, 2, Direction::kCw)), Rad(60)),
+            std::nullopt);
+}
+
+// The virtual robot drives 2 m squares under a camera over the start, 100
+// times with the frames kept at random (a busy machine drops 0-80 % of
+// them): what was seen never contradicts the square driven, and the same
+// sightings always contradict the square the other way (its last corner is
+// turned in view).
+TEST(SeenTurning, HomeAreaSquaresNeverContradictTheirPlanAndTheReverseIsCaught) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> keep(0.2, 1.0);
+  int caught = 0, judged_whole = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    const Direction dir = trial % 2 ? Direction::kCcw : Direction::kCw;
+    const Direction other = trial % 2 ? Direction::kCw : Direction::kCcw;
+    const Recording rec = Drive({RunSpec::Umbmark(dir, 2.0)}, 100 + trial, HomeArea(keep(rng)));
+    // The run's motion with its last rest sighting either side.
+    const auto seen_samples = Sightings(rec.samples, rec.run_times[0].first - 0.5, rec.run_times[0].second + 0.5);
+    ASSERT_GE(seen_samples.size(), 2u);
+    SeenTurningOptions options;
+    options.max_turn_rate_rad_s = 1.25 * test_util::ExactRobot(1.0, 1.0).limits.turn_rate_rad_s;
+    const SeenTurning seen = TrackSeenTurning(seen_samples, options);
+    judged_whole += seen.whole();
+    EXPECT_EQ(ContradictsPlan(seen, PlanPrimitives(RunSpec::Umbmark(dir, 2.0)), Rad(60)), std::nullopt)
+        << "trial " << trial;
+    caught += ContradictsPlan(seen, PlanPrimitives(RunSpec::Umbmark(other, 2.0)), Rad(60)).has_value();
+  }
+  EXPECT_EQ(judged_whole, 0);  // the robot always left the view
+  EXPECT_EQ(caught, 100);
+}
+
+// One recording of squares that leave the view: the two segments are found
+// at the right times, cannot be read, and are the plan's runs because
+// nothing seen contradicts them; a square driven the wrong way is named.
+TEST(Segment, RunsThatLeaveTheViewAreTakenFromThePlanUnlessWhatWasSeenContradictsIt) {
+  const RunSpec cw = RunSpec::Umbmark(Direction::kCw, 2.0), ccw = RunSpec::Umbmark(Direction::kCcw, 2.0);
+  const std::vector<RunSpec> plan = {cw, ccw, cw, ccw};
+  const Recording rec = Drive(plan, 8, HomeArea(0.9));
+  const std::vector<MotionSegment> segments = SegmentMotion(rec.samples);
+  ASSERT_EQ(segments.size(), plan.size());
+  for (size_t k = 0; k < plan.size(); ++k) {
+    EXPECT_FALSE(segments[k].readable);
+    EXPECT_GT(segments[k].seen.unseen_s, 10.0);
+    EXPECT_THAT(DescribeSeen(segments[k]), HasSubstr("a motion out of view for"));
+    EXPECT_LE(segments[k].begin_s(), rec.run_times[k].first + 1.0);
+    EXPECT_GE(segments[k].end_s(), rec.run_times[k].second - 1.0);
+  }
+  const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
+  EXPECT_TRUE(match.ok) << ::testing::PrintToString(match.problems);
+  EXPECT_EQ(match.segment_of_run, (std::vector<int>{0, 1, 2, 3}));
+  // Run 3 driven ccw: its last corner, turned left in view, names it.
+  const Recording wrong = Drive({cw, ccw, ccw, ccw}, 9, HomeArea(0.9));
+  const PlanMatch caught = MatchSegmentsToPlan(SegmentMotion(wrong.samples), plan, Names(plan.size()));
+  EXPECT_FALSE(caught.ok);
+  ASSERT_EQ(caught.problems.size(), 1u) << ::testing::PrintToString(caught.problems);
+  EXPECT_THAT(caught.problems[0], HasSubstr("run 'run3' (umbmark cw, side 2000 mm): the segment at"));
+  EXPECT_THAT(caught.problems[0], HasSubstr("contradicts it: while in view"));
+  // A straight where the plan has a square: it ends 2 m from where it started.
+  const Recording straight = Drive({cw, RunSpec::Straight(0.5)}, 10, HomeArea(0.9));
+  const PlanMatch other = MatchSegmentsToPlan(SegmentMotion(straight.samples), {cw, ccw}, Names(2));
+  EXPECT_FALSE(other.ok);
 }
 
 }  // namespace

@@ -108,7 +108,7 @@ void RegisterBatchCommand(CLI::App& app) {
         nlohmann::json found = nlohmann::json::array();
         for (const measure::SegmentAssignment& a : sm.segments)
           found.push_back({{"run", a.run}, {"source", a.source}, {"start_s", a.begin_s}, {"end_s", a.end_s},
-                           {"found", a.found}});
+                           {"found", a.found}, {"procedure_seen", a.procedure_seen}});
         report["sessions"].back()["segmented_runs"] = found;
       }
       for (const measure::RunMeasurement& rm : sm.runs) {

@@ -79,7 +79,7 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
     for (const calibration::MotionSegment& s : segments) {
       char line[192];
       std::snprintf(line, sizeof(line), "\n    %.1f-%.1f s: %s", s.start_rest.t_end_s, s.end_rest.t_begin_s,
-                    calibration::Describe(s.inferred).c_str());
+                    calibration::DescribeSeen(s).c_str());
       text += line;
     }
     text += "\n  (give a run start_s/end_s to place it by hand)";
@@ -94,9 +94,19 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
     open[k]->end_s = spans[i].second;
     if (open[k]->infer_procedure && s.inferred.procedure != calibration::Procedure::kRecorded)
       open[k]->spec = s.inferred;  // `procedure: auto`: what the poses show
-    if (assignments)
-      assignments->push_back({open[k]->name, source, open[k]->start_s, open[k]->end_s,
-                              calibration::Describe(s.inferred)});
+    if (assignments) {
+      SegmentAssignment a{open[k]->name, source, open[k]->start_s, open[k]->end_s,
+                          calibration::Describe(s.inferred)};
+      if (!s.readable) {
+        // The plan's order and the rests decided; what was seen agrees.
+        char why[160];
+        std::snprintf(why, sizeof(why), " (taken from the plan, not seen: out of view %.1f s of %.1f s)",
+                      s.seen.unseen_s, s.end_rest.t_begin_s - s.start_rest.t_end_s);
+        a.found = calibration::Describe(open[k]->spec) + why;
+        a.procedure_seen = false;
+      }
+      assignments->push_back(a);
+    }
   }
   return true;
 }

@@ -21,6 +21,12 @@
 //   straight      |turned| small, returned ~ excursion (the distance is the
 //                 displacement: the tracked point may be yawed on the robot)
 //   recorded      anything else
+// A camera over the start area loses the robot for most of a run: when a
+// gap in the sightings leaves the heading unknown (seen_turning.h) the
+// procedure cannot be read (`readable` false). Such a segment is the planned
+// run unless what *was* seen contradicts it (a turn the wrong way while in
+// view, an end heading or displacement the plan cannot give, farther from
+// the start than the plan goes): SegmentContradicts.
 // MatchSegmentsToPlan aligns the segments with the plan in order (an edit
 // distance: a run missing, a segment extra, a segment that is not the run
 // planned at its place -- half as much when it is the planned procedure
@@ -31,11 +37,13 @@
 #ifndef ODOCAL_CALIBRATION_SEGMENT_H_
 #define ODOCAL_CALIBRATION_SEGMENT_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
+#include "odocal/calibration/seen_turning.h"
 
 namespace odocal::calibration {
 
@@ -50,6 +58,11 @@ struct MotionSegment {
   double in_place_fraction = 0.0;   // of |turning| done while the centre barely moved
   double in_place_turning_rad = 0.0;  // |turning| done in place
   RunSpec inferred;                 // kRecorded when nothing fits
+  // The heading as seen, in chains across the gaps (one chain: all seen).
+  SeenTurning seen;
+  // Whether the procedure could be read: every gap in the sightings was
+  // bridged. Otherwise `inferred` is kRecorded and the plan decides.
+  bool readable = true;
 
   // The span a run measured over this segment needs: from the start of
   // the rest before to the end of the rest after.
@@ -60,15 +73,27 @@ struct MotionSegment {
 // Segments of the motion in `samples` (time ordered; invalid samples are
 // gaps), each between two rests of `rest_options`. Motion before the first
 // rest or after the last has no rest on one side and is not a segment.
+// `unwrap` says which gaps in the sightings the heading is unwrapped across.
 std::vector<MotionSegment> SegmentMotion(const std::vector<PoseSample>& samples,
-                                         const RestOptions& rest_options = {});
+                                         const RestOptions& rest_options = {},
+                                         const SeenTurningOptions& unwrap = {});
 
 // "umbmark cw, side 2.000 m", "spin ccw, 3 turns", ... (mm in the text).
 std::string Describe(const RunSpec& spec);
 
+// Describe(inferred), or for a segment that could not be read "a motion
+// out of view for 41.3 s of 45.2 s".
+std::string DescribeSeen(const MotionSegment& segment);
+
 // Whether a segment's inferred spec is the planned run: same procedure and
 // direction (and turns), size within `size_tolerance` (relative) of it.
 bool SegmentMatches(const RunSpec& planned, const RunSpec& inferred, double size_tolerance = 0.25);
+
+// For a segment that could not be read: nullopt when what was seen agrees
+// with `planned`, else one sentence why not. Readable segments are judged by
+// SegmentMatches instead.
+std::optional<std::string> SegmentContradicts(const RunSpec& planned, const MotionSegment& segment,
+                                              double size_tolerance = 0.25);
 
 struct PlanMatch {
   bool ok = false;
@@ -91,7 +116,8 @@ struct PlanMatch {
 // Aligns `segments` with the runs `planned` (names for the messages) in
 // order, at the least cost: a run missing, a segment extra or a segment
 // that is another procedure costs 2, the planned procedure driven another
-// way (direction, size, turns) 1. So a run missing next to a square driven
+// way (direction, size, turns) 1. A segment that could not be read costs
+// nothing against a run it does not contradict, 2 against one it does. So a run missing next to a square driven
 // the wrong way reads as that (3), not as the square missing and its
 // neighbour replaced by a square (4).
 PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments,

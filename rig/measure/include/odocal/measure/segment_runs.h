@@ -30,6 +30,9 @@ struct SegmentAssignment {
   std::string source;  // the video or pose log
   double begin_s = 0.0, end_s = 0.0;
   std::string found;  // what the poses show, calibration::Describe
+  // False when the robot was out of view too long to read the procedure:
+  // `found` is then the plan's, which nothing seen contradicts.
+  bool procedure_seen = true;
 };
 
 // Whether the run names its own span (either key set).

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -88,7 +89,8 @@ struct VirtualStation {
 
 std::unique_ptr<VirtualStation> MakeStation(
     const std::string& scenario_text, const std::string& storage_path = "",
-    std::function<std::unique_ptr<robot_link::MotionBackend>(sim::SimMotionBackend&)> wrap = {}) {
+    std::function<std::unique_ptr<robot_link::MotionBackend>(sim::SimMotionBackend&)> wrap = {},
+    double time_scale = 50.0) {
   auto vs = std::make_unique<VirtualStation>();
   const std::string dir = test_util::MakeTempDir("odocal_station_");
   std::ofstream(dir + "/scenario.yaml") << scenario_text;
@@ -100,7 +102,7 @@ std::unique_ptr<VirtualStation> MakeStation(
   vs->backend = std::make_unique<sim::SimMotionBackend>(vs->scenario.robot);
   if (wrap) vs->wrapper = wrap(*vs->backend);
   robot_link::FirmwareHostOptions options;
-  options.time_scale = 50.0;
+  options.time_scale = time_scale;
   options.storage_path = storage_path;
   const calibration::WheelParams& n = vs->scenario.robot.nominal;
   options.robot.defaults = ParamSet{n.left_wheel_diameter_m * 1e3, n.right_wheel_diameter_m * 1e3,
@@ -525,6 +527,124 @@ TEST(StationFailure, InterruptDuringAPushLetsItFinishThenRestores) {
 
 // The live view (rig/live) sees what the station saw: the last run of the
 // plan, the tag where the robot ended, the round's path, the estimates.
+// ---- A camera over the start only (issue 23) --------------------------------
+// 1280x720, 1.8 m over the start: a 2.3 m x 1.3 m view. The 2 m squares leave
+// it on their first leg and come back on their last, so most of each run is
+// unseen and the frames that arrive (few, under time scale and load) cannot
+// unwrap the turn.
+std::string HomeAreaScenario(int seed) {
+  std::ostringstream os;
+  os << "seed: " << seed << "\nrobot:\n"
+     << "  nominal: {left_wheel_diameter_mm: 70.0, right_wheel_diameter_mm: 70.0, track_mm: 300.0, "
+        "ticks_per_rev: 2048}\n"
+     << "  true: " << kMisCalibrated << "\n"
+     << "  start_pose: {x_mm: 0, y_mm: 0, heading_deg: 0}\n"
+     << "  speed_mm_s: 500\n  accel_mm_s2: 800\n  turn_rate_deg_s: 180\n  turn_accel_deg_s2: 360\n"
+     << "  rest_s: 0.1\n  pause_s: 0.2\n  noise: {wheel_mm_per_sqrt_m: 0.05}\n"
+     << "runs:\n"
+     << "  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
+     << "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
+     << "tag: {family: tag36h11, id: 5, size_mm: 80, height_mm: 150, offset_mm: {x: 0, y: 0}}\n"
+     << "camera:\n  width: 1280\n  height: 720\n  fx: 900\n  fy: 900\n  cx: 640\n  cy: 360\n"
+     << "  distortion: [-0.05, 0.01, 0, 0, 0]\n"
+     << "  pose: {x_mm: 0, y_mm: 0, height_mm: 1800, roll_deg: 0, pitch_deg: 1, yaw_deg: 0}\n"
+     << "  fps: 30\n  noise_sigma: 2.0\n  blur_sigma_px: 0.8\n  exposure_ms: 4\n";
+  return os.str();
+}
+
+// Keeps both cores busy while it lives (a machine doing other work).
+class CpuHog {
+ public:
+  CpuHog() {
+    for (int i = 0; i < 2; ++i)
+      threads_.emplace_back([this] {
+        volatile double x = 1.0;
+        while (!stop_) x = x * 1.0000001 + 1e-9;
+      });
+  }
+  ~CpuHog() {
+    stop_ = true;
+    for (std::thread& t : threads_) t.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::vector<std::thread> threads_;
+};
+
+// The issue's false abort: the heading check judged a turn from sightings
+// too sparse to judge it. Seeds varied, idle and beside a CPU hog: every
+// station completes; the total turn is checked only when it could be.
+TEST(StationHomeArea, RunsThatLeaveTheViewNeverAbortTheStationIdleOrUnderLoad) {
+  int stations = 0, runs = 0, totals_checked = 0, dropped = 0;
+  for (const bool loaded : {false, true}) {
+    for (int seed = 1; seed <= 2; ++seed) {
+      std::optional<CpuHog> hog;
+      if (loaded) hog.emplace();
+      auto vs = MakeStation(HomeAreaScenario(seed));
+      ASSERT_TRUE(vs);
+      station::StationOptions options;
+      options.max_rounds = 2;
+      const station::StationResult r = station::RunStation(vs->setup, options);
+      ASSERT_TRUE(r.ok()) << (loaded ? "under load" : "idle") << ", seed " << seed << ": " << ToString(r.status)
+                          << ": " << r.message;
+      ++stations;
+      for (const station::StationIteration& it : r.iterations)
+        for (const station::StationRun& run : it.runs) {
+          ++runs;
+          totals_checked += run.turned_rad.has_value();
+          dropped += run.frames_dropped;
+          // The robot left the view: a gap too long to unwrap.
+          EXPECT_GT(run.unseen_s, 1.0) << run.name;
+          if (run.turned_rad) EXPECT_NEAR(std::abs(*run.turned_rad), 2.0 * M_PI, 0.2) << run.name;
+        }
+      const nlohmann::json report = station::StationReportJson(r);
+      EXPECT_TRUE(report["iterations"][0]["runs"][0].contains("frames_dropped"));
+      EXPECT_TRUE(report["iterations"][0]["runs"][0].contains("unseen_s"));
+    }
+  }
+  std::printf("figures: %d home-area stations completed, %d runs, total turn checked in %d, %d frames dropped\n",
+              stations, runs, totals_checked, dropped);
+  EXPECT_GT(dropped, 0) << "the virtual camera at 30 fps, rendered on a busy machine, drops frames";
+}
+
+// The first run driven the other way round: its last corner is turned in
+// view, and that is enough to stop the station, robot idle, parameters kept.
+class ReversedFirstRun final : public robot_link::MotionBackend {
+ public:
+  explicit ReversedFirstRun(sim::SimMotionBackend& inner) : inner_(inner) {}
+  bool StartRun(const robot_link::RunCommand& command) override {
+    robot_link::RunCommand c = command;
+    if (runs_++ == 0)
+      c.direction = c.direction == calibration::Direction::kCw ? calibration::Direction::kCcw
+                                                               : calibration::Direction::kCw;
+    return inner_.StartRun(c);
+  }
+  robot_link::StepResult Step(double dt_s) override { return inner_.Step(dt_s); }
+  void Stop() override { inner_.Stop(); }
+  void Idle(double dt_s) override { inner_.Idle(dt_s); }
+  void SetParams(const ParamSet& p) override { inner_.SetParams(p); }
+
+ private:
+  sim::SimMotionBackend& inner_;
+  int runs_ = 0;
+};
+
+// The last corner is judged only when it is seen in frames close enough to
+// unwrap: at time scale 2.5 the station's ~10 rendered frames per wall
+// second are 0.25 s of robot time apart (at 10, 1 s: the corner unseen, the
+// run not judged, which is the honest answer then).
+TEST(StationHomeArea, ARunDrivenTheWrongWayIsCaughtByWhatIsSeenInView) {
+  auto vs = MakeStation(
+      HomeAreaScenario(3), "", [](sim::SimMotionBackend& b) { return std::make_unique<ReversedFirstRun>(b); }, 2.5);
+  ASSERT_TRUE(vs);
+  const station::StationResult r = station::RunStation(vs->setup, station::StationOptions{});
+  EXPECT_EQ(r.status, station::StationStatus::kRunNotCompleted) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("run 1/2 (umbmark cw, side 2000 mm): while in view at")) << r.message;
+  EXPECT_THAT(r.message, ::testing::HasSubstr("was another run driven")) << r.message;
+  ExpectLeftAsItWas(*vs, r);
+}
+
 TEST(StationLive, TheLiveStateFollowsTheRunsAndTheEstimates) {
   auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 500, 1));
   ASSERT_TRUE(vs);

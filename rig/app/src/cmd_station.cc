@@ -239,6 +239,9 @@ void RunStation(const StationArgs& args) {
         Progress("the scenario's recorded and circle runs are not driven by the station; they are skipped");
     }
     options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * 1e3));
+    // The virtual robot's fastest turn is known: the heading check unwraps
+    // every gap it could not turn 120 deg in.
+    options.max_turn_rate_rad_s = 1.25 * s->robot.limits.turn_rate_rad_s;
     sim::SimMotionBackend backend(s->robot);
     robot_link::FirmwareHostOptions host_options;
     host_options.time_scale = args.time_scale;

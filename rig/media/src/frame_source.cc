@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include <opencv2/imgproc.hpp>
 
@@ -27,6 +28,12 @@ std::unique_ptr<CaptureSource> CaptureSource::Open(const std::string& device, st
   }
   source->opened_at_ = std::chrono::steady_clock::now();
   return source;
+}
+
+std::optional<double> CaptureSource::NominalFps() const {
+  const double fps = capture_.get(cv::CAP_PROP_FPS);
+  if (fps > 0.0 && std::isfinite(fps)) return fps;
+  return std::nullopt;
 }
 
 std::optional<CameraFrame> CaptureSource::Grab(std::string* error) {

@@ -49,6 +49,8 @@ nlohmann::json StationReportJson(const StationResult& result) {
                           {"max_motion_px", run.max_motion_px},
                           {"turned_deg", run.turned_rad ? nlohmann::json(*run.turned_rad * 180.0 / M_PI)
                                                         : nlohmann::json()},
+                          {"unseen_s", run.unseen_s},
+                          {"frames_dropped", run.frames_dropped},
                           {"rest_frames", {{"start", run.start_rest.n}, {"end", run.end_rest.n}}}};
       if (run.spec.procedure == calibration::Procedure::kStraight ||
           run.spec.procedure == calibration::Procedure::kOutAndBack)

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/calibration/corrections.h"
+#include "odocal/calibration/seen_turning.h"
 #include "odocal/calibration/segment.h"
 #include "odocal/config/scenario.h"
 #include "odocal/live/live_state.h"
@@ -32,17 +33,6 @@ std::string Format(const char* format, auto... args) {
   char buffer[512];
   std::snprintf(buffer, sizeof(buffer), format, args...);
   return buffer;
-}
-
-// What a run's heading should change by (CCW +), from the plan.
-double PlannedTurn(const calibration::RunSpec& spec) {
-  const double sign = spec.direction == calibration::Direction::kCw ? -1.0 : 1.0;
-  switch (spec.procedure) {
-    case calibration::Procedure::kUmbmark: return sign * 2.0 * M_PI;
-    case calibration::Procedure::kSpin: return sign * 2.0 * M_PI * spec.turns;
-    case calibration::Procedure::kOutAndBack: return sign * 2.0 * M_PI * spec.repeats;
-    default: return 0.0;
-  }
 }
 
 StationStatus StatusOf(DriverFault fault) {
@@ -314,13 +304,14 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   bool moved = false, driver_done = false;
   // Stillness (operator): the frame stillness started at, and its corners.
   std::optional<std::pair<double, vision::TagCorners>> still_since;
-  // The heading change, unwrapped between consecutive sightings.
-  std::optional<double> last_heading = HeadingOf(start_corners);
-  double turned = 0.0;
-  bool turn_known = last_heading.has_value();
-  // Whether the tag was out of sight for at least three frames in a row and
-  // half a second (camera clock): a robot that leaves the view has moved; a
-  // frame or two missed tells nothing.
+  // The headings seen (seen_turning.h judges them against the plan at
+  // the end), from the start rest's last frame on.
+  std::vector<calibration::HeadingSighting> sightings;
+  if (const auto h = HeadingOf(start_corners)) sightings.push_back({rest->found.back().t_s, *h});
+  // Frames the camera should have delivered but the station did not get
+  // (a busy machine): gaps between frames beyond its frame interval.
+  const std::optional<double> fps = setup_.camera->NominalFps();
+  std::optional<double> last_frame_t;
   double last_found_t = rest->found.back().t_s;
   int lost_streak = 0;
   bool out_of_view = false;
@@ -349,6 +340,9 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     const auto frame = setup_.camera->Grab(&error);
     if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
     if (recording) recording->clock.emplace_back(Clock::now(), frame->t_s);
+    if (fps && last_frame_t)
+      run->frames_dropped += std::max(0L, std::lround((frame->t_s - *last_frame_t) * *fps) - 1);
+    last_frame_t = frame->t_s;
     vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
     ShowLive(*frame, obs);
     if (recording && obs.corners_px) {
@@ -367,15 +361,7 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
       const double d = MaxCornerDistance(*obs.corners_px, start_corners);
       run->max_motion_px = std::max(run->max_motion_px, d);
       moved = moved || d > options_.motion_threshold_px;
-      if (const auto h = HeadingOf(*obs.corners_px); h && last_heading) {
-        const double step = calibration::WrapAngle(*h - *last_heading);
-        // Beyond 120 deg between sightings the unwrapping is a guess.
-        if (std::abs(step) > 2.0 * M_PI / 3.0) turn_known = false;
-        turned += step;
-        last_heading = h;
-      } else if (h) {
-        last_heading = h;
-      }
+      if (const auto h = HeadingOf(*obs.corners_px)) sightings.push_back({frame->t_s, *h});
       if (driver_->EndsByCamera() && (moved || out_of_view)) {
         if (!still_since || MaxCornerDistance(*obs.corners_px, still_since->second) > options_.still_px) {
           still_since.emplace(frame->t_s, *obs.corners_px);
@@ -384,8 +370,6 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
         }
       }
     } else {
-      // A missed frame: the next sighting's step says whether the turn
-      // between can still be unwrapped.
       still_since.reset();
     }
     std::this_thread::sleep_for(options_.poll_interval);
@@ -415,27 +399,29 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
                           "(robot out of view, or the camera blocked or moved)",
                           setup_.tag.id, end_rest.found.size(), end_rest.grabbed, what.c_str())};
   }
-  // The heading change, closed on the end rest.
-  // Unwrapping needs a sighting every 60 deg of the plan's turning on
-  // average (a whole square between two frames wraps to nothing).
-  const int sightings_needed = static_cast<int>(std::ceil(std::abs(PlannedTurn(spec)) / (M_PI / 3.0))) + 2;
-  if (run->moving_found < sightings_needed) turn_known = false;
-  if (turn_known && last_heading) {
-    if (const auto h = HeadingOf(*end_rest.found.back().corners_px)) {
-      const double step = calibration::WrapAngle(*h - *last_heading);
-      turned += step;
-      run->turned_rad = turned;
-      const double planned = PlannedTurn(spec);
-      if (std::abs(turned - planned) > options_.heading_check_rad) {
-        return Failure{StationStatus::kRunNotCompleted,
-                       what + Format(": the camera saw the robot turn %+.0f deg, the plan turns %+.0f deg: "
-                                     "was another run driven (the wrong direction, the wrong number of turns)?",
-                                     turned * 180.0 / M_PI, planned * 180.0 / M_PI)};
-      }
-    }
+  // The heading change, closed on the end rest's first frame, judged
+  // against the plan as far as the sightings tell it: the total only when
+  // no gap was too long to unwrap (at the robot's fastest turn), always
+  // the end heading modulo a turn and the turning seen in view.
+  if (const auto h = HeadingOf(*end_rest.found.front().corners_px)) sightings.push_back({end_rest.found.front().t_s, *h});
+  calibration::SeenTurningOptions turning;
+  turning.max_turn_rate_rad_s = spec.turn_rate_rad_s ? 1.25 * *spec.turn_rate_rad_s : options_.max_turn_rate_rad_s;
+  const calibration::SeenTurning seen = calibration::TrackSeenTurning(sightings, turning);
+  run->turned_rad = seen.total_rad();
+  run->unseen_s = seen.unseen_s;
+  if (sightings.size() >= 2) {
+    if (const auto why = calibration::ContradictsPlan(seen, calibration::PlanPrimitives(spec), options_.heading_check_rad))
+      return Failure{StationStatus::kRunNotCompleted,
+                     what + ": " + *why + ": was another run driven (the wrong direction, the wrong number of turns)?"};
   }
   if (!run->turned_rad)
-    Log(what + ": heading change not checked (the tag out of view for part of the run, or frames too far apart)");
+    Log(what + Format(": total heading change not checked (no sighting for %.1f s of the run: the tag out of view, "
+                      "or frames too far apart to unwrap at %.0f deg/s); the end heading and the turning in view agree "
+                      "with the plan",
+                      seen.unseen_s, turning.max_turn_rate_rad_s * 180.0 / M_PI));
+  if (run->frames_dropped > 0)
+    Log(what + Format(": %d frames dropped while it ran (the machine busy, or the camera slower than %.0f fps)",
+                      run->frames_dropped, fps.value_or(0.0)));
   Log(Format("%s: completed in %.1f s, tag in %d/%d frames while moving (%.0f px), %zu/%d rest frames%s",
              what.c_str(), Seconds(Clock::now() - t0), run->moving_found, run->moving_frames, run->max_motion_px,
              end_rest.found.size(), end_rest.grabbed,
@@ -951,6 +937,9 @@ bool StationOptions::IsValid(std::string* why) const {
   if (run_timeout.count() <= 0 || poll_interval.count() < 0) return fail("run_timeout must be positive");
   if (!(converge_sigmas > 0.0)) return fail("converge_sigmas must be positive");
   if (floor_frames < 1) return fail("floor_frames must be at least 1");
+  if (!(max_turn_rate_rad_s > 0.0) || !std::isfinite(max_turn_rate_rad_s))
+    return fail("max_turn_rate_rad_s must be a positive number");
+  if (!(heading_check_rad > 0.0 && heading_check_rad < M_PI)) return fail("heading_check_rad must be in (0, pi)");
   if (!(camera_scale.systematic_scale_sigma >= 0.0) || !(camera_scale.tag_print_sigma >= 0.0))
     return fail("camera_scale: systematic_scale_sigma and tag_print_sigma must not be negative");
   if (!camera_scale.quality_gate.IsValid(why)) return false;

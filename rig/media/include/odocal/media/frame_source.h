@@ -27,6 +27,9 @@ class FrameSource {
   // (unplugged, stream ended).
   virtual std::optional<CameraFrame> Grab(std::string* error) = 0;
   virtual std::string Describe() const = 0;
+  // The frame rate the camera delivers at, when it says: frames further
+  // apart than that were dropped (a machine too busy to take them).
+  virtual std::optional<double> NominalFps() const { return std::nullopt; }
 };
 
 // A real camera through OpenCV: a device index ("0") or a stream URL / file.
@@ -37,6 +40,7 @@ class CaptureSource final : public FrameSource {
   static std::unique_ptr<CaptureSource> Open(const std::string& device, std::string* error);
   std::optional<CameraFrame> Grab(std::string* error) override;
   std::string Describe() const override { return "camera " + device_; }
+  std::optional<double> NominalFps() const override;
 
  private:
   explicit CaptureSource(std::string device) : device_(std::move(device)) {}

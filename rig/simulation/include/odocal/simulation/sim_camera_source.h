@@ -30,6 +30,7 @@ class SimCameraSource final : public media::FrameSource {
                                                  std::string* error);
   std::optional<media::CameraFrame> Grab(std::string* error) override;
   std::string Describe() const override { return "virtual camera"; }
+  std::optional<double> NominalFps() const override { return fps_; }
 
  private:
   SimCameraSource(std::unique_ptr<vision::Renderer> renderer, double fps,

@@ -127,9 +127,16 @@ struct StationOptions {
   double still_px = 0.7;
   double still_s = 1.5;
   std::chrono::milliseconds start_timeout{60000};
-  // A run's heading change (camera, unwrapped) further than this from the
-  // plan's fails it (a square the wrong way turns 720 deg from the plan).
+  // What the camera saw the robot turn, held against the plan
+  // (calibration/seen_turning.h): the total when every gap between
+  // sightings could be unwrapped, else the end heading modulo a turn and
+  // the turning seen in view. Further than this from the plan fails the run
+  // (a square the wrong way turns 720 deg from the plan).
   double heading_check_rad = 60.0 * M_PI / 180.0;
+  // The fastest the robot turns, for runs whose plan sets no turn rate
+  // (those use 1.25 times theirs): a gap between sightings in which it
+  // could turn more than 120 deg leaves the total turn unknown.
+  double max_turn_rate_rad_s = 240.0 * M_PI / 180.0;
   // Turn slip is reported when the slow and fast spins differ by this many sigmas.
   double turn_slip_sigmas = 3.0;
   // Run explain on the first round when it has telemetry.
@@ -207,9 +214,14 @@ struct StationRun {
   int moving_frames = 0;
   int moving_found = 0;
   double max_motion_px = 0.0;  // farthest a corner got from the start rest
-  // The heading change the camera saw (unwrapped, CCW +), when its frames
-  // were close enough in time to unwrap.
+  // The heading change the camera saw (unwrapped, CCW +), when no gap
+  // between its sightings was too long to unwrap.
   std::optional<double> turned_rad;
+  // Time between sightings too long to unwrap the heading across (s).
+  double unseen_s = 0.0;
+  // Frames the camera should have delivered while the robot moved and the
+  // station did not get (by the camera's frame rate, when it states one).
+  int frames_dropped = 0;
   std::string log_path;  // the driver's log of the run, if any
 };
 

@@ -27,14 +27,13 @@ bool SeenTurningOptions::IsValid(std::string* why) const {
   };
   if (!(max_turn_rate_rad_s > 0.0) || !std::isfinite(max_turn_rate_rad_s))
     return fail("max_turn_rate_rad_s must be a positive number");
-  if (!(max_unwrap_rad > 0.0 && max_unwrap_rad < M_PI)) return fail("max_unwrap_rad must be in (0, pi)");
+  if (!(heading_margin_rad >= 0.0 && heading_margin_rad < M_PI)) return fail("heading_margin_rad must be in [0, pi)");
   return true;
 }
 
 SeenTurning TrackSeenTurning(const std::vector<HeadingSighting>& sightings, const SeenTurningOptions& options) {
   SeenTurning seen;
   if (sightings.empty()) return seen;
-  const double max_gap_s = options.MaxGapS();
   double relative = 0.0;  // heading since the chain's first sighting
   auto start_chain = [&](const HeadingSighting& s) {
     TurnChain chain;
@@ -48,14 +47,15 @@ SeenTurning TrackSeenTurning(const std::vector<HeadingSighting>& sightings, cons
     const HeadingSighting& a = sightings[i - 1];
     const HeadingSighting& b = sightings[i];
     const double gap_s = b.t_s - a.t_s;
+    const double step = WrapAngle(b.heading_rad - a.heading_rad);
     seen.largest_gap_s = std::max(seen.largest_gap_s, gap_s);
-    if (gap_s > max_gap_s) {
+    if (!options.Bridges(step, gap_s)) {
       seen.unseen_s += gap_s;
       start_chain(b);
       continue;
     }
     TurnChain& chain = seen.chains.back();
-    relative += WrapAngle(b.heading_rad - a.heading_rad);
+    relative += step;
     chain.t_end_s = b.t_s;
     chain.turned_rad = relative;
     chain.lowest_rad = std::min(chain.lowest_rad, relative);

@@ -11,6 +11,7 @@
 //     robot; an apply that fails. Each: the exit code for its cause, the
 //     report says why, the robot's parameters unchanged.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -221,17 +222,31 @@ TEST(StationOperatorDriver, TheCameraSeesEachRunStartAndEnd) {
   EXPECT_NEAR(corrected["right_wheel_diameter_mm"].get<double>() / corrected["left_wheel_diameter_mm"].get<double>(),
               70.06 / 69.95, 1e-4);
   EXPECT_THAT(test_util::Slurp(b.dir + "/out/corrected.firmware.yaml"), HasSubstr("track_mm"));
-  // The station ended each run when the robot had been still, not at a timeout.
-  for (const nlohmann::json& run : report["iterations"][0]["runs"])
+  // The station ended each run when the robot had been still (its end rest
+  // measured), not at a timeout. Its turn, judged where the sightings could
+  // unwrap it (~0.7 s of robot time apart at time scale 10, against 1.07 s
+  // for this 90 deg/s robot; a busy machine spaces them more), is the square's.
+  int judged = 0;
+  for (const nlohmann::json& run : report["iterations"][0]["runs"]) {
+    EXPECT_TRUE(run["return_error"].is_object()) << run.dump();
+    if (run["turned_deg"].is_null()) continue;
+    ++judged;
     EXPECT_NEAR(std::abs(run["turned_deg"].get<double>()), 360.0, 5.0) << run.dump();
+  }
+  std::printf("figures: %d of 2 runs' total turn judged\n", judged);
 }
 
 TEST(StationOperatorDriver, AnOperatorWhoDrivesTheWrongSquareIsStopped) {
   const Bench b("odocal_station_operator_wrong_", ScenarioText(kSquares));
   const CommandResult r = RunWithOperator(b, "1");
   EXPECT_EQ(r.exit_code, 5) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("run 1/2 (umbmark cw, side 500 mm): the camera saw the robot turn +3")) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("the plan turns -360 deg")) << r.err;
+  // Judged on the whole turn (+360 deg) when the sightings could unwrap it,
+  // else on a corner turned left in view: caught either way.
+  EXPECT_THAT(r.err, HasSubstr("run 1/2 (umbmark cw, side 500 mm): ")) << r.err;
+  EXPECT_THAT(r.err, ::testing::AnyOf(HasSubstr("the camera saw the robot turn +3"),
+                                      HasSubstr("where the plan turns between -360 and +0 deg")))
+      << r.err;
+  EXPECT_THAT(r.err, HasSubstr("was another run driven")) << r.err;
   EXPECT_THAT(test_util::Slurp(b.dir + "/operator.log"), HasSubstr("==> STOP the robot now"));
   ExpectParamsAsTheyWere(b.Report());
 }

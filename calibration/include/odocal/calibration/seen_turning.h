@@ -1,14 +1,15 @@
 // How far a robot turned, as far as a camera that loses it can tell.
 //
 // A camera gives the robot's heading only modulo a full turn. Between two
-// sightings close in time the turn is the wrapped difference; across a gap
-// in which the robot could have turned half a turn or more it is unknown
-// (a square's three corners driven out of view wrap to +90 deg). So the
-// sightings fall into chains: consecutive sightings each within
-// `max_turn_rate_rad_s * dt <= max_unwrap_rad` of the last. Within a chain
-// the turning is known; the total is known only when one chain spans the
-// whole motion. Whether a gap is bridged depends on its length and the
-// robot's fastest turn, never on how many frames happened to arrive.
+// sightings dt apart the robot turned the wrapped difference w plus some
+// whole number of turns, and by at most max_turn_rate * dt either way: when
+// only one of w + 2 pi k lies within that reach (|w| + reach < 2 pi, with a
+// margin), the turn is known. Otherwise (a square's three corners driven out
+// of view wrap to +90 deg) it is not. So the sightings fall into chains of
+// consecutive sightings each bridged to the last; within a chain the turning
+// is known, and the total only when one chain spans the whole motion.
+// Whether a gap is bridged follows from its length, the step seen and the
+// robot's fastest turn: a bound, not a guess.
 //
 // What was seen is then held against the plan (its primitives, procedures.h):
 //   the total, when known, within the tolerance of the plan's;
@@ -39,15 +40,18 @@ struct HeadingSighting {
 };
 
 struct SeenTurningOptions {
-  // The fastest the robot turns (rad/s); a gap of dt between sightings is
-  // bridged when max_turn_rate_rad_s * dt <= max_unwrap_rad.
+  // The fastest the robot turns (rad/s), with a margin for overshoot.
   double max_turn_rate_rad_s = 2.0 * M_PI;
-  // Below half a turn, with a margin for heading noise and overshoot.
-  double max_unwrap_rad = 2.0 * M_PI / 3.0;
+  // What a sighting's heading may be off by (frame noise, a tag seen at
+  // the edge of the view): taken off the margin between the two unwraps.
+  double heading_margin_rad = 10.0 * M_PI / 180.0;
 
   bool IsValid(std::string* why) const;
-  // The longest gap that is bridged (s).
-  double MaxGapS() const { return max_unwrap_rad / max_turn_rate_rad_s; }
+  // Whether a step seen as `wrapped_rad` (in (-pi, pi]) over `gap_s` has
+  // one unwrap the robot could have turned.
+  bool Bridges(double wrapped_rad, double gap_s) const {
+    return max_turn_rate_rad_s * gap_s + heading_margin_rad < 2.0 * M_PI - std::abs(wrapped_rad);
+  }
 };
 
 // Consecutive sightings, each bridged to the last.

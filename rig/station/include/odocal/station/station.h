@@ -134,8 +134,9 @@ struct StationOptions {
   // (a square the wrong way turns 720 deg from the plan).
   double heading_check_rad = 60.0 * M_PI / 180.0;
   // The fastest the robot turns, for runs whose plan sets no turn rate
-  // (those use 1.25 times theirs): a gap between sightings in which it
-  // could turn more than 120 deg leaves the total turn unknown.
+  // (those use 1.25 times theirs): across a gap between sightings in
+  // which it could turn the step seen or that step's other unwrap, the
+  // total turn is unknown (seen_turning.h).
   double max_turn_rate_rad_s = 240.0 * M_PI / 180.0;
   // Turn slip is reported when the slow and fast spins differ by this many sigmas.
   double turn_slip_sigmas = 3.0;

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <random>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
@@ -213,7 +214,9 @@ TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
       {Replace(kGood, "distortion_coefficients", "distortion"), "camera.yaml: distortion_coefficients: missing"},
       {Replace(kGood, "rows: 1, cols: 5, data: [-0.1, 0.02, 0, 0, 0]", "rows: 1, cols: 3, data: [-0.1, 0.02, 0]"),
        "camera.yaml: distortion_coefficients: distortion must have 4, 5 or more coefficients"},
-      {Replace(kGood, "plumb_bob", "equidistant"), "camera.yaml: distortion_model: 'equidistant' is not supported"},
+      {Replace(kGood, "plumb_bob", "kannala"), "camera.yaml: distortion_model: 'kannala' is not supported"},
+      {Replace(kGood, "plumb_bob", "equidistant"),
+       "camera.yaml: distortion_coefficients: an equidistant (fisheye) lens has exactly 4 coefficients"},
   };
   for (const auto& [text, expected] : cases) {
     const std::string path = WriteText(dir, "camera.yaml", text);
@@ -226,6 +229,59 @@ TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
   }
   error = test_util::ErrorOf(config::ReadCameraFile(dir + "/missing.yaml"));
   EXPECT_EQ(error, dir + "/missing.yaml: cannot open file");
+}
+
+// Fisheye lenses (issue 24 §2): ROS camera_info `equidistant`, OpenCV's
+// calibration sample's `fisheye_model: 1` with cv::fisheye's four
+// coefficients, Kalibr's camchain `pinhole-equi` and `pinhole-radtan`; both
+// written layouts read back as the same lens.
+TEST(CameraIo, ReadsAndWritesFisheyeLensesInEveryLayout) {
+  Intrinsics fisheye{1280, 800, 420.5, 421.25, 641.5, 398.25, {-0.02, 0.004, -0.0015, 0.0002, 0.0}};
+  fisheye.lens = vision::LensModel::kEquidistant;
+  for (const auto format : {config::CameraFileFormat::kOpenCv, config::CameraFileFormat::kRos}) {
+    config::CameraFile file;
+    file.intrinsics = fisheye;
+    const std::string text = config::FormatCameraFile(file, format);
+    std::string error;
+    const auto back = config::ParseCameraFile(text, "fisheye.yaml", &error);
+    ASSERT_TRUE(back) << error << "\n" << text;
+    EXPECT_EQ(back->intrinsics.lens, vision::LensModel::kEquidistant) << text;
+    ExpectSameIntrinsics(back->intrinsics, fisheye);
+  }
+  // What OpenCV's own FileStorage writes for cv::fisheye, with the sample's flag.
+  cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  fs << "image_width" << 1280 << "image_height" << 800 << "camera_matrix" << fisheye.CameraMatrix()
+     << "distortion_coefficients" << fisheye.DistortionCoeffs() << "fisheye_model" << 1;
+  std::string error;
+  auto opencv = config::ParseCameraFile(fs.releaseAndGetString(), "opencv.yaml", &error);
+  ASSERT_TRUE(opencv) << error;
+  EXPECT_EQ(opencv->intrinsics.lens, vision::LensModel::kEquidistant);
+  ExpectSameIntrinsics(opencv->intrinsics, fisheye);
+  // Kalibr's camchain.yaml, as kalibr_calibrate_cameras writes it.
+  const std::string camchain = R"(cam0:
+  cam_overlaps: []
+  camera_model: pinhole
+  distortion_coeffs: [-0.02, 0.004, -0.0015, 0.0002]
+  distortion_model: equidistant
+  intrinsics: [420.5, 421.25, 641.5, 398.25]
+  resolution: [1280, 800]
+  rostopic: /cam0/image_raw
+)";
+  auto kalibr = config::ParseCameraFile(camchain, "camchain.yaml", &error);
+  ASSERT_TRUE(kalibr) << error;
+  EXPECT_EQ(kalibr->intrinsics.lens, vision::LensModel::kEquidistant);
+  ExpectSameIntrinsics(kalibr->intrinsics, fisheye);
+  auto radtan = config::ParseCameraFile(Replace(camchain, "equidistant", "radtan"), "camchain.yaml", &error);
+  ASSERT_TRUE(radtan) << error;
+  EXPECT_EQ(radtan->intrinsics.lens, vision::LensModel::kPlumbBob);
+  EXPECT_DOUBLE_EQ(radtan->intrinsics.distortion[2], -0.0015);  // Kalibr's r1 is OpenCV's p1
+  // Bad input names the key.
+  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, "pinhole", "omni"), "camchain.yaml", &error));
+  EXPECT_EQ(error.rfind("camchain.yaml: cam0.camera_model: 'omni' is not supported", 0), 0u) << error;
+  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, "equidistant", "fov"), "camchain.yaml", &error));
+  EXPECT_EQ(error.rfind("camchain.yaml: cam0.distortion_model: 'fov' is not supported", 0), 0u) << error;
+  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, ", 0.0002]", "]"), "camchain.yaml", &error));
+  EXPECT_EQ(error.rfind("camchain.yaml: cam0.distortion_coeffs: expected a list of 4 numbers", 0), 0u) << error;
 }
 
 TEST(CameraIo, RefusesToWriteInvalidIntrinsicsAndLeavesNoPartialFile) {

@@ -24,7 +24,26 @@ Eigen::Matrix3d RWorldDown() {
 const cv::TermCriteria kUndistortCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200,
                                           1e-14);
 
+// The equidistant model's theta_d(theta) and its derivative.
+double ThetaD(const std::array<double, 5>& k, double theta, double* derivative) {
+  const double t2 = theta * theta;
+  const double poly = 1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3])));
+  if (derivative) *derivative = 1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])));
+  return theta * poly;
+}
+
 }  // namespace
+
+const char* LensModelName(LensModel lens) {
+  return lens == LensModel::kEquidistant ? "equidistant" : "plumb_bob";
+}
+
+std::optional<LensModel> ParseLensModel(const std::string& name) {
+  if (name == "plumb_bob" || name == "radtan" || name == "pinhole-radtan") return LensModel::kPlumbBob;
+  if (name == "equidistant" || name == "fisheye" || name == "equi" || name == "pinhole-equi")
+    return LensModel::kEquidistant;
+  return std::nullopt;
+}
 
 bool Intrinsics::IsValid(std::string* why) const {
   auto fail = [&](const char* msg) {
@@ -37,6 +56,8 @@ bool Intrinsics::IsValid(std::string* why) const {
   for (double d : distortion) {
     if (!std::isfinite(d)) return fail("distortion coefficients must be finite");
   }
+  if (lens == LensModel::kEquidistant && distortion[4] != 0.0)
+    return fail("an equidistant lens has four coefficients k1..k4");
   return true;
 }
 
@@ -45,13 +66,15 @@ cv::Mat Intrinsics::CameraMatrix() const {
 }
 
 cv::Mat Intrinsics::DistortionCoeffs() const {
+  if (lens == LensModel::kEquidistant)
+    return (cv::Mat_<double>(1, 4) << distortion[0], distortion[1], distortion[2], distortion[3]);
   return (cv::Mat_<double>(1, 5) << distortion[0], distortion[1], distortion[2], distortion[3],
           distortion[4]);
 }
 
 std::optional<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix,
                                              const cv::Mat& dist_coeffs, int width, int height,
-                                             std::string* why) {
+                                             std::string* why, LensModel lens) {
   if (camera_matrix.rows != 3 || camera_matrix.cols != 3) {
     if (why) *why = "camera matrix must be 3x3";
     return std::nullopt;
@@ -71,7 +94,17 @@ std::optional<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix,
   in.fy = k.at<double>(1, 1);
   in.cx = k.at<double>(0, 2);
   in.cy = k.at<double>(1, 2);
-  if (!dist_coeffs.empty()) {
+  in.lens = lens;
+  if (lens == LensModel::kEquidistant && !dist_coeffs.empty()) {
+    cv::Mat d;
+    dist_coeffs.reshape(1, 1).convertTo(d, CV_64F);
+    if (d.cols != 4) {
+      if (why) *why = "an equidistant (fisheye) lens has exactly 4 coefficients k1 k2 k3 k4, got " +
+                      std::to_string(d.cols);
+      return std::nullopt;
+    }
+    for (int i = 0; i < 4; ++i) in.distortion[i] = d.at<double>(0, i);
+  } else if (!dist_coeffs.empty()) {
     cv::Mat d;
     dist_coeffs.reshape(1, 1).convertTo(d, CV_64F);
     const int n = d.cols;
@@ -137,6 +170,12 @@ std::optional<Eigen::Vector2d> CameraModel::ProjectCamera(const Eigen::Vector3d&
   // single points avoid cv::Mat allocations.
   const auto& d = intrinsics_.distortion;
   const double r2 = x * x + y * y;
+  if (intrinsics_.lens == LensModel::kEquidistant) {
+    const double r = std::sqrt(r2);
+    // theta_d / r -> 1 on the axis.
+    const double scale = r > 1e-12 ? ThetaD(d, std::atan(r), nullptr) / r : 1.0;
+    return Eigen::Vector2d(intrinsics_.fx * x * scale + intrinsics_.cx, intrinsics_.fy * y * scale + intrinsics_.cy);
+  }
   const double radial = 1.0 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
   const double xd = x * radial + 2.0 * d[2] * x * y + d[3] * (r2 + 2.0 * x * x);
   const double yd = y * radial + d[2] * (r2 + 2.0 * y * y) + 2.0 * d[3] * x * y;
@@ -169,6 +208,7 @@ std::vector<cv::Point2d> CameraModel::UndistortToNormalized(
   // machine precision in 3-4 steps, where OpenCV's fixed-point iteration
   // needs ~20 at the image corners; the renderer undistorts every pixel corner.
   const auto& d = intrinsics_.distortion;
+  if (intrinsics_.lens == LensModel::kEquidistant) return UndistortEquidistant(pixels);
   const double k1 = d[0], k2 = d[1], p1 = d[2], p2 = d[3], k3 = d[4];
   std::vector<cv::Point2d> out(pixels.size());
   std::vector<cv::Point2d> fallback_in;
@@ -214,6 +254,45 @@ std::vector<cv::Point2d> CameraModel::UndistortToNormalized(
   return out;
 }
 
+// Newton on theta_d(theta) = |distorted|: monotone over the lens's field
+// for any physical calibration, so from theta = theta_d it converges in a few
+// steps; a lens that folds back (theta_d' <= 0) or a ray at or past 90 deg
+// gives NaN rather than a wrong point.
+std::vector<cv::Point2d> CameraModel::UndistortEquidistant(const std::vector<cv::Point2d>& pixels) const {
+  const auto& d = intrinsics_.distortion;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<cv::Point2d> out(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const double xd = (pixels[i].x - intrinsics_.cx) / intrinsics_.fx;
+    const double yd = (pixels[i].y - intrinsics_.cy) / intrinsics_.fy;
+    const double theta_d = std::hypot(xd, yd);
+    if (theta_d < 1e-12) {
+      out[i] = cv::Point2d(xd, yd);
+      continue;
+    }
+    double theta = std::min(theta_d, 1.5);
+    bool converged = false;
+    for (int it = 0; it < 50; ++it) {
+      double slope = 0.0;
+      const double f = ThetaD(d, theta, &slope) - theta_d;
+      if (!(slope > 1e-9)) break;
+      const double step = f / slope;
+      theta -= step;
+      if (std::abs(step) < 1e-15) {
+        converged = true;
+        break;
+      }
+    }
+    if (!converged || !(theta >= 0.0 && theta < M_PI / 2.0)) {
+      out[i] = cv::Point2d(nan, nan);
+      continue;
+    }
+    const double scale = std::tan(theta) / theta_d;
+    out[i] = cv::Point2d(xd * scale, yd * scale);
+  }
+  return out;
+}
+
 std::vector<cv::Point2d> CameraModel::UndistortPixels(const std::vector<cv::Point2d>& pixels) const {
   auto out = UndistortToNormalized(pixels);
   for (auto& p : out) {
@@ -245,7 +324,8 @@ bool CameraModel::InImage(const Eigen::Vector2d& pixel, double margin_px) const 
 
 std::ostream& operator<<(std::ostream& os, const Intrinsics& in) {
   return os << "Intrinsics{" << in.width << "x" << in.height << " fx=" << in.fx << " fy=" << in.fy
-            << " cx=" << in.cx << " cy=" << in.cy << " dist=[" << in.distortion[0] << ", "
+            << " cx=" << in.cx << " cy=" << in.cy << " " << LensModelName(in.lens) << "=["
+            << in.distortion[0] << ", "
             << in.distortion[1] << ", " << in.distortion[2] << ", " << in.distortion[3] << ", "
             << in.distortion[4] << "]}";
 }

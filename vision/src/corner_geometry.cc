@@ -88,6 +88,25 @@ EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, con
     }
   }
   band.undistorted = camera && !centres.empty() ? camera->UndistortPixels(centres) : centres;
+  band.jacobian.assign(centres.size(), cv::Vec4d(1.0, 0.0, 0.0, 1.0));
+  if (camera && !centres.empty()) {
+    // Central differences over half a pixel: the map is smooth on that scale.
+    constexpr double h = 0.25;
+    std::vector<cv::Point2d> probes;
+    probes.reserve(4 * centres.size());
+    for (const cv::Point2d& q : centres) {
+      probes.emplace_back(q.x + h, q.y);
+      probes.emplace_back(q.x - h, q.y);
+      probes.emplace_back(q.x, q.y + h);
+      probes.emplace_back(q.x, q.y - h);
+    }
+    const std::vector<cv::Point2d> u = camera->UndistortPixels(probes);
+    for (size_t i = 0; i < centres.size(); ++i) {
+      const cv::Point2d dx = (u[4 * i] - u[4 * i + 1]) * (0.5 / h), dy = (u[4 * i + 2] - u[4 * i + 3]) * (0.5 / h);
+      if (std::isfinite(dx.x) && std::isfinite(dx.y) && std::isfinite(dy.x) && std::isfinite(dy.y))
+        band.jacobian[i] = cv::Vec4d(dx.x, dy.x, dx.y, dy.y);
+    }
+  }
   std::vector<cv::Point2d> ends = {a_px, b_px};
   if (camera) ends = camera->UndistortPixels(ends);
   const cv::Point2d u_dir = (ends[1] - ends[0]) * (1.0 / cv::norm(ends[1] - ends[0]));

@@ -47,6 +47,11 @@ void CornersFromEdges(const std::array<EdgeLine, 4>& lines, const CameraModel* c
 // grey(y - origin.y, x - origin.x).
 struct EdgeBandSamples {
   std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted when a camera is given
+  // d undistorted / d pixel at each centre (row-major 2x2); the identity
+  // without a camera. A pixel is a unit square in the image, not in the
+  // undistorted plane: through a fisheye it is a parallelogram up to twice
+  // as wide there, and wider on the outer side of an edge than the inner.
+  std::vector<cv::Vec4d> jacobian;
   std::vector<double> value;             // grey level
   std::vector<double> offset_px;         // signed distance from the edge, outwards positive
   cv::Point2d normal_px;                 // outwards, distorted pixels

@@ -11,6 +11,11 @@
 // Fitting this to the pixels of a band along the edge locates the edge
 // without the sub-pixel-phase bias that any interpolated-profile method has
 // on edges parallel to the pixel grid (where every sample shares one phase).
+// Through a lens the edge is straight only after undistortion, where the
+// pixels are not unit squares: each pixel's distance and box widths are taken
+// in the image through the undistortion's local Jacobian, so the model holds
+// for a fisheye's curved edges too (d, n and the widths above are then the
+// image's, the line the undistorted plane's).
 #include <cmath>
 #include <vector>
 
@@ -39,12 +44,20 @@ class EdgeModelCost {
     using std::cos;
     using std::exp;
     using std::sin;
+    using std::sqrt;
     const T nx = cos(p[0]), ny = sin(p[0]);
     const T s = exp(p[4]);
-    const T w1 = abs(nx) / s, w2 = abs(ny) / s;
     for (size_t i = 0; i < pixels_->value.size(); ++i) {
       const cv::Point2d& q = pixels_->undistorted[i];
-      const T u = (nx * q.x + ny * q.y - p[1]) / s;
+      // The edge is straight in the undistorted plane; the pixel is a unit
+      // square in the image. With J = d undistorted / d pixel, the image's
+      // normal to the edge is J^T n and a distance d there is d / |J^T n|
+      // in pixels (the identity without a camera).
+      const cv::Vec4d& J = pixels_->jacobian[i];
+      const T gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
+      const T g = sqrt(gx * gx + gy * gy);
+      const T w1 = abs(gx) / (g * s), w2 = abs(gy) / (g * s);
+      const T u = (nx * q.x + ny * q.y - p[1]) / (g * s);
       T fraction;
       if (w2 < 1e-3 || w1 < 1e-3) {
         const T w = w1 < 1e-3 ? w2 : w1;  // a single box

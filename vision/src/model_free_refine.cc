@@ -58,11 +58,18 @@ class ModelFreeCost {
     const T s1 = exp(shared[0]), s2 = exp(shared[1]);
     const T w = shared[2];
     const T inv_gamma = exp(-shared[3]);
+    using std::sqrt;
     for (size_t i = 0; i < pixels_->value.size(); ++i) {
       const cv::Point2d& q = pixels_->undistorted[i];
-      const T d = nx * q.x + ny * q.y - p[1];
-      const T spread = (1.0 - w) * internal::PixelEdgeFraction(d, nx, ny, s1) +
-                       w * internal::PixelEdgeFraction(d, nx, ny, s2);
+      // Distance and normal in the image, where the pixel is a unit square
+      // (edge_model_refine.cc): the line is the undistorted plane's.
+      const cv::Vec4d& J = pixels_->jacobian[i];
+      const T gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
+      const T g = sqrt(gx * gx + gy * gy);
+      const T d = (nx * q.x + ny * q.y - p[1]) / g;
+      const T mx = gx / g, my = gy / g;
+      const T spread = (1.0 - w) * internal::PixelEdgeFraction(d, mx, my, s1) +
+                       w * internal::PixelEdgeFraction(d, mx, my, s2);
       T linear = p[2] + p[3] * spread;
       // The tone curve is defined for positive light only; a fit straying
       // below zero is pulled back by the residual, not by a NaN.

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <initializer_list>
 #include <sstream>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <yaml-cpp/yaml.h>
@@ -25,8 +26,8 @@ const std::initializer_list<const char*> kCameraMatrixKeys = {"camera_matrix", "
 const std::initializer_list<const char*> kDistortionKeys = {
     "distortion_coefficients", "Distortion_Coefficients", "dist_coeffs", "distCoeffs"};
 // Keys only ROS camera_info files have.
-const std::initializer_list<const char*> kRosOnlyKeys = {"camera_name", "distortion_model",
-                                                         "rectification_matrix",
+// (distortion_model is also in odocal's OpenCV files of fisheye lenses.)
+const std::initializer_list<const char*> kRosOnlyKeys = {"camera_name", "rectification_matrix",
                                                          "projection_matrix"};
 
 // The reader's own failure: carries the "<key>: <message>" part; converted to
@@ -118,7 +119,61 @@ cv::Mat ReadMatrix(const YAML::Node& node, const std::string& key) {
   return m;
 }
 
+std::vector<double> ReadNumbers(const YAML::Node& node, const std::string& key, size_t count) {
+  if (!node.IsSequence() || (count && node.size() != count))
+    Throw(key, "expected a list of " + (count ? std::to_string(count) + " " : std::string()) + "numbers");
+  std::vector<double> values;
+  for (size_t i = 0; i < node.size(); ++i) {
+    double v = 0.0;
+    if (!node[i].IsScalar() || !ParseDouble(node[i].Scalar(), &v) || !std::isfinite(v))
+      Throw(key + "[" + std::to_string(i) + "]", "not a finite number");
+    values.push_back(v);
+  }
+  return values;
+}
+
+// A Kalibr camchain (camchain.yaml, or its camera file): cam0 {camera_model:
+// pinhole, distortion_model: equidistant | radtan, intrinsics: [fu, fv, pu,
+// pv], distortion_coeffs, resolution: [w, h]}. The first camera is read.
+CameraFile ParseKalibr(const YAML::Node& cam, const std::string& name) {
+  const std::string key = name + ".";
+  if (const YAML::Node model = cam["camera_model"]) {
+    if (!model.IsScalar() || model.Scalar() != "pinhole")
+      Throw(key + "camera_model", "'" + (model.IsScalar() ? model.Scalar() : "?") +
+                                      "' is not supported (pinhole, with radtan or equidistant distortion)");
+  }
+  if (!cam["distortion_model"]) Throw(key + "distortion_model", "missing");
+  const std::string model_name = cam["distortion_model"].IsScalar() ? cam["distortion_model"].Scalar() : "";
+  const auto lens = vision::ParseLensModel(model_name);
+  if (!lens) Throw(key + "distortion_model", "'" + model_name + "' is not supported (radtan, equidistant)");
+  if (!cam["intrinsics"]) Throw(key + "intrinsics", "missing");
+  if (!cam["distortion_coeffs"]) Throw(key + "distortion_coeffs", "missing");
+  if (!cam["resolution"]) Throw(key + "resolution", "missing");
+  const std::vector<double> k = ReadNumbers(cam["intrinsics"], key + "intrinsics", 4);
+  const std::vector<double> d = ReadNumbers(cam["distortion_coeffs"], key + "distortion_coeffs", 4);
+  const YAML::Node res = cam["resolution"];
+  if (!res.IsSequence() || res.size() != 2) Throw(key + "resolution", "expected [width, height]");
+  const int width = ReadInt(res[0], key + "resolution[0]"), height = ReadInt(res[1], key + "resolution[1]");
+  if (width <= 0 || height <= 0) Throw(key + "resolution", "must be positive");
+  const cv::Mat K = (cv::Mat_<double>(3, 3) << k[0], 0.0, k[2], 0.0, k[1], k[3], 0.0, 0.0, 1.0);
+  // Kalibr's radtan is [k1 k2 r1 r2] = OpenCV's k1 k2 p1 p2.
+  const cv::Mat D = (cv::Mat_<double>(1, 4) << d[0], d[1], d[2], d[3]);
+  std::string why;
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, *lens);
+  if (!intrinsics) Throw(key + "intrinsics", why);
+  CameraFile file;
+  file.format = CameraFileFormat::kRos;
+  file.intrinsics = *intrinsics;
+  file.camera_name = name;
+  return file;
+}
+
 CameraFile ParseRoot(const YAML::Node& root) {
+  // Kalibr: the cameras are maps cam0, cam1, ... holding `intrinsics`.
+  for (const char* cam : {"cam0"}) {
+    if (const YAML::Node node = root[cam]; node && node.IsMap() && node["intrinsics"]) return ParseKalibr(node, cam);
+  }
+  if (root["intrinsics"] && root["distortion_coeffs"]) return ParseKalibr(root, "camera");
   CameraFile file;
   bool ros = false;
   for (const char* key : kRosOnlyKeys) ros |= static_cast<bool>(root[key]);
@@ -158,19 +213,27 @@ CameraFile ParseRoot(const YAML::Node& root) {
   std::string d_key = "distortion_coefficients";
   const auto d_node = Find(root, kDistortionKeys, &d_key);
   if (!d_node) Throw("distortion_coefficients", "missing");
-  if (ros) {
-    if (const YAML::Node model = root["distortion_model"]) {
-      const std::string name = model.IsScalar() ? model.Scalar() : "";
-      // rational_polynomial is plumb_bob plus k4 k5 k6, accepted when those are zero.
-      if (name != "plumb_bob" && name != "rational_polynomial")
-        Throw("distortion_model", "'" + name + "' is not supported (plumb_bob only)");
-    }
+  // The lens: ROS's distortion_model (also written into OpenCV files by
+  // odocal), or the OpenCV calibration sample's fisheye_model: 1.
+  vision::LensModel lens = vision::LensModel::kPlumbBob;
+  if (const YAML::Node model = root["distortion_model"]) {
+    const std::string name = model.IsScalar() ? model.Scalar() : "";
+    // rational_polynomial is plumb_bob plus k4 k5 k6, accepted when those are zero.
+    const auto parsed = name == "rational_polynomial" ? vision::LensModel::kPlumbBob : vision::ParseLensModel(name);
+    if (!parsed)
+      Throw("distortion_model", "'" + name + "' is not supported (plumb_bob, rational_polynomial, equidistant)");
+    lens = *parsed;
+  }
+  if (const YAML::Node fisheye = root["fisheye_model"]) {
+    const int on = ReadInt(fisheye, "fisheye_model");
+    if (on != 0 && on != 1) Throw("fisheye_model", "expected 0 or 1");
+    if (on == 1) lens = vision::LensModel::kEquidistant;
   }
   const cv::Mat D = ReadMatrix(*d_node, d_key);
   if (D.rows != 1 && D.cols != 1)
     Throw(d_key, "expected a 1xN or Nx1 vector, got " + std::to_string(D.rows) + "x" +
                      std::to_string(D.cols));
-  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why);
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, lens);
   if (!intrinsics) Throw(d_key, why);
   file.intrinsics = *intrinsics;
 
@@ -276,6 +339,10 @@ std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
     fs << "image_width" << in.width << "image_height" << in.height;
     fs << "camera_matrix" << in.CameraMatrix();
     fs << "distortion_coefficients" << in.DistortionCoeffs();
+    // Plain OpenCV files stay as OpenCV writes them; a fisheye lens says so
+    // (OpenCV's calibration sample's key, and the model's name).
+    if (in.lens == vision::LensModel::kEquidistant)
+      fs << "fisheye_model" << 1 << "distortion_model" << vision::LensModelName(in.lens);
     if (file.rms_reprojection_error_px) fs << "avg_reprojection_error" << *file.rms_reprojection_error_px;
     if (!file.per_view_reprojection_errors_px.empty()) {
       fs << "per_view_reprojection_errors"
@@ -290,7 +357,7 @@ std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
   out << YAML::Key << "image_height" << YAML::Value << in.height;
   out << YAML::Key << "camera_name" << YAML::Value << file.camera_name;
   EmitMatrix(out, "camera_matrix", in.CameraMatrix());
-  out << YAML::Key << "distortion_model" << YAML::Value << "plumb_bob";
+  out << YAML::Key << "distortion_model" << YAML::Value << vision::LensModelName(in.lens);
   EmitMatrix(out, "distortion_coefficients", in.DistortionCoeffs());
   EmitMatrix(out, "rectification_matrix", cv::Mat::eye(3, 3, CV_64F));
   // A monocular camera: P = [K | 0] (no rectification, no stereo baseline).

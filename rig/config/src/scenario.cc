@@ -68,7 +68,7 @@ sim::RobotConfig ParseRobot(const YAML::Node& node) {
 CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   const std::string path = "camera";
   CheckKeys(node, path,
-            {"width", "height", "fx", "fy", "cx", "cy", "distortion", "pose", "fps", "noise_sigma",
+            {"width", "height", "fx", "fy", "cx", "cy", "distortion", "distortion_model", "pose", "fps", "noise_sigma",
              "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
              "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag",
              "floor_tags", "one_video"});
@@ -86,7 +86,15 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   c.intrinsics.fy = Positive(RequiredNumber(node, path, "fy"), node["fy"], "camera.fy");
   c.intrinsics.cx = RequiredNumber(node, path, "cx");
   c.intrinsics.cy = RequiredNumber(node, path, "cy");
+  if (const YAML::Node m = node["distortion_model"]) {
+    const auto lens = vision::ParseLensModel(m.IsScalar() ? m.Scalar() : "");
+    if (!lens) Fail(m, "camera.distortion_model", "expected plumb_bob or equidistant");
+    c.intrinsics.lens = *lens;
+  }
+  const bool equidistant = c.intrinsics.lens == vision::LensModel::kEquidistant;
   if (const YAML::Node d = node["distortion"]) {
+    if (equidistant && (!d.IsSequence() || d.size() != 4))
+      Fail(d, "camera.distortion", "expected a list of 4 numbers [k1, k2, k3, k4] (equidistant)");
     if (!d.IsSequence() || d.size() < 4 || d.size() > 5)
       Fail(d, "camera.distortion", "expected a list of 4 or 5 numbers [k1, k2, p1, p2, k3]");
     for (size_t i = 0; i < d.size(); ++i)

@@ -401,6 +401,9 @@ const calibration::RelativePose* UsableReturnError(const calibration::MeasuredRu
 std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& sm) {
   const config::Session& session = sm.session;
   if (!session.has_camera) return std::nullopt;  // pose logs alone
+  // The lens candidate perturbs plumb_bob's k1; a fisheye's theta polynomial
+  // is another model, so its sessions are explained without that candidate.
+  if (session.intrinsics.lens != vision::LensModel::kPlumbBob) return std::nullopt;
   const vision::CameraMount mount = sm.plane_estimated ? sm.plane.mount : session.camera_mount_guess;
   const vision::CameraModel camera(session.intrinsics, mount);
   calibration::FloorCamera floor;

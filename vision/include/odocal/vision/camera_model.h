@@ -18,9 +18,17 @@
 // image x along world x, image up = world +y. A positive pitch tips the view
 // direction towards world -x.
 //
-// Distortion is OpenCV's (k1, k2, p1, p2, k3) model; the conversions to and
-// from cv::Mat let the integrator read OpenCV FileStorage and ROS
-// camera_info files (K row-major 3x3, D = [k1 k2 p1 p2 k3]) in `rig/`.
+// Lens models (LensModel), on normalised coordinates (x, y) = (X/Z, Y/Z),
+// r = |(x, y)|:
+//   plumb_bob    OpenCV's default (ROS plumb_bob, Kalibr radtan):
+//                D = [k1 k2 p1 p2 k3], radial 1 + k1 r^2 + k2 r^4 + k3 r^6 and
+//                tangential p1, p2.
+//   equidistant  Kannala-Brandt as cv::fisheye (ROS equidistant, Kalibr
+//                pinhole-equi), for fisheye lenses: D = [k1 k2 k3 k4];
+//                theta = atan(r), theta_d = theta (1 + k1 theta^2 + k2 theta^4
+//                + k3 theta^6 + k4 theta^8), distorted point (x, y) theta_d / r.
+// The conversions to and from cv::Mat let `rig/` read OpenCV FileStorage and
+// ROS camera_info files (K row-major 3x3, D as above).
 #ifndef ODOCAL_VISION_CAMERA_MODEL_H_
 #define ODOCAL_VISION_CAMERA_MODEL_H_
 
@@ -36,6 +44,12 @@
 
 namespace odocal::vision {
 
+enum class LensModel { kPlumbBob, kEquidistant };
+// "plumb_bob", "equidistant": the names camera files and scenarios use.
+const char* LensModelName(LensModel lens);
+// Also the other programs' spellings: radtan (Kalibr), fisheye, equi.
+std::optional<LensModel> ParseLensModel(const std::string& name);
+
 struct Intrinsics {
   int width = 0;
   int height = 0;
@@ -43,18 +57,21 @@ struct Intrinsics {
   double fy = 0.0;
   double cx = 0.0;
   double cy = 0.0;
-  // OpenCV order: k1, k2, p1, p2, k3.
+  // plumb_bob: k1, k2, p1, p2, k3 (OpenCV's order); equidistant: k1..k4 and 0.
   std::array<double, 5> distortion{0.0, 0.0, 0.0, 0.0, 0.0};
+  LensModel lens = LensModel::kPlumbBob;  // after `distortion`: {w, h, fx, fy, cx, cy, {d}} still reads
 
   bool IsValid(std::string* why) const;
   // 3x3 CV_64F camera matrix K.
   cv::Mat CameraMatrix() const;
-  // 1x5 CV_64F distortion vector.
+  // CV_64F distortion vector: 1x5 (plumb_bob), 1x4 (equidistant, as cv::fisheye takes it).
   cv::Mat DistortionCoeffs() const;
-  // From K (3x3) and D (4, 5 or more coefficients; extra ones must be zero
-  // since only k1..k3 are modelled). nullopt with `why` set otherwise.
+  // From K (3x3) and D: plumb_bob 4, 5 or more coefficients (extra ones must
+  // be zero since only k1..k3 are modelled), equidistant exactly 4.
+  // nullopt with `why` set otherwise.
   static std::optional<Intrinsics> FromCv(const cv::Mat& camera_matrix, const cv::Mat& dist_coeffs,
-                                          int width, int height, std::string* why);
+                                          int width, int height, std::string* why,
+                                          LensModel lens = LensModel::kPlumbBob);
 };
 
 // The camera's pose over the floor, in the config-file units.
@@ -106,6 +123,8 @@ class CameraModel {
   bool InImage(const Eigen::Vector2d& pixel, double margin_px = 0.0) const;
 
  private:
+  std::vector<cv::Point2d> UndistortEquidistant(const std::vector<cv::Point2d>& pixels) const;
+
   Intrinsics intrinsics_;
   CameraMount mount_;
   Eigen::Isometry3d T_world_camera_ = Eigen::Isometry3d::Identity();

@@ -1,5 +1,6 @@
-// Camera files: the intrinsics of a camera (pinhole + OpenCV k1 k2 p1 p2 k3
-// distortion) as the two YAML layouts operators already have.
+// Camera files: the intrinsics of a camera (pinhole + a lens model,
+// vision::LensModel: plumb_bob k1 k2 p1 p2 k3, or equidistant k1..k4 for a
+// fisheye) as the YAML layouts operators already have.
 //
 //   OpenCV FileStorage YAML   what cv::FileStorage writes: a `%YAML:1.0`
 //     header, `camera_matrix` and `distortion_coefficients` as
@@ -11,9 +12,15 @@
 //     `Camera_Matrix` / `Distortion_Coefficients` of older samples.
 //   ROS camera_info YAML      what camera_calibration_parsers reads and writes:
 //     `image_width`, `image_height`, `camera_name`, `camera_matrix`,
-//     `distortion_model: plumb_bob`, `distortion_coefficients`,
+//     `distortion_model: plumb_bob | equidistant`, `distortion_coefficients`,
 //     `rectification_matrix`, `projection_matrix`, each matrix as
 //     `{rows, cols, data}`.
+//     OpenCV files of a fisheye lens carry `fisheye_model: 1` (OpenCV's
+//     calibration sample) or `distortion_model: equidistant` (odocal writes
+//     both); D then holds cv::fisheye's k1..k4.
+//   Kalibr camchain YAML      `cam0: {camera_model: pinhole, distortion_model:
+//     radtan | equidistant, intrinsics: [fu, fv, pu, pv], distortion_coeffs,
+//     resolution: [w, h]}` (read only; the first camera).
 // Reading auto-detects the layout (the ROS-only keys, or matrices without
 // OpenCV's `dt`, mean ROS). Pixel coordinates are OpenCV's in both (ROS
 // uses the same convention), so nothing is converted.

@@ -197,7 +197,8 @@ struct SessionMeasurement {
 // trajectory model needs it (calibration/floor_camera.h): the camera pose the
 // plane estimate found in the videos (the session's mount guess without one)
 // and the session's calibrated lens. nullopt when that is not a camera looking
-// down at the plane. Shared by explain and check, so both model the same lens.
+// down at the plane, or when the lens is not plumb_bob (the candidate perturbs
+// its k1). Shared by explain and check, so both model the same lens.
 std::optional<calibration::FloorCamera> FloorCameraOf(const SessionMeasurement& measurement);
 
 // Progress: called with (frames done, frames expected) from worker threads.

@@ -300,5 +300,67 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   EXPECT_LT(std::abs(radial), 0.4);
 }
 
+// Both sets of corners through the same calibration: the reprojection RMS says
+// how well each set fits one pinhole camera and one rigid board per view.
+TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
+  const fs::path dir = AprilgridDir();
+  if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
+  CalibrationBoard board;
+  board.type = CalibrationBoard::Type::kAprilgrid;
+  board.cols = board.rows = 6;
+  board.square_m = 0.088;
+  board.spacing = 0.3;
+  std::vector<BoardDetection> ours, yacs, grown;
+  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) {
+    if (e.path().extension() != ".jpg") continue;
+    const cv::Mat grey = cv::imread(e.path().string(), cv::IMREAD_GRAYSCALE);
+    BoardDetection d = DetectBoard(grey, board);
+    if (d.found) {
+      // The same corners moved 0.23 px outwards along each tag's diagonal:
+      // the radial offset to yac's X-corners measured above.
+      BoardDetection g = d;
+      for (size_t t = 0; t + 3 < g.image_points.size(); t += 4) {
+        const cv::Point2f c =
+            0.25f * (g.image_points[t] + g.image_points[t + 1] + g.image_points[t + 2] + g.image_points[t + 3]);
+        for (int k = 0; k < 4; ++k) {
+          const cv::Point2f v = g.image_points[t + k] - c;
+          g.image_points[t + k] += v * static_cast<float>(0.23 / cv::norm(v));
+        }
+      }
+      grown.push_back(std::move(g));
+      ours.push_back(std::move(d));
+    }
+    BoardDetection y;
+    for (const auto& [key, p] : ReadYac(dir / "grid0" / "cam0" / "data" / (e.path().stem().string() + ".csv"))) {
+      y.object_points.push_back(*board.AprilgridCorner(key.first, key.second));
+      y.image_points.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+    }
+    y.found = y.image_points.size() >= 16;
+    if (y.found) yacs.push_back(std::move(y));
+  }
+  const CameraCalibrationResult a = CalibrateCamera(ours, cv::Size(640, 480));
+  const CameraCalibrationResult b = CalibrateCamera(yacs, cv::Size(640, 480));
+  ASSERT_TRUE(a.ok()) << a.message;
+  ASSERT_TRUE(b.ok()) << b.message;
+  std::printf("calibration from odocal's corners: %d views, %d corners, RMS %.4f px, fx %.2f fy %.2f cx %.2f cy %.2f\n",
+              a.views, a.corners, a.rms_reprojection_error_px, a.intrinsics.fx, a.intrinsics.fy, a.intrinsics.cx,
+              a.intrinsics.cy);
+  std::printf("calibration from yac's corners:    %d views, %d corners, RMS %.4f px, fx %.2f fy %.2f cx %.2f cy %.2f\n",
+              b.views, b.corners, b.rms_reprojection_error_px, b.intrinsics.fx, b.intrinsics.fy, b.intrinsics.cx,
+              b.intrinsics.cy);
+  const CameraCalibrationResult g = CalibrateCamera(grown, cv::Size(640, 480));
+  ASSERT_TRUE(g.ok()) << g.message;
+  std::printf("odocal's corners moved 0.23 px outwards:    RMS %.4f px, fx %.2f fy %.2f\n", g.rms_reprojection_error_px,
+              g.intrinsics.fx, g.intrinsics.fy);
+  EXPECT_LT(a.rms_reprojection_error_px, 0.5);
+  // The difference between the two is the tags' apparent size, not noise:
+  // corners moved out by the radial offset fit as well as yac's.
+  EXPECT_LT(g.rms_reprojection_error_px, a.rms_reprojection_error_px - 0.08);
+  EXPECT_NEAR(g.rms_reprojection_error_px, b.rms_reprojection_error_px, 0.03);
+  // The same camera from either (the focal lengths within 1 %).
+  EXPECT_NEAR(a.intrinsics.fx, b.intrinsics.fx, 0.01 * b.intrinsics.fx);
+  EXPECT_NEAR(a.intrinsics.fy, b.intrinsics.fy, 0.01 * b.intrinsics.fy);
+}
+
 }  // namespace
 }  // namespace odocal::vision

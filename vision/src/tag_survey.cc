@@ -29,6 +29,7 @@ bool TagSurveyOptions::IsValid(std::string* why) const {
   if (!IsKnownTagFamily(family)) return fail("unknown tag family '" + family + "'");
   if (!(quad_decimate >= 1.0f)) return fail("quad_decimate must be >= 1");
   if (max_hamming < 0 || max_hamming > 3) return fail("max_hamming must be in [0, 3]");
+  if (!(min_rejected_contrast >= 0.0)) return fail("min_rejected_contrast must be >= 0");
   return true;
 }
 
@@ -40,11 +41,19 @@ namespace {
 std::vector<std::array<cv::Point2d, 4>> CandidateQuads(const cv::Mat& grey, const TagSurveyOptions& options) {
   std::vector<std::array<cv::Point2d, 4>> out;
   auto family = internal::CreateFamily(options.family);
-  // apriltag_detector_create makes the worker pool apriltag_quad_thresh uses;
-  // the family sets the smallest quad worth keeping.
+  // The family sets the smallest quad worth keeping.
   internal::DetectorPtr td(apriltag_detector_create());
   apriltag_detector_add_family_bits(td.get(), family.get(), options.max_hamming);
   td->quad_decimate = 1.0f;
+  td->nthreads = 1;
+  {
+    // apriltag_detector_detect makes the worker pool apriltag_quad_thresh
+    // uses (apriltag_detector_create leaves it null in 3.3): run it once on
+    // a blank patch.
+    uint8_t blank[16 * 16] = {};
+    image_u8_t patch{16, 16, 16, blank};
+    internal::DetectionsPtr none(apriltag_detector_detect(td.get(), &patch));
+  }
   const cv::Mat image = grey.isContinuous() ? grey : grey.clone();
   image_u8_t im{image.cols, image.rows, static_cast<int32_t>(image.step[0]),
                 const_cast<uint8_t*>(image.ptr<uint8_t>(0))};
@@ -65,6 +74,38 @@ std::vector<std::array<cv::Point2d, 4>> CandidateQuads(const cv::Mat& grey, cons
 }
 
 cv::Point2d Centre(const std::array<cv::Point2d, 4>& c) { return 0.25 * (c[0] + c[1] + c[2] + c[3]); }
+
+// Outside minus inside: medians of samples an eighth of the side inside and
+// outside each edge, between 20 % and 80 % of its length.
+double EdgeContrast(const cv::Mat& grey, const std::array<cv::Point2d, 4>& c) {
+  std::vector<cv::Point2f> unit = {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, quad;
+  for (const auto& p : c) quad.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  const cv::Mat H = cv::getPerspectiveTransform(unit, quad);
+  std::vector<cv::Point2f> in_pts, out_pts;
+  for (int e = 0; e < 4; ++e) {
+    const cv::Point2f a = unit[e], b = unit[(e + 1) % 4], centre(0.5f, 0.5f);
+    for (double t = 0.2; t <= 0.8 + 1e-9; t += 0.1) {
+      const cv::Point2f p = a + static_cast<float>(t) * (b - a);
+      const cv::Point2f inward = (centre - p) * 0.25f;  // an eighth of the side
+      in_pts.push_back(p + inward);
+      out_pts.push_back(p - inward);
+    }
+  }
+  std::vector<cv::Point2f> in_px, out_px;
+  cv::perspectiveTransform(in_pts, in_px, H);
+  cv::perspectiveTransform(out_pts, out_px, H);
+  const auto median = [&](const std::vector<cv::Point2f>& pts) {
+    std::vector<double> v;
+    for (const auto& p : pts) {
+      const int x = cvRound(p.x), y = cvRound(p.y);
+      if (x >= 0 && y >= 0 && x < grey.cols && y < grey.rows) v.push_back(grey.at<uint8_t>(y, x));
+    }
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  return median(out_px) - median(in_px);
+}
 
 }  // namespace
 
@@ -111,7 +152,8 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
     return a.id != b.id ? a.id < b.id : Centre(a.corners_px).x < Centre(b.corners_px).x;
   });
   for (const RefusedDetection& r : found.refused)
-    survey.rejected.push_back(RejectedQuad{r.detection.corners_px, r.reason, r.detection.id});
+    survey.rejected.push_back(
+        RejectedQuad{r.detection.corners_px, r.reason, r.detection.id, EdgeContrast(grey, r.detection.corners_px)});
   if (options.collect_rejected) {
     // A candidate is "the tag" when its centre lies within a quarter of the
     // tag's side of a detection's centre (the tag's outer border quad);
@@ -134,7 +176,10 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
           break;
         }
       }
-      if (!explained) survey.rejected.push_back(RejectedQuad{q, "no tag decoded", -1});
+      if (explained) continue;
+      const double contrast = EdgeContrast(grey, q);
+      if (contrast >= options.min_rejected_contrast)
+        survey.rejected.push_back(RejectedQuad{q, "no tag decoded", -1, contrast});
     }
   }
   survey.ok = true;

@@ -39,6 +39,10 @@ struct TagSurveyOptions {
   // libapriltag's candidate quads (apriltag_quad_thresh, the library's own
   // first stage) that no tag was decoded from.
   bool collect_rejected = true;
+  // ... of those not decoded, only quads darker inside than outside by at
+  // least this many grey levels (median of samples just inside and just
+  // outside the edges): texture and noise make faint quads by the dozen.
+  double min_rejected_contrast = 25.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -62,6 +66,7 @@ struct RejectedQuad {
   // (DetectResult::refused: a border of the wrong width).
   std::string reason;
   int decoded_id = -1;  // the id it decoded to, when it did
+  double contrast = 0.0;  // grey levels, outside minus inside along the edges
 };
 
 struct TagSurvey {

@@ -31,7 +31,9 @@
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
+#include "odocal/vision/planar_pose.h"
 #include "odocal/vision/renderer.h"
+#include "odocal/vision/tag_observer.h"
 #include "odocal/vision/tag.h"
 #include "vision_fixtures.h"
 
@@ -153,6 +155,42 @@ TEST(KalibrTagRendered, OneBitTagIsNotABorderTwoTag) {
   ASSERT_EQ(wrong.refused.size(), 1u);
   EXPECT_THAT(wrong.refused.front().reason, ::testing::HasSubstr("1 bit"));
   EXPECT_EQ(wrong.status, DetectStatus::kNotFound);
+}
+
+// The robot's tag printed Kalibr-style, through the path a session's video
+// takes (TagObserver: track, refine; MeasureTagPose on the floor plane): the
+// mean of 10 noisy frames at three places against the scene's pose.
+TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
+  TagSpec tag = testing::StandardTag();
+  tag.family = "tag36h11b2";
+  const CameraModel camera = testing::StandardCamera();
+  auto r = Renderer::Create(camera, tag, testing::StandardRender());
+  ASSERT_TRUE(r.ok) << r.message;
+  std::string error;
+  for (const Pose2& truth : {Pose2::FromXYHeading(0.02, -1.0, 0.4), Pose2::FromXYHeading(-1.05, -0.6, -2.0),
+                             Pose2::FromXYHeading(1.0, -1.45, 2.9)}) {
+    auto observer = TagObserver::Create(tag, camera.intrinsics(), VideoTrackOptions{}, &error);
+    ASSERT_TRUE(observer) << error;
+    double sx = 0, sy = 0, sh = 0;
+    constexpr int kFrames = 10;
+    for (int i = 0; i < kFrames; ++i) {
+      const FrameObservation o = observer->Observe(r.renderer->Render(truth).image, 0.1 * i);
+      ASSERT_TRUE(o.corners_px) << ToString(o.status);
+      EXPECT_TRUE(o.refined);
+      const PlanarPoseResult p = MeasureTagPose(camera, tag, *o.corners_px);
+      ASSERT_TRUE(p.ok) << p.message;
+      sx += p.T_world_robot.x() - truth.x();
+      sy += p.T_world_robot.y() - truth.y();
+      sh += calibration::WrapAngle(p.T_world_robot.heading() - truth.heading());
+    }
+    const double ex_mm = sx / kFrames * 1e3, ey_mm = sy / kFrames * 1e3, eh_deg = sh / kFrames * 180.0 / M_PI;
+    std::printf("tag36h11b2 robot tag at %s: mean error (%+.4f, %+.4f) mm, %+.5f deg\n",
+                ::testing::PrintToString(truth).c_str(), ex_mm, ey_mm, eh_deg);
+    // The 1-bit tag's bounds (planar_pose_test.cc).
+    EXPECT_LT(std::abs(ex_mm), 0.15);
+    EXPECT_LT(std::abs(ey_mm), 0.15);
+    EXPECT_LT(std::abs(eh_deg), 0.01);
+  }
 }
 
 // ---------------------------------------------------------------------------

@@ -28,6 +28,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/test_util/test_util.h"
+#include "odocal/vision/board_render.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -193,6 +194,67 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
   }
 }
 
+// Kalibr's aprilgrid rendered with exact truth (board_render.h: the tags'
+// bitmaps and the black corner squares touching their corners): DetectBoard's
+// corners against the true ones. The real frames' 0.23 px radial offset to
+// yac's X-corners must not be odocal's: here the radial mean is ~0.
+TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
+  CalibrationBoard board;
+  board.type = CalibrationBoard::Type::kAprilgrid;
+  board.cols = board.rows = 6;
+  board.square_m = 0.088;
+  board.spacing = 0.3;
+  std::string why;
+  const auto pattern = AprilgridPattern(board, &why);
+  ASSERT_TRUE(pattern) << why;
+  std::vector<Eigen::Vector3d> truth_points;  // every tag corner, id-major, in the pattern's frame
+  for (int id = 0; id < 36; ++id)
+    for (int k = 0; k < 4; ++k) truth_points.push_back(AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  const Intrinsics intrinsics{640, 480, 610.0, 608.0, 321.0, 242.0, {-0.05, 0.02, 0.0, 0.0, 0.0}};
+  BoardPoseSampling sampling;
+  sampling.count = 6;
+  sampling.seed = 11;
+  sampling.min_fill = 0.45;  // a square board in a 4:3 image
+  sampling.max_fill = 0.65;
+  sampling.max_tilt_deg = 35.0;
+  const auto poses = SampleBoardPoses(intrinsics, truth_points, sampling);
+  ASSERT_TRUE(poses);
+  Stats s;
+  double radial = 0.0;
+  int tags = 0;
+  for (size_t v = 0; v < poses->size(); ++v) {
+    BoardRenderOptions o;
+    o.seed = 100 + v;
+    const auto r = RenderBoard(intrinsics, *pattern, (*poses)[v], truth_points, o);
+    ASSERT_TRUE(r.ok) << r.message;
+    const BoardDetection d = DetectBoard(r.frame.image, board);
+    ASSERT_TRUE(d.found) << "view " << v << ": " << d.message << " " << d.tag_ids.size();
+    tags += d.tag_ids.size();
+    for (size_t t = 0; t < d.tag_ids.size(); ++t) {
+      const cv::Point2d centre = 0.25 * (cv::Point2d(d.image_points[4 * t]) + cv::Point2d(d.image_points[4 * t + 1]) +
+                                         cv::Point2d(d.image_points[4 * t + 2]) + cv::Point2d(d.image_points[4 * t + 3]));
+      for (int k = 0; k < 4; ++k) {
+        const cv::Point2d truth = r.frame.points_px[4 * d.tag_ids[t] + k];
+        const cv::Point2d e = cv::Point2d(d.image_points[4 * t + k]) - truth;
+        s.Add(e);
+        const cv::Point2d out = truth - centre;
+        radial += e.dot(out * (1.0 / cv::norm(out)));
+      }
+    }
+  }
+  s.Finish();
+  std::printf("rendered aprilgrid, %zu views, %d tags of %zu: DetectBoard - truth mean (%+.4f, %+.4f) px, rms %.4f px, "
+              "radial %+.4f px\n",
+              poses->size(), tags, 36 * poses->size(), s.mean_x, s.mean_y, s.rms, radial / s.n);
+  // Interior tags, whose corners all touch a corner square, are still missed
+  // in this sharp rendering (136 of 216 found; camera_calibration.cc).
+  EXPECT_GE(tags, 0.5 * 36 * poses->size());
+  EXPECT_LT(std::abs(s.mean_x), 0.01);
+  EXPECT_LT(std::abs(s.mean_y), 0.01);
+  EXPECT_LT(std::abs(radial / s.n), 0.02);
+  EXPECT_LT(s.rms, 0.06);
+}
+
 // ---------------------------------------------------------------------------
 // Real frames.
 
@@ -323,8 +385,8 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   // Libapriltag's own family does not see Kalibr's tags (1 stray of ~1000:
   // a 1-bit decode of a 2-bit tag that the border check could not judge).
   EXPECT_LE(one_bit_total, 2);
-  // Found: 9 in 10 of yac's, and 30 more that yac left out.
-  EXPECT_GE(both, 0.88 * yac_total);
+  // Found: 966 of yac's 1007, and 37 more that yac left out.
+  EXPECT_GE(both, 0.94 * yac_total);
   EXPECT_LE(only_ours, 40);
   // ...which are the board's tags where the board is: no wrong id.
   for (double e : only_ours_off_board_px) EXPECT_LT(e, 4.0);

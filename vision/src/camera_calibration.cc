@@ -69,18 +69,34 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     out.message = "aprilgrid: " + created.message;
     return out;
   }
-  DetectResult found;
-  if (options.aprilgrid_upsample > 1) {
-    const double up = options.aprilgrid_upsample;
-    cv::Mat big;
-    cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
-    found = created.detector->Detect(big);
-    // Pixel centres at integers in both images: x = (X + 0.5) / up - 0.5.
-    for (TagDetection& d : found.detections) {
-      for (auto& c : d.corners_px) c = cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5);
+  // Four passes: the plain image, and the same with the black thinned by 1,
+  // 2 and 3 pixels of the upsampled image. Kalibr's corner squares touch each
+  // tag's corners; where the touch survives thresholding, the white around a
+  // tag is cut into four strips, and libapriltag's quad finder (which pairs
+  // one black with one white component) sees four lone edges, no quad. A
+  // rendered aprilgrid at 25-40 px a tag: 1 tag of 36 found in the plain
+  // image. Thinning opens the touches; too much of it erases the bits, hence
+  // several. The thinned passes' corners lie a little inside the tag; the
+  // edge model below refits them on the original image either way.
+  const int up = options.aprilgrid_upsample;
+  cv::Mat big = gray;
+  if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
+  DetectResult found = created.detector->Detect(big);
+  std::map<int, int> seen;
+  for (const TagDetection& d : found.detections) ++seen[d.id];
+  for (const int k : {3, 5, 7}) {
+    cv::Mat thinned;
+    cv::dilate(big, thinned, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+    for (const TagDetection& d : created.detector->Detect(thinned).detections) {
+      if (!seen.count(d.id)) {
+        ++seen[d.id];
+        found.detections.push_back(d);
+      }
     }
-  } else {
-    found = created.detector->Detect(gray);
+  }
+  // Pixel centres at integers in both images: x = (X + 0.5) / up - 0.5.
+  for (TagDetection& d : found.detections) {
+    for (auto& c : d.corners_px) c = cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5);
   }
   std::map<int, std::vector<const TagDetection*>> by_id;
   for (const TagDetection& d : found.detections) by_id[d.id].push_back(&d);

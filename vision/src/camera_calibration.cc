@@ -69,15 +69,16 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     out.message = "aprilgrid: " + created.message;
     return out;
   }
-  // Four passes: the plain image, and the same with the black thinned by 1,
+  // Five passes: the plain image, the same with the black thinned by 1,
   // 2 and 3 pixels of the upsampled image. Kalibr's corner squares touch each
   // tag's corners; where the touch survives thresholding, the white around a
   // tag is cut into four strips, and libapriltag's quad finder (which pairs
   // one black with one white component) sees four lone edges, no quad. A
   // rendered aprilgrid at 25-40 px a tag: 1 tag of 36 found in the plain
   // image. Thinning opens the touches; too much of it erases the bits, hence
-  // several. The thinned passes' corners lie a little inside the tag; the
-  // edge model below refits them on the original image either way.
+  // several; and one with the corner squares painted white (below). The
+  // thinned passes' corners lie a little inside the tag; the edge model
+  // below refits every tag's corners on the original image either way.
   const int up = options.aprilgrid_upsample;
   cv::Mat big = gray;
   if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
@@ -91,6 +92,47 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       if (!seen.count(d.id)) {
         ++seen[d.id];
         found.detections.push_back(d);
+      }
+    }
+  }
+  // A last pass with the corner squares painted white where the tags found so
+  // far put them (a homography of the board from their corners; a square 4 %
+  // of a tag larger all round, to cover the lens's bending): the white
+  // around every tag is then one region. On the rendered aprilgrid this
+  // finds the interior tags the thinned passes miss.
+  {
+    std::vector<cv::Point2f> on_board, in_image;
+    for (const TagDetection& d : found.detections) {
+      if (!board.AprilgridCorner(d.id, 0)) continue;
+      for (int k = 0; k < 4; ++k) {
+        const cv::Point3f b = *board.AprilgridCorner(d.id, k);
+        on_board.emplace_back(b.x, b.y);
+        in_image.emplace_back(static_cast<float>(d.corners_px[k].x), static_cast<float>(d.corners_px[k].y));
+      }
+    }
+    const cv::Mat H = on_board.size() >= 16 ? cv::findHomography(on_board, in_image, cv::RANSAC, 3.0 * up) : cv::Mat();
+    if (!H.empty()) {
+      cv::Mat painted = big.clone();
+      const double s = board.square_m, g = board.spacing * s, pitch = s + g, e = 0.04 * s;
+      for (int j = 0; j <= board.rows; ++j) {
+        for (int i = 0; i <= board.cols; ++i) {
+          const double x0 = i * pitch - g - e, x1 = i * pitch + e, y0 = j * pitch - g - e, y1 = j * pitch + e;
+          const std::vector<cv::Point2f> square = {cv::Point2f(static_cast<float>(x0), static_cast<float>(y0)),
+                                                   cv::Point2f(static_cast<float>(x1), static_cast<float>(y0)),
+                                                   cv::Point2f(static_cast<float>(x1), static_cast<float>(y1)),
+                                                   cv::Point2f(static_cast<float>(x0), static_cast<float>(y1))};
+          std::vector<cv::Point2f> px;
+          cv::perspectiveTransform(square, px, H);
+          std::vector<cv::Point> poly;
+          for (const auto& p : px) poly.emplace_back(cvRound(p.x), cvRound(p.y));
+          cv::fillConvexPoly(painted, poly, cv::Scalar(255), cv::LINE_AA);
+        }
+      }
+      for (const TagDetection& d : created.detector->Detect(painted).detections) {
+        if (!seen.count(d.id)) {
+          ++seen[d.id];
+          found.detections.push_back(d);
+        }
       }
     }
   }

@@ -220,7 +220,7 @@ TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
   const auto poses = SampleBoardPoses(intrinsics, truth_points, sampling);
   ASSERT_TRUE(poses);
   Stats s;
-  double radial = 0.0;
+  double radial = 0.0, normalised_sq = 0.0;  // error / stated sigma, per axis
   int tags = 0;
   for (size_t v = 0; v < poses->size(); ++v) {
     BoardRenderOptions o;
@@ -237,6 +237,7 @@ TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
         const cv::Point2d truth = r.frame.points_px[4 * d.tag_ids[t] + k];
         const cv::Point2d e = cv::Point2d(d.image_points[4 * t + k]) - truth;
         s.Add(e);
+        normalised_sq += e.dot(e) / (2.0 * d.point_sigma_px[4 * t + k] * d.point_sigma_px[4 * t + k]);
         const cv::Point2d out = truth - centre;
         radial += e.dot(out * (1.0 / cv::norm(out)));
       }
@@ -253,6 +254,12 @@ TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
   EXPECT_LT(std::abs(s.mean_y), 0.01);
   EXPECT_LT(std::abs(radial / s.n), 0.02);
   EXPECT_LT(s.rms, 0.06);
+  // Each corner's stated sigma (from its two edge fits) against its actual
+  // error: the rms of error / sigma should be near 1.
+  const double z = std::sqrt(normalised_sq / s.n);
+  std::printf("rendered aprilgrid: rms of (corner error / stated sigma) per axis %.2f\n", z);
+  EXPECT_GT(z, 0.5);
+  EXPECT_LT(z, 2.0);
 }
 
 // ---------------------------------------------------------------------------

@@ -123,6 +123,22 @@ TEST(CliDetect, KalibrTagCornersSigmaAndPoseAgainstRenderedTruth) {
   }
   EXPECT_LT(pose["rms_residual_px"].get<double>(), 0.1);
   EXPECT_TRUE(fs::exists(dir + "/png/tag36h11b2.png"));
+
+  // A video: each frame, numbered (ffmpeg makes a 3-frame H.264 clip).
+  if (RunCommand("ffmpeg -loglevel error -y -loop 1 -i " + r.path + " -frames:v 3 -r 10 -pix_fmt yuv420p " + dir +
+                 "/clip.mp4").exit_code != 0)
+    GTEST_SKIP() << "no ffmpeg program: the video part is not run";
+  const CommandResult v = RunCommand(test_util::OdocalBinary() + " detect " + dir + "/clip.mp4 --tag tag36h11b2:5:80 --json - --annotate " + dir + "/vpng");
+  ASSERT_EQ(v.exit_code, 0) << v.err;
+  const nlohmann::json video = nlohmann::json::parse(v.out);
+  ASSERT_EQ(video["images"].size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(video["images"][i]["frame"], i);
+    ASSERT_EQ(video["images"][i]["tags"].size(), 1u);
+    // Through H.264 the corners stay within a tenth of a pixel.
+    EXPECT_NEAR(video["images"][i]["tags"][0]["corners_px"][0][0].get<double>(), r.frame.corners_px[0].x, 0.1);
+  }
+  EXPECT_TRUE(fs::exists(dir + "/vpng/clip_000002.png"));
 }
 
 TEST(CliDetect, ABorderThatDoesNotMatchIsNotFoundAndShownAsRefused) {
@@ -191,10 +207,12 @@ TEST(CliDetect, RealAprilgridBoardPoseAndResiduals) {
   if (data.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
   const std::string dir = test_util::MakeTempDir("odocal_detect_");
   const auto frames = AprilgridFrames(data);
-  // The camera from the 30 frames (calibrate-camera's own test below), then
-  // the board's pose in three of them.
+  // The camera from every other frame (all 30: calibrate-camera's own test
+  // below), then the board's pose in three frames.
+  std::vector<std::string> half;
+  for (size_t i = 0; i < frames.size(); i += 2) half.push_back(frames[i]);
   const std::string camera = dir + "/d435i.yaml";
-  CommandResult c = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(frames) + " --board " +
+  CommandResult c = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(half) + " --board " +
                                (data / "calib_mocap-intel_d435i.yaml").string() + " --out " + camera + " --json");
   ASSERT_EQ(c.exit_code, 0) << c.err;
   c = RunCommand(test_util::OdocalBinary() + " detect " + frames[0] + " " + frames[10] + " " + frames[20] +
@@ -224,34 +242,37 @@ TEST(CliDetect, RealAprilgridBoardPoseAndResiduals) {
   }
 }
 
-TEST(CliCalibrateCamera, RealAprilgridFromKalibrTargetFileAndSpecAgree) {
+TEST(CliCalibrateCamera, RealAprilgridFromKalibrTargetFile) {
   const fs::path data = AprilgridDir();
   if (data.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
   const std::string dir = test_util::MakeTempDir("odocal_calcam_april_");
   const auto frames = AprilgridFrames(data);
-  const CommandResult spec = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(frames) +
-                                        " --board aprilgrid:6x6:88:0.3 --out " + dir + "/a.yaml --json");
-  ASSERT_EQ(spec.exit_code, 0) << spec.err;
-  const nlohmann::json doc = nlohmann::json::parse(spec.out);
+  const std::string target = (data / "calib_mocap-intel_d435i.yaml").string();
+  // The yac/Kalibr file names the same board as the spec: the same tags and corners.
+  const CommandResult a = RunCommand(test_util::OdocalBinary() + " detect " + frames[5] + " --board " + target + " --json -");
+  const CommandResult b =
+      RunCommand(test_util::OdocalBinary() + " detect " + frames[5] + " --board aprilgrid:6x6:88:0.3 --json -");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_EQ(nlohmann::json::parse(a.out)["images"], nlohmann::json::parse(b.out)["images"]);
+
+  const CommandResult c = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(frames) + " --board " +
+                                     target + " --out " + dir + "/d435i.yaml --json");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  const nlohmann::json doc = nlohmann::json::parse(c.out);
   std::printf("real aprilgrid: %d views, %d corners, RMS %.4f px, fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f\n",
               doc["views_used"].get<int>(), doc["corners_used"].get<int>(), doc["rms_reprojection_error_px"].get<double>(),
               doc["fx"].get<double>(), doc["fy"].get<double>(), doc["cx"].get<double>(), doc["cy"].get<double>(),
               doc["distortion"][0].get<double>());
   // Frames with fewer than 4 tags exist (README); the rest are views.
   EXPECT_GE(doc["views_used"].get<int>(), 27);
+  // 0.42 px measured; yac's own corners give 0.29 (kalibr_tag_test.cc, docs/vision.md).
   EXPECT_LT(doc["rms_reprojection_error_px"].get<double>(), 0.5);
-  // A D435i colour camera at 640x480: fx = fy ~ 610, principal point near the centre.
-  EXPECT_NEAR(doc["fx"].get<double>(), doc["fy"].get<double>(), 0.01 * doc["fx"].get<double>());
+  // A D435i colour camera at 640x480: fx ~ fy ~ 610 (yac's corners: 606.6, 610.0).
+  EXPECT_NEAR(doc["fx"].get<double>(), 606.6, 0.01 * 606.6);
+  EXPECT_NEAR(doc["fy"].get<double>(), 610.0, 0.01 * 610.0);
   EXPECT_NEAR(doc["cx"].get<double>(), 320.0, 25.0);
   EXPECT_NEAR(doc["cy"].get<double>(), 240.0, 25.0);
-  // The yac/Kalibr file names the same board: the same camera.
-  const CommandResult file = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(frames) + " --board " +
-                                        (data / "calib_mocap-intel_d435i.yaml").string() + " --out " + dir +
-                                        "/b.yaml --json");
-  ASSERT_EQ(file.exit_code, 0) << file.err;
-  const nlohmann::json doc_file = nlohmann::json::parse(file.out);
-  EXPECT_NEAR(doc_file["fx"].get<double>(), doc["fx"].get<double>(), 1e-9 * doc["fx"].get<double>());
-  EXPECT_EQ(doc_file["corners_used"], doc["corners_used"]);
 }
 
 TEST(CliCalibrateCamera, AprilgridNotInViewIsBadInput) {

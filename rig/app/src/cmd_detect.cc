@@ -130,8 +130,15 @@ void RunDetect(const DetectArgs& args) {
     intrinsics = file->intrinsics;
   }
 
-  // 2. The images: every input read now, so a bad one fails before output.
-  std::vector<Frame> frames;
+  // 2. The inputs: every image read and every video opened now, so a bad one
+  // fails before any output; video frames are decoded one at a time below.
+  const auto check_size = [&](const std::string& path, const cv::Mat& grey) {
+    if (intrinsics && (grey.cols != intrinsics->width || grey.rows != intrinsics->height))
+      Fail(kCommand, kExitBadInput,
+           path + ": " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + ", but --calibration " +
+               args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
+               std::to_string(intrinsics->height));
+  };
   for (const std::string& path : args.inputs) {
     if (!fs::is_regular_file(path))
       Fail(kCommand, kExitBadInput, path + ": " + (fs::exists(path) ? "not a regular file" : "no such file"));
@@ -139,20 +146,12 @@ void RunDetect(const DetectArgs& args) {
       media::VideoReader reader;
       const Status opened = reader.Open(path);
       if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
-      cv::Mat grey;
-      for (int i = 0; reader.Read(&grey); ++i) frames.push_back({path, i, grey.clone()});
     } else {
-      Frame f{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)};
-      if (f.grey.empty()) Fail(kCommand, kExitBadInput, path + ": cannot be read as an image");
-      if (intrinsics && (f.grey.cols != intrinsics->width || f.grey.rows != intrinsics->height))
-        Fail(kCommand, kExitBadInput,
-             path + ": " + std::to_string(f.grey.cols) + "x" + std::to_string(f.grey.rows) + ", but --calibration " +
-                 args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
-                 std::to_string(intrinsics->height));
-      frames.push_back(std::move(f));
+      const cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE);
+      if (grey.empty()) Fail(kCommand, kExitBadInput, path + ": cannot be read as an image");
+      check_size(path, grey);
     }
   }
-  if (frames.empty()) Fail(kCommand, kExitBadInput, "no frames in " + args.inputs.front());
 
   // 3. Detection.
   std::optional<vision::CameraModel> camera;
@@ -162,7 +161,9 @@ void RunDetect(const DetectArgs& args) {
   json images = json::array();
   std::vector<std::pair<std::string, std::vector<uchar>>> annotations;
   int total_tags = 0, total_rejected = 0, board_views = 0;
-  for (const Frame& f : frames) {
+  int frame_count = 0;
+  const auto process = [&](const Frame& f) {
+    ++frame_count;
     vision::TagSurvey survey = SurveyTags(f.grey, camera ? &*camera : nullptr, survey_options);
     if (!survey.ok) Fail(kCommand, kExitFailure, f.file + ": " + survey.message);
     json board_refused = json::array();
@@ -322,10 +323,25 @@ void RunDetect(const DetectArgs& args) {
       annotations.emplace_back((fs::path(args.annotate_dir) / (name + ".png")).string(), std::move(png));
     }
     images.push_back(image);
+  };
+  for (const std::string& path : args.inputs) {
+    if (IsVideo(path)) {
+      media::VideoReader reader;
+      const Status opened = reader.Open(path);
+      if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
+      cv::Mat grey;
+      for (int i = 0; reader.Read(&grey); ++i) {
+        if (i == 0) check_size(path, grey);
+        process(Frame{path, i, grey});
+      }
+    } else {
+      process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)});
+    }
   }
+  if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + args.inputs.front());
   if (board && board_views == 0) {
     Fail(kCommand, kExitBadInput,
-         "--board " + args.board + ": no image of " + std::to_string(frames.size()) + " shows 4 or more of its " +
+         "--board " + args.board + ": no image of " + std::to_string(frame_count) + " shows 4 or more of its " +
              family + " tags (ids " + std::to_string(board->first_id) + "-" +
              std::to_string(board->first_id + board->cols * board->rows - 1) + "); nothing written");
   }
@@ -353,7 +369,7 @@ void RunDetect(const DetectArgs& args) {
     if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
       Fail(kCommand, kExitFailure, *error);
   }
-  std::cout << frames.size() << " image" << (frames.size() == 1 ? "" : "s") << ", " << total_tags << " " << family
+  std::cout << frame_count << " image" << (frame_count == 1 ? "" : "s") << ", " << total_tags << " " << family
             << " tag" << (total_tags == 1 ? "" : "s") << " found, " << total_rejected << " quad"
             << (total_rejected == 1 ? "" : "s") << " refused\n";
   for (const json& image : images) {

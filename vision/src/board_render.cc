@@ -1,11 +1,15 @@
 #include "odocal/vision/board_render.h"
 
 #include <cmath>
+#include <optional>
 #include <limits>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/vision/tag.h"
+
+#include "apriltag_util.h"
 #include "raster.h"
 
 namespace odocal::vision {
@@ -37,6 +41,71 @@ BoardPattern BoardPattern::Chessboard(int inner_cols, int inner_rows, double squ
   p.cell_m = square_m;
   p.margin_m = square_m;
   return p;
+}
+
+namespace {
+
+struct AprilgridCells {
+  int width = 0;  // cells across a tag's black square
+  int gap = 0;    // cells between tags
+};
+
+std::optional<AprilgridCells> GridCells(const CalibrationBoard& board, std::string* why) {
+  std::string reason;
+  if (board.type != CalibrationBoard::Type::kAprilgrid || !board.IsValid(&reason)) {
+    if (why) *why = reason.empty() ? "not an aprilgrid" : reason;
+    return std::nullopt;
+  }
+  AprilgridCells g;
+  g.width = TagWidthAtBorder(board.tag_family);
+  const double gap = board.spacing * g.width;
+  g.gap = static_cast<int>(std::lround(gap));
+  if (g.gap < 1 || std::abs(gap - g.gap) > 1e-6) {
+    if (why) *why = "the aprilgrid's gap is not a whole number of cells";
+    return std::nullopt;
+  }
+  return g;
+}
+
+}  // namespace
+
+std::optional<BoardPattern> AprilgridPattern(const CalibrationBoard& board, std::string* why) {
+  const auto g = GridCells(board, why);
+  if (!g) return std::nullopt;
+  const int pitch = g->width + g->gap;
+  BoardPattern p;
+  p.cells = cv::Mat(board.rows * pitch + g->gap, board.cols * pitch + g->gap, CV_8U, cv::Scalar(255));
+  auto family = internal::CreateFamily(board.tag_family);
+  const int ring = (family->total_width - family->width_at_border) / 2;  // the bitmap's white ring
+  for (int r = 0; r < board.rows; ++r) {
+    for (int c = 0; c < board.cols; ++c) {
+      const int id = board.first_id + r * board.cols + c;
+      internal::ImageU8Ptr im(apriltag_to_image(family.get(), id));
+      // Kalibr's row r counts up the print; the pattern's rows run down it.
+      const int row0 = g->gap + (board.rows - 1 - r) * pitch, col0 = g->gap + c * pitch;
+      for (int y = 0; y < g->width; ++y) {
+        for (int x = 0; x < g->width; ++x) {
+          p.cells.at<uint8_t>(row0 + y, col0 + x) = im->buf[(ring + y) * im->stride + ring + x] ? 255 : 0;
+        }
+      }
+    }
+  }
+  for (int j = 0; j <= board.rows; ++j) {
+    for (int i = 0; i <= board.cols; ++i) {
+      p.cells(cv::Rect(i * pitch, j * pitch, g->gap, g->gap)).setTo(0);
+    }
+  }
+  p.cell_m = board.square_m / g->width;
+  p.margin_m = g->gap * p.cell_m;
+  return p;
+}
+
+Eigen::Vector3d AprilgridPointInPattern(const CalibrationBoard& board, const cv::Point3f& kalibr_point) {
+  const auto g = GridCells(board, nullptr);
+  const double cell = board.square_m / (g ? g->width : 1);
+  const double pitch = g ? g->width + g->gap : 1.0, gap = g ? g->gap : 0.0;
+  const double height = (board.rows * pitch + gap) * cell;
+  return Eigen::Vector3d(gap * cell + kalibr_point.x, height - gap * cell - kalibr_point.y, -kalibr_point.z);
 }
 
 std::vector<Eigen::Vector3d> ChessboardCorners(int inner_cols, int inner_rows, double square_m) {

@@ -4,8 +4,15 @@
 #include <cmath>
 #include <utility>
 
+#include <map>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "edge_model_refine.h"
+#include "odocal/vision/corner_refine.h"
+#include "odocal/vision/detector.h"
+#include "odocal/vision/tag.h"
 #ifdef ODOCAL_HAVE_ARUCO
 #include <opencv2/aruco/charuco.hpp>
 #endif
@@ -48,6 +55,138 @@ double MinSpacing(const std::vector<cv::Point2f>& points) {
 BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
                                   const BoardDetectionOptions& options);
 
+// Kalibr's aprilgrid: every tag of the board in view, its corners refined by
+// the exact edge model; tags off the board, seen twice, or whose edges could
+// not be fitted are refused (named in tags_refused).
+BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& board,
+                               const BoardDetectionOptions& options) {
+  BoardDetection out;
+  DetectorOptions detector_options;
+  detector_options.family = board.tag_family;
+  detector_options.quad_decimate = static_cast<float>(options.aprilgrid_upsample);
+  auto created = TagDetector::Create(detector_options);
+  if (!created.ok) {
+    out.message = "aprilgrid: " + created.message;
+    return out;
+  }
+  // Five passes: the plain image, the same with the black thinned by 1,
+  // 2 and 3 pixels of the upsampled image. Kalibr's corner squares touch each
+  // tag's corners; where the touch survives thresholding, the white around a
+  // tag is cut into four strips, and libapriltag's quad finder (which pairs
+  // one black with one white component) sees four lone edges, no quad. A
+  // rendered aprilgrid at 25-40 px a tag: 1 tag of 36 found in the plain
+  // image. Thinning opens the touches; too much of it erases the bits, hence
+  // several; and one with the corner squares painted white (below). The
+  // thinned passes' corners lie a little inside the tag; the edge model
+  // below refits every tag's corners on the original image either way.
+  const int up = options.aprilgrid_upsample;
+  cv::Mat big = gray;
+  if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
+  DetectResult found = created.detector->Detect(big);
+  std::map<int, int> seen;
+  for (const TagDetection& d : found.detections) ++seen[d.id];
+  for (const int k : {3, 5, 7}) {
+    cv::Mat thinned;
+    cv::dilate(big, thinned, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+    for (const TagDetection& d : created.detector->Detect(thinned).detections) {
+      if (!seen.count(d.id)) {
+        ++seen[d.id];
+        found.detections.push_back(d);
+      }
+    }
+  }
+  // A last pass with the corner squares painted white where the tags found so
+  // far put them (a homography of the board from their corners; a square 4 %
+  // of a tag larger all round, to cover the lens's bending): the white
+  // around every tag is then one region. On the rendered aprilgrid this
+  // finds the interior tags the thinned passes miss.
+  {
+    std::vector<cv::Point2f> on_board, in_image;
+    for (const TagDetection& d : found.detections) {
+      if (!board.AprilgridCorner(d.id, 0)) continue;
+      for (int k = 0; k < 4; ++k) {
+        const cv::Point3f b = *board.AprilgridCorner(d.id, k);
+        on_board.emplace_back(b.x, b.y);
+        in_image.emplace_back(static_cast<float>(d.corners_px[k].x), static_cast<float>(d.corners_px[k].y));
+      }
+    }
+    const cv::Mat H = on_board.size() >= 16 ? cv::findHomography(on_board, in_image, cv::RANSAC, 3.0 * up) : cv::Mat();
+    if (!H.empty()) {
+      cv::Mat painted = big.clone();
+      const double s = board.square_m, g = board.spacing * s, pitch = s + g, e = 0.04 * s;
+      for (int j = 0; j <= board.rows; ++j) {
+        for (int i = 0; i <= board.cols; ++i) {
+          const double x0 = i * pitch - g - e, x1 = i * pitch + e, y0 = j * pitch - g - e, y1 = j * pitch + e;
+          const std::vector<cv::Point2f> square = {cv::Point2f(static_cast<float>(x0), static_cast<float>(y0)),
+                                                   cv::Point2f(static_cast<float>(x1), static_cast<float>(y0)),
+                                                   cv::Point2f(static_cast<float>(x1), static_cast<float>(y1)),
+                                                   cv::Point2f(static_cast<float>(x0), static_cast<float>(y1))};
+          std::vector<cv::Point2f> px;
+          cv::perspectiveTransform(square, px, H);
+          std::vector<cv::Point> poly;
+          for (const auto& p : px) poly.emplace_back(cvRound(p.x), cvRound(p.y));
+          cv::fillConvexPoly(painted, poly, cv::Scalar(255), cv::LINE_AA);
+        }
+      }
+      for (const TagDetection& d : created.detector->Detect(painted).detections) {
+        if (!seen.count(d.id)) {
+          ++seen[d.id];
+          found.detections.push_back(d);
+        }
+      }
+    }
+  }
+  // Pixel centres at integers in both images: x = (X + 0.5) / up - 0.5.
+  for (TagDetection& d : found.detections) {
+    for (auto& c : d.corners_px) c = cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5);
+  }
+  std::map<int, std::vector<const TagDetection*>> by_id;
+  for (const TagDetection& d : found.detections) by_id[d.id].push_back(&d);
+  // The edge model's band reaches 0.45 "cell" to either side of an edge,
+  // a cell being the tag's side / width_at_border. On an aprilgrid the black
+  // border is 2 cells wide (b2 families) and the gap 3 cells (spacing 0.3),
+  // so the band may span 2 cells: small tags (2-3 px a cell on a 640x480
+  // camera at 2 m) are then refined instead of refused as too small.
+  const int width = TagWidthAtBorder(board.tag_family);
+  const bool two_bit = board.tag_family.size() > 2 && board.tag_family.substr(board.tag_family.size() - 2) == "b2";
+  const int gap_cells = static_cast<int>(std::floor(board.spacing * width + 1e-9));
+  const int unit = std::max(1, std::min(two_bit ? 2 : 1, gap_cells));
+  CornerRefineOptions refine;
+  refine.width_at_border = std::max(3, width / unit);
+  int on_board = 0;
+  for (const auto& [id, hits] : by_id) {
+    if (!board.AprilgridCorner(id, 0)) continue;  // another board's tag, or a stray one
+    ++on_board;
+    if (hits.size() > 1) {
+      out.tags_refused.emplace_back(id, "seen " + std::to_string(hits.size()) + " times");
+      continue;
+    }
+    std::array<cv::Matx22d, 4> cov;
+    const CornerRefineResult r = internal::RefineTagCornersByEdgeModelWithCovariance(
+        gray, hits.front()->corners_px, nullptr, refine, {0, 0}, &cov);
+    if (!r.ok) {
+      out.tags_refused.emplace_back(id, "corners not refined: " + r.message);
+      continue;
+    }
+    out.tag_ids.push_back(id);
+    for (int k = 0; k < 4; ++k) {
+      out.image_points.emplace_back(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
+      out.object_points.push_back(*board.AprilgridCorner(id, k));
+      out.point_sigma_px.push_back(std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1))));
+    }
+  }
+  const int used = static_cast<int>(out.tag_ids.size());
+  if (used < options.min_aprilgrid_tags) {
+    out.message = "aprilgrid " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " (" +
+                  board.tag_family + "): " + std::to_string(used) + " usable tag" + (used == 1 ? "" : "s") +
+                  " (" + std::to_string(on_board) + " of the board's seen), need " +
+                  std::to_string(options.min_aprilgrid_tags);
+    return out;
+  }
+  out.found = true;
+  return out;
+}
+
 void RefineCorners(const cv::Mat& gray, int half_window, std::vector<cv::Point2f>* points) {
   const int cap = static_cast<int>(std::floor(0.4 * MinSpacing(*points)));
   const int half = std::max(2, std::min(half_window, cap));
@@ -64,6 +203,19 @@ bool CalibrationBoard::IsValid(std::string* why) const {
   };
   if (type == Type::kChessboard) {
     if (cols < 2 || rows < 2) return fail("a chessboard needs at least 2x2 inner corners");
+  } else if (type == Type::kAprilgrid) {
+    if (cols < 1 || rows < 1 || cols * rows < 4)
+      return fail("an aprilgrid needs at least 4 tags (COLSxROWS)");
+    if (!(spacing > 0.0) || !std::isfinite(spacing))
+      return fail("the aprilgrid spacing (gap / tag side) must be positive");
+    if (!IsKnownTagFamily(tag_family)) return fail("unknown tag family '" + tag_family + "'");
+    if (first_id < 0) return fail("the aprilgrid's first id must be >= 0");
+    TagSpec last;
+    last.family = tag_family;
+    last.id = first_id + cols * rows - 1;
+    std::string why_tag;
+    if (!last.IsValid(&why_tag)) return fail("aprilgrid ids " + std::to_string(first_id) + ".." +
+                                             std::to_string(last.id) + ": " + why_tag);
   } else {
     if (cols < 3 || rows < 3) return fail("a ChArUco board needs at least 3x3 squares");
     if (!(marker_m > 0.0) || !(marker_m < square_m))
@@ -77,7 +229,21 @@ bool CalibrationBoard::IsValid(std::string* why) const {
 }
 
 int CalibrationBoard::MaxCorners() const {
-  return type == Type::kChessboard ? cols * rows : (cols - 1) * (rows - 1);
+  switch (type) {
+    case Type::kChessboard: return cols * rows;
+    case Type::kCharuco: return (cols - 1) * (rows - 1);
+    case Type::kAprilgrid: return 4 * cols * rows;
+  }
+  return 0;
+}
+
+std::optional<cv::Point3f> CalibrationBoard::AprilgridCorner(int id, int k) const {
+  const int i = id - first_id;
+  if (type != Type::kAprilgrid || i < 0 || i >= cols * rows || k < 0 || k > 3) return std::nullopt;
+  const double pitch = (1.0 + spacing) * square_m;
+  static const int kDx[4] = {0, 1, 1, 0}, kDy[4] = {0, 0, 1, 1};
+  return cv::Point3f(static_cast<float>((i % cols) * pitch + kDx[k] * square_m),
+                     static_cast<float>((i / cols) * pitch + kDy[k] * square_m), 0.0f);
 }
 
 bool BoardDetectionOptions::IsValid(std::string* why) const {
@@ -87,6 +253,10 @@ bool BoardDetectionOptions::IsValid(std::string* why) const {
   }
   if (min_charuco_corners < 4) {
     if (why) *why = "a ChArUco view needs at least 4 corners (min_charuco_corners >= 4)";
+    return false;
+  }
+  if (min_aprilgrid_tags < 1 || aprilgrid_upsample < 1 || aprilgrid_upsample > 4) {
+    if (why) *why = "min_aprilgrid_tags must be >= 1 and aprilgrid_upsample in [1, 4]";
     return false;
   }
   return true;
@@ -131,6 +301,8 @@ BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& 
     gray = image;
   }
   if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+
+  if (board.type == CalibrationBoard::Type::kAprilgrid) return DetectAprilgrid(gray, board, options);
 
   if (board.type == CalibrationBoard::Type::kChessboard) {
     const cv::Size pattern(board.cols, board.rows);

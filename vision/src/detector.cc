@@ -4,9 +4,75 @@
 #include <cmath>
 #include <sstream>
 
+#include <apriltag/common/homography.h>
+
 #include "apriltag_util.h"
 
 namespace odocal::vision {
+namespace {
+
+// Bilinear grey level at OpenCV pixel (x, y); nullopt outside the image.
+std::optional<double> Sample(const cv::Mat& grey, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= grey.cols || y0 + 1 >= grey.rows) return std::nullopt;
+  const double fx = x - x0, fy = y - y0;
+  const auto at = [&](int r, int c) { return static_cast<double>(grey.at<uint8_t>(r, c)); };
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+}
+
+// The border's width, checked where libapriltag does not look: the fraction
+// of the cells of ring 1 (the ring just inside the outer black ring, in the
+// family's own grid of `width` cells across the black square) that are dark,
+// dark meaning below the midpoint of the outer black ring (ring 0) and the
+// white quiet zone (ring -1). A 2-bit border makes ring 1 black all round;
+// with a 1-bit border ring 1 is the outer data ring, and no code of
+// tag36h11, tag25h9 or tag16h5 has fewer than 4 light bits there (at most
+// 80 % dark). `H` maps tag coordinates ([-1, 1] at the black corners) to
+// the window's pixels in libapriltag's convention.
+std::optional<double> RingOneDarkFraction(const cv::Mat& window, const matd_t* H, int width) {
+  const auto ring = [&](int r, std::vector<double>* out) {
+    for (int i = r; i <= width - 1 - r; ++i) {
+      const int cells[4][2] = {{i, r}, {i, width - 1 - r}, {r, i}, {width - 1 - r, i}};
+      for (int k = 0; k < 4; ++k) {
+        if ((k >= 2) && (i == r || i == width - 1 - r)) continue;  // corners once
+        double px = 0, py = 0;
+        homography_project(H, 2.0 * (cells[k][0] + 0.5) / width - 1.0, 2.0 * (cells[k][1] + 0.5) / width - 1.0,
+                           &px, &py);
+        const auto v = Sample(window, px + kApriltagToOpenCvPx, py + kApriltagToOpenCvPx);
+        if (!v) return false;
+        out->push_back(*v);
+      }
+    }
+    return true;
+  };
+  std::vector<double> white, black, inner;
+  if (!ring(-1, &white) || !ring(0, &black) || !ring(1, &inner)) return std::nullopt;
+  std::sort(white.begin(), white.end());
+  std::sort(black.begin(), black.end());
+  const double threshold = 0.5 * (white[white.size() / 2] + black[black.size() / 2]);
+  if (!(white[white.size() / 2] > black[black.size() / 2])) return std::nullopt;
+  int dark = 0;
+  for (double v : inner) dark += v < threshold;
+  return static_cast<double>(dark) / inner.size();
+}
+
+// Ring 1 at least this dark: a 2-bit border. Between the 81 % a 1-bit
+// tag36h11 can reach there (read on either grid) and the 100 % of a 2-bit
+// border, with room for a few cells blurred by a tiny tag or JPEG.
+constexpr double kTwoBitRingDark = 0.85;
+
+// Families whose border width the wrapper checks: the classic ones and
+// their 2-bit variants (apriltag_util.cc).
+std::optional<bool> ExpectsTwoBitBorder(const std::string& family) {
+  for (const char* base : {"tag36h11", "tag25h9", "tag16h5"}) {
+    if (family == base) return false;
+    if (family == std::string(base) + "b2") return true;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
 
 bool DetectorOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& msg) {
@@ -114,6 +180,7 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
   internal::DetectionsPtr detections(apriltag_detector_detect(impl_->detector.get(), &im));
   const double dx = window.x + kApriltagToOpenCvPx;
   const double dy = window.y + kApriltagToOpenCvPx;
+  const std::optional<bool> two_bit = ExpectsTwoBitBorder(impl_->options.family);
   for (int i = 0; i < zarray_size(detections.get()); ++i) {
     apriltag_detection_t* det = nullptr;
     zarray_get(detections.get(), i, &det);
@@ -123,11 +190,25 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
     d.decision_margin = det->decision_margin;
     for (int k = 0; k < 4; ++k) d.corners_px[k] = cv::Point2d(det->p[k][0] + dx, det->p[k][1] + dy);
     d.center_px = cv::Point2d(det->c[0] + dx, det->c[1] + dy);
+    if (two_bit) {
+      const auto dark = RingOneDarkFraction(view, det->H, impl_->family->width_at_border);
+      if (dark && (*dark >= kTwoBitRingDark) != *two_bit) {
+        std::ostringstream why;
+        why << "id " << d.id << " decoded, but its black border is " << (*two_bit ? "1 bit" : "2 bits")
+            << " wide, not " << (*two_bit ? "2" : "1") << " (" << static_cast<int>(std::lround(100 * *dark))
+            << " % of the ring inside the border is dark): "
+            << (*two_bit ? "an AprilTag 3 tag? use the family without b2" : "a Kalibr tag? use " +
+                                                                                 impl_->options.family + "b2");
+        result.refused.push_back({d, why.str()});
+        continue;
+      }
+    }
     result.detections.push_back(d);
   }
   if (result.detections.empty()) {
     result.status = DetectStatus::kNotFound;
     result.message = "no " + impl_->options.family + " tag found";
+    if (!result.refused.empty()) result.message += "; refused " + result.refused.front().reason;
   } else {
     result.status = DetectStatus::kOk;
   }

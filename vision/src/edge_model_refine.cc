@@ -25,6 +25,7 @@
 
 #include "corner_geometry.h"
 #include "edge_functions.h"
+#include "edge_model_refine.h"
 
 namespace odocal::vision {
 namespace {
@@ -82,7 +83,7 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                   const CameraModel* camera, double half_width, double end_margin,
                                   const SolverSettings& settings,
-                                  double* rms) {
+                                  double* rms, cv::Matx22d* cov_angle_offset = nullptr) {
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
   const EdgePixels pixels =
@@ -101,6 +102,10 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
       new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5>(
           new EdgeModelCost(&pixels), static_cast<int>(pixels.value.size())),
       nullptr, p);
+  // The blur between 0.05 and 20 px: on a tiny or low-contrast edge an
+  // unbounded log s can run off to where exp underflows and the model is NaN.
+  problem.SetParameterLowerBound(p, 4, std::log(0.05));
+  problem.SetParameterUpperBound(p, 4, std::log(20.0));
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   ApplyTo(settings, &options);
@@ -108,8 +113,44 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   ceres::Solve(options, &problem, &summary);
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
   *rms = std::sqrt(2.0 * summary.final_cost / pixels.value.size());
+  if (cov_angle_offset) {
+    // Gauss-Newton covariance of the five parameters, scaled by the fit's own
+    // residual variance (the image noise as these pixels show it, JPEG and
+    // model error included); (angle, offset) is its marginal.
+    ceres::CRSMatrix jac;
+    problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jac);
+    cv::Matx<double, 5, 5> jtj = cv::Matx<double, 5, 5>::zeros();
+    for (int r = 0; r < jac.num_rows; ++r) {
+      for (int i = jac.rows[r]; i < jac.rows[r + 1]; ++i) {
+        for (int j = jac.rows[r]; j < jac.rows[r + 1]; ++j) {
+          jtj(jac.cols[i], jac.cols[j]) += jac.values[i] * jac.values[j];
+        }
+      }
+    }
+    const int dof = std::max<int>(1, static_cast<int>(pixels.value.size()) - 5);
+    const cv::Matx<double, 5, 5> cov = jtj.inv(cv::DECOMP_SVD) * (2.0 * summary.final_cost / dof);
+    *cov_angle_offset = cv::Matx22d(cov(0, 0), cov(0, 1), cov(1, 0), cov(1, 1));
+  }
   const cv::Point2d n(std::cos(p[0]), std::sin(p[0]));
   return FittedLine{n * p[1], cv::Point2d(-n.y, n.x)};
+}
+
+// Corner k = edges k-1 and k, each the line n(angle) . q = offset: its
+// covariance from the two lines' (angle, offset) covariances (independent
+// fits). With A = [n_a; n_b], q = A^-1 (c_a, c_b): dq/dc = A^-1 e_i and
+// dq/dangle = -A^-1 e_i (n_i' . q), n' the normal turned by 90 degrees.
+cv::Matx22d CornerCovariance(const FittedLine& a, const cv::Matx22d& cov_a, const FittedLine& b,
+                             const cv::Matx22d& cov_b) {
+  const cv::Point2d na(a.dir.y, -a.dir.x), nb(b.dir.y, -b.dir.x);  // the normals (dir = (-n.y, n.x))
+  const cv::Matx22d A(na.x, na.y, nb.x, nb.y);
+  const cv::Matx22d Ainv = A.inv();
+  const cv::Vec2d q = Ainv * cv::Vec2d(na.dot(a.point), nb.dot(b.point));
+  const cv::Point2d qp(q[0], q[1]);
+  const cv::Point2d ta(-na.y, na.x), tb(-nb.y, nb.x);  // d n / d angle
+  const cv::Vec2d e0 = Ainv * cv::Vec2d(1, 0), e1 = Ainv * cv::Vec2d(0, 1);
+  const cv::Matx22d Ja(-e0[0] * ta.dot(qp), e0[0], -e0[1] * ta.dot(qp), e0[1]);  // d q / d (angle_a, c_a)
+  const cv::Matx22d Jb(-e1[0] * tb.dot(qp), e1[0], -e1[1] * tb.dot(qp), e1[1]);
+  return Ja * cov_a * Ja.t() + Jb * cov_b * Jb.t();
 }
 
 }  // namespace
@@ -119,6 +160,16 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
                                                const CameraModel* camera,
                                                const CornerRefineOptions& options,
                                                const cv::Point& origin) {
+  return internal::RefineTagCornersByEdgeModelWithCovariance(grey, corners_px, camera, options, origin,
+                                                             nullptr);
+}
+
+namespace internal {
+
+CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
+    const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px, const CameraModel* camera,
+    const CornerRefineOptions& options, const cv::Point& origin,
+    std::array<cv::Matx22d, 4>* corner_covariance_px) {
   CornerRefineResult result;
   result.corners_px = corners_px;
   const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
@@ -126,11 +177,13 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
   const cv::Point2d centre = extent->centre_px;
   const double half_width = extent->half_width_px;
   std::array<FittedLine, 4> lines;
+  std::array<cv::Matx22d, 4> line_cov;
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) {
     double rms = 0.0;
     const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
-                              half_width, options.end_margin, options.edge_model_solver, &rms);
+                              half_width, options.end_margin, options.edge_model_solver, &rms,
+                              corner_covariance_px ? &line_cov[k] : nullptr);
     if (!line) {
       result.message = "edge " + std::to_string(k) + " could not be fitted";
       return result;
@@ -141,7 +194,17 @@ CornerRefineResult RefineTagCornersByEdgeModel(const cv::Mat& grey,
   internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
   if (!result.ok) return result;
   result.rms_line_residual_px = std::sqrt(sq / 4.0);  // here: grey-level rms of the fits
+  if (corner_covariance_px) {
+    // In undistorted pixels when a camera is given; the lens changes the
+    // scale by a few per cent at most, so they stand for the image's pixels.
+    for (int k = 0; k < 4; ++k) {
+      (*corner_covariance_px)[k] =
+          CornerCovariance(lines[(k + 3) % 4], line_cov[(k + 3) % 4], lines[k], line_cov[k]);
+    }
+  }
   return result;
 }
+
+}  // namespace internal
 
 }  // namespace odocal::vision

@@ -42,6 +42,11 @@ bool IsKnownTagFamily(const std::string& family) {
   return internal::CreateFamily(family) != nullptr;
 }
 
+int TagWidthAtBorder(const std::string& family) {
+  const auto f = internal::CreateFamily(family);
+  return f ? f->width_at_border : 0;
+}
+
 std::ostream& operator<<(std::ostream& os, const TagSpec& t) {
   return os << "TagSpec{" << t.family << " id=" << t.id << " size_mm=" << t.size_mm
             << " height_mm=" << t.height_mm << " offset_mm=(" << t.offset_x_mm << ", "

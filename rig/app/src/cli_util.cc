@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -14,7 +15,38 @@
 
 #include <CLI/CLI.hpp>
 
+#include "odocal/config/calib_target.h"
+
 namespace odocal::app {
+namespace {
+
+std::vector<std::string> Split(const std::string& text, char sep) {
+  std::vector<std::string> out;
+  std::stringstream s(text);
+  std::string field;
+  while (std::getline(s, field, sep)) out.push_back(field);
+  if (!text.empty() && text.back() == sep) out.emplace_back();
+  return out;
+}
+
+bool PositiveNumber(const std::string& text, double* value) {
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  return !text.empty() && *end == '\0' && std::isfinite(*value) && *value > 0.0;
+}
+
+bool CountPair(const std::string& text, int* cols, int* rows) {
+  const auto parts = Split(text, 'x');
+  if (parts.size() != 2) return false;
+  for (const std::string& p : parts) {
+    if (p.empty() || p.find_first_not_of("0123456789") != std::string::npos || p.size() > 4) return false;
+  }
+  *cols = std::stoi(parts[0]);
+  *rows = std::stoi(parts[1]);
+  return true;
+}
+
+}  // namespace
 
 void Fail(const std::string& command, int exit_code, const std::string& message) {
   std::cerr << "odocal " << command << ": " << message << std::endl;
@@ -45,7 +77,8 @@ vision::TagSpec ParseTagOption(const std::string& command, const std::string& op
   for (std::string p; std::getline(in, p, ':');) parts.push_back(p);
   auto fail = [&](const std::string& why) {
     Fail(command, kExitBadInput,
-         option + " " + text + ": " + why + " (expected FAMILY:ID:SIZE_MM[:HEIGHT_MM], e.g. tag36h11:5:80:150)");
+         option + " " + text + ": " + why + " (expected FAMILY:ID:SIZE_MM[:HEIGHT_MM], e.g. tag36h11:5:80:150; "
+         "tag36h11b2 for Kalibr-style tags with a 2-bit border)");
   };
   if (parts.size() < 3 || parts.size() > 4) fail("wrong number of fields");
   vision::TagSpec tag;
@@ -83,6 +116,60 @@ vision::CameraMount ParseMountOption(const std::string& command, const std::stri
     Fail(command, kExitBadInput, option + " " + text + ": expected x,y,height,roll,pitch,yaw (mm, deg)");
   return {v[0], v[1], v[2], v[3], v[4], v[5]};
 }
+
+vision::CalibrationBoard ParseBoardOption(const std::string& command, const std::string& option,
+                                          const std::string& text) {
+  const std::string usage = option + ": expected chessboard:COLSxROWS:SQUARE_MM (inner corners), "
+                            "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares), "
+                            "aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID] (tags) or a Kalibr target.yaml, got '" +
+                            text + "'";
+  const auto parts = Split(text, ':');
+  vision::CalibrationBoard board;
+  double square_mm = 0.0, marker_mm = 0.0;
+  const bool spec = !parts.empty() && (parts[0] == "chessboard" || parts[0] == "charuco" || parts[0] == "aprilgrid");
+  if (!spec) {
+    if (!std::filesystem::exists(text)) Fail(command, kExitBadInput, usage + " (no such file)");
+    const auto file = config::ReadCalibrationTarget(text);
+    if (!file) Fail(command, kExitBadInput, option + ": " + file.message);
+    return *file;
+  }
+  if (parts[0] == "aprilgrid" && (parts.size() == 4 || parts.size() == 5)) {
+    board.type = vision::CalibrationBoard::Type::kAprilgrid;
+    if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm) ||
+        !PositiveNumber(parts[3], &board.spacing))
+      Fail(command, kExitBadInput, usage);
+    if (parts.size() == 5) {
+      if (parts[4].empty() || parts[4].size() > 6 || parts[4].find_first_not_of("0123456789") != std::string::npos)
+        Fail(command, kExitBadInput, usage + " (FIRST_ID must be a whole number >= 0)");
+      board.first_id = std::stoi(parts[4]);
+    }
+    board.square_m = square_mm * 1e-3;
+    std::string why;
+    if (!board.IsValid(&why)) Fail(command, kExitBadInput, option + " " + text + ": " + why);
+    return board;
+  }
+  if (parts.size() == 3 && parts[0] == "chessboard") {
+    board.type = vision::CalibrationBoard::Type::kChessboard;
+  } else if (parts.size() == 5 && parts[0] == "charuco") {
+    board.type = vision::CalibrationBoard::Type::kCharuco;
+    if (!PositiveNumber(parts[3], &marker_mm)) Fail(command, kExitBadInput, usage);
+    board.dictionary = parts[4];
+  } else {
+    Fail(command, kExitBadInput, usage);
+  }
+  if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm))
+    Fail(command, kExitBadInput, usage);
+  board.square_m = square_mm * 1e-3;
+  board.marker_m = marker_mm * 1e-3;
+  if (board.type == vision::CalibrationBoard::Type::kCharuco && !vision::CharucoAvailable())
+    Fail(command, kExitBadInput,
+         option + " charuco: ChArUco boards are not available in this build (OpenCV without the "
+         "aruco module); use a chessboard");
+  std::string why;
+  if (!board.IsValid(&why)) Fail(command, kExitBadInput, option + ": " + why);
+  return board;
+}
+
 
 std::function<void(long, long)> TerminalProgressBar(const std::string& label) {
   if (!isatty(2)) return {};

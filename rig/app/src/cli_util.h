@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "odocal/report/exports.h"
+#include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/tag.h"
 
@@ -32,6 +33,16 @@ std::optional<std::vector<double>> ParseNumberList(const std::string& text);
 // `--OPTION FAMILY:ID:SIZE_MM[:HEIGHT_MM]` (e.g. tag36h11:5:80:150): the robot's tag;
 // fails `command` with exit 2 naming the option and the field otherwise.
 vision::TagSpec ParseTagOption(const std::string& command, const std::string& option, const std::string& text);
+
+// `--OPTION SPEC` naming a calibration board (sides in mm):
+//   chessboard:COLSxROWS:SQUARE_MM                (inner corners)
+//   charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT    (squares)
+//   aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID]  (Kalibr's target: tags, tag36h11b2,
+//                                                   TAG_MM the outer black edge, gap = SPACING x tag)
+//   FILE                                          (Kalibr's target.yaml, aprilgrid; config/calib_target.h)
+// fails `command` with exit 2 naming the option, the field or the file's line otherwise.
+vision::CalibrationBoard ParseBoardOption(const std::string& command, const std::string& option,
+                                          const std::string& text);
 
 // `--OPTION x,y,height,roll,pitch,yaw` (mm, deg; as session.yaml's camera_mount_guess):
 // where the camera hangs; fails `command` with exit 2 otherwise.

@@ -25,61 +25,6 @@ namespace {
 
 constexpr const char* kCommand = "calibrate-camera";
 
-std::vector<std::string> Split(const std::string& text, char sep) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  std::string field;
-  while (std::getline(s, field, sep)) out.push_back(field);
-  if (!text.empty() && text.back() == sep) out.emplace_back();
-  return out;
-}
-
-bool PositiveNumber(const std::string& text, double* value) {
-  char* end = nullptr;
-  *value = std::strtod(text.c_str(), &end);
-  return !text.empty() && *end == '\0' && std::isfinite(*value) && *value > 0.0;
-}
-
-bool CountPair(const std::string& text, int* cols, int* rows) {
-  const auto parts = Split(text, 'x');
-  if (parts.size() != 2) return false;
-  for (const std::string& p : parts) {
-    if (p.empty() || p.find_first_not_of("0123456789") != std::string::npos || p.size() > 4) return false;
-  }
-  *cols = std::stoi(parts[0]);
-  *rows = std::stoi(parts[1]);
-  return true;
-}
-
-// "chessboard:9x6:25" or "charuco:7x5:40:30:DICT_5X5_100" (sides in mm).
-vision::CalibrationBoard ParseBoard(const std::string& text) {
-  const std::string usage = "--board: expected chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
-                            "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares), got '" + text + "'";
-  const auto parts = Split(text, ':');
-  vision::CalibrationBoard board;
-  double square_mm = 0.0, marker_mm = 0.0;
-  if (parts.size() == 3 && parts[0] == "chessboard") {
-    board.type = vision::CalibrationBoard::Type::kChessboard;
-  } else if (parts.size() == 5 && parts[0] == "charuco") {
-    board.type = vision::CalibrationBoard::Type::kCharuco;
-    if (!PositiveNumber(parts[3], &marker_mm)) Fail(kCommand, kExitBadInput, usage);
-    board.dictionary = parts[4];
-  } else {
-    Fail(kCommand, kExitBadInput, usage);
-  }
-  if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm))
-    Fail(kCommand, kExitBadInput, usage);
-  board.square_m = square_mm * 1e-3;
-  board.marker_m = marker_mm * 1e-3;
-  if (board.type == vision::CalibrationBoard::Type::kCharuco && !vision::CharucoAvailable())
-    Fail(kCommand, kExitBadInput,
-         "--board charuco: ChArUco boards are not available in this build (OpenCV without the "
-         "aruco module); use a chessboard");
-  std::string why;
-  if (!board.IsValid(&why)) Fail(kCommand, kExitBadInput, "--board: " + why);
-  return board;
-}
-
 std::string Fixed(double value, int precision) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(precision) << value;
@@ -109,7 +54,7 @@ struct CalibrateCameraArgs {
 void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   // Every unreadable image is reported once, by us, in one line.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  const vision::CalibrationBoard board = ParseBoard(args.board);
+  const vision::CalibrationBoard board = ParseBoardOption(kCommand, "--board", args.board);
   const auto format = config::ParseCameraFileFormat(args.format);
   if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
 
@@ -146,6 +91,15 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     outcomes.push_back(o);
   }
 
+  if (board.type == vision::CalibrationBoard::Type::kAprilgrid && views.empty()) {
+    // The board named is not the board filmed (or not with enough of it):
+    // bad input rather than a failed calibration.
+    Fail(kCommand, kExitBadInput,
+         "--board aprilgrid " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " (" +
+             board.tag_family + ", ids " + std::to_string(board.first_id) + "-" +
+             std::to_string(board.first_id + board.cols * board.rows - 1) + "): no image of " +
+             std::to_string(outcomes.size()) + " shows 4 or more of its tags (no camera file written)");
+  }
   vision::CameraCalibrationOptions options;
   options.fix_k3 = args.fix_k3;
   if (static_cast<int>(views.size()) < options.min_views) {
@@ -224,7 +178,10 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   cmd->add_option("images", args->images, "Images of the board (any format OpenCV reads)")->required();
   cmd->add_option("--board", args->board,
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25) or\n"
-                  "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares, e.g. charuco:7x5:40:30:DICT_5X5_100)")
+                  "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares, e.g. charuco:7x5:40:30:DICT_5X5_100) or\n"
+                  "aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID] (Kalibr's target: tags with a 2-bit border,\n"
+                  "TAG_MM the outer black edge, gap = SPACING x tag, e.g. aprilgrid:6x6:88:0.3) or\n"
+                  "a Kalibr target.yaml (target_type: aprilgrid)")
       ->required();
   cmd->add_option("--out", args->out, "Camera file to write")->required();
   cmd->add_option("--format", args->format, "opencv (default) or ros");

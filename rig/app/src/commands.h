@@ -24,6 +24,7 @@ void RegisterImportCommand(CLI::App& app);
 void RegisterCheckCommand(CLI::App& app);
 void RegisterSetupCheckCommand(CLI::App& app);
 void RegisterWatchCommand(CLI::App& app);
+void RegisterDetectCommand(CLI::App& app);
 
 }  // namespace odocal::app
 

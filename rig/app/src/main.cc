@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   odocal::app::RegisterCheckCommand(app);
   odocal::app::RegisterSetupCheckCommand(app);
   odocal::app::RegisterWatchCommand(app);
+  odocal::app::RegisterDetectCommand(app);
   CLI11_PARSE(app, argc, argv);
   return 0;
 }

@@ -29,6 +29,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -46,6 +47,19 @@ struct BoardPattern {
   // zone of one square (findChessboardCorners needs a white border).
   static BoardPattern Chessboard(int inner_cols, int inner_rows, double square_m);
 };
+
+// Kalibr's aprilgrid as cells: the tags' bitmaps (libapriltag's, of
+// board.tag_family, without their white ring), and a black corner square of
+// spacing x tag side at every crossing of the gaps, as Kalibr prints it. The
+// gap must be a whole number of cells (spacing x width_at_border, e.g.
+// 0.3 x 10 = 3); nullopt with `why` otherwise. No margin: the outer corner
+// squares are the pattern's edge (a white quiet zone is `margin_m`, added
+// here as one gap).
+std::optional<BoardPattern> AprilgridPattern(const CalibrationBoard& board, std::string* why = nullptr);
+// A point of the aprilgrid's own (Kalibr) frame, e.g. AprilgridCorner(),
+// in the frame of AprilgridPattern(): the same plane turned 180 degrees about
+// x (Kalibr's y runs up the print, the pattern's rows down it).
+Eigen::Vector3d AprilgridPointInPattern(const CalibrationBoard& board, const cv::Point3f& kalibr_point);
 
 // The inner corners of a chessboard in the board frame (z = 0), row by row:
 // corner (r, c) at ((c + 1) * square, (r + 1) * square).

@@ -11,6 +11,17 @@
 //               cv::aruco marker detection and corner interpolation (needs
 //               OpenCV's contrib aruco module; CharucoAvailable() says whether
 //               this build has it).
+//   aprilgrid   Kalibr's target: COLS x ROWS AprilTags (tag36h11b2, i.e. with a
+//               2-bit black border, by default), tag side = the black border's
+//               outer edge, gap = spacing x tag side, ids first_id... row by
+//               row from the bottom-left tag. Any 4 or more of its tags make a
+//               view; each tag's corners are refined by the exact edge model
+//               (RefineTagCornersByEdgeModel), the same that measures the
+//               robot's tag. Board frame (Kalibr's): origin at tag first_id's
+//               bottom-left corner, x along the columns, y up the printed
+//               bitmaps; tag (col, row) corner k at
+//               (col (1 + spacing) s, row (1 + spacing) s) + s {(0,0), (1,0), (1,1), (0,1)}[k],
+//               k in libapriltag's (and TagCornersInTag's) order.
 // Frames: the board frame is OpenCV's object-point frame of each board type
 // (z = 0 on the board); pixels are OpenCV's (centres at integers).
 // Units: metres inside; the reprojection errors are in pixels.
@@ -20,6 +31,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -30,17 +42,24 @@
 namespace odocal::vision {
 
 struct CalibrationBoard {
-  enum class Type { kChessboard, kCharuco };
+  enum class Type { kChessboard, kCharuco, kAprilgrid };
   Type type = Type::kChessboard;
-  int cols = 0;            // chessboard: inner corners across; ChArUco: squares across
+  int cols = 0;            // chessboard: inner corners across; ChArUco: squares across;
+                           // aprilgrid: tags across
   int rows = 0;            // the same down
-  double square_m = 0.0;
+  double square_m = 0.0;   // aprilgrid: the tag side (outer black edge)
   double marker_m = 0.0;   // ChArUco only
   std::string dictionary;  // ChArUco only, OpenCV's name, e.g. "DICT_5X5_100"
+  double spacing = 0.0;    // aprilgrid only: gap between tags / tag side (Kalibr's tagSpacing)
+  int first_id = 0;        // aprilgrid only: the bottom-left tag's id
+  std::string tag_family = "tag36h11b2";  // aprilgrid only (tag.h's IsKnownTagFamily)
 
   bool IsValid(std::string* why) const;
   // Corners a view can show at most.
   int MaxCorners() const;
+  // Aprilgrid: whether `id` is on the board, and tag `id`'s corner k in the
+  // board frame (z = 0); nullopt for another id or board type.
+  std::optional<cv::Point3f> AprilgridCorner(int id, int k) const;
 };
 
 // Whether this build can detect ChArUco boards (OpenCV's aruco module).
@@ -52,6 +71,12 @@ struct BoardDetection {
   std::string message;                  // why not, when not found
   std::vector<cv::Point2f> image_points;
   std::vector<cv::Point3f> object_points;
+  // Aprilgrid only: the tags used, in order, each owning 4 consecutive
+  // points (corner order as in tag.h); each point's 1-sigma (px, per axis)
+  // from the edge fits; and the board's tags seen but not used, with why.
+  std::vector<int> tag_ids;
+  std::vector<double> point_sigma_px;
+  std::vector<std::pair<int, std::string>> tags_refused;
 };
 
 struct BoardDetectionOptions {
@@ -65,9 +90,21 @@ struct BoardDetectionOptions {
   // cv::findChessboardCornersSB (finds steeper views; slower on images
   // without a board).
   bool sector_fallback = true;
+  // Aprilgrid: views with fewer tags are rejected (4 tags: 16 corners on a
+  // plane, enough for a homography with redundancy).
+  int min_aprilgrid_tags = 4;
+  // Aprilgrid: libapriltag sees the image upsampled this many times (cubic)
+  // and looks for quads at decimate = the same factor, i.e. at the original
+  // resolution, but decodes the bits and fits its edges on the interpolated
+  // image. Kalibr targets fill the image with small tags (2-3 px a cell at
+  // 640x480): on the 30 real frames 3 finds 948 tags where 1 finds 895, in
+  // the plain pass (1041 with the thinned and painted passes, camera_calibration.cc;
+  // yac: 1007). The corners are then refined on the original image.
+  int aprilgrid_upsample = 3;
 
-  // Valid: a half window of at least 1 px and min_charuco_corners >= 4 (a
-  // view with fewer corners cannot enter CalibrateCamera).
+  // Valid: a half window of at least 1 px, min_charuco_corners >= 4 (a
+  // view with fewer corners cannot enter CalibrateCamera), min_aprilgrid_tags
+  // >= 1 and aprilgrid_quad_decimate >= 1.
   bool IsValid(std::string* why) const;
 };
 

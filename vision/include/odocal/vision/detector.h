@@ -69,10 +69,19 @@ enum class DetectStatus {
 
 const char* ToString(DetectStatus status);
 
+// A tag libapriltag decoded but the wrapper refused: its black border is not
+// the family's width (a Kalibr 2-bit tag decoded with tag36h11's 1-bit layout
+// or the reverse; libapriltag checks only the outermost ring).
+struct RefusedDetection {
+  TagDetection detection;
+  std::string reason;
+};
+
 struct DetectResult {
   DetectStatus status = DetectStatus::kNotFound;
   std::string message;
   std::vector<TagDetection> detections;
+  std::vector<RefusedDetection> refused;
 };
 
 struct FindResult {

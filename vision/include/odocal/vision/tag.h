@@ -45,8 +45,15 @@ struct TagSpec {
 std::array<Eigen::Vector2d, 4> TagCornersInTag(double size_m);
 
 // Whether libapriltag knows the family (tag36h11, tag25h9, tag16h5,
-// tagStandard41h12, ...).
+// tagStandard41h12, ...), or it is one of those classic families with a 2-bit
+// black border: tag36h11b2 (Kalibr's aprilgrid tags), tag25h9b2, tag16h5b2.
+// Same codes, same ids, same decoder; only the border is one cell wider all
+// round, and `size_mm` is still the outer edge of the black border.
 bool IsKnownTagFamily(const std::string& family);
+
+// Cells across the black border's outer edge: 8 for tag36h11, 10 for
+// tag36h11b2 (CornerRefineOptions::width_at_border); 0 for an unknown family.
+int TagWidthAtBorder(const std::string& family);
 
 std::ostream& operator<<(std::ostream& os, const TagSpec& tag);
 

@@ -1,0 +1,416 @@
+// odocal detect IMAGE|VIDEO... (--tag SPEC | --board SPEC) [--calibration CAM] [--json OUT] [--annotate DIR]
+//
+// Every tag of the family in each image (vision::SurveyTags): id, corners
+// refined by the edge model with each corner's sigma, and the candidate quads
+// libapriltag found but decoded no tag from. With a calibration, each tag's
+// pose in the camera frame (--tag: every tag taken at the spec's size) or the
+// board's pose with each corner's residual (--board). Everything is checked
+// and computed before anything is written; bad input is one line and exit 2.
+// Keys: docs/formats.md, "odocal detect".
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "odocal/base/units.h"
+#include "odocal/config/camera_file.h"
+#include "odocal/config/files.h"
+#include "odocal/media/video.h"
+#include "odocal/vision/camera_calibration.h"
+#include "odocal/vision/tag.h"
+#include "odocal/vision/tag_survey.h"
+
+namespace odocal::app {
+namespace {
+
+constexpr const char* kCommand = "detect";
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct DetectArgs {
+  std::vector<std::string> inputs;
+  std::string tag;
+  std::string board;
+  std::string calibration;
+  std::string json_out;
+  std::string annotate_dir;
+};
+
+// One image (a file, or one frame of a video) and what was found in it.
+struct Frame {
+  std::string file;
+  int frame = -1;  // videos only
+  cv::Mat grey;
+};
+
+bool IsVideo(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext == ".mp4" || ext == ".avi" || ext == ".mkv" || ext == ".mov" || ext == ".webm";
+}
+
+json Corners(const std::array<cv::Point2d, 4>& c) {
+  json out = json::array();
+  for (const auto& p : c) out.push_back({p.x, p.y});
+  return out;
+}
+
+json PoseJson(const vision::ObjectPose& pose) {
+  const Eigen::Vector3d t = pose.T_camera_object.translation();
+  const Eigen::AngleAxisd aa(pose.T_camera_object.linear());
+  const Eigen::Vector3d rvec = aa.angle() * aa.axis();
+  const Eigen::Quaterniond q(pose.T_camera_object.linear());
+  json cov = json::array();
+  for (int r = 0; r < 6; ++r) {
+    json row = json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(pose.covariance(r, c));
+    cov.push_back(row);
+  }
+  const auto sd = [&](int i) { return std::sqrt(std::max(0.0, pose.covariance(i, i))); };
+  return {{"translation_m", {t.x(), t.y(), t.z()}},
+          {"rotation_vector_rad", {rvec.x(), rvec.y(), rvec.z()}},
+          {"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
+          {"sigma_translation_mm", {1e3 * sd(3), 1e3 * sd(4), 1e3 * sd(5)}},
+          {"sigma_rotation_deg", {kRadToDeg * sd(0), kRadToDeg * sd(1), kRadToDeg * sd(2)}},
+          {"covariance", cov},
+          {"rms_residual_px", pose.rms_residual_px}};
+}
+
+std::vector<double> SigmasOrOne(const std::array<double, 4>& s) {
+  std::vector<double> out;
+  for (double v : s) out.push_back(v > 0.0 ? std::max(v, 1e-3) : 1.0);
+  return out;
+}
+
+void DrawQuad(cv::Mat* bgr, const std::array<cv::Point2d, 4>& c, const cv::Scalar& colour, int thickness) {
+  // Pixel centres at integers (OpenCV's drawing convention too), 4 bits of
+  // sub-pixel precision.
+  std::vector<cv::Point> pts;
+  for (const auto& p : c) pts.emplace_back(cvRound(p.x * 16), cvRound(p.y * 16));
+  cv::polylines(*bgr, pts, true, colour, thickness, cv::LINE_AA, 4);
+}
+
+}  // namespace
+
+void RunDetect(const DetectArgs& args) {
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  // 1. Everything the user typed, checked before any work.
+  if (args.tag.empty() == args.board.empty())
+    Fail(kCommand, kExitBadInput, "name exactly one of --tag SPEC or --board SPEC");
+  std::optional<vision::TagSpec> tag;
+  std::optional<vision::CalibrationBoard> board;
+  std::string family;
+  if (!args.tag.empty()) {
+    tag = ParseTagOption(kCommand, "--tag", args.tag);
+    std::string why;
+    if (!tag->IsValid(&why)) Fail(kCommand, kExitBadInput, "--tag " + args.tag + ": " + why);
+    family = tag->family;
+  } else {
+    board = ParseBoardOption(kCommand, "--board", args.board);
+    if (board->type != vision::CalibrationBoard::Type::kAprilgrid)
+      Fail(kCommand, kExitBadInput, "--board " + args.board + ": detect finds tags; name an aprilgrid (or its target.yaml)");
+    family = board->tag_family;
+  }
+  std::optional<vision::Intrinsics> intrinsics;
+  if (!args.calibration.empty()) {
+    const auto file = config::ReadCameraFile(args.calibration);
+    if (!file) Fail(kCommand, kExitBadInput, "--calibration: " + file.message);
+    intrinsics = file->intrinsics;
+  }
+
+  // 2. The inputs: every image read and every video opened now, so a bad one
+  // fails before any output; video frames are decoded one at a time below.
+  const auto check_size = [&](const std::string& path, const cv::Mat& grey) {
+    if (intrinsics && (grey.cols != intrinsics->width || grey.rows != intrinsics->height))
+      Fail(kCommand, kExitBadInput,
+           path + ": " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + ", but --calibration " +
+               args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
+               std::to_string(intrinsics->height));
+  };
+  for (const std::string& path : args.inputs) {
+    if (!fs::is_regular_file(path))
+      Fail(kCommand, kExitBadInput, path + ": " + (fs::exists(path) ? "not a regular file" : "no such file"));
+    if (IsVideo(path)) {
+      media::VideoReader reader;
+      const Status opened = reader.Open(path);
+      if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
+    } else {
+      const cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE);
+      if (grey.empty()) Fail(kCommand, kExitBadInput, path + ": cannot be read as an image");
+      check_size(path, grey);
+    }
+  }
+
+  // 3. Detection.
+  std::optional<vision::CameraModel> camera;
+  if (intrinsics) camera.emplace(*intrinsics, vision::CameraMount{});
+  vision::TagSurveyOptions survey_options;
+  survey_options.family = family;
+  json images = json::array();
+  std::vector<std::pair<std::string, std::vector<uchar>>> annotations;
+  int total_tags = 0, total_rejected = 0, board_views = 0;
+  int frame_count = 0;
+  const auto process = [&](const Frame& f) {
+    ++frame_count;
+    vision::TagSurvey survey = SurveyTags(f.grey, camera ? &*camera : nullptr, survey_options);
+    if (!survey.ok) Fail(kCommand, kExitFailure, f.file + ": " + survey.message);
+    json board_refused = json::array();
+    if (board) {
+      // The board's tags as calibrate-camera sees them (vision::DetectBoard:
+      // upsampled decoding, the edge model sized for the aprilgrid), the
+      // survey's for the rest; quads inside a board tag are not refusals.
+      const vision::BoardDetection bd = vision::DetectBoard(f.grey, *board);
+      std::vector<vision::SurveyedTag> merged;
+      for (size_t i = 0; i < bd.tag_ids.size(); ++i) {
+        vision::SurveyedTag t;
+        t.id = bd.tag_ids[i];
+        t.refined = true;
+        t.hamming = -1;
+        for (int k = 0; k < 4; ++k) {
+          t.corners_px[k] = bd.image_points[4 * i + k];
+          t.corner_sigma_px[k] = bd.point_sigma_px[4 * i + k];
+        }
+        merged.push_back(t);
+      }
+      for (const auto& [id, why] : bd.tags_refused) board_refused.push_back({{"id", id}, {"reason", why}});
+      for (const auto& t : survey.tags)
+        if (!board->AprilgridCorner(t.id, 0)) merged.push_back(t);
+      std::vector<vision::RejectedQuad> rejected;
+      for (const auto& q : survey.rejected) {
+        const cv::Point2f c(static_cast<float>(0.25 * (q.corners_px[0].x + q.corners_px[1].x + q.corners_px[2].x + q.corners_px[3].x)),
+                            static_cast<float>(0.25 * (q.corners_px[0].y + q.corners_px[1].y + q.corners_px[2].y + q.corners_px[3].y)));
+        bool inside = false;
+        for (const auto& t : merged) {
+          std::vector<cv::Point2f> poly;
+          for (const auto& p : t.corners_px) poly.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+          inside = inside || cv::pointPolygonTest(poly, c, false) >= 0;
+        }
+        if (!inside) rejected.push_back(q);
+      }
+      survey.tags = std::move(merged);
+      survey.rejected = std::move(rejected);
+    }
+    json image = {{"file", f.file}, {"width", f.grey.cols}, {"height", f.grey.rows}};
+    if (f.frame >= 0) image["frame"] = f.frame;
+    json tags = json::array();
+    // The board's points, when a board is named.
+    std::vector<cv::Point3d> board_points;
+    std::vector<cv::Point2d> board_pixels;
+    std::vector<double> board_sigmas;
+    std::vector<size_t> board_tag_index;  // tags[] index of each board tag used
+    std::map<int, int> seen;
+    for (const auto& t : survey.tags) ++seen[t.id];
+    for (const vision::SurveyedTag& t : survey.tags) {
+      json j = {{"id", t.id},
+                {"corners_px", Corners(t.corners_px)},
+                {"refined", t.refined},
+                {"hamming", t.hamming >= 0 ? json(t.hamming) : json(nullptr)},
+                {"decision_margin", t.hamming >= 0 ? json(t.decision_margin) : json(nullptr)}};
+      if (t.refined) {
+        j["corner_sigma_px"] = t.corner_sigma_px;
+      } else {
+        j["corner_sigma_px"] = nullptr;
+        j["refine_message"] = t.refine_message;
+      }
+      if (tag && camera) {
+        std::vector<cv::Point3d> object;
+        for (const auto& c : vision::TagCornersInTag(tag->size_m())) object.emplace_back(c.x(), c.y(), 0.0);
+        const std::vector<cv::Point2d> pixels(t.corners_px.begin(), t.corners_px.end());
+        const vision::ObjectPose pose =
+            vision::EstimateObjectPose(*intrinsics, object, pixels, SigmasOrOne(t.corner_sigma_px));
+        if (pose.ok) {
+          j["pose_in_camera"] = PoseJson(pose);
+        } else {
+          j["pose_in_camera"] = nullptr;
+          j["pose_message"] = pose.message;
+        }
+      }
+      if (board) {
+        const bool on_board = board->AprilgridCorner(t.id, 0).has_value();
+        j["on_board"] = on_board;
+        if (on_board && seen[t.id] == 1 && t.refined) {
+          board_tag_index.push_back(tags.size());
+          for (int k = 0; k < 4; ++k) {
+            const cv::Point3f p = *board->AprilgridCorner(t.id, k);
+            board_points.emplace_back(p.x, p.y, p.z);
+            board_pixels.push_back(t.corners_px[k]);
+            board_sigmas.push_back(std::max(t.corner_sigma_px[k], 1e-3));
+          }
+        }
+      }
+      tags.push_back(j);
+    }
+    if (board) {
+      const int used = static_cast<int>(board_tag_index.size());
+      json b = {{"tags_used", used}, {"usable", used >= 4}, {"tags_refused", board_refused}};
+      board_views += used >= 4;
+      if (used >= 4 && camera) {
+        const vision::ObjectPose pose = vision::EstimateObjectPose(*intrinsics, board_points, board_pixels, board_sigmas);
+        if (pose.ok) {
+          b["pose_in_camera"] = PoseJson(pose);
+          for (size_t i = 0; i < board_tag_index.size(); ++i) {
+            json res = json::array();
+            for (int k = 0; k < 4; ++k) {
+              const cv::Point2d& e = pose.residuals_px[4 * i + k];
+              res.push_back({e.x, e.y});
+            }
+            tags[board_tag_index[i]]["residuals_px"] = res;
+          }
+        } else {
+          b["pose_in_camera"] = nullptr;
+          b["pose_message"] = pose.message;
+        }
+      }
+      image["board"] = b;
+    }
+    json rejected = json::array();
+    for (const auto& q : survey.rejected)
+      rejected.push_back({{"corners_px", Corners(q.corners_px)}, {"reason", q.reason}, {"decoded_id", q.decoded_id},
+                          {"contrast", q.contrast}});
+    image["tags"] = tags;
+    image["rejected_quads"] = rejected;
+    total_tags += static_cast<int>(survey.tags.size());
+    total_rejected += static_cast<int>(survey.rejected.size());
+
+    if (!args.annotate_dir.empty()) {
+      cv::Mat bgr;
+      cv::cvtColor(f.grey, bgr, cv::COLOR_GRAY2BGR);
+      for (const auto& q : survey.rejected) {
+        DrawQuad(&bgr, q.corners_px, cv::Scalar(0, 0, 255), 1);
+        if (q.decoded_id >= 0) {
+          // A tag refused for its border: say so beside it.
+          const double bottom = std::max({q.corners_px[0].y, q.corners_px[1].y, q.corners_px[2].y, q.corners_px[3].y});
+          const double left = std::min({q.corners_px[0].x, q.corners_px[1].x, q.corners_px[2].x, q.corners_px[3].x});
+          cv::putText(bgr, "id " + std::to_string(q.decoded_id) + ": wrong border width",
+                      cv::Point(cvRound(left), cvRound(bottom) + 14), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                      cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+        }
+      }
+      for (const auto& t : survey.tags) {
+        const bool counted = !board || board->AprilgridCorner(t.id, 0).has_value();
+        DrawQuad(&bgr, t.corners_px, counted ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 200, 255), 1);
+        cv::circle(bgr, cv::Point(cvRound(t.corners_px[0].x * 16), cvRound(t.corners_px[0].y * 16)), 3 * 16,
+                   cv::Scalar(255, 128, 0), 1, cv::LINE_AA, 4);
+        const cv::Point2d c = 0.25 * (t.corners_px[0] + t.corners_px[1] + t.corners_px[2] + t.corners_px[3]);
+        cv::putText(bgr, std::to_string(t.id), cv::Point(cvRound(c.x) - 6, cvRound(c.y) + 4),
+                    cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 0), 1, cv::LINE_AA);
+      }
+      std::ostringstream legend;
+      legend << survey.tags.size() << " " << family << " found (green, blue dot = corner 0), "
+             << survey.rejected.size() << " quads refused (red)";
+      cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
+                  cv::LINE_AA);
+      std::string name = fs::path(f.file).stem().string();
+      if (f.frame >= 0) {
+        std::ostringstream n;
+        n << name << "_" << std::setw(6) << std::setfill('0') << f.frame;
+        name = n.str();
+      }
+      std::vector<uchar> png;
+      cv::imencode(".png", bgr, png);
+      annotations.emplace_back((fs::path(args.annotate_dir) / (name + ".png")).string(), std::move(png));
+    }
+    images.push_back(image);
+  };
+  for (const std::string& path : args.inputs) {
+    if (IsVideo(path)) {
+      media::VideoReader reader;
+      const Status opened = reader.Open(path);
+      if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
+      cv::Mat grey;
+      for (int i = 0; reader.Read(&grey); ++i) {
+        if (i == 0) check_size(path, grey);
+        process(Frame{path, i, grey});
+      }
+    } else {
+      process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)});
+    }
+  }
+  if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + args.inputs.front());
+  if (board && board_views == 0) {
+    Fail(kCommand, kExitBadInput,
+         "--board " + args.board + ": no image of " + std::to_string(frame_count) + " shows 4 or more of its " +
+             family + " tags (ids " + std::to_string(board->first_id) + "-" +
+             std::to_string(board->first_id + board->cols * board->rows - 1) + "); nothing written");
+  }
+
+  // 4. Output.
+  json doc = {{"family", family}, {"images", images}};
+  if (tag) doc["tag"] = {{"family", tag->family}, {"id", tag->id}, {"size_mm", tag->size_mm}};
+  if (board)
+    doc["board"] = {{"type", "aprilgrid"}, {"cols", board->cols}, {"rows", board->rows},
+                    {"tag_mm", board->square_m * 1e3}, {"spacing", board->spacing}, {"first_id", board->first_id}};
+  doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
+  if (!args.annotate_dir.empty()) {
+    if (const auto error = config::EnsureDirectory(args.annotate_dir))
+      Fail(kCommand, kExitFailure, "--annotate: " + *error);
+    for (const auto& [path, png] : annotations) {
+      if (const auto error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())))
+        Fail(kCommand, kExitFailure, *error);
+    }
+  }
+  if (args.json_out == "-") {
+    std::cout << doc.dump(2) << std::endl;
+    return;
+  }
+  if (!args.json_out.empty()) {
+    if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
+      Fail(kCommand, kExitFailure, *error);
+  }
+  std::cout << frame_count << " image" << (frame_count == 1 ? "" : "s") << ", " << total_tags << " " << family
+            << " tag" << (total_tags == 1 ? "" : "s") << " found, " << total_rejected << " quad"
+            << (total_rejected == 1 ? "" : "s") << " refused\n";
+  for (const json& image : images) {
+    std::cout << "  " << image["file"].get<std::string>();
+    if (image.contains("frame")) std::cout << " #" << image["frame"].get<int>();
+    std::cout << ": ";
+    std::vector<int> ids;
+    for (const json& t : image["tags"]) ids.push_back(t["id"].get<int>());
+    if (ids.empty()) std::cout << "no tag";
+    for (size_t i = 0; i < ids.size(); ++i) std::cout << (i ? "," : "ids ") << ids[i];
+    std::cout << "; " << image["rejected_quads"].size() << " refused";
+    if (tag) {
+      const bool has = std::find(ids.begin(), ids.end(), tag->id) != ids.end();
+      std::cout << (has ? "; tag " + std::to_string(tag->id) + " found" : "; tag " + std::to_string(tag->id) + " NOT found");
+    }
+    if (board) std::cout << "; board: " << image["board"]["tags_used"].get<int>() << " tags";
+    std::cout << "\n";
+  }
+  if (!args.json_out.empty()) std::cout << "  wrote " << args.json_out << "\n";
+  if (!args.annotate_dir.empty()) std::cout << "  wrote " << annotations.size() << " PNGs to " << args.annotate_dir << "\n";
+}
+
+void RegisterDetectCommand(CLI::App& app) {
+  auto args = std::make_shared<DetectArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "detect",
+      "Every tag in each image: id, 4 corners (OpenCV pixels, from the printed bitmap's bottom-left corner,\n"
+      "counter-clockwise), each corner's sigma; with --calibration the tag's (or board's) pose in the camera\n"
+      "frame with its covariance. The tool to reach for when a tag is not found: --annotate draws the tags\n"
+      "found and the quads refused.");
+  cmd->add_option("inputs", args->inputs, "Images (any format OpenCV reads) or videos (.mp4 .avi .mkv .mov .webm)")
+      ->required();
+  cmd->add_option("--tag", args->tag,
+                  "FAMILY:ID:SIZE_MM[:HEIGHT_MM]: the family to look for (tag36h11, or tag36h11b2 for a\n"
+                  "Kalibr-style 2-bit border); SIZE_MM (outer black edge) gives every tag's pose");
+  cmd->add_option("--board", args->board,
+                  "aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID] or a Kalibr target.yaml");
+  cmd->add_option("--calibration", args->calibration, "Camera file (calibrate-camera's): poses and covariances");
+  cmd->add_option("--json", args->json_out, "Write everything as JSON to this file ('-': stdout)");
+  cmd->add_option("--annotate", args->annotate_dir, "Write one annotated PNG per image into this directory");
+  cmd->callback([args]() { RunDetect(*args); });
+}
+
+}  // namespace odocal::app

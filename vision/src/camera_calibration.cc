@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <utility>
-
+#include <limits>
 #include <map>
+#include <utility>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -381,6 +381,107 @@ bool CameraCalibrationOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// cv::fisheye::calibrate on `objects`/`images`; nullopt with `why` when it
+// gives no camera. Skew fixed at 0, extrinsics recomputed at each step.
+std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>& objects,
+                                     const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
+                                     double* rms, std::vector<cv::Vec3d>* rvecs, std::vector<cv::Vec3d>* tvecs,
+                                     std::string* why) {
+  // cv::fisheye wants 1xN two- and three-channel double arrays.
+  std::vector<cv::Mat> obj, img;
+  for (size_t v = 0; v < objects.size(); ++v) {
+    cv::Mat o(1, static_cast<int>(objects[v].size()), CV_64FC3), p(1, static_cast<int>(images[v].size()), CV_64FC2);
+    for (size_t i = 0; i < objects[v].size(); ++i) {
+      o.at<cv::Vec3d>(0, static_cast<int>(i)) = cv::Vec3d(objects[v][i].x, objects[v][i].y, objects[v][i].z);
+      p.at<cv::Vec2d>(0, static_cast<int>(i)) = cv::Vec2d(images[v][i].x, images[v][i].y);
+    }
+    obj.push_back(o);
+    img.push_back(p);
+  }
+  cv::Matx33d K = cv::Matx33d::eye();
+  cv::Vec4d D(0, 0, 0, 0);
+  try {
+    *rms = cv::fisheye::calibrate(obj, img, size, K, D, *rvecs, *tvecs,
+                                  cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
+                                  cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
+  } catch (const cv::Exception& e) {
+    if (why) *why = "cv::fisheye::calibrate failed: " + e.err;
+    return std::nullopt;
+  }
+  if (!std::isfinite(*rms)) {
+    if (why) *why = "cv::fisheye::calibrate gave a non-finite error";
+    return std::nullopt;
+  }
+  return Intrinsics::FromCv(cv::Mat(K), cv::Mat(D).reshape(1, 1), size.width, size.height, why,
+                            LensModel::kEquidistant);
+}
+
+void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
+                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
+                      CameraCalibrationResult* result) {
+  std::vector<cv::Vec3d> rvecs, tvecs;
+  std::string why;
+  double rms = 0.0;
+  const auto fitted = FisheyeFit(objects, images, size, &rms, &rvecs, &tvecs, &why);
+  if (!fitted) {
+    result->status = StatusCode::kFailed;
+    result->message = "calibration gave no valid camera: " + why;
+    return;
+  }
+  result->intrinsics = *fitted;
+  result->rms_reprojection_error_px = rms;
+  const cv::Matx33d K(fitted->CameraMatrix());
+  const cv::Vec4d D(fitted->distortion[0], fitted->distortion[1], fitted->distortion[2], fitted->distortion[3]);
+  for (size_t v = 0; v < objects.size(); ++v) {
+    std::vector<cv::Point3d> o(objects[v].begin(), objects[v].end());
+    std::vector<cv::Point2d> projected;
+    cv::fisheye::projectPoints(o, projected, rvecs[v], tvecs[v], K, D);
+    double sq = 0.0;
+    for (size_t i = 0; i < projected.size(); ++i) {
+      const double dx = projected[i].x - images[v][i].x, dy = projected[i].y - images[v][i].y;
+      sq += dx * dx + dy * dy;
+    }
+    result->per_view_rms_px.push_back(std::sqrt(sq / std::max<size_t>(1, projected.size())));
+  }
+  // Delete-a-group jackknife over the views (at most 10 groups): the
+  // spread the intrinsics would have on other frames of the same camera.
+  const int n = static_cast<int>(objects.size());
+  const int groups = std::min(n, 10);
+  std::vector<std::array<double, 8>> estimates;
+  for (int g = 0; g < groups; ++g) {
+    std::vector<std::vector<cv::Point3f>> o;
+    std::vector<std::vector<cv::Point2f>> p;
+    for (int v = 0; v < n; ++v)
+      if (v % groups != g) {
+        o.push_back(objects[v]);
+        p.push_back(images[v]);
+      }
+    std::vector<cv::Vec3d> r, t;
+    double e = 0.0;
+    if (o.size() < 3) continue;
+    if (const auto refit = FisheyeFit(o, p, size, &e, &r, &t, nullptr))
+      estimates.push_back({refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0], refit->distortion[1],
+                           refit->distortion[2], refit->distortion[3]});
+  }
+  const int m = static_cast<int>(estimates.size());
+  if (m >= 3) {
+    for (int k = 0; k < 8; ++k) {
+      double mean = 0.0, ss = 0.0;
+      for (const auto& e : estimates) mean += e[k] / m;
+      for (const auto& e : estimates) ss += (e[k] - mean) * (e[k] - mean);
+      result->sigma[k] = std::sqrt((m - 1.0) / m * ss);
+    }
+  } else {
+    result->sigma.fill(std::numeric_limits<double>::quiet_NaN());
+  }
+  result->status = StatusCode::kOk;
+  result->message = "ok";
+}
+
+}  // namespace
+
 CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views,
                                         const cv::Size& image_size,
                                         const CameraCalibrationOptions& options) {
@@ -413,6 +514,10 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     result.status = StatusCode::kInvalidArgument;
     result.message = std::to_string(result.views) + " usable view" + (result.views == 1 ? "" : "s") +
                      ", need at least " + std::to_string(options.min_views);
+    return result;
+  }
+  if (options.lens == LensModel::kEquidistant) {
+    CalibrateFisheye(object_points, image_points, image_size, &result);
     return result;
   }
   int flags = 0;

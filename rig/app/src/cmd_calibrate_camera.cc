@@ -10,6 +10,8 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utils/logger.hpp>
@@ -48,6 +50,7 @@ struct CalibrateCameraArgs {
   std::string format = "opencv";
   std::string camera_name = "camera";
   bool fix_k3 = false;
+  std::string model = "plumb_bob";
   bool json = false;
 };
 
@@ -57,6 +60,10 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   const vision::CalibrationBoard board = ParseBoardOption(kCommand, "--board", args.board);
   const auto format = config::ParseCameraFileFormat(args.format);
   if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
+  const auto lens = vision::ParseLensModel(args.model);
+  if (!lens) Fail(kCommand, kExitBadInput, "--model: expected plumb_bob or fisheye, got '" + args.model + "'");
+  if (*lens == vision::LensModel::kEquidistant && args.fix_k3)
+    Fail(kCommand, kExitBadInput, "--fix-k3 is plumb_bob's; the fisheye model has k1..k4");
 
   std::vector<ImageOutcome> outcomes;
   std::vector<vision::BoardDetection> views;
@@ -102,6 +109,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   }
   vision::CameraCalibrationOptions options;
   options.fix_k3 = args.fix_k3;
+  options.lens = *lens;
   if (static_cast<int>(views.size()) < options.min_views) {
     Fail(kCommand, kExitFailure,
          "only " + std::to_string(views.size()) + " of " + std::to_string(outcomes.size()) +
@@ -120,6 +128,17 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   if (const auto error = config::WriteCameraFile(args.out, file, *format)) Fail(kCommand, kExitFailure, *error);
 
   const vision::Intrinsics& in = result.intrinsics;
+  // The coefficients by the lens's names (plumb_bob k1 k2 p1 p2 k3, equidistant k1..k4).
+  const bool fisheye = in.lens == vision::LensModel::kEquidistant;
+  const std::vector<std::string> names =
+      fisheye ? std::vector<std::string>{"k1", "k2", "k3", "k4"} : std::vector<std::string>{"k1", "k2", "p1", "p2", "k3"};
+  nlohmann::json distortion = nlohmann::json::array();
+  nlohmann::json sigma = {{"fx", result.sigma[0]}, {"fy", result.sigma[1]}, {"cx", result.sigma[2]},
+                          {"cy", result.sigma[3]}};
+  for (size_t i = 0; i < names.size(); ++i) {
+    distortion.push_back(in.distortion[i]);
+    sigma[names[i]] = result.sigma[4 + i];
+  }
   if (args.json) {
     nlohmann::json images = nlohmann::json::array();
     for (const ImageOutcome& o : outcomes) {
@@ -135,10 +154,9 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         {"image_width", in.width},
         {"image_height", in.height},
         {"fx", in.fx}, {"fy", in.fy}, {"cx", in.cx}, {"cy", in.cy},
-        {"distortion", {in.distortion[0], in.distortion[1], in.distortion[2], in.distortion[3], in.distortion[4]}},
-        {"sigma", {{"fx", result.sigma[0]}, {"fy", result.sigma[1]}, {"cx", result.sigma[2]},
-                   {"cy", result.sigma[3]}, {"k1", result.sigma[4]}, {"k2", result.sigma[5]},
-                   {"p1", result.sigma[6]}, {"p2", result.sigma[7]}, {"k3", result.sigma[8]}}},
+        {"distortion_model", vision::LensModelName(in.lens)},
+        {"distortion", distortion},
+        {"sigma", sigma},
         {"rms_reprojection_error_px", result.rms_reprojection_error_px},
         {"views_used", result.views},
         {"corners_used", result.corners},
@@ -153,8 +171,9 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
             << "  fy " << std::setw(12) << Fixed(in.fy, 3) << "  +/- " << Fixed(result.sigma[1], 3) << " px\n"
             << "  cx " << std::setw(12) << Fixed(in.cx, 3) << "  +/- " << Fixed(result.sigma[2], 3) << " px\n"
             << "  cy " << std::setw(12) << Fixed(in.cy, 3) << "  +/- " << Fixed(result.sigma[3], 3) << " px\n";
-  const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
-  for (int i = 0; i < 5; ++i) {
+  std::cout << "  lens " << vision::LensModelName(in.lens)
+            << (fisheye ? " (sigmas from a jackknife over the views)" : "") << "\n";
+  for (size_t i = 0; i < names.size(); ++i) {
     std::cout << "  " << names[i] << " " << std::setw(12) << Fixed(in.distortion[i], 6) << "  +/- "
               << Fixed(result.sigma[4 + i], 6) << "\n";
   }
@@ -187,6 +206,9 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   cmd->add_option("--format", args->format, "opencv (default) or ros");
   cmd->add_option("--camera-name", args->camera_name, "camera_name in ROS files (default: camera)");
   cmd->add_flag("--fix-k3", args->fix_k3, "Keep k3 = 0 (lenses with a modest field of view)");
+  cmd->add_option("--model", args->model,
+                  "Lens model: plumb_bob (default; OpenCV's k1 k2 p1 p2 k3) or fisheye (equidistant, "
+                  "cv::fisheye's k1..k4)");
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->callback([args]() { RunCalibrateCamera(*args); });
 }

@@ -120,6 +120,11 @@ struct CameraCalibrationOptions {
   // k3 is poorly observed and trades off against k1, k2; fix it (to 0) there.
   bool fix_k3 = false;
   bool fix_tangential = false;  // p1 = p2 = 0
+  // plumb_bob: cv::calibrateCamera. equidistant (a fisheye): cv::fisheye::
+  // calibrate (k1..k4, no skew; fix_k3 and fix_tangential do not apply), its
+  // sigmas from a delete-a-group jackknife over the views (OpenCV's fisheye
+  // calibration gives none).
+  LensModel lens = LensModel::kPlumbBob;
 
   bool IsValid(std::string* why) const;
 };
@@ -133,8 +138,10 @@ struct CameraCalibrationResult {
   // Over all corners of all views, and per view (input order) [px].
   double rms_reprojection_error_px = 0.0;
   std::vector<double> per_view_rms_px;
-  // One-sigma of fx, fy, cx, cy, k1, k2, p1, p2, k3 from OpenCV's covariance
-  // (assumes the corner errors are independent with the observed RMS).
+  // One-sigma of fx, fy, cx, cy and the distortion in Intrinsics::distortion's
+  // order (plumb_bob k1, k2, p1, p2, k3; equidistant k1..k4, 0): plumb_bob's
+  // from OpenCV's covariance (assumes the corner errors are independent with
+  // the observed RMS), equidistant's from the jackknife over views.
   std::array<double, 9> sigma{};
   int views = 0;
   int corners = 0;

@@ -170,6 +170,20 @@ TEST(EstimatorChoice, ADistanceScaleErrorUmbmarkCannotSeeChoosesTheTrajectoryFit
   EXPECT_NEAR(mean_d(*traj->params) / mean_d(truth), 1.0, 1e-3);
   EXPECT_NEAR(mean_d(*umb->params) / mean_d(nominal), 1.0, 1e-3);
   EXPECT_THAT(c.why, HasSubstr("predicts the held-out runs best"));
+
+  // The jackknife's refits (what batch hands over) are the same folds.
+  std::vector<std::string> notes;
+  std::vector<calibration::RunLeftOut> left_out;
+  const std::optional<calibration::TrajectoryFitResult> fit = FitSessionTrajectories(sessions, &notes, &left_out);
+  ASSERT_TRUE(fit.has_value());
+  ASSERT_EQ(left_out.size(), 8u);
+  const EstimatorChoice reused = ChooseEstimator(sessions, &*fit, {}, &left_out);
+  ASSERT_TRUE(reused.cross_validated) << reused.why;
+  EXPECT_EQ(reused.chosen, c.chosen);
+  const CandidateScore* traj_reused = reused.Find(Estimator::kTrajectory);
+  ASSERT_EQ(traj_reused->final_error_m.size(), traj->final_error_m.size());
+  for (size_t i = 0; i < traj->final_error_m.size(); ++i)
+    EXPECT_NEAR(traj_reused->final_error_m[i], traj->final_error_m[i], 1e-6) << c.runs[i];
 }
 
 // Only Ed and Eb are off, which both candidates measure; the wheels slip

@@ -132,7 +132,9 @@ void RegisterBatchCommand(CLI::App& app) {
       report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
     }
     std::vector<std::string> notes = estimates.notes;
-    const std::optional<calibration::TrajectoryFitResult> fit = measure::FitSessionTrajectories(*measured, &notes);
+    std::vector<calibration::RunLeftOut> left_out;  // the jackknife's refits, auto's folds
+    const std::optional<calibration::TrajectoryFitResult> fit =
+        measure::FitSessionTrajectories(*measured, &notes, &left_out);
     if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
     // auto: the candidate that predicts held-out runs best (estimator_choice.h).
     std::string estimator = args->estimator;
@@ -140,7 +142,7 @@ void RegisterBatchCommand(CLI::App& app) {
     if (estimator == "auto") {
       measure::EstimatorChoiceOptions choice_options;
       choice_options.threads = args->threads;
-      choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options);
+      choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options, &left_out);
       estimator = measure::ToString(choice->chosen);
       report["estimator_choice"] = report::EstimatorChoiceJson("auto", *choice);
     }

@@ -193,7 +193,9 @@ bool DeterminesWheels(const calibration::TrajectoryFitResult& fit) {
 // distance scale Es as well, which a pose source with true lengths (motion
 // capture, a camera with a length reference) supports.
 std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
-    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes) {
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes,
+    std::vector<calibration::RunLeftOut>* left_out) {
+  if (left_out) left_out->clear();
   const calibration::MeasuredSession pooled = PoolTrajectoryRuns(sessions, notes);
   if (pooled.runs.empty()) return std::nullopt;  // no telemetry: nothing to fit
   const calibration::TrajectoryFitOptions options = SessionTrajectoryFitOptions();
@@ -205,7 +207,7 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
   // What the runs' disagreement says of each parameter: on a real robot
   // the model's sigmas are several times too small (docs/realdata.md,
   // "How sure"), and this is the check a reader needs.
-  if (const int failed = calibration::AddRunJackknife(pooled, &fit); failed > 0) {
+  if (const int failed = calibration::AddRunJackknife(pooled, &fit, 0, left_out); failed > 0) {
     notes->push_back("trajectory_fit: " + std::to_string(failed) + " of the refits without one run did not " +
                      "converge; no sigma_between_runs");
   } else if (fit.jackknife_runs == 0) {

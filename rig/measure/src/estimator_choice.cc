@@ -116,7 +116,8 @@ size_t OneStandardErrorChoice(const std::vector<CandidateScore>& scored) {
 
 EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
                                 const calibration::TrajectoryFitResult* full_fit,
-                                const EstimatorChoiceOptions& options) {
+                                const EstimatorChoiceOptions& options,
+                                const std::vector<calibration::RunLeftOut>* left_out) {
   EstimatorChoice choice;
   for (Estimator e : kCandidates) choice.candidates.push_back({e, std::nullopt, {}, 0.0, 0.0, 0.0});
   if (sessions.empty()) return FallBack(choice, "no sessions");
@@ -167,12 +168,20 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
     const auto [s, r] = origin[k];
     f.params[0] = UmbmarkParams(Without(sessions, s, r));
     if (!f.params[0]) f.undefined[0] = "UMBMark and CVRA give nothing";
-    const calibration::TrajectoryFitResult refit = RefitWithout(pooled, *full_fit, k);
-    if (DeterminesWheels(refit))
-      f.params[1] = calibration::ApplyWheelScales(nominal, refit.scales);
-    else
-      f.undefined[1] = refit.ok() ? "the trajectory fit does not determine every wheel parameter"
-                                  : "the trajectory fit failed (" + refit.message + ")";
+    if (left_out != nullptr && k < left_out->size() && (*left_out)[k].refitted) {
+      const calibration::RunLeftOut& o = (*left_out)[k];
+      if (o.determines_wheels)
+        f.params[1] = calibration::ApplyWheelScales(nominal, o.scales);
+      else
+        f.undefined[1] = "the trajectory fit: " + o.message;
+    } else {
+      const calibration::TrajectoryFitResult refit = RefitWithout(pooled, *full_fit, k);
+      if (DeterminesWheels(refit))
+        f.params[1] = calibration::ApplyWheelScales(nominal, refit.scales);
+      else
+        f.undefined[1] = refit.ok() ? "the trajectory fit does not determine every wheel parameter"
+                                    : "the trajectory fit failed (" + refit.message + ")";
+    }
     for (size_t c = 0; c < kN; ++c) {
       if (!f.params[c]) continue;
       const calibration::ReplayModel model{calibration::WheelScalesFrom(pooled.believed, *f.params[c]), {}};

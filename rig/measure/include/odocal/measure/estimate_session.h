@@ -68,8 +68,11 @@ calibration::WheelParams CorrectedParams(const calibration::WheelParams& nominal
 // poses. Sessions recorded with other believed parameters than the first
 // are left out with a note; a fit that fails adds a note. nullopt without
 // such runs or when the fit fails.
+// `left_out`, when given, receives the jackknife's fits without each pooled
+// run (PoolTrajectoryRuns' order; calibration::AddRunJackknife).
 std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
-    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes);
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes,
+    std::vector<calibration::RunLeftOut>* left_out = nullptr);
 
 // The runs FitSessionTrajectories pools: every run with telemetry of the
 // sessions recorded with the first session's believed parameters (the

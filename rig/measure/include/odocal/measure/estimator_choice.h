@@ -87,9 +87,12 @@ size_t OneStandardErrorChoice(const std::vector<CandidateScore>& scored);
 // folds start from it. Runs without telemetry serve the fits but cannot be
 // held out. Never fails: what cannot be cross-validated falls back to
 // umbmark with the reason in `why`. Invalid options fall back too.
+// `left_out` (FitSessionTrajectories' jackknife refits), when given, serves
+// as the trajectory fit of each fold it covers instead of refitting.
 EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
                                 const calibration::TrajectoryFitResult* full_fit,
-                                const EstimatorChoiceOptions& options = {});
+                                const EstimatorChoiceOptions& options = {},
+                                const std::vector<calibration::RunLeftOut>* left_out = nullptr);
 
 }  // namespace odocal::measure
 

@@ -183,10 +183,12 @@ void RegisterBatchCommand(CLI::App& app) {
     if (choice) {
       std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice->why.c_str());
       if (choice->cross_validated) {
-        std::printf("  %-12s %36s %10s\n", "candidate", "held-out final error mean [mm]", "max [mm]");
+        std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
+                    "(RMS over the path [mm])");
         for (const measure::CandidateScore& c : choice->candidates)
-          std::printf("  %-12s %25.2f +/- %6.2f %10.2f%s\n", measure::ToString(c.estimator), c.mean_m * 1e3,
-                      c.sigma_m * 1e3, c.max_m * 1e3, c.estimator == choice->chosen ? "  <- chosen" : "");
+          std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
+                      c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
+                      c.estimator == choice->chosen ? "  <- chosen" : "");
       }
       for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
     }

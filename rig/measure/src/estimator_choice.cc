@@ -65,7 +65,8 @@ EstimatorChoice FallBack(EstimatorChoice choice, const std::string& why) {
   choice.runs.clear();
   for (CandidateScore& c : choice.candidates) {
     c.final_error_m.clear();
-    c.mean_m = c.sigma_m = c.max_m = 0.0;
+    c.rms_error_m.clear();
+    c.mean_m = c.sigma_m = c.max_m = c.rms_mean_m = c.rms_sigma_m = 0.0;
   }
   choice.why = "umbmark (the default before auto): " + why;
   return choice;
@@ -119,7 +120,11 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
                                 const EstimatorChoiceOptions& options,
                                 const std::vector<calibration::RunLeftOut>* left_out) {
   EstimatorChoice choice;
-  for (Estimator e : kCandidates) choice.candidates.push_back({e, std::nullopt, {}, 0.0, 0.0, 0.0});
+  for (Estimator e : kCandidates) {
+    CandidateScore c;
+    c.estimator = e;
+    choice.candidates.push_back(c);
+  }
   if (sessions.empty()) return FallBack(choice, "no sessions");
   std::string why;
   if (!options.IsValid(&why)) return FallBack(choice, "estimator choice options: " + why);
@@ -207,7 +212,10 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
       continue;
     }
     choice.runs.push_back(run.name);
-    for (size_t c = 0; c < kN; ++c) choice.candidates[c].final_error_m.push_back(f.replay[c].final_position_error_m);
+    for (size_t c = 0; c < kN; ++c) {
+      choice.candidates[c].final_error_m.push_back(f.replay[c].final_position_error_m);
+      choice.candidates[c].rms_error_m.push_back(f.replay[c].rms_position_error_m);
+    }
   }
   if (static_cast<int>(choice.runs.size()) < options.min_runs)
     return FallBack(choice, std::to_string(choice.runs.size()) + " held-out runs could be replayed; cross-validation needs " +
@@ -217,6 +225,8 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
     c.mean_m = calibration::Mean(c.final_error_m);
     c.sigma_m = calibration::StandardError(c.final_error_m).value_or(0.0);
     c.max_m = *std::max_element(c.final_error_m.begin(), c.final_error_m.end());
+    c.rms_mean_m = calibration::Mean(c.rms_error_m);
+    c.rms_sigma_m = calibration::StandardError(c.rms_error_m).value_or(0.0);
   }
   size_t best = 0;
   for (size_t c = 1; c < kN; ++c)

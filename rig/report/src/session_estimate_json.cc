@@ -86,6 +86,7 @@ nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::
       nlohmann::json per_run = nlohmann::json::array();
       for (double e : c.final_error_m) per_run.push_back(e * 1e3);
       j["per_run_mm"] = per_run;
+      j["heldout_rms_error_mm"] = {{"mean", c.rms_mean_m * 1e3}, {"sigma", c.rms_sigma_m * 1e3}};
     } else {
       j["heldout_final_error_mm"] = nullptr;
     }

@@ -61,6 +61,11 @@ struct CandidateScore {
   double mean_m = 0.0;
   double sigma_m = 0.0;  // standard error of the mean across runs
   double max_m = 0.0;
+  // The same replays' RMS position error over every frame, per run, and
+  // its mean and standard error: reported, not used for the choice.
+  std::vector<double> rms_error_m;
+  double rms_mean_m = 0.0;
+  double rms_sigma_m = 0.0;
 };
 
 struct EstimatorChoice {

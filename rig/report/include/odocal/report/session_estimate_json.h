@@ -32,7 +32,8 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
 // why, runs (the held-out runs scored), candidates[] {name, defined,
 // corrected (its parameters fitted on every run, null when undefined),
 // heldout_final_error_mm {mean, sigma, max} (null when not cross-validated),
-// per_run_mm}, notes}.
+// per_run_mm, heldout_rms_error_mm {mean, sigma} (over every frame of the
+// same replays; reported, not used for the choice)}, notes}.
 nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::EstimatorChoice& choice);
 
 }  // namespace odocal::report

@@ -75,7 +75,8 @@ class Bench:
         out = os.path.join(self.out, "batch", f"{category}_{name}{tag}")
         report = os.path.join(out, "report.json")
         if not os.path.exists(report) or extra:
-            run([self.odocal, "batch", self.session(category, name), "--out", out, *extra])
+            # --estimator umbmark: `corrected` is UMBMark's (the beliefs table reads it as such).
+            run([self.odocal, "batch", self.session(category, name), "--out", out, "--estimator", "umbmark", *extra])
         return report
 
     # --- conventions -----------------------------------------------------------------
@@ -169,7 +170,7 @@ class Bench:
         merged = os.path.join(out, "session.yaml")
         merge_sessions([self.session(c, n) for c, n in members], merged)
         files = {}
-        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch"),
+        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch"), "--estimator", "umbmark",
              "--export", "firmware", os.path.join(out, "umbmark.yaml")])
         if "umbmark" in load(os.path.join(out, "batch", "report.json")):
             files["odocal UMBMark"] = os.path.join(out, "umbmark.yaml")

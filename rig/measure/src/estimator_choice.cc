@@ -137,6 +137,9 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
   std::vector<std::string> pool_notes;
   std::vector<std::pair<size_t, size_t>> origin;
   const calibration::MeasuredSession pooled = PoolTrajectoryRuns(sessions, &pool_notes, &origin);
+  if (!pool_notes.empty())
+    choice.notes.push_back("the runs of sessions recorded with other believed parameters are not held out "
+                           "(the trajectory fit leaves them out)");
   // Held out: pooled runs with a measured pose to compare the final pose with.
   std::vector<size_t> folds;
   for (size_t k = 0; k < pooled.runs.size(); ++k) {

@@ -6,6 +6,7 @@
     python3 bench/realdata/realdata.py heldout       # calibrate on squares + Ivanjko, check on circles
     python3 bench/realdata/realdata.py explain       # what explain finds, with cross-validation
     python3 bench/realdata/realdata.py sigma         # the model's sigma and the runs' disagreement
+    python3 bench/realdata/realdata.py choice        # batch's default export (auto) against each candidate
     python3 bench/realdata/realdata.py all
 
 Options: --data DIR (default ../shared/realdata/optiodom), --odocal BIN (default build/odocal),
@@ -74,7 +75,8 @@ class Bench:
         out = os.path.join(self.out, "batch", f"{category}_{name}{tag}")
         report = os.path.join(out, "report.json")
         if not os.path.exists(report) or extra:
-            run([self.odocal, "batch", self.session(category, name), "--out", out, *extra])
+            # --estimator umbmark: `corrected` is UMBMark's (the beliefs table reads it as such).
+            run([self.odocal, "batch", self.session(category, name), "--out", out, "--estimator", "umbmark", *extra])
         return report
 
     # --- conventions -----------------------------------------------------------------
@@ -168,7 +170,7 @@ class Bench:
         merged = os.path.join(out, "session.yaml")
         merge_sessions([self.session(c, n) for c, n in members], merged)
         files = {}
-        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch"),
+        run([self.odocal, "batch", merged, "--out", os.path.join(out, "batch"), "--estimator", "umbmark",
              "--export", "firmware", os.path.join(out, "umbmark.yaml")])
         if "umbmark" in load(os.path.join(out, "batch", "report.json")):
             files["odocal UMBMark"] = os.path.join(out, "umbmark.yaml")
@@ -232,6 +234,125 @@ class Bench:
                 continue
             print(f"| {name} | {max(x[0] for x in v):.1f} | {statistics.mean(x[0] for x in v):.1f} | "
                   f"{max(x[1] for x in v):.2f} | {statistics.mean(x[2] for x in v):.1f} |")
+
+    # --- choice ----------------------------------------------------------------------
+    def choice(self):
+        """batch's default export (--estimator auto) against each candidate it chooses between,
+        and the authors' published fits, on runs no calibration saw: train on each square set
+        merged with an Ivanjko set of the same beliefs; check on the 32 circle runs (another
+        kind, another day than the squares) and on the runs of the other three square sets."""
+        print("\n## Which estimator: batch's default export against each candidate, on runs it never saw\n")
+        by_belief = {}
+        for cat in ("square", "ivanjko"):
+            for name in self.sets(cat):
+                s = load_session_nominal(self.session(cat, name))
+                key = (s["track_mm"], s["left_wheel_diameter_mm"], s["right_wheel_diameter_mm"])
+                by_belief.setdefault(key, []).append((cat, name))
+        trainings = []  # (label, square set, members)
+        for key, members in sorted(by_belief.items()):
+            ivanjko = [m for m in members if m[0] == "ivanjko"]
+            squares = [m for m in members if m[0] == "square"]
+            for i, sq in enumerate(squares):
+                if not ivanjko:
+                    continue
+                iv = ivanjko[i % len(ivanjko)]
+                trainings.append((f"{sq[1]}+{iv[1]}", sq[1], [sq, iv]))
+        rows = []
+        for label, square, members in trainings:
+            out = os.path.join(self.out, "choice", label)
+            os.makedirs(out, exist_ok=True)
+            merged = os.path.join(out, "session.yaml")
+            merge_sessions([self.session(c, n) for c, n in members], merged)
+            files = {}
+            for est in ("auto", "umbmark", "trajectory"):
+                report = os.path.join(out, est, "report.json")
+                if not os.path.exists(report):
+                    run([self.odocal, "batch", merged, "--out", os.path.join(out, est), "--estimator", est,
+                         "--export", "firmware", os.path.join(out, est + ".yaml")])
+                files[est] = os.path.join(out, est + ".yaml")
+            rep = load(os.path.join(out, "auto", "report.json"))
+            ch = rep["estimator_choice"]
+            sets = dict(files)
+            for f in sorted(os.listdir(PUBLISHED)):
+                sets["published " + f[:-5]] = os.path.join(PUBLISHED, f)
+            tests = [("circles", "circular", n) for n in self.sets("circular")] + \
+                    [("other squares", "square", n) for n in self.sets("square") if n != square]
+            errors = {}  # (pool, set) -> [final error mm]
+            for pool, cat, name in tests:
+                chk_dir = os.path.join(out, "check", f"{cat}_{name}")
+                if not os.path.exists(os.path.join(chk_dir, "check.json")):
+                    args = [self.odocal, "check", self.session(cat, name), "--out", chk_dir]
+                    for k, path in sets.items():
+                        args += ["--params", f"{k.replace(' ', '_')}={path}"]
+                    run(args)
+                chk = load(os.path.join(chk_dir, "check.json"))
+                names = {k.replace(" ", "_"): k for k in sets}
+                names["nominal"] = "nominal"
+                for r in chk["runs"]:
+                    for res in r["results"]:
+                        if res.get("ok") and res["set"] in names:
+                            errors.setdefault((pool, names[res["set"]]), []).append(res["final_position_error_mm"])
+            rows.append((label, ch, errors, list(sets)))
+
+        def stat(v):
+            m = statistics.mean(v)
+            se = statistics.stdev(v) / math.sqrt(len(v)) if len(v) > 1 else 0.0
+            return m, se, max(v)
+
+        print("Training: one square set (23 June) merged with an Ivanjko set (25 June) recorded with the same "
+              "beliefs, through `odocal batch` (default `--estimator auto`, and `umbmark`, `trajectory` each "
+              "exported); `auto`'s own leave-one-run-out figures are from its report.json. Test: `odocal check` "
+              "on runs none of them saw. Final position error, mean ± standard error over the test runs "
+              "(max):\n")
+        pub_optiodom = [k for k in rows[0][3] if k.startswith("published optiodom_square")] if rows else []
+        for pool in ("circles", "other squares"):
+            print(f"\n### Test: {pool}\n")
+            print("| training | auto chose (its leave-one-run-out final error: umbmark, trajectory [mm]; RMS over the path) | **default export (auto)** "
+                  "| umbmark | trajectory | best | auto within sigma of best | authors' OptiOdom, mean of their 4 square fits | auto ÷ authors |")
+            print("|---|---|---|---|---|---|---|---|---|")
+            verdicts = []
+            for label, ch, errors, names in rows:
+                cand = {k: stat(errors[(pool, k)]) for k in ("auto", "umbmark", "trajectory") if (pool, k) in errors}
+                if len(cand) < 3:
+                    continue
+                best = min(("umbmark", "trajectory"), key=lambda k: cand[k][0])
+                ok = cand["auto"][0] <= cand[best][0] + cand[best][1] + 1e-9
+                verdicts.append(ok)
+                cv = {c["name"]: c["heldout_final_error_mm"] for c in ch["candidates"]}
+                cvtxt = ", ".join(f"{cv[k]['mean']:.1f} ± {cv[k]['sigma']:.1f}" if cv.get(k) else "—"
+                                  for k in ("umbmark", "trajectory"))
+                rms = {c["name"]: c.get("heldout_rms_error_mm") for c in ch["candidates"]}
+                if all(rms.get(k) for k in ("umbmark", "trajectory")):
+                    cvtxt += "; RMS " + ", ".join(f"{rms[k]['mean']:.2f} ± {rms[k]['sigma']:.2f}"
+                                                  for k in ("umbmark", "trajectory"))
+                pubs = [statistics.mean(errors[(pool, k)]) for k in pub_optiodom if (pool, k) in errors]
+                pub = statistics.mean(pubs) if pubs else float("nan")
+                f = lambda t: f"{t[0]:.1f} ± {t[1]:.1f} ({t[2]:.1f})"
+                print(f"| {label} | {ch['chosen']}{'' if ch['cross_validated'] else ' (fallback)'} ({cvtxt}) | "
+                      f"**{f(cand['auto'])}** | {f(cand['umbmark'])} | {f(cand['trajectory'])} | {best} | "
+                      f"{'yes' if ok else 'NO'} | {pub:.1f} | {cand['auto'][0] / pub:.2f} |")
+            counts = sorted({len(errors[(pool, "auto")]) for _, _, errors, _ in rows if (pool, "auto") in errors})
+            n = "–".join(str(c) for c in counts)
+            print(f"\n{n} test runs per training; auto best or within one standard error of the best in "
+                  f"{sum(verdicts)} of {len(verdicts)} trainings.")
+            if pool != "circles":
+                continue  # the other squares differ from training to training
+            print("\nThe published sets and the nominal one on the same 32 circle runs:\n")
+            print("| parameter set | final error mean ± SE [mm] | max [mm] |")
+            print("|---|---|---|")
+            allsets = {}
+            for label, ch, errors, names in rows:
+                for k in names:
+                    if (pool, k) in errors and k.startswith("published"):
+                        allsets[k] = errors[(pool, k)]
+            allsets["nominal"] = []
+            for label, ch, errors, names in rows:
+                if (pool, "nominal") in errors:
+                    allsets["nominal"] = errors[(pool, "nominal")]
+            for k, v in sorted(allsets.items(), key=lambda kv: statistics.mean(kv[1]) if kv[1] else 1e9):
+                if v:
+                    m, se, mx = stat(v)
+                    print(f"| {k} | {m:.1f} ± {se:.1f} | {mx:.1f} |")
 
     # --- explain ---------------------------------------------------------------------
     def explain(self):
@@ -306,14 +427,14 @@ def merge_sessions(paths, out_path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["conventions", "beliefs", "heldout", "explain", "sigma", "all"])
+    ap.add_argument("what", choices=["conventions", "beliefs", "heldout", "explain", "sigma", "choice", "all"])
     root = os.path.dirname(os.path.dirname(HERE))
     ap.add_argument("--data", default=os.path.join(root, "..", "shared", "realdata", "optiodom"))
     ap.add_argument("--odocal", default=os.path.join(root, "build", "odocal"))
     ap.add_argument("--out", default=os.path.join("out", "realdata"))
     a = ap.parse_args()
     b = Bench(a)
-    for what in (["conventions", "beliefs", "heldout", "explain", "sigma"] if a.what == "all" else [a.what]):
+    for what in (["conventions", "beliefs", "heldout", "explain", "sigma", "choice"] if a.what == "all" else [a.what]):
         getattr(b, what)()
 
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -10,8 +11,10 @@
 
 namespace odocal::calibration {
 
-int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads) {
+int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads,
+                    std::vector<RunLeftOut>* left_out) {
   fit->jackknife_runs = 0;
+  if (left_out) left_out->assign(session.runs.size(), RunLeftOut{});
   if (!fit->ok()) return 0;
   std::vector<size_t> used;
   for (size_t i = 0; i < fit->run_used.size(); ++i)
@@ -38,6 +41,11 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
       warm.start_poses = fit->start_poses;
       warm.start_poses.erase(warm.start_poses.begin() + at);
       refits[k] = FitTrajectory(without, fit->options, &warm);
+      // Only the parameters are kept: the Jacobian and the residuals of
+      // every refit at once would hold the whole session n times.
+      refits[k].jacobian.resize(0, 0);
+      refits[k].residuals.clear();
+      refits[k].residuals.shrink_to_fit();
     }
   };
   const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
@@ -49,6 +57,22 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
 
   int failed = 0;
   for (const TrajectoryFitResult& r : refits) failed += r.ok() ? 0 : 1;
+  if (left_out)
+    for (size_t k = 0; k < used.size(); ++k) {
+      const TrajectoryFitResult& r = refits[k];
+      RunLeftOut& o = (*left_out)[used[k]];
+      o.refitted = true;
+      o.scales = r.scales;
+      o.determines_wheels = r.ok();
+      if (!r.ok()) o.message = "the fit failed (" + r.message + ")";
+      for (const char* key : {"Ed", "Es", "Eb", "turn_gain"}) {
+        const ParameterEstimate* p = r.Find(key);
+        if (o.determines_wheels && p != nullptr && !p->identifiable) {
+          o.determines_wheels = false;
+          o.message = std::string("the fit does not determine ") + key;
+        }
+      }
+    }
   fit->jackknife_runs = n;
   for (ParameterEstimate& p : fit->parameters) {
     p.sigma_between_runs = std::numeric_limits<double>::quiet_NaN();

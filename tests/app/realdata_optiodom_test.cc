@@ -93,7 +93,7 @@ TEST(RealDataOptiOdom, SquareCalibrationHoldsOnCirclesItNeverSaw) {
   const std::string dir = test_util::MakeTempDir("odocal_rd_check");
   const std::string squares = Import(SampleSets() + "/diff/square/230620202042", dir + "/sq");
   const std::string circles = Import(SampleSets() + "/diff/circular/250620202317", dir + "/ci");
-  Batch(squares, dir + "/b_umb", "--export firmware " + dir + "/umbmark.yaml");
+  Batch(squares, dir + "/b_umb", "--estimator umbmark --export firmware " + dir + "/umbmark.yaml");
   const nlohmann::json fitted =
       Batch(squares, dir + "/b_traj", "--estimator trajectory --export firmware " + dir + "/traj.yaml");
   ASSERT_TRUE(fitted["trajectory_fit"].contains("corrected")) << fitted["trajectory_fit"].dump(2);
@@ -108,6 +108,56 @@ TEST(RealDataOptiOdom, SquareCalibrationHoldsOnCirclesItNeverSaw) {
   ASSERT_EQ(max_final.size(), 3u) << check["summary"].dump(2);
   EXPECT_LT(max_final["trajectory"], 0.6 * max_final["nominal"]);
   EXPECT_LT(max_final["trajectory"], max_final["umbmark"]);
+}
+
+// batch's default export (--estimator auto) on a real robot's squares:
+// each run left out in turn, both candidates fitted on the other five, the
+// left-out run's ticks replayed through each and its final pose compared
+// with the motion capture. The export must hold the candidate whose
+// held-out error is the lowest or within one standard error of it, and say
+// so on the terminal and in report.json.
+TEST(RealDataOptiOdom, TheDefaultExportIsTheCandidateThatPredictsHeldOutRunsBest) {
+  const std::string dir = test_util::MakeTempDir("odocal_rd_auto");
+  const std::string session = Import(SampleSets() + "/diff/square/230620202042", dir + "/s");
+  const test_util::CommandResult r =
+      RunCommand(Odocal("batch " + session + " --out " + dir + "/b --export firmware " + dir + "/fw.yaml"));
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const nlohmann::json report = ReadJson(dir + "/b/report.json");
+  ASSERT_TRUE(report.contains("estimator_choice")) << report.dump(2).substr(0, 2000);
+  const nlohmann::json& c = report["estimator_choice"];
+  EXPECT_EQ(c["requested"], "auto");
+  ASSERT_TRUE(c["cross_validated"].get<bool>()) << c["why"];
+  EXPECT_EQ(c["runs"].size(), 6u);
+  const std::string chosen = c["chosen"].get<std::string>();
+  EXPECT_EQ(report["corrected_from"], chosen);
+  EXPECT_THAT(r.out, ::testing::HasSubstr("estimator: " + chosen + " (auto)"));
+  ASSERT_EQ(c["candidates"].size(), 2u);
+  double lowest = 1e9, lowest_sigma = 0.0, chosen_mean = -1.0;
+  const nlohmann::json* chosen_candidate = nullptr;
+  for (const nlohmann::json& k : c["candidates"]) {
+    const nlohmann::json& e = k["heldout_final_error_mm"];
+    ASSERT_TRUE(e.is_object()) << k.dump();
+    const double mean = e["mean"].get<double>();
+    EXPECT_GT(mean, 0.0);
+    EXPECT_GE(e["max"].get<double>(), mean);
+    EXPECT_EQ(k["per_run_mm"].size(), 6u);
+    // Five squares predict the sixth's end within centimetres (nominal: 33 mm max).
+    EXPECT_LT(mean, 20.0) << k["name"];
+    if (mean < lowest) {
+      lowest = mean;
+      lowest_sigma = e["sigma"].get<double>();
+    }
+    if (k["name"] == chosen) {
+      chosen_mean = mean;
+      chosen_candidate = &k;
+    }
+  }
+  ASSERT_NE(chosen_candidate, nullptr);
+  EXPECT_LE(chosen_mean, lowest + lowest_sigma + 1e-9);
+  // The export holds the chosen candidate's parameters.
+  const double track = (*chosen_candidate)["corrected"]["track_mm"].get<double>();
+  EXPECT_NEAR(report["corrected"]["track_mm"].get<double>(), track, 1e-9);
+  EXPECT_THAT(test_util::Slurp(dir + "/fw.yaml"), ::testing::HasSubstr("track_mm"));
 }
 
 // One robot, several beliefs: the four square sets were driven believing a

@@ -803,10 +803,13 @@ TEST(OptiOdomImport, SquareSetThenBatchMatchesTheAuthorsUmbmark) {
   EXPECT_THAT(text.str(), HasSubstr("MIT licence"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/s/SOURCE.md"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/s/run06.poses.csv"));
-  const CommandResult r = RunCommand(Odocal("batch " + dir + "/s/session.yaml --out " + dir + "/r"));
+  // --estimator umbmark: `corrected` is UMBMark's, compared with the authors' UMBMark.
+  const CommandResult r =
+      RunCommand(Odocal("batch " + dir + "/s/session.yaml --out " + dir + "/r --estimator umbmark"));
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   const nlohmann::json report = ReadJson(dir + "/r/report.json");
   ASSERT_TRUE(report.contains("umbmark"));
+  EXPECT_EQ(report["corrected_from"], "umbmark");
   EXPECT_EQ(report["umbmark"]["n_cw"].get<int>(), 3);
   EXPECT_EQ(report["umbmark"]["n_ccw"].get<int>(), 3);
   const double track_m = report["corrected"]["track_mm"].get<double>() * 1e-3;

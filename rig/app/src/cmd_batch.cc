@@ -17,6 +17,7 @@
 #include "odocal/config/files.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/estimate_session.h"
+#include "odocal/measure/estimator_choice.h"
 #include "odocal/measure/measure.h"
 #include "odocal/report/exports.h"
 #include "odocal/report/html_report.h"
@@ -69,7 +70,7 @@ void RegisterBatchCommand(CLI::App& app) {
     std::string out;
     int threads = 0;
     report::ExportRequests exports;
-    std::string estimator = "umbmark";
+    std::string estimator = "auto";
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -79,10 +80,12 @@ void RegisterBatchCommand(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
   AddExportOption(cmd, &args->exports);
   cmd->add_option("--estimator", args->estimator,
-                  "What --export writes: umbmark (UMBMark and CVRA from the return errors; the "
+                  "What --export writes: auto (the default: whichever of the two below predicts "
+                  "the session's runs best when each is left out in turn; umbmark when the runs "
+                  "cannot tell), umbmark (UMBMark and CVRA from the return errors; the "
                   "distance scale only from straights) or trajectory (the full-trajectory fit: "
                   "every frame, distance scale included; for pose sources with true lengths)")
-      ->check(CLI::IsMember({"umbmark", "trajectory"}));
+      ->check(CLI::IsMember({"auto", "umbmark", "trajectory"}));
   cmd->callback([args]() {
     const std::string name = "batch";
     if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
@@ -129,23 +132,35 @@ void RegisterBatchCommand(CLI::App& app) {
       report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
     }
     std::vector<std::string> notes = estimates.notes;
-    const std::optional<calibration::TrajectoryFitResult> fit = measure::FitSessionTrajectories(*measured, &notes);
+    std::vector<calibration::RunLeftOut> left_out;  // the jackknife's refits, auto's folds
+    const std::optional<calibration::TrajectoryFitResult> fit =
+        measure::FitSessionTrajectories(*measured, &notes, &left_out);
     if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
+    // auto: the candidate that predicts held-out runs best (estimator_choice.h).
+    std::string estimator = args->estimator;
+    std::optional<measure::EstimatorChoice> choice;
+    if (estimator == "auto") {
+      measure::EstimatorChoiceOptions choice_options;
+      choice_options.threads = args->threads;
+      choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options, &left_out);
+      estimator = measure::ToString(choice->chosen);
+      report["estimator_choice"] = report::EstimatorChoiceJson("auto", *choice);
+    }
     // Without a fit that determines Ed, Es and Eb there is nothing to export:
     // the report (the runs, UMBMark, the notes saying why) is still written,
     // and the command fails after it.
     const bool trajectory_missing =
-        args->estimator == "trajectory" && (!fit || !report["trajectory_fit"].contains("corrected"));
+        estimator == "trajectory" && (!fit || !report["trajectory_fit"].contains("corrected"));
     if (trajectory_missing) {
       corrected.reset();
       report.erase("corrected");
       report.erase("ros2");
-    } else if (args->estimator == "trajectory") {
+    } else if (estimator == "trajectory") {
       corrected = calibration::ApplyWheelScales(nominal, fit->scales);
       report["corrected"] = report::WheelParamsJson(*corrected);
       report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
     }
-    if (corrected) report["corrected_from"] = args->estimator;
+    if (corrected) report["corrected_from"] = estimator;
     report["notes"] = notes;
     const int usable = measure::CountUsableRuns(*measured);
     report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
@@ -165,6 +180,18 @@ void RegisterBatchCommand(CLI::App& app) {
       if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
     if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
     if (fit) std::printf("\n%s", fit->BriefReport().c_str());
+    if (choice) {
+      std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice->why.c_str());
+      if (choice->cross_validated) {
+        std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
+                    "(RMS over the path [mm])");
+        for (const measure::CandidateScore& c : choice->candidates)
+          std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
+                      c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
+                      c.estimator == choice->chosen ? "  <- chosen" : "");
+      }
+      for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
+    }
     for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
     std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
     if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");

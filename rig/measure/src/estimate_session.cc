@@ -137,14 +137,14 @@ calibration::WheelParams CorrectedParams(const calibration::WheelParams& nominal
   return calibration::ApplyCvra(nominal, mean(e.ratio), mean(e.scale), mean(e.track));
 }
 
-// Unlike UMBMark the trajectory fit uses every frame and measures the
-// distance scale Es as well, which a pose source with true lengths (motion
-// capture, a camera with a length reference) supports.
-std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
-    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes) {
+calibration::MeasuredSession PoolTrajectoryRuns(const std::vector<SessionMeasurement>& sessions,
+                                                std::vector<std::string>* notes,
+                                                std::vector<std::pair<size_t, size_t>>* origin) {
   calibration::MeasuredSession pooled;
+  if (origin) origin->clear();
   bool first = true;
-  for (const SessionMeasurement& sm : sessions) {
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    const SessionMeasurement& sm = sessions[s];
     calibration::MeasuredSession ms = sm.ToMeasuredSession();
     if (first) {
       pooled.believed = ms.believed;
@@ -159,10 +159,16 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
       continue;
     }
     pooled.camera_scale_sigma = std::max(pooled.camera_scale_sigma, ms.camera_scale_sigma);
-    for (calibration::MeasuredRun& run : ms.runs)
-      if (!run.telemetry.empty()) pooled.runs.push_back(std::move(run));
+    for (size_t r = 0; r < ms.runs.size(); ++r) {
+      if (ms.runs[r].telemetry.empty()) continue;
+      pooled.runs.push_back(std::move(ms.runs[r]));
+      if (origin) origin->emplace_back(s, r);
+    }
   }
-  if (pooled.runs.empty()) return std::nullopt;  // no telemetry: nothing to fit
+  return pooled;
+}
+
+calibration::TrajectoryFitOptions SessionTrajectoryFitOptions() {
   // The pose source's clock offset against the robot's is fitted with the
   // parameters: a real pose source has one (the OptiOdom rows' poses lead
   // their ticks by up to ~56 ms), and left out the scales absorb what they
@@ -171,6 +177,28 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
   // costs a little variance.
   calibration::TrajectoryFitOptions options;
   options.effects = {calibration::Effect::kCameraLatency};
+  return options;
+}
+
+bool DeterminesWheels(const calibration::TrajectoryFitResult& fit) {
+  if (!fit.ok()) return false;
+  for (const char* key : {"Ed", "Es", "Eb", "turn_gain"}) {
+    const calibration::ParameterEstimate* p = fit.Find(key);
+    if (p && !p->identifiable) return false;
+  }
+  return true;
+}
+
+// Unlike UMBMark the trajectory fit uses every frame and measures the
+// distance scale Es as well, which a pose source with true lengths (motion
+// capture, a camera with a length reference) supports.
+std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes,
+    std::vector<calibration::RunLeftOut>* left_out) {
+  if (left_out) left_out->clear();
+  const calibration::MeasuredSession pooled = PoolTrajectoryRuns(sessions, notes);
+  if (pooled.runs.empty()) return std::nullopt;  // no telemetry: nothing to fit
+  const calibration::TrajectoryFitOptions options = SessionTrajectoryFitOptions();
   calibration::TrajectoryFitResult fit = calibration::FitTrajectory(pooled, options);
   if (!fit.ok()) {
     notes->push_back("trajectory_fit: " + fit.message);
@@ -179,7 +207,7 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
   // What the runs' disagreement says of each parameter: on a real robot
   // the model's sigmas are several times too small (docs/realdata.md,
   // "How sure"), and this is the check a reader needs.
-  if (const int failed = calibration::AddRunJackknife(pooled, &fit); failed > 0) {
+  if (const int failed = calibration::AddRunJackknife(pooled, &fit, 0, left_out); failed > 0) {
     notes->push_back("trajectory_fit: " + std::to_string(failed) + " of the refits without one run did not " +
                      "converge; no sigma_between_runs");
   } else if (fit.jackknife_runs == 0) {

@@ -353,6 +353,24 @@ std::string ReportHtml(const json& report, const std::string& title) {
     for (auto it = report["cvra"].begin(); it != report["cvra"].end(); ++it)
       os << "<h3>" << Escape(it.key()) << "</h3>" << KeyValueTable(*it);
   }
+  if (report.contains("estimator_choice") && report["estimator_choice"].is_object()) {
+    const json& c = report["estimator_choice"];
+    os << "<h2>Which estimator the export holds</h2>\n<p><b>" << Escape(c.value("chosen", std::string()))
+       << "</b> (" << Escape(c.value("requested", std::string())) << "): " << Escape(c.value("why", std::string()))
+       << "</p>\n";
+    if (c.value("cross_validated", false)) {
+      os << "<table><tr><th>candidate</th><th>held-out final error mean &plusmn; &sigma; [mm]</th><th>max [mm]</th>"
+            "</tr>";
+      for (const json& k : c.value("candidates", json::array())) {
+        const json& e = k["heldout_final_error_mm"];
+        if (!e.is_object()) continue;
+        os << "<tr><td>" << Escape(k.value("name", std::string())) << "</td><td>"
+           << WithSigma(Get(e, "mean"), Get(e, "sigma"), 2) << "</td><td>" << Fixed(e.value("max", 0.0), 2)
+           << "</td></tr>";
+      }
+      os << "</table>\n";
+    }
+  }
   for (const char* k : {"corrected", "robot_params_final", "ros2", "truth", "quality"})
     if (report.contains(k) && report[k].is_object())
       os << "<h2>" << k << "</h2>\n" << KeyValueTable(report[k]);

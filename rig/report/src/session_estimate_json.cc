@@ -75,4 +75,30 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
   return j;
 }
 
+nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::EstimatorChoice& choice) {
+  nlohmann::json candidates = nlohmann::json::array();
+  for (const measure::CandidateScore& c : choice.candidates) {
+    nlohmann::json j = {{"name", measure::ToString(c.estimator)},
+                        {"defined", c.params.has_value()},
+                        {"corrected", c.params ? WheelParamsJson(*c.params) : nlohmann::json(nullptr)}};
+    if (choice.cross_validated) {
+      j["heldout_final_error_mm"] = {{"mean", c.mean_m * 1e3}, {"sigma", c.sigma_m * 1e3}, {"max", c.max_m * 1e3}};
+      nlohmann::json per_run = nlohmann::json::array();
+      for (double e : c.final_error_m) per_run.push_back(e * 1e3);
+      j["per_run_mm"] = per_run;
+      j["heldout_rms_error_mm"] = {{"mean", c.rms_mean_m * 1e3}, {"sigma", c.rms_sigma_m * 1e3}};
+    } else {
+      j["heldout_final_error_mm"] = nullptr;
+    }
+    candidates.push_back(j);
+  }
+  return {{"requested", requested},
+          {"chosen", measure::ToString(choice.chosen)},
+          {"cross_validated", choice.cross_validated},
+          {"why", choice.why},
+          {"runs", choice.runs},
+          {"candidates", candidates},
+          {"notes", choice.notes}};
+}
+
 }  // namespace odocal::report

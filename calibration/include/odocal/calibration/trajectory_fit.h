@@ -300,7 +300,19 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // some refit could not determine keeps NaN. Returns the number of refits
 // that failed (0 when every one converged); threads: up to `threads` refits
 // at once (0: the hardware's).
-int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads = 0);
+// `left_out`, when given, receives each refit's wheel scales, one entry per
+// run of `session` (refitted false for a run the fit did not use, or with
+// fewer than 3 used runs): the leave-one-run-out fits that batch's
+// estimator choice replays each run through (rig/measure/estimator_choice.h).
+struct RunLeftOut {
+  bool refitted = false;
+  // Converged, with Ed, Es, Eb and the turn gain identifiable.
+  bool determines_wheels = false;
+  WheelScales scales;
+  std::string message;  // why not, when refitted and not determines_wheels
+};
+int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads = 0,
+                    std::vector<RunLeftOut>* left_out = nullptr);
 
 // The model's prediction of what the pose source measures for one run: the
 // run's ticks dead-reckoned from `start` (the robot's pose at the run's first

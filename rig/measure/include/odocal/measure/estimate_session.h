@@ -13,6 +13,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "odocal/calibration/robot_model.h"
@@ -67,8 +68,27 @@ calibration::WheelParams CorrectedParams(const calibration::WheelParams& nominal
 // poses. Sessions recorded with other believed parameters than the first
 // are left out with a note; a fit that fails adds a note. nullopt without
 // such runs or when the fit fails.
+// `left_out`, when given, receives the jackknife's fits without each pooled
+// run (PoolTrajectoryRuns' order; calibration::AddRunJackknife).
 std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
-    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes);
+    const std::vector<SessionMeasurement>& sessions, std::vector<std::string>* notes,
+    std::vector<calibration::RunLeftOut>* left_out = nullptr);
+
+// The runs FitSessionTrajectories pools: every run with telemetry of the
+// sessions recorded with the first session's believed parameters (the
+// others are left out with a note in `notes`). `origin`, when given,
+// receives each pooled run's (session index, run index) in `sessions`.
+calibration::MeasuredSession PoolTrajectoryRuns(const std::vector<SessionMeasurement>& sessions,
+                                                std::vector<std::string>* notes,
+                                                std::vector<std::pair<size_t, size_t>>* origin = nullptr);
+
+// The options FitSessionTrajectories fits with (the base model and the pose
+// source's clock offset).
+calibration::TrajectoryFitOptions SessionTrajectoryFitOptions();
+
+// Whether a fit determines every wheel parameter (Ed, Es, Eb and the turn
+// gain identifiable): what `--estimator trajectory` needs to export.
+bool DeterminesWheels(const calibration::TrajectoryFitResult& fit);
 
 // How many runs of `sessions` have a usable return error.
 int CountUsableRuns(const std::vector<SessionMeasurement>& sessions);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <utility>
@@ -385,10 +386,11 @@ namespace {
 
 // cv::fisheye::calibrate on `objects`/`images`; nullopt with `why` when it
 // gives no camera. Skew fixed at 0, extrinsics recomputed at each step.
+// `dropped`: the input indices of views left out as ill-conditioned.
 std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>& objects,
                                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
                                      double* rms, std::vector<cv::Vec3d>* rvecs, std::vector<cv::Vec3d>* tvecs,
-                                     std::string* why) {
+                                     std::string* why, std::vector<int>* dropped) {
   // cv::fisheye wants 1xN two- and three-channel double arrays.
   std::vector<cv::Mat> obj, img;
   for (size_t v = 0; v < objects.size(); ++v) {
@@ -402,13 +404,33 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
   }
   cv::Matx33d K = cv::Matx33d::eye();
   cv::Vec4d D(0, 0, 0, 0);
-  try {
-    *rms = cv::fisheye::calibrate(obj, img, size, K, D, *rvecs, *tvecs,
-                                  cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
-                                  cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
-  } catch (const cv::Exception& e) {
-    if (why) *why = "cv::fisheye::calibrate failed: " + e.err;
-    return std::nullopt;
+  // One ill-conditioned view (a board seen nearly edge-on, or small in the
+  // view) leaves cv::fisheye at its starting guess for every view; with
+  // CALIB_CHECK_COND it names the view instead, which is then left out.
+  std::vector<int> index(obj.size());
+  for (size_t v = 0; v < index.size(); ++v) index[v] = static_cast<int>(v);
+  for (;;) {
+    try {
+      K = cv::Matx33d::eye();
+      D = cv::Vec4d(0, 0, 0, 0);
+      *rms = cv::fisheye::calibrate(
+          obj, img, size, K, D, *rvecs, *tvecs,
+          cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW | cv::fisheye::CALIB_CHECK_COND,
+          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
+      break;
+    } catch (const cv::Exception& e) {
+      const std::string marker = "input array ";
+      const size_t at = e.err.find(marker);
+      const int bad = at == std::string::npos ? -1 : std::atoi(e.err.c_str() + at + marker.size());
+      if (bad < 0 || bad >= static_cast<int>(obj.size()) || obj.size() <= 3) {
+        if (why) *why = "cv::fisheye::calibrate failed: " + e.err;
+        return std::nullopt;
+      }
+      if (dropped) dropped->push_back(index[bad]);
+      obj.erase(obj.begin() + bad);
+      img.erase(img.begin() + bad);
+      index.erase(index.begin() + bad);
+    }
   }
   if (!std::isfinite(*rms)) {
     if (why) *why = "cv::fisheye::calibrate gave a non-finite error";
@@ -424,7 +446,7 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
   std::vector<cv::Vec3d> rvecs, tvecs;
   std::string why;
   double rms = 0.0;
-  const auto fitted = FisheyeFit(objects, images, size, &rms, &rvecs, &tvecs, &why);
+  const auto fitted = FisheyeFit(objects, images, size, &rms, &rvecs, &tvecs, &why, &result->views_left_out);
   if (!fitted) {
     result->status = StatusCode::kFailed;
     result->message = "calibration gave no valid camera: " + why;
@@ -432,12 +454,21 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
   }
   result->intrinsics = *fitted;
   result->rms_reprojection_error_px = rms;
+  result->views -= static_cast<int>(result->views_left_out.size());
   const cv::Matx33d K(fitted->CameraMatrix());
   const cv::Vec4d D(fitted->distortion[0], fitted->distortion[1], fitted->distortion[2], fitted->distortion[3]);
+  // Every view's residual with the fitted lens (a view left out too): its
+  // pose from the undistorted corners, then projected through the lens.
   for (size_t v = 0; v < objects.size(); ++v) {
     std::vector<cv::Point3d> o(objects[v].begin(), objects[v].end());
-    std::vector<cv::Point2d> projected;
-    cv::fisheye::projectPoints(o, projected, rvecs[v], tvecs[v], K, D);
+    std::vector<cv::Point2d> seen(images[v].begin(), images[v].end()), normalised, projected;
+    cv::fisheye::undistortPoints(seen, normalised, K, D);
+    cv::Vec3d rvec, tvec;
+    if (!cv::solvePnP(o, normalised, cv::Matx33d::eye(), cv::noArray(), rvec, tvec)) {
+      result->per_view_rms_px.push_back(std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
+    cv::fisheye::projectPoints(o, projected, rvec, tvec, K, D);
     double sq = 0.0;
     for (size_t i = 0; i < projected.size(); ++i) {
       const double dx = projected[i].x - images[v][i].x, dy = projected[i].y - images[v][i].y;
@@ -461,7 +492,7 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
     std::vector<cv::Vec3d> r, t;
     double e = 0.0;
     if (o.size() < 3) continue;
-    if (const auto refit = FisheyeFit(o, p, size, &e, &r, &t, nullptr))
+    if (const auto refit = FisheyeFit(o, p, size, &e, &r, &t, nullptr, nullptr))
       estimates.push_back({refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0], refit->distortion[1],
                            refit->distortion[2], refit->distortion[3]});
   }

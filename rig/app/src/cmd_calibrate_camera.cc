@@ -39,6 +39,7 @@ struct ImageOutcome {
   std::string reason;  // when not used
   int corners = 0;
   double rms_px = 0.0;
+  bool left_out = false;  // board found, but the fisheye fit found the view ill-conditioned
 };
 
 }  // namespace
@@ -119,6 +120,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   const vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
   if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
   for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
+  for (int v : result.views_left_out) outcomes[view_image[v]].left_out = true;
 
   config::CameraFile file;
   file.intrinsics = result.intrinsics;
@@ -143,7 +145,8 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     nlohmann::json images = nlohmann::json::array();
     for (const ImageOutcome& o : outcomes) {
       if (o.used) {
-        images.push_back({{"path", o.path}, {"used", true}, {"corners", o.corners}, {"rms_px", o.rms_px}});
+        images.push_back({{"path", o.path}, {"used", !o.left_out}, {"corners", o.corners}, {"rms_px", o.rms_px}});
+        if (o.left_out) images.back()["reason"] = "ill-conditioned for the fisheye fit (left out)";
       } else {
         images.push_back({{"path", o.path}, {"used", false}, {"reason", o.reason}});
       }
@@ -180,7 +183,8 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   std::cout << "\n  RMS reprojection error " << Fixed(result.rms_reprojection_error_px, 4) << " px\n\n";
   for (const ImageOutcome& o : outcomes) {
     std::cout << "  " << o.path << ": "
-              << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners"
+              << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners" +
+                               (o.left_out ? " (left out of the fit: ill-conditioned)" : "")
                          : "skipped (" + o.reason + ")")
               << "\n";
   }

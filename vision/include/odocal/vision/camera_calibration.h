@@ -145,6 +145,9 @@ struct CameraCalibrationResult {
   std::array<double, 9> sigma{};
   int views = 0;
   int corners = 0;
+  // Views (input order) the fit left out: cv::fisheye found them
+  // ill-conditioned (edge-on, or too small). per_view_rms_px still has them.
+  std::vector<int> views_left_out;
 
   bool ok() const { return status == StatusCode::kOk; }
 };

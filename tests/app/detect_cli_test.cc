@@ -177,9 +177,10 @@ TEST(CliDetect, BadInputIsOneLineExitTwoAndNothingWritten) {
   const Rendered r = Render(dir, "tag36h11", 0.0, 0.0, 0.3);
   std::ofstream(dir + "/checkerboard.yaml") << "target_type: 'checkerboard'\ntargetCols: 6\ntargetRows: 7\n"
                                                "rowSpacingMeters: 0.06\ncolSpacingMeters: 0.06\n";
-  std::ofstream(dir + "/fisheye.yaml") << "image_width: 640\nimage_height: 480\ncamera_name: c\n"
+  // A lens model odocal does not know (an equidistant fisheye it does).
+  std::ofstream(dir + "/unknown_lens.yaml") << "image_width: 640\nimage_height: 480\ncamera_name: c\n"
                                           "camera_matrix: {rows: 3, cols: 3, data: [700, 0, 320, 0, 700, 240, 0, 0, 1]}\n"
-                                          "distortion_model: equidistant\n"
+                                          "distortion_model: kannala_brandt_omni\n"
                                           "distortion_coefficients: {rows: 1, cols: 4, data: [0, 0, 0, 0]}\n";
   const std::string out = " --json " + dir + "/out.json --annotate " + dir + "/png";
   for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
@@ -187,8 +188,8 @@ TEST(CliDetect, BadInputIsOneLineExitTwoAndNothingWritten) {
            {" --board aprilgrid:6x6:88:0", "--board: expected"},
            {" --board " + dir + "/checkerboard.yaml",
             dir + "/checkerboard.yaml:1: target_type: 'checkerboard': only aprilgrid targets"},
-           {" --tag tag36h11:5:80 --calibration " + dir + "/fisheye.yaml",
-            "'equidistant' is not supported"},
+           {" --tag tag36h11:5:80 --calibration " + dir + "/unknown_lens.yaml",
+            "'kannala_brandt_omni' is not supported"},
            {" --tag tag36h11b3:5:80", "unknown tag family 'tag36h11b3'"},
            // A board named, none of it in view (4 tags needed in some image).
            {" --board aprilgrid:6x6:88:0.3", "no image of 1 shows 4 or more of its tag36h11b2 tags"},

@@ -13,7 +13,6 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
-#include <sstream>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -29,6 +28,7 @@ using test_util::CommandResult;
 using test_util::Odocal;
 using test_util::ReadJson;
 using test_util::RunCommand;
+using test_util::Slurp;
 using ::testing::HasSubstr;
 
 constexpr const char* kScenario = R"(seed: 29
@@ -63,13 +63,6 @@ camera:
   one_video: true
 effects: []
 )";
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 TEST(SegmentHomeArea, RunsThatLeaveTheViewAreTakenFromThePlanAndMeasuredAsWithTheirSpansGiven) {
   const std::string dir = test_util::MakeTempDir("odocal_segment_home_");

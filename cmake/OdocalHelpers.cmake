@@ -1,9 +1,14 @@
-# odocal_test(name [SOURCES ...] [LIBS ...])
+# odocal_test(name [SERIAL] [SOURCES ...] [LIBS ...])
 # One line registers a test: tests/<dir>/<name>.cc linked to GoogleTest, the
-# shared test_util library and the listed module libraries.
+# shared test_util library and the listed module libraries. SERIAL: its
+# tests run with nothing beside them (one of them loads every core on purpose).
 include(GoogleTest)
 function(odocal_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "" "SOURCES;LIBS" ${ARGN})
+  set(serial)
+  if(ARG_SERIAL)
+    set(serial RUN_SERIAL TRUE)
+  endif()
   if(NOT ARG_SOURCES)
     set(ARG_SOURCES ${name}.cc)
   endif()
@@ -11,7 +16,7 @@ function(odocal_test name)
   target_link_libraries(${name} PRIVATE odocal::test_util GTest::gmock_main ${ARG_LIBS})
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-    PROPERTIES ENVIRONMENT "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
+    PROPERTIES ENVIRONMENT "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}" ${serial}
     DISCOVERY_TIMEOUT 60)
 endfunction()
 

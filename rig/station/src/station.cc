@@ -312,6 +312,9 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   // (a busy machine): gaps between frames beyond its frame interval.
   const std::optional<double> fps = setup_.camera->NominalFps();
   std::optional<double> last_frame_t;
+  // Whether the tag was out of sight for at least three frames in a row and
+  // half a second (camera clock): a robot that leaves the view has moved; a
+  // frame or two missed tells nothing.
   double last_found_t = rest->found.back().t_s;
   int lost_streak = 0;
   bool out_of_view = false;
@@ -403,14 +406,16 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   // against the plan as far as the sightings tell it: the total only when
   // no gap was too long to unwrap (at the robot's fastest turn), always
   // the end heading modulo a turn and the turning seen in view.
-  if (const auto h = HeadingOf(*end_rest.found.front().corners_px)) sightings.push_back({end_rest.found.front().t_s, *h});
+  const vision::FrameObservation& end_first = end_rest.found.front();
+  if (const auto h = HeadingOf(*end_first.corners_px)) sightings.push_back({end_first.t_s, *h});
   calibration::SeenTurningOptions turning;
   turning.max_turn_rate_rad_s = spec.turn_rate_rad_s ? 1.25 * *spec.turn_rate_rad_s : options_.max_turn_rate_rad_s;
   const calibration::SeenTurning seen = calibration::TrackSeenTurning(sightings, turning);
   run->turned_rad = seen.total_rad();
   run->unseen_s = seen.unseen_s;
   if (sightings.size() >= 2) {
-    if (const auto why = calibration::ContradictsPlan(seen, calibration::PlanPrimitives(spec), options_.heading_check_rad))
+    const std::vector<calibration::Primitive> plan = calibration::PlanPrimitives(spec);
+    if (const auto why = calibration::ContradictsPlan(seen, plan, options_.heading_check_rad))
       return Failure{StationStatus::kRunNotCompleted,
                      what + ": " + *why + ": was another run driven (the wrong direction, the wrong number of turns)?"};
   }

@@ -41,18 +41,6 @@ using ::testing::HasSubstr;
 constexpr double kTrackerHz = 50.0;
 constexpr double kNoise_mm = 0.3, kNoise_deg = 0.05;
 
-calibration::Pose2 InterpolateTruth(const simulation::SimulatedRunRecord& run, double t) {
-  const auto& ts = run.truth_t_s;
-  if (t <= ts.front()) return run.truth_poses.front();
-  if (t >= ts.back()) return run.truth_poses.back();
-  const size_t k = static_cast<size_t>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
-  const double u = (t - ts[k]) / (ts[k + 1] - ts[k]);
-  const Pose2& a = run.truth_poses[k];
-  const Pose2& b = run.truth_poses[k + 1];
-  return Pose2::FromXYHeading(a.x() + u * (b.x() - a.x()), a.y() + u * (b.y() - a.y()),
-                              a.heading() + u * calibration::WrapAngle(b.heading() - a.heading()));
-}
-
 struct Robot {
   double Ed = 1.0, Eb = 1.0, Es = 1.0;
   double wheel_sigma_m_per_sqrt_m = 0.05e-3;
@@ -95,7 +83,7 @@ std::vector<SessionMeasurement> Simulated(const Robot& robot, int open, std::uin
     char line[160];
     const double t0 = run.telemetry.front().t_s, t1 = run.telemetry.back().t_s;
     for (double k = std::ceil(t0 * kTrackerHz); k / kTrackerHz <= t1; k += 1.0) {
-      const Pose2 p = InterpolateTruth(run, k / kTrackerHz);
+      const Pose2 p = simulation::TruthAt(run, k / kTrackerHz);
       std::snprintf(line, sizeof(line), "%.4f,%.4f,%.4f,%.5f\n", k / kTrackerHz, p.x() * 1e3 + kNoise_mm * normal(rng),
                     p.y() * 1e3 + kNoise_mm * normal(rng), p.heading() * kRadToDeg + kNoise_deg * normal(rng));
       poses << line;

@@ -72,18 +72,6 @@ Pose2 TrueReturnError(const sim::RunRecord& r) {
   return Pose2::FromXYHeading(t.x() - o.x(), t.y() - o.y(), calibration::WrapAngle(t.heading() - o.heading()));
 }
 
-Pose2 InterpolateTruth(const simulation::SimulatedRunRecord& run, double t) {
-  const auto& ts = run.truth_t_s;
-  if (t <= ts.front()) return run.truth_poses.front();
-  if (t >= ts.back()) return run.truth_poses.back();
-  const size_t k = static_cast<size_t>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
-  const double u = (t - ts[k]) / (ts[k + 1] - ts[k]);
-  const Pose2& a = run.truth_poses[k];
-  const Pose2& b = run.truth_poses[k + 1];
-  return Pose2::FromXYHeading(a.x() + u * (b.x() - a.x()), a.y() + u * (b.y() - a.y()),
-                              a.heading() + u * calibration::WrapAngle(b.heading() - a.heading()));
-}
-
 struct Row {
   double t_s, x_mm, y_mm, heading_deg;
 };
@@ -120,7 +108,7 @@ std::string WritePoseSession(const std::string& dir, const simulation::Simulatio
     const double t0 = run.telemetry.front().t_s, t1 = run.telemetry.back().t_s;
     for (double k = std::ceil(t0 * kTrackerHz); k / kTrackerHz <= t1; k += 1.0) {
       const double t = k / kTrackerHz;
-      const Pose2 body = InterpolateTruth(run, t) * T_robot_body;
+      const Pose2 body = simulation::TruthAt(run, t) * T_robot_body;
       rows.push_back({t, body.x() * 1e3 + kNoise_mm * normal(rng),
                       body.y() * 1e3 + kNoise_mm * normal(rng),
                       body.heading() * kRadToDeg + kNoise_deg * normal(rng)});
@@ -516,7 +504,7 @@ std::string WriteContinuousSession(const std::string& dir, const simulation::Sim
       const double t = k / kTrackerHz;
       if (t <= last_pose_t + 1e-9) continue;
       last_pose_t = t;
-      const Pose2 body = InterpolateTruth(run, t) * T_robot_body;
+      const Pose2 body = simulation::TruthAt(run, t) * T_robot_body;
       std::snprintf(line, sizeof(line), "%.4f,%.4f,%.4f,%.5f\n", t, body.x() * 1e3 + kNoise_mm * normal(rng),
                     body.y() * 1e3 + kNoise_mm * normal(rng), body.heading() * kRadToDeg + kNoise_deg * normal(rng));
       poses << line;

@@ -20,21 +20,6 @@ namespace {
 
 using calibration::Pose2;
 
-
-// The true pose at time t, linear between samples (heading unwrapped).
-Pose2 Interpolate(const SimulatedRunRecord& run, double t) {
-  const std::vector<double>& ts = run.truth_t_s;
-  if (t <= ts.front()) return run.truth_poses.front();
-  if (t >= ts.back()) return run.truth_poses.back();
-  const size_t k = static_cast<size_t>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
-  const double u = (t - ts[k]) / std::max(ts[k + 1] - ts[k], 1e-12);
-  const Pose2& a = run.truth_poses[k];
-  const Pose2& b = run.truth_poses[k + 1];
-  const double dh = calibration::WrapAngle(b.heading() - a.heading());
-  return Pose2::FromXYHeading(a.x() + u * (b.x() - a.x()), a.y() + u * (b.y() - a.y()),
-                              a.heading() + u * dh);
-}
-
 std::vector<std::string> SplitCsvLine(const std::string& line) {
   std::vector<std::string> fields;
   std::stringstream ss(line);
@@ -89,6 +74,19 @@ double RowFraction(const calibration::FloorCamera& camera, double vertical_fov_r
 
 }  // namespace
 
+calibration::Pose2 TruthAt(const SimulatedRunRecord& run, double t) {
+  const std::vector<double>& ts = run.truth_t_s;
+  if (t <= ts.front()) return run.truth_poses.front();
+  if (t >= ts.back()) return run.truth_poses.back();
+  const size_t k = static_cast<size_t>(std::upper_bound(ts.begin(), ts.end(), t) - ts.begin()) - 1;
+  const double u = (t - ts[k]) / std::max(ts[k + 1] - ts[k], 1e-12);
+  const Pose2& a = run.truth_poses[k];
+  const Pose2& b = run.truth_poses[k + 1];
+  const double dh = calibration::WrapAngle(b.heading() - a.heading());
+  return Pose2::FromXYHeading(a.x() + u * (b.x() - a.x()), a.y() + u * (b.y() - a.y()),
+                              a.heading() + u * dh);
+}
+
 bool StandInCameraOptions::IsValid(std::string* why) const {
   auto fail = [why](const char* m) {
     if (why) *why = m;
@@ -133,11 +131,11 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
       // exposure time shows the tag there (a fixed point: the tag moves a
       // fraction of a row in the readout's shift).
       const Eigen::Vector2d tag_on_robot(options.tag_x_m, options.tag_y_m);
-      Pose2 truth = Interpolate(run, t_capture);
+      Pose2 truth = TruthAt(run, t_capture);
       double row = RowFraction(options.camera, options.vertical_fov_rad, truth * tag_on_robot);
       if (options.rolling_shutter_s > 0.0)
         for (int iteration = 0; iteration < 3; ++iteration) {
-          truth = Interpolate(run, t_capture + (row - 0.5) * options.rolling_shutter_s);
+          truth = TruthAt(run, t_capture + (row - 0.5) * options.rolling_shutter_s);
           row = RowFraction(options.camera, options.vertical_fov_rad, truth * tag_on_robot);
         }
       calibration::CameraRecord f;

@@ -78,6 +78,11 @@ struct SimulatedRunRecord {
   std::vector<calibration::Pose2> truth_poses;
 };
 
+// The true pose at time t_s (robot clock), linear between the recorded
+// samples with the heading unwrapped between them; the first and last pose
+// outside them.
+calibration::Pose2 TruthAt(const SimulatedRunRecord& run, double t_s);
+
 // The stand-in camera looking at recorded runs.
 calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelParams& believed,
                                                       const std::vector<SimulatedRunRecord>& runs,

@@ -183,14 +183,20 @@ class Bench:
             files["odocal explain"] = os.path.join(out, "explain", "explain.json")
         return files
 
-    def heldout(self):
-        print("\n## Held-out prediction: calibrate on squares and Ivanjko paths, check on the circles\n")
+    def square_and_ivanjko_by_belief(self):
+        """The square and Ivanjko sets grouped by the parameters the robot believed:
+        {(track_mm, left_mm, right_mm): [(category, set), ...]}."""
         by_belief = {}
         for cat in ("square", "ivanjko"):
             for name in self.sets(cat):
                 s = load_session_nominal(self.session(cat, name))
                 key = (s["track_mm"], s["left_wheel_diameter_mm"], s["right_wheel_diameter_mm"])
                 by_belief.setdefault(key, []).append((cat, name))
+        return by_belief
+
+    def heldout(self):
+        print("\n## Held-out prediction: calibrate on squares and Ivanjko paths, check on the circles\n")
+        by_belief = self.square_and_ivanjko_by_belief()
         # Per belief, the first square set and the first Ivanjko set recorded with it
         # (explain with cross-validation over all 40 runs of the 200/84 sets takes
         # half an hour; over 15 runs a few minutes). Explain on the sets whose
@@ -242,12 +248,7 @@ class Bench:
         merged with an Ivanjko set of the same beliefs; check on the 32 circle runs (another
         kind, another day than the squares) and on the runs of the other three square sets."""
         print("\n## Which estimator: batch's default export against each candidate, on runs it never saw\n")
-        by_belief = {}
-        for cat in ("square", "ivanjko"):
-            for name in self.sets(cat):
-                s = load_session_nominal(self.session(cat, name))
-                key = (s["track_mm"], s["left_wheel_diameter_mm"], s["right_wheel_diameter_mm"])
-                by_belief.setdefault(key, []).append((cat, name))
+        by_belief = self.square_and_ivanjko_by_belief()
         trainings = []  # (label, square set, members)
         for key, members in sorted(by_belief.items()):
             ivanjko = [m for m in members if m[0] == "ivanjko"]

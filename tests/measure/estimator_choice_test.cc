@@ -189,9 +189,61 @@ TEST(EstimatorChoice, ATieKeepsTheSimplerUmbmark) {
   // The premise: the two are within a standard error of each other.
   ASSERT_LT(std::abs(umb->mean_m - traj->mean_m), std::min(umb->sigma_m, traj->sigma_m));
   EXPECT_EQ(c.chosen, Estimator::kUmbmark) << c.why;
-  if (traj->mean_m < umb->mean_m) {
-    EXPECT_THAT(c.why, HasSubstr("the simpler"));
+  // Step 1 cannot tell them apart, and the true scale is the believed one,
+  // which the trajectory fit finds: step 2 keeps the simpler.
+  EXPECT_FALSE(c.told_apart);
+  EXPECT_EQ(c.basis, ChoiceBasis::kSimpler) << c.why;
+  EXPECT_LT(std::abs(c.scale.z()), 1.96);
+  EXPECT_THAT(c.why, HasSubstr("the simpler"));
+}
+
+// Squares only, on a robot whose wheels are 1 % larger than believed (and
+// Ed, Eb off). The squares close whatever the wheel size, so the held-out
+// squares cannot tell the candidates apart; the trajectory fit measures the
+// scale from the frames and UMBMark keeps the believed one, 1 % off. Step 2
+// must choose the trajectory fit, and the referee is a path the choice never
+// saw: two 2 m straights of the same robot, replayed through each candidate.
+TEST(EstimatorChoice, AScaleTheClosedRunsCannotSeeChoosesTheTrajectoryFitOnATie) {
+  constexpr double kEs = 1.01;
+  const std::vector<SessionMeasurement> all = Simulated({1.003, 1.01, kEs, 1.0e-3}, 2, 21);
+  ASSERT_FALSE(all.empty());
+  std::vector<SessionMeasurement> squares = all;
+  std::erase_if(squares.front().runs,
+                [](const RunMeasurement& rm) { return rm.run.spec.procedure != calibration::Procedure::kUmbmark; });
+  ASSERT_EQ(squares.front().runs.size(), 4u);
+  const EstimatorChoice c = Choose(squares);
+  Print(c);
+  ASSERT_TRUE(c.cross_validated) << c.why;
+  EXPECT_FALSE(c.told_apart) << c.why;
+  EXPECT_EQ(c.basis, ChoiceBasis::kDistanceScale) << c.why;
+  EXPECT_EQ(c.chosen, Estimator::kTrajectory) << c.why;
+  EXPECT_GT(std::abs(c.scale.z()), 1.96);
+  EXPECT_NEAR(c.Find(Estimator::kTrajectory)->scale, kEs, 2e-3);
+  EXPECT_NEAR(c.Find(Estimator::kUmbmark)->scale, 1.0, 1e-9);
+  EXPECT_THAT(c.why, HasSubstr("distance scale"));
+
+  // The referee: the straights, which no candidate saw.
+  std::vector<std::string> pool_notes;
+  const calibration::MeasuredSession pooled = PoolTrajectoryRuns(all, &pool_notes);
+  int straights = 0;
+  for (const calibration::MeasuredRun& run : pooled.runs) {
+    if (run.name != "run05" && run.name != "run06") continue;
+    ++straights;
+    double error[2];
+    for (int k = 0; k < 2; ++k) {
+      const CandidateScore& s = c.candidates[static_cast<size_t>(k)];
+      const calibration::ReplayModel model{calibration::WheelScalesFrom(pooled.believed, *s.params), {}};
+      const calibration::RunReplay r = calibration::ReplayRun(run, pooled.believed, model);
+      ASSERT_TRUE(r.ok) << r.message;
+      error[k] = r.final_position_error_m;
+    }
+    std::printf("  unseen straight %s: umbmark %.2f mm, trajectory %.2f mm\n", run.name.c_str(), error[0] * 1e3,
+                error[1] * 1e3);
+    // 1 % of 2 m is 20 mm for the believed scale; the fitted one is within 2e-3.
+    EXPECT_GT(error[0], 0.01);
+    EXPECT_LT(error[1], 0.5 * error[0]);
   }
+  EXPECT_EQ(straights, 2);
 }
 
 // Runs without telemetry cannot be replayed: umbmark, and why.
@@ -218,23 +270,60 @@ TEST(EstimatorChoice, TooFewRunsFallBackToUmbmark) {
   EXPECT_THAT(c.why, HasSubstr("cross-validation needs 3"));
 }
 
-// The rule itself: the lowest mean wins unless a simpler one is within the
-// lowest's standard error.
-TEST(EstimatorChoice, OneStandardErrorRule) {
-  const auto score = [](double mean_mm, double sigma_mm) {
-    CandidateScore c;
-    c.mean_m = mean_mm * 1e-3;
-    c.sigma_m = sigma_mm * 1e-3;
+// The rule itself. Step 1: the paired difference run by run decides when it
+// is beyond tell_apart_z standard errors (a shift every run shares is
+// decisive however much the runs scatter). Step 2, a tie: the scales decide.
+TEST(EstimatorChoice, TheRuleTellsApartByThePairedDifferenceThenByTheScale) {
+  const auto choice = [](std::vector<double> umbmark_mm, std::vector<double> trajectory_mm, double scale_difference,
+                         double scale_sigma) {
+    EstimatorChoice c;
+    for (const auto& [e, v] : {std::pair{Estimator::kUmbmark, umbmark_mm}, std::pair{Estimator::kTrajectory, trajectory_mm}}) {
+      CandidateScore s;
+      s.estimator = e;
+      for (double x : v) s.final_error_m.push_back(x * 1e-3);
+      s.mean_m = 0.0;
+      for (double x : s.final_error_m) s.mean_m += x / static_cast<double>(v.size());
+      c.candidates.push_back(s);
+    }
+    c.scale.difference = scale_difference;
+    c.scale.sigma = scale_sigma;
+    ApplyChoiceRule({}, &c);
     return c;
   };
-  EXPECT_EQ(OneStandardErrorChoice({score(10.0, 1.0), score(9.5, 1.0)}), 0u) << "within: the simpler";
-  EXPECT_EQ(OneStandardErrorChoice({score(10.0, 1.0), score(8.5, 1.0)}), 1u) << "beyond: the better";
-  EXPECT_EQ(OneStandardErrorChoice({score(10.0, 0.1), score(9.5, 0.4)}), 1u)
-      << "the lowest's standard error decides, not the simpler's";
-  EXPECT_EQ(OneStandardErrorChoice({score(8.0, 1.0), score(9.0, 0.1)}), 0u) << "the simpler is lowest";
-  EXPECT_EQ(OneStandardErrorChoice({score(12.0, 1.0), score(10.5, 1.0), score(10.0, 1.0)}), 1u)
-      << "the simplest within, not the first";
-  EXPECT_EQ(OneStandardErrorChoice({}), 0u);
+  // Runs scattered from 1 to 20 mm, trajectory 0.5 mm better on each: the
+  // unpaired standard errors (~3 mm) would call it a tie, the paired one
+  // does not.
+  const std::vector<double> scattered = {1.0, 4.0, 9.0, 20.0, 2.0, 13.0, 6.0};
+  std::vector<double> better = scattered;
+  for (size_t i = 0; i < better.size(); ++i) better[i] -= 0.5 + 0.05 * static_cast<double>(i % 2);
+  EstimatorChoice c = choice(scattered, better, 0.0, 1e-3);
+  EXPECT_TRUE(c.told_apart);
+  EXPECT_EQ(c.chosen, Estimator::kTrajectory);
+  EXPECT_EQ(c.basis, ChoiceBasis::kHeldOutRuns);
+  EXPECT_NEAR(c.paired_difference_m * 1e3, -0.52, 0.01);
+  EXPECT_LT(c.paired_sigma_m * 1e3, 0.05);
+  EXPECT_NEAR(c.Find(Estimator::kUmbmark)->versus_lowest_m * 1e3, 0.52, 0.01);
+  EXPECT_DOUBLE_EQ(c.Find(Estimator::kTrajectory)->versus_lowest_m, 0.0);
+  // The other way round, and a scale difference does not overrule the runs.
+  c = choice(better, scattered, 0.01, 1e-4);
+  EXPECT_EQ(c.chosen, Estimator::kUmbmark);
+  EXPECT_EQ(c.basis, ChoiceBasis::kHeldOutRuns);
+  // A tie (differences of both signs): the scales decide.
+  std::vector<double> tied = scattered;
+  for (size_t i = 0; i < tied.size(); ++i) tied[i] += i % 2 == 0 ? 0.8 : -0.9;
+  c = choice(scattered, tied, 0.004, 0.001);  // 4 sigma apart
+  EXPECT_FALSE(c.told_apart);
+  EXPECT_EQ(c.chosen, Estimator::kTrajectory);
+  EXPECT_EQ(c.basis, ChoiceBasis::kDistanceScale);
+  c = choice(scattered, tied, -0.004, 0.001);  // either sign
+  EXPECT_EQ(c.basis, ChoiceBasis::kDistanceScale);
+  c = choice(scattered, tied, 0.0015, 0.001);  // 1.5 sigma: agree
+  EXPECT_EQ(c.chosen, Estimator::kUmbmark);
+  EXPECT_EQ(c.basis, ChoiceBasis::kSimpler);
+  // Too few runs to pair: umbmark, as a fallback.
+  c = choice({3.0}, {1.0}, 0.01, 1e-4);
+  EXPECT_EQ(c.chosen, Estimator::kUmbmark);
+  EXPECT_EQ(c.basis, ChoiceBasis::kFallback);
 }
 
 TEST(EstimatorChoice, OptionsAreChecked) {
@@ -248,6 +337,10 @@ TEST(EstimatorChoice, OptionsAreChecked) {
   o.threads = -1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_THAT(why, HasSubstr("threads"));
+  o = {};
+  o.scale_z = 0.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_THAT(why, HasSubstr("scale_z"));
 }
 
 }  // namespace

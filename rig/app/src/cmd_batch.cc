@@ -189,6 +189,11 @@ void RegisterBatchCommand(CLI::App& app) {
           std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
                       c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
                       c.estimator == choice->chosen ? "  <- chosen" : "");
+        std::printf("  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
+                    "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
+                    choice->paired_difference_m * 1e3, choice->paired_sigma_m * 1e3, choice->candidates[1].scale,
+                    choice->candidates[1].scale_sigma, choice->candidates[0].scale, choice->scale.z(),
+                    measure::ToString(choice->basis));
       }
       for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
     }

@@ -67,12 +67,50 @@ EstimatorChoice FallBack(EstimatorChoice choice, const std::string& why) {
     c.final_error_m.clear();
     c.rms_error_m.clear();
     c.mean_m = c.sigma_m = c.max_m = c.rms_mean_m = c.rms_sigma_m = 0.0;
+    c.versus_lowest_m = c.versus_lowest_sigma_m = 0.0;
+    c.scale_sigma = 0.0;
   }
+  choice.basis = ChoiceBasis::kFallback;
+  choice.paired_difference_m = choice.paired_sigma_m = 0.0;
+  choice.told_apart = false;
+  choice.scale = {};
   choice.why = "umbmark (the default before auto): " + why;
   return choice;
 }
 
+// Mean of a candidate's travel scale: mean wheel diameter over the believed.
+double TravelScale(const calibration::WheelParams& believed, const calibration::WheelParams& p) {
+  return calibration::WheelScalesFrom(believed, p).mean();
+}
+
+// The delete-one jackknife's standard error from the n leave-one-out
+// values: sqrt((n - 1) / n * sum (x_i - mean)^2) (Efron & Stein 1981).
+double JackknifeSigma(const std::vector<double>& left_out) {
+  const size_t n = left_out.size();
+  if (n < 2) return 0.0;
+  const double mean = calibration::Mean(left_out);
+  double sum = 0.0;
+  for (double x : left_out) sum += (x - mean) * (x - mean);
+  return std::sqrt(static_cast<double>(n - 1) / static_cast<double>(n) * sum);
+}
+
+std::string Fixed(double v, int digits) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f", digits, v);
+  return text;
+}
+
 }  // namespace
+
+const char* ToString(ChoiceBasis b) {
+  switch (b) {
+    case ChoiceBasis::kFallback: return "fallback";
+    case ChoiceBasis::kHeldOutRuns: return "heldout_runs";
+    case ChoiceBasis::kDistanceScale: return "distance_scale";
+    case ChoiceBasis::kSimpler: return "simpler";
+  }
+  return "?";
+}
 
 const char* ToString(Estimator e) {
   switch (e) {
@@ -91,6 +129,10 @@ bool EstimatorChoiceOptions::IsValid(std::string* why) const {
     *why = "threads must be >= 0 (0: one per core)";
     return false;
   }
+  if (!(tell_apart_z > 0.0) || !(scale_z > 0.0)) {
+    *why = "tell_apart_z and scale_z must be > 0";
+    return false;
+  }
   std::string replay_why;
   if (!replay.IsValid(&replay_why)) {
     *why = "replay: " + replay_why;
@@ -105,14 +147,36 @@ const CandidateScore* EstimatorChoice::Find(Estimator e) const {
   return nullptr;
 }
 
-size_t OneStandardErrorChoice(const std::vector<CandidateScore>& scored) {
-  if (scored.empty()) return 0;
-  size_t best = 0;
-  for (size_t c = 1; c < scored.size(); ++c)
-    if (scored[c].mean_m < scored[best].mean_m) best = c;
-  for (size_t c = 0; c < best; ++c)
-    if (scored[c].mean_m <= scored[best].mean_m + scored[best].sigma_m) return c;
-  return best;
+void ApplyChoiceRule(const EstimatorChoiceOptions& options, EstimatorChoice* choice) {
+  choice->tell_apart_z = options.tell_apart_z;
+  choice->scale_z = options.scale_z;
+  std::vector<CandidateScore>& c = choice->candidates;
+  if (c.size() != kN || c[0].final_error_m.size() != c[1].final_error_m.size() || c[0].final_error_m.size() < 2) {
+    choice->chosen = Estimator::kUmbmark;
+    choice->basis = ChoiceBasis::kFallback;
+    return;
+  }
+  // Paired, run by run: trajectory - umbmark.
+  std::vector<double> d(c[0].final_error_m.size());
+  for (size_t i = 0; i < d.size(); ++i) d[i] = c[1].final_error_m[i] - c[0].final_error_m[i];
+  choice->paired_difference_m = calibration::Mean(d);
+  choice->paired_sigma_m = calibration::StandardError(d).value_or(0.0);
+  const size_t lowest = c[1].mean_m < c[0].mean_m ? 1 : 0;
+  for (size_t k = 0; k < kN; ++k) {
+    c[k].versus_lowest_m = k == lowest ? 0.0 : (k == 1 ? 1.0 : -1.0) * choice->paired_difference_m;
+    c[k].versus_lowest_sigma_m = k == lowest ? 0.0 : choice->paired_sigma_m;
+  }
+  choice->told_apart = std::abs(choice->paired_difference_m) > options.tell_apart_z * choice->paired_sigma_m;
+  if (choice->told_apart) {
+    choice->chosen = kCandidates[lowest];
+    choice->basis = ChoiceBasis::kHeldOutRuns;
+  } else if (std::abs(choice->scale.difference) > options.scale_z * choice->scale.sigma) {
+    choice->chosen = Estimator::kTrajectory;
+    choice->basis = ChoiceBasis::kDistanceScale;
+  } else {
+    choice->chosen = Estimator::kUmbmark;
+    choice->basis = ChoiceBasis::kSimpler;
+  }
 }
 
 EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
@@ -231,25 +295,49 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
     c.rms_mean_m = calibration::Mean(c.rms_error_m);
     c.rms_sigma_m = calibration::StandardError(c.rms_error_m).value_or(0.0);
   }
-  size_t best = 0;
-  for (size_t c = 1; c < kN; ++c)
-    if (choice.candidates[c].mean_m < choice.candidates[best].mean_m) best = c;
-  const CandidateScore& b = choice.candidates[best];
-  const size_t chosen = OneStandardErrorChoice(choice.candidates);
-  choice.chosen = kCandidates[chosen];
+  // Step 2's evidence: each candidate's travel scale and the jackknife of
+  // it over every fold (scored or not: each is the fit without one run).
+  {
+    std::vector<double> fold_scale[kN], fold_difference;
+    for (const Fold& f : results) {
+      for (size_t c = 0; c < kN; ++c) fold_scale[c].push_back(TravelScale(nominal, *f.params[c]));
+      fold_difference.push_back(fold_scale[1].back() - fold_scale[0].back());
+    }
+    for (size_t c = 0; c < kN; ++c) {
+      choice.candidates[c].scale = TravelScale(nominal, *choice.candidates[c].params);
+      choice.candidates[c].scale_sigma = JackknifeSigma(fold_scale[c]);
+    }
+    // The camera's length scale moves every run's distances alike, which
+    // no fold shows; it moves the trajectory fit's scale 1:1.
+    choice.scale.difference = choice.candidates[1].scale - choice.candidates[0].scale;
+    choice.scale.sigma = std::hypot(JackknifeSigma(fold_difference),
+                                    pooled.camera_scale_sigma * choice.candidates[1].scale);
+  }
+  ApplyChoiceRule(options, &choice);
   choice.cross_validated = true;
   const std::string over = " (leave-one-run-out over " + std::to_string(choice.runs.size()) +
                            " runs, mean final position error +/- its standard error)";
-  std::string others;
-  for (size_t c = 0; c < kN; ++c)
-    if (c != chosen) others += (others.empty() ? "" : ", ") + Score(choice.candidates[c]);
-  const CandidateScore& pick = choice.candidates[chosen];
-  if (chosen == best)
-    choice.why = std::string(ToString(pick.estimator)) + " predicts the held-out runs best: " + Score(pick) +
-                 " against " + others + over;
-  else
-    choice.why = std::string(ToString(pick.estimator)) + ", the simpler: " + Score(b) + " is lower, but " +
-                 Score(pick) + " is within its standard error" + over;
+  const std::string paired = "trajectory - umbmark " + Mm(choice.paired_difference_m) + " +/- " +
+                             Mm(choice.paired_sigma_m) + " mm paired run by run";
+  const std::string scales = "the trajectory fit's travel scale " + Fixed(choice.candidates[1].scale, 5) +
+                             ", umbmark's " + Fixed(choice.candidates[0].scale, 5) + ": " +
+                             Fixed(choice.scale.z(), 1) + " sigma apart";
+  const std::string both = Score(choice.candidates[0]) + ", " + Score(choice.candidates[1]);
+  switch (choice.basis) {
+    case ChoiceBasis::kHeldOutRuns:
+      choice.why = std::string(ToString(choice.chosen)) + " predicts the held-out runs best: " + both + "; " +
+                   paired + ", beyond " + Fixed(options.tell_apart_z, 2) + " standard errors" + over;
+      break;
+    case ChoiceBasis::kDistanceScale:
+      choice.why = "trajectory: the held-out runs cannot tell the candidates apart (" + both + "; " + paired +
+                   "), but they disagree on the distance scale, which UMBMark does not measure and these runs " +
+                   "barely see (" + scales + ")" + over;
+      break;
+    default:
+      choice.why = "umbmark, the simpler: the held-out runs cannot tell the candidates apart (" + both + "; " +
+                   paired + ") and their distance scales agree (" + scales + ")" + over;
+      break;
+  }
   return choice;
 }
 

@@ -360,15 +360,22 @@ std::string ReportHtml(const json& report, const std::string& title) {
        << "</p>\n";
     if (c.value("cross_validated", false)) {
       os << "<table><tr><th>candidate</th><th>held-out final error mean &plusmn; &sigma; [mm]</th><th>max [mm]</th>"
+            "<th>minus the lowest, paired run by run [mm]</th><th>travel scale &plusmn; &sigma; between runs</th>"
             "</tr>";
       for (const json& k : c.value("candidates", json::array())) {
         const json& e = k["heldout_final_error_mm"];
         if (!e.is_object()) continue;
         os << "<tr><td>" << Escape(k.value("name", std::string())) << "</td><td>"
            << WithSigma(Get(e, "mean"), Get(e, "sigma"), 2) << "</td><td>" << Fixed(e.value("max", 0.0), 2)
-           << "</td></tr>";
+           << "</td><td>";
+        if (k.contains("versus_lowest_mm") && k["versus_lowest_mm"].is_object())
+          os << WithSigma(Get(k["versus_lowest_mm"], "mean"), Get(k["versus_lowest_mm"], "sigma"), 2);
+        os << "</td><td>";
+        if (k.contains("travel_scale") && k["travel_scale"].is_object())
+          os << WithSigma(Get(k["travel_scale"], "value"), Get(k["travel_scale"], "sigma_between_runs"), 5);
+        os << "</td></tr>";
       }
-      os << "</table>\n";
+      os << "</table>\n<p>Decided by: " << Escape(c.value("basis", std::string())) << "</p>\n";
     }
   }
   for (const char* k : {"corrected", "robot_params_final", "ros2", "truth", "quality"})

@@ -87,15 +87,29 @@ nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::
       for (double e : c.final_error_m) per_run.push_back(e * 1e3);
       j["per_run_mm"] = per_run;
       j["heldout_rms_error_mm"] = {{"mean", c.rms_mean_m * 1e3}, {"sigma", c.rms_sigma_m * 1e3}};
+      j["versus_lowest_mm"] = {{"mean", c.versus_lowest_m * 1e3}, {"sigma", c.versus_lowest_sigma_m * 1e3}};
+      j["travel_scale"] = {{"value", c.scale}, {"sigma_between_runs", c.scale_sigma}};
     } else {
       j["heldout_final_error_mm"] = nullptr;
     }
     candidates.push_back(j);
   }
+  nlohmann::json rule = nullptr;
+  if (choice.cross_validated)
+    rule = {{"paired_difference_mm",
+             {{"mean", choice.paired_difference_m * 1e3},
+              {"sigma", choice.paired_sigma_m * 1e3},
+              {"told_apart", choice.told_apart}}},
+            {"scale_difference",
+             {{"value", choice.scale.difference}, {"sigma", choice.scale.sigma}, {"z", choice.scale.z()}}},
+            {"tell_apart_z", choice.tell_apart_z},
+            {"scale_z", choice.scale_z}};
   return {{"requested", requested},
           {"chosen", measure::ToString(choice.chosen)},
           {"cross_validated", choice.cross_validated},
           {"why", choice.why},
+          {"basis", measure::ToString(choice.basis)},
+          {"rule", rule},
           {"runs", choice.runs},
           {"candidates", candidates},
           {"notes", choice.notes}};

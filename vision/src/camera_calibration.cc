@@ -13,6 +13,7 @@
 #include "edge_model_refine.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
+#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/tag.h"
 #ifdef ODOCAL_HAVE_ARUCO
 #include <opencv2/aruco/charuco.hpp>
@@ -155,6 +156,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
   CornerRefineOptions refine;
   refine.width_at_border = std::max(3, width / unit);
   int on_board = 0;
+  std::vector<std::array<cv::Point2d, 4>> refined;  // per used tag, for the edge shift
   for (const auto& [id, hits] : by_id) {
     if (!board.AprilgridCorner(id, 0)) continue;  // another board's tag, or a stray one
     ++on_board;
@@ -170,6 +172,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       continue;
     }
     out.tag_ids.push_back(id);
+    refined.push_back(r.corners_px);
     for (int k = 0; k < 4; ++k) {
       out.image_points.emplace_back(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
       out.object_points.push_back(*board.AprilgridCorner(id, k));
@@ -183,6 +186,46 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
                   " (" + std::to_string(on_board) + " of the board's seen), need " +
                   std::to_string(options.min_aprilgrid_tags);
     return out;
+  }
+  // The edge shift (edge_shift.h): the black of a real print through a real
+  // camera looks larger or smaller than printed, and the tags' edge corners
+  // with it, while the board's pitch does not change. Measured inside every
+  // tag, one value per view (the view's tags share the print and the optics),
+  // removed from every tag.
+  if (options.aprilgrid_whole_tag_fit) {
+    std::vector<EdgeShiftResult> shifts;
+    for (size_t t = 0; t < out.tag_ids.size(); ++t) {
+      std::string why;
+      const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t], &why);
+      if (!cells) continue;
+      const TagPatternResult r = RefineTagByPattern(gray, refined[t], *cells, nullptr);
+      shifts.push_back(r.shift);
+      for (int k = 0; k < 4; ++k)
+        out.image_points[4 * t + k] =
+            cv::Point2f(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
+    }
+    const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
+    out.edge_shift_px = shift.shift_px;
+    out.edge_shift_sigma_px = shift.sigma_px;
+  } else if (options.aprilgrid_edge_shift) {
+    std::vector<EdgeShiftResult> shifts;
+    const size_t stride = std::max<size_t>(
+        1, out.tag_ids.size() / static_cast<size_t>(std::max(1, options.aprilgrid_edge_shift_tags)));
+    for (size_t t = 0; t < out.tag_ids.size(); t += stride) {
+      std::string why;
+      if (const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t], &why))
+        shifts.push_back(MeasureEdgeShift(gray, refined[t], *cells, nullptr));
+    }
+    const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
+    if (shift.ok) {
+      out.edge_shift_px = shift.shift_px;
+      out.edge_shift_sigma_px = shift.sigma_px;
+      for (size_t t = 0; t < out.tag_ids.size(); ++t) {
+        const auto fixed = RemoveEdgeShift(refined[t], shift.shift_px, nullptr);
+        for (int k = 0; k < 4; ++k)
+          out.image_points[4 * t + k] = cv::Point2f(static_cast<float>(fixed[k].x), static_cast<float>(fixed[k].y));
+      }
+    }
   }
   out.found = true;
   return out;
@@ -258,6 +301,10 @@ bool BoardDetectionOptions::IsValid(std::string* why) const {
   }
   if (min_aprilgrid_tags < 1 || aprilgrid_upsample < 1 || aprilgrid_upsample > 4) {
     if (why) *why = "min_aprilgrid_tags must be >= 1 and aprilgrid_upsample in [1, 4]";
+    return false;
+  }
+  if (aprilgrid_edge_shift_tags < 1) {
+    if (why) *why = "aprilgrid_edge_shift_tags must be >= 1";
     return false;
   }
   return true;

@@ -77,6 +77,10 @@ struct BoardDetection {
   std::vector<int> tag_ids;
   std::vector<double> point_sigma_px;
   std::vector<std::pair<int, std::string>> tags_refused;
+  // Aprilgrid: the view's edge shift (edge_shift.h), already removed from
+  // image_points; 0 when not measured.
+  double edge_shift_px = 0.0;
+  double edge_shift_sigma_px = 0.0;
 };
 
 struct BoardDetectionOptions {
@@ -101,6 +105,20 @@ struct BoardDetectionOptions {
   // the plain pass (1041 with the thinned and painted passes, camera_calibration.cc;
   // yac: 1007). The corners are then refined on the original image.
   int aprilgrid_upsample = 3;
+  // Aprilgrid: measure the edge shift inside the tags and remove it from
+  // their corners (edge_shift.h). On the 30 real D435i frames the tags' edges
+  // lie ~0.16 px inside the print (docs/vision.md, "Real photographs").
+  bool aprilgrid_edge_shift = true;
+  // ... in this many of the view's tags, evenly spread (~60 ms each for a
+  // 28 px tag): their mean is the view's (the view's tags share the print
+  // and the optics).
+  int aprilgrid_edge_shift_tags = 8;
+  // Aprilgrid: each tag placed by its whole pattern (RefineTagByPattern:
+  // every black/white boundary, the tag's own shift removed) instead of its
+  // four outer edges.
+  bool aprilgrid_whole_tag_fit = false;
+  // (Each tag corrected by its own shift instead was tried on the real frames:
+  // no better, 0.2405 vs 0.2391 px board residual.)
 
   // Valid: a half window of at least 1 px, min_charuco_corners >= 4 (a
   // view with fewer corners cannot enter CalibrateCamera), min_aprilgrid_tags

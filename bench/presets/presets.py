@@ -39,10 +39,14 @@ def run(args):
     return r.stdout
 
 
-def one(odocal, out, name, extra):
+def one(odocal, out, name, extra, no_floor=False, batch_args=()):
     with open(SCENE) as f:
         text = f.read()
     text = text.replace("  exposure_ms: 4\n", "  exposure_ms: 4\n" + extra)
+    if no_floor:
+        # The tag printed at its stated size and no floor tags: the scale is the tag's apparent size.
+        start = text.index("  tag: {print_scale: 1.005}\n")
+        text = text[:start] + text[text.index("effects:"):]
     d = os.path.join(out, name)
     os.makedirs(d, exist_ok=True)
     scenario = os.path.join(d, "scenario.yaml")
@@ -50,9 +54,10 @@ def one(odocal, out, name, extra):
         f.write(text)
     if not os.path.exists(os.path.join(d, "sim", "truth.json")):
         run([odocal, "simulate", "--scenario", scenario, "--out", os.path.join(d, "sim")])
-    run([odocal, "batch", os.path.join(d, "sim", "session.yaml"), "--out", os.path.join(d, "rep")])
+    rep = os.path.join(d, "rep" + "".join(batch_args).replace("-", "_"))
+    run([odocal, "batch", os.path.join(d, "sim", "session.yaml"), "--out", rep, *batch_args])
     truth = json.load(open(os.path.join(d, "sim", "truth.json")))
-    report = json.load(open(os.path.join(d, "rep", "report.json")))
+    report = json.load(open(os.path.join(rep, "report.json")))
     return truth, report
 
 
@@ -84,6 +89,7 @@ def row(name, truth, report):
     gain_true = T["Eb"] / T["Es"]
     scale = report["sessions"][0]["camera_scale"]
     ps = scale.get("tag_print_scale", {})
+    shift = scale.get("edge_shift", {})
     es_cvra = report.get("cvra", {}).get("scale", {}).get("scale", float("nan"))
     return (
         f"| {name} | {sum(pos) / len(pos):.3f} / {max(pos):.3f} | "
@@ -94,6 +100,8 @@ def row(name, truth, report):
         f"{100 * (fit['Es']['value'] / T['Es'] - 1):+.3f} % (σ {100 * fit['Es']['sigma']:.3f} %) | "
         f"{100 * (es_cvra / T['Es'] - 1):+.3f} % | "
         f"{ps.get('value', float('nan')):.4f} ± {ps.get('sigma', float('nan')):.4f} | "
+        f"{scale['camera_height_mm'] - 2000.0:+.2f} ± {scale['sigma_camera_height_mm']:.2f} mm | "
+        f"{shift.get('shift_px', float('nan')):+.3f} ± {shift.get('sigma_px', float('nan')):.3f} px | "
         f"{(sum(v * v for v in z) / len(z)) ** 0.5:.2f} / {max(z):.2f} |"
     )
 
@@ -103,13 +111,19 @@ def main():
     p.add_argument("--odocal", default="build/odocal")
     p.add_argument("--out", default="out/presets")
     p.add_argument("--presets", nargs="*", default=list(CAMERAS))
+    p.add_argument("--no-floor-reference", action="store_true",
+                   help="tag printed at its stated size, no floor tags: the scale from the tag's apparent size")
+    p.add_argument("--batch-args", default="", help="extra batch arguments, e.g. '--edge-shift-views=0'")
     a = p.parse_args()
+    if a.no_floor_reference and a.out == "out/presets":
+        a.out = "out/presets-no-floor"
     print("| camera | return error position mean / max (mm) | heading mean / max (°) | "
-          "bias x, y (mm) | Ed UMBMark | Ed fit | turn gain | Es fit | Es CVRA | tag print scale (1.005) | "
+          "bias x, y (mm) | Ed UMBMark | Ed fit | turn gain | Es fit | Es CVRA | tag print scale | "
+          "camera height − truth | edge shift removed | "
           "return error / stated sigma, RMS / max |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in a.presets:
-        truth, report = one(a.odocal, a.out, name, CAMERAS[name])
+        truth, report = one(a.odocal, a.out, name, CAMERAS[name], a.no_floor_reference, a.batch_args.split())
         print(row(name, truth, report), flush=True)
 
 

@@ -71,6 +71,7 @@ void RegisterBatchCommand(CLI::App& app) {
     int threads = 0;
     report::ExportRequests exports;
     std::string estimator = "auto";
+    int edge_shift_views = measure::MeasureOptions{}.edge_shift_views;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -86,12 +87,18 @@ void RegisterBatchCommand(CLI::App& app) {
                   "distance scale only from straights) or trajectory (the full-trajectory fit: "
                   "every frame, distance scale included; for pose sources with true lengths)")
       ->check(CLI::IsMember({"auto", "umbmark", "trajectory"}));
+  cmd->add_option("--edge-shift-views", args->edge_shift_views,
+                  "Plane views in which the tag's edge shift (a tone curve, blur or ink that makes its black "
+                  "look larger or smaller, hence the camera nearer or farther) is measured and then removed "
+                  "from every view; 0: the tag's size as it looks (docs/vision.md)")
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([args]() {
     const std::string name = "batch";
     if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
     const std::vector<config::Session> sessions = LoadSessionsOrFail(name, args->sessions);
     measure::MeasureOptions options;
     options.threads = args->threads;
+    options.edge_shift_views = args->edge_shift_views;
     const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
     // A malformed pose log (or its telemetry) is the one way measuring fails.
     if (!measured) Fail(name, kExitBadInput, measured.message);

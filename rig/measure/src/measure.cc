@@ -14,6 +14,7 @@
 #include "odocal/base/units.h"
 #include "odocal/measure/segment_runs.h"
 #include "odocal/media/video.h"
+#include "odocal/vision/edge_shift.h"
 
 namespace odocal::measure {
 
@@ -69,7 +70,9 @@ std::optional<calibration::Pose2> FramePose(const vision::CameraModel& camera, c
 std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& runs,
                                           double separation_px, int max_views,
                                           const vision::CameraModel& lens, double margin_px,
-                                          bool exact, std::vector<vision::CornerVelocities>* velocities) {
+                                          bool exact, std::vector<vision::CornerVelocities>* velocities,
+                                          const vision::TagSpec& tag, int shift_views,
+                                          vision::EdgeShiftEstimate* shift) {
   std::vector<vision::TagCorners> candidates;
   std::vector<std::pair<const std::vector<vision::FrameObservation>*, size_t>> frames;
   for (const RunMeasurement& run : runs)
@@ -84,9 +87,11 @@ std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& run
   velocities->assign(views.size(), vision::CornerVelocities{});
   // PickPlaneViews keeps candidates in order: find each view's frame.
   size_t k = 0;
+  std::vector<size_t> view_frame;  // views[v]'s index in `frames`
   for (size_t v = 0; v < views.size(); ++v) {
     while (k < candidates.size() && candidates[k] != views[v]) ++k;
     if (k == candidates.size()) break;
+    view_frame.push_back(k);
     const auto& [run_frames, i] = frames[k];
     if (i > 0 && i + 1 < run_frames->size()) {
       const vision::FrameObservation& a = (*run_frames)[i - 1];
@@ -99,6 +104,15 @@ std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& run
     }
     if (exact)
       if (auto refined = vision::RefineObservationExactly((*run_frames)[i], lens)) views[v] = *refined;
+  }
+  // The edge shift (tone curve, blur, ink) in evenly spaced views, then out
+  // of every view: the plane's height is the tag's apparent size.
+  if (shift_views > 0 && !view_frame.empty()) {
+    std::vector<const vision::FrameObservation*> observed;
+    for (size_t k2 : view_frame) observed.push_back(&(*frames[k2].first)[frames[k2].second]);
+    *shift = MeasureTagEdgeShift(observed, tag, lens, shift_views);
+    if (shift->ok)
+      for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift->shift_px, &lens);
   }
   return views;
 }
@@ -195,6 +209,12 @@ std::string Percent(double fraction, int decimals) {
   return text;
 }
 
+std::string Fixed(double value, int decimals) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
 }  // namespace
 
 CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
@@ -203,14 +223,17 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
                                 const vision::FloorReference* reference,
                                 const std::vector<cv::Mat>& floor_frames,
                                 const CameraScaleOptions& options, vision::CameraMount* mount,
-                                std::vector<std::string>* flags) {
+                                std::vector<std::string>* flags, const vision::EdgeShiftEstimate* edge_shift) {
   CameraScale scale;
   scale.with_floor_reference = reference != nullptr;
+  if (edge_shift) scale.edge_shift = *edge_shift;
   const double tag_mm = tag.height_mm;
   const double print_sigma = tag_size_sigma_mm ? *tag_size_sigma_mm / tag.size_mm : options.tag_print_sigma;
   const double plane_sigma =
       plane && mount->height_mm > tag_mm ? plane->sigma_height_mm / (mount->height_mm - tag_mm) : 0.0;
-  const double apparent_sigma = std::hypot(plane_sigma, options.systematic_scale_sigma);
+  // The edge shift removed from the plane's views leaves its own sigma.
+  const double shift_sigma = edge_shift ? edge_shift->RelativeScaleSigma() : 0.0;
+  const double apparent_sigma = std::hypot(std::hypot(plane_sigma, options.systematic_scale_sigma), shift_sigma);
   const double tag_sigma = std::hypot(apparent_sigma, print_sigma);
   std::string fallback_reason;
   if (reference) {
@@ -249,6 +272,17 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
     }
     if (flags) flags->push_back("floor_reference_unusable");
   }
+  std::string shift_text;
+  if (edge_shift) {
+    shift_text = "; the tag's edges lie ";
+    shift_text += Fixed(std::abs(edge_shift->shift_px), 3);
+    shift_text += " ± ";
+    shift_text += Fixed(edge_shift->sigma_px, 3);
+    shift_text += edge_shift->shift_px >= 0.0 ? " px outside" : " px inside";
+    shift_text += " the print (tone curve, blur, ink: ";
+    shift_text += Percent(std::abs(edge_shift->RelativeScaleError()), 2);
+    shift_text += " of the scale, removed)";
+  }
   scale.source = CameraScale::Source::kTagSize;
   scale.relative_sigma = tag_sigma;
   scale.camera_height_mm = mount->height_mm;
@@ -257,7 +291,9 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
       "from the robot tag's printed size: ±" + Percent(tag_sigma, 2) + " (print size ±" +
       Percent(print_sigma, 2) +
       (tag_size_sigma_mm ? " as measured" : " assumed; state tag.size_sigma_mm if you measured it") +
-      ", apparent size ±" + Percent(apparent_sigma, 3) + ")" +
+      ", apparent size ±" + Percent(apparent_sigma, 3) +
+      shift_text +
+      ")" +
       (reference ? "; the floor reference could not be used: " + fallback_reason
                  : "; a floor reference (two floor tags at a taped distance) pins it");
   return scale;
@@ -270,6 +306,33 @@ std::string_view ToString(CameraScale::Source source) {
     case CameraScale::Source::kFloorReference: return "floor_reference";
   }
   return "none";
+}
+
+vision::EdgeShiftEstimate MeasureTagEdgeShift(const std::vector<const vision::FrameObservation*>& frames,
+                                              const vision::TagSpec& tag, const vision::CameraModel& lens,
+                                              int max_frames) {
+  vision::EdgeShiftEstimate none;
+  std::string why;
+  const std::optional<vision::TagCells> cells = vision::TagCells::Of(tag.family, tag.id, &why);
+  if (!cells) {
+    none.message = why;
+    return none;
+  }
+  std::vector<vision::EdgeShiftResult> measured;
+  if (max_frames > 0 && !frames.empty()) {
+    const size_t stride = std::max<size_t>(1, frames.size() / static_cast<size_t>(max_frames));
+    for (size_t i = 0; i < frames.size(); i += stride) {
+      const vision::FrameObservation& f = *frames[i];
+      if (f.crop.empty()) continue;
+      const auto refined = vision::RefineObservationExactly(f, lens);
+      if (refined) measured.push_back(vision::MeasureEdgeShift(f.crop, *refined, *cells, &lens, {}, f.crop_origin));
+    }
+  }
+  if (measured.empty()) {
+    none.message = "no frame with a kept crop to measure the edge shift in";
+    return none;
+  }
+  return vision::PoolEdgeShifts(measured);
 }
 
 std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
@@ -522,7 +585,8 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
     std::vector<vision::CornerVelocities> velocities;
     const std::vector<vision::TagCorners> views =
         PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
-                  options.border_margin_px, options.exact_plane_refinement, &velocities);
+                  options.border_margin_px, options.exact_plane_refinement, &velocities,
+                  sm.session.tag, options.edge_shift_views, &sm.edge_shift);
     vision::CameraMount mount = sm.session.camera_mount_guess;
     if (static_cast<int>(views.size()) >= options.plane.min_views) {
       sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
@@ -540,7 +604,8 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
       sm.camera_scale = EstimateCameraScale(
           session.intrinsics, session.tag, session.tag_size_sigma_mm, sm.plane_estimated ? &sm.plane : nullptr,
           session.floor_reference ? &*session.floor_reference : nullptr, floor_frames,
-          {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags);
+          {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags,
+          sm.edge_shift.ok ? &sm.edge_shift : nullptr);
     }
     sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
     const vision::CameraModel camera(sm.session.intrinsics, mount);

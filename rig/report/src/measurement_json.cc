@@ -128,6 +128,15 @@ nlohmann::json CameraScaleJson(const measure::CameraScale& c) {
                       {"camera_height_mm", c.camera_height_mm},
                       {"sigma_camera_height_mm", c.sigma_camera_height_mm},
                       {"explanation", c.explanation}};
+  if (c.edge_shift.ok)
+    j["edge_shift"] = {{"shift_px", c.edge_shift.shift_px},
+                       {"sigma_px", c.edge_shift.sigma_px},
+                       {"spread_px", c.edge_shift.spread_px},
+                       {"views", c.edge_shift.views},
+                       {"tag_side_px", c.edge_shift.side_px},
+                       {"scale_error_removed", c.edge_shift.RelativeScaleError()},
+                       {"meaning", "how far the tag's black/white edges lie outside (+) the print in its image "
+                                   "(tone curve, blur, ink), measured inside the tag and removed from the plane's views"}};
   if (!c.with_floor_reference) return j;
   nlohmann::json tags = nlohmann::json::array();
   for (const vision::FloorTagSighting& t : c.floor_tags) {

@@ -129,7 +129,7 @@ class Station {
   // With `keep_grey`, the first options_.floor_frames full frames are kept
   // there too (for the floor reference).
   std::optional<Failure> CaptureRest(RestFrames* rest, std::vector<cv::Mat>* keep_grey = nullptr);
-  void EstimateScale(vision::CameraMount* mount);
+  void EstimateScale(vision::CameraMount* mount, const vision::EdgeShiftEstimate* edge_shift);
   // The camera for the heading check and the default plan: the plane's
   // once known, the operator's guess before.
   const vision::CameraModel& WatchCamera() const { return camera_ ? *camera_ : *guess_camera_; }
@@ -438,8 +438,20 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
 std::optional<Station::Failure> Station::MeasureRound(
     StationIteration* iteration, const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
   if (!camera_) {
-    const std::vector<vision::TagCorners> views = measure::PickPlaneViews(
+    std::vector<vision::TagCorners> views = measure::PickPlaneViews(
         view_candidates_, options_.min_view_separation_px, options_.max_plane_views);
+    // The tag's edge shift (tone curve, blur, ink), measured in the rests'
+    // frames and taken out of the views, as batch does: the plane's height is
+    // the tag's apparent size.
+    std::vector<const vision::FrameObservation*> rest_frames;
+    for (const auto& [start, end] : rests)
+      for (const RestFrames* r : {&start, &end})
+        for (const vision::FrameObservation& f : r->found) rest_frames.push_back(&f);
+    const vision::CameraModel lens(setup_.intrinsics, setup_.mount_guess);
+    const vision::EdgeShiftEstimate shift =
+        measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
+    if (shift.ok)
+      for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
     vision::CameraMount mount = setup_.mount_guess;
     if (static_cast<int>(views.size()) >= options_.plane.min_views) {
       plane_ = vision::EstimateCameraOverTagPlane(setup_.intrinsics, setup_.tag, views,
@@ -455,7 +467,7 @@ std::optional<Station::Failure> Station::MeasureRound(
     }
     if (!plane_estimated_)
       Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
-    EstimateScale(&mount);
+    EstimateScale(&mount, shift.ok ? &shift : nullptr);
     camera_.emplace(setup_.intrinsics, mount);
   }
   // The round as batch sees a session: the set the robot ran with, each
@@ -544,12 +556,12 @@ std::optional<Station::Failure> Station::MeasureRound(
 // The camera's length scale, as batch finds it: with a floor reference the
 // mount's height becomes the reference's; otherwise, or when the reference
 // cannot be used (the log says why), the robot tag's printed size stands.
-void Station::EstimateScale(vision::CameraMount* mount) {
+void Station::EstimateScale(vision::CameraMount* mount, const vision::EdgeShiftEstimate* edge_shift) {
   const size_t flags_before = flags_.size();
   camera_scale_ = measure::EstimateCameraScale(
       setup_.intrinsics, setup_.tag, setup_.tag_size_sigma_mm, plane_estimated_ ? &plane_ : nullptr,
       setup_.floor_reference ? &*setup_.floor_reference : nullptr, floor_frames_, options_.camera_scale, mount,
-      &flags_);
+      &flags_, edge_shift);
   floor_frames_.clear();
   floor_frames_.shrink_to_fit();
   Log("camera scale: " + camera_scale_->explanation);

@@ -24,6 +24,7 @@
 #include "odocal/measure/pose_log.h"
 #include "odocal/measure/video_track.h"
 #include "odocal/vision/edge_quality.h"
+#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/floor_reference.h"
 #include "odocal/vision/planar_pose.h"
 
@@ -42,6 +43,10 @@ struct MeasureOptions {
   // Refine the plane's views with the exact edge model (the camera's height,
   // hence every measured distance, depends on the tag's apparent size).
   bool exact_plane_refinement = true;
+  // Measure the tag's edge shift (vision/edge_shift.h: a tone curve, blur or
+  // ink that makes the black look larger or smaller) in this many of the
+  // plane's views, ~0.1 s each, and remove it from every view; 0 = off.
+  int edge_shift_views = 16;
   calibration::RestOptions rest;
   // Refine the frames of each start and end rest with the exact edge model
   // before averaging them.
@@ -144,6 +149,10 @@ struct CameraScale {
   std::optional<vision::FloorScaleResult> floor;
   std::optional<double> tag_print_scale, tag_print_scale_sigma;
   bool with_floor_reference = false;  // one was given (used or not)
+  // The tag's edge shift measured in the plane's views and removed from them
+  // before the plane was fitted (vision/edge_shift.h); its sigma is in
+  // relative_sigma. Not ok when it was not measured.
+  vision::EdgeShiftEstimate edge_shift;
 };
 std::string_view ToString(CameraScale::Source source);
 
@@ -170,7 +179,8 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
                                 const vision::FloorReference* reference,
                                 const std::vector<cv::Mat>& floor_frames,
                                 const CameraScaleOptions& options, vision::CameraMount* mount,
-                                std::vector<std::string>* flags);
+                                std::vector<std::string>* flags,
+                                const vision::EdgeShiftEstimate* edge_shift = nullptr);
 
 struct SessionMeasurement {
   config::Session session;
@@ -179,6 +189,7 @@ struct SessionMeasurement {
   // Relative 1-sigma of every measured distance: camera_scale's.
   double camera_scale_sigma = 0.0;
   CameraScale camera_scale;
+  vision::EdgeShiftEstimate edge_shift;  // in the plane's views (camera_scale.edge_shift when used)
   std::vector<RunMeasurement> runs;
   std::vector<std::string> flags;  // session-wide
   // Runs found in a shared recording (segment_runs.h): what each was matched to.
@@ -228,8 +239,13 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality = nullptr,
     const vision::QualityGate& gate = {});
-
-
+// The tag's edge shift (vision/edge_shift.h) in up to `max_frames` of
+// `frames` (evenly spread; each refined exactly from its kept crop first),
+// pooled; not ok with the reason when none could be measured. `lens`: the
+// camera's lens (its mount does not matter).
+vision::EdgeShiftEstimate MeasureTagEdgeShift(const std::vector<const vision::FrameObservation*>& frames,
+                                              const vision::TagSpec& tag, const vision::CameraModel& lens,
+                                              int max_frames);
 
 }  // namespace odocal::measure
 

@@ -1,0 +1,511 @@
+// Real photographs are the referee (docs/vision.md, "Real photographs"):
+// odocal's aprilgrid corners beside two peers' on the same frames, judged by
+// the target's own layout, with each method's camera calibrated by itself
+// from the other frames.
+//
+//   real_photographs_bench DATA_DIR [--target FILE] [--refits N] [--seed S]
+//
+// DATA_DIR is laid out as Kalibr/yac data sets are: cam0/data/*.jpg|*.png,
+// a target file (Kalibr target.yaml or a yac camera file with calib_target:,
+// the first *.yaml in DATA_DIR unless --target), and optionally yac's
+// detections, grid0/cam0/data/<frame>.csv (ts, rows, cols, size, spacing,
+// kp_x, kp_y, ..., tag_id, corner_index).
+//
+// Methods:
+//   odocal          DetectBoard: the exact edge model, the edge shift
+//                   measured inside the tags and removed (edge_shift.h)
+//   odocal, shift   the same corners with the view's edge shift left in
+//   yac             the data set's own detections (X-corners, cornerSubPix)
+//   aruco           OpenCV's aruco, DICT_APRILTAG_36h11, markerBorderBits 2,
+//                   CORNER_REFINE_SUBPIX
+// Measures:
+//   calibration     each method's corners through calibrate-camera's
+//                   CalibrateCamera: RMS, per-view RMS, and the intrinsics'
+//                   spread over refits that leave a fifth of the frames out
+//   (a) board       per frame, every corner under one rigid board pose
+//                   (solvePnP), intrinsics from the other frames: RMS px
+//   (b) tag pose    per frame, each tag's pose from its own 4 corners
+//                   (IPPE) against the pose the frame's other tags give it:
+//                   the error across the line of sight (mm) and about the
+//                   tag's normal (deg), RMS over the frame's tags
+// (a) and (b) on the tags every method found in that frame (all 4 corners),
+// on the frames where each method sees at least 5 tags.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/aruco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "odocal/config/calib_target.h"
+#include "odocal/vision/camera_calibration.h"
+#include "odocal/vision/edge_shift.h"
+
+namespace fs = std::filesystem;
+using namespace odocal;
+
+namespace {
+
+using Key = std::pair<int, int>;                // (tag id, corner k in tag.h's order)
+using Corners = std::map<Key, cv::Point2d>;     // one frame, one method
+
+struct Method {
+  std::string name;
+  std::vector<Corners> frames;  // per frame
+};
+
+Corners ReadYac(const fs::path& csv) {
+  Corners out;
+  std::ifstream in(csv);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string f; std::getline(ss, f, ',');) {
+      try {
+        v.push_back(std::stod(f));
+      } catch (...) {
+        v.clear();
+        break;
+      }
+    }
+    if (v.size() != 12) continue;
+    out[{static_cast<int>(v[10]), static_cast<int>(v[11])}] = cv::Point2d(v[5], v[6]);
+  }
+  return out;
+}
+
+Corners Aruco(const cv::Mat& grey, const vision::CalibrationBoard& board) {
+  const auto dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_APRILTAG_36h11);
+  auto params = cv::aruco::DetectorParameters::create();
+  params->markerBorderBits = 2;
+  params->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> ids;
+  cv::aruco::detectMarkers(grey, dict, corners, ids, params);
+  Corners out;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (!board.AprilgridCorner(ids[i], 0)) continue;
+    // aruco's own order (its marker's top-left first, clockwise); main()
+    // maps it to tag.h's.
+    for (int k = 0; k < 4; ++k) out[{ids[i], k}] = corners[i][k];
+  }
+  return out;
+}
+
+// The tags with all four corners in every method's frame f.
+std::set<int> CommonTags(const std::vector<Method>& methods, size_t f) {
+  std::map<int, int> count;
+  for (const Method& m : methods) {
+    std::map<int, int> corners;
+    for (const auto& [key, p] : m.frames[f]) ++corners[key.first];
+    for (const auto& [id, n] : corners)
+      if (n == 4) ++count[id];
+  }
+  std::set<int> out;
+  for (const auto& [id, n] : count)
+    if (n == static_cast<int>(methods.size())) out.insert(id);
+  return out;
+}
+
+int TagsIn(const Corners& c) {
+  std::set<int> ids;
+  for (const auto& [key, p] : c) ids.insert(key.first);
+  return static_cast<int>(ids.size());
+}
+
+vision::BoardDetection AsDetection(const Corners& c, const vision::CalibrationBoard& board,
+                                   const std::set<int>* only = nullptr) {
+  vision::BoardDetection d;
+  for (const auto& [key, p] : c) {
+    if (only && !only->count(key.first)) continue;
+    d.object_points.push_back(*board.AprilgridCorner(key.first, key.second));
+    d.image_points.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  }
+  d.found = d.image_points.size() >= 16;
+  return d;
+}
+
+vision::CameraCalibrationResult Calibrate(const Method& m, const vision::CalibrationBoard& board, cv::Size size,
+                                          const std::vector<bool>& use) {
+  std::vector<vision::BoardDetection> views;
+  for (size_t f = 0; f < m.frames.size(); ++f) {
+    if (!use[f]) continue;
+    vision::BoardDetection d = AsDetection(m.frames[f], board);
+    if (d.found) views.push_back(std::move(d));
+  }
+  return vision::CalibrateCamera(views, size);
+}
+
+struct FrameScore {
+  double board_rms_px = NAN;
+  double across_mm = NAN;    // RMS over the frame's tags
+  double heading_deg = NAN;  // RMS over the frame's tags
+  int flipped = 0;           // tags whose own pose took IPPE's other solution
+  std::array<double, 4> parts_px{NAN, NAN, NAN, NAN};  // (a) as moved, grown, turned, bent
+};
+
+FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::CalibrationBoard& board,
+                 const vision::Intrinsics& in) {
+  FrameScore s;
+  const cv::Mat K = in.CameraMatrix(), D = in.DistortionCoeffs();
+  // (a) one rigid pose for every corner.
+  const vision::BoardDetection all = AsDetection(c, board, &tags);
+  cv::Mat rvec, tvec;
+  if (!cv::solvePnP(all.object_points, all.image_points, K, D, rvec, tvec)) return s;
+  std::vector<cv::Point2f> projected;
+  cv::projectPoints(all.object_points, rvec, tvec, K, D, projected);
+  double sq = 0.0;
+  for (size_t i = 0; i < projected.size(); ++i) {
+    const cv::Point2f e = projected[i] - all.image_points[i];
+    sq += e.dot(e);
+  }
+  s.board_rms_px = std::sqrt(sq / projected.size());
+  // Where the board residual is, tag by tag (4 consecutive points each: the
+  // map's order): the tag moved (mean), grown (radial), turned (tangential)
+  // or bent (the rest); RMS per corner coordinate of each part.
+  {
+    double t2 = 0.0, r2 = 0.0, a2 = 0.0, rest2 = 0.0;
+    int tags_n = 0;
+    for (size_t i = 0; i + 3 < projected.size(); i += 4) {
+      cv::Point2d mean(0, 0), centre(0, 0);
+      std::array<cv::Point2d, 4> r, u;
+      for (int k = 0; k < 4; ++k) {
+        r[k] = cv::Point2d(all.image_points[i + k] - projected[i + k]);
+        centre += 0.25 * cv::Point2d(projected[i + k]);
+        mean += 0.25 * r[k];
+      }
+      double radial = 0.0, turn = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        u[k] = cv::Point2d(projected[i + k]) - centre;
+        u[k] *= 1.0 / cv::norm(u[k]);
+        radial += 0.25 * (r[k] - mean).dot(u[k]);
+        turn += 0.25 * (r[k] - mean).cross(u[k]);
+      }
+      for (int k = 0; k < 4; ++k) {
+        const cv::Point2d left = r[k] - mean - radial * u[k] - turn * cv::Point2d(u[k].y, -u[k].x);
+        rest2 += left.dot(left) / 4.0;
+      }
+      t2 += mean.dot(mean);
+      r2 += radial * radial;
+      a2 += turn * turn;
+      ++tags_n;
+    }
+    if (tags_n) {
+      s.parts_px = {std::sqrt(t2 / tags_n / 2), std::sqrt(r2 / tags_n / 2), std::sqrt(a2 / tags_n / 2),
+                    std::sqrt(rest2 / tags_n / 2)};
+    }
+  }
+  // (b) each tag alone against the others.
+  const double side = board.square_m;
+  const std::vector<cv::Point3f> square = {{static_cast<float>(-side / 2), static_cast<float>(side / 2), 0},
+                                           {static_cast<float>(side / 2), static_cast<float>(side / 2), 0},
+                                           {static_cast<float>(side / 2), static_cast<float>(-side / 2), 0},
+                                           {static_cast<float>(-side / 2), static_cast<float>(-side / 2), 0}};
+  double across2 = 0.0, heading2 = 0.0;
+  int n = 0;
+  for (int id : tags) {
+    std::set<int> others = tags;
+    others.erase(id);
+    if (others.size() < 4) continue;
+    const vision::BoardDetection rest = AsDetection(c, board, &others);
+    cv::Mat rb, tb;
+    if (!cv::solvePnP(rest.object_points, rest.image_points, K, D, rb, tb)) continue;
+    // IPPE_SQUARE's object order: (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2),
+    // i.e. top-left, top-right, bottom-right, bottom-left in a y-up square:
+    // tag.h's corners 3, 2, 1, 0.
+    std::vector<cv::Point2f> own;
+    for (int k : {3, 2, 1, 0}) own.emplace_back(static_cast<float>(c.at({id, k}).x), static_cast<float>(c.at({id, k}).y));
+    cv::Mat rt, tt;
+    if (!cv::solvePnP(square, own, K, D, rt, tt, false, cv::SOLVEPNP_IPPE_SQUARE)) continue;
+    // The tag's centre and axes on the board, through the others' pose.
+    const cv::Point3f c0 = *board.AprilgridCorner(id, 0), c2 = *board.AprilgridCorner(id, 2);
+    const cv::Vec3d centre_board(0.5 * (c0.x + c2.x), 0.5 * (c0.y + c2.y), 0.0);
+    cv::Matx33d Rb, Rt;
+    cv::Rodrigues(rb, Rb);
+    cv::Rodrigues(rt, Rt);
+    const cv::Vec3d centre_others = Rb * centre_board + cv::Vec3d(tb);
+    const cv::Vec3d centre_own(tt);
+    const cv::Vec3d d = centre_own - centre_others;
+    const cv::Vec3d v = centre_others * (1.0 / cv::norm(centre_others));
+    const cv::Vec3d across = d - v * d.dot(v);
+    // The tag's frame has the board's axes (x along the columns, y up the bitmaps).
+    const cv::Matx33d R = Rb.t() * Rt;
+    // A small tag's own pose can take the other of IPPE's two solutions (its
+    // normal tilted the wrong way): counted, not averaged.
+    if (R(2, 2) < std::cos(20.0 * M_PI / 180.0)) {
+      ++s.flipped;
+      continue;
+    }
+    const double heading = std::atan2(R(1, 0), R(0, 0));
+    across2 += across.dot(across);
+    heading2 += heading * heading;
+    ++n;
+  }
+  if (n) {
+    s.across_mm = 1e3 * std::sqrt(across2 / n);
+    s.heading_deg = 180.0 / M_PI * std::sqrt(heading2 / n);
+  }
+  return s;
+}
+
+double Median(std::vector<double> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+double StdDev(const std::vector<double>& v) {
+  if (v.size() < 2) return NAN;
+  double m = 0.0;
+  for (double x : v) m += x / v.size();
+  double s = 0.0;
+  for (double x : v) s += (x - m) * (x - m);
+  return std::sqrt(s / (v.size() - 1));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--refits N] [--seed S]\n", argv[0]);
+    return 2;
+  }
+  const fs::path dir = argv[1];
+  fs::path target;
+  int refits = 10;
+  unsigned seed = 1;
+  vision::BoardDetectionOptions detect;
+  for (int i = 2; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--target") target = argv[i + 1];
+    else if (a == "--refits") refits = std::stoi(argv[i + 1]);
+    else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
+    else {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
+  if (target.empty() && fs::is_directory(dir))
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.path().extension() == ".yaml") target = e.path();
+  const auto board_or = config::ReadCalibrationTarget(target.string());
+  if (!board_or) {
+    std::fprintf(stderr, "%s\n", board_or.message.c_str());
+    return 2;
+  }
+  const vision::CalibrationBoard board = *board_or;
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
+    if (e.path().extension() == ".jpg" || e.path().extension() == ".png") images.push_back(e.path());
+  std::sort(images.begin(), images.end());
+  if (images.empty()) {
+    std::fprintf(stderr, "%s: no images in cam0/data\n", dir.c_str());
+    return 2;
+  }
+
+  Method odocal{"odocal", {}}, as_seen{"odocal, edge shift left in", {}}, yac{"yac (data set)", {}},
+      aruco{"OpenCV aruco", {}}, whole{"odocal, whole-tag fit", {}};
+  const bool have_yac = fs::exists(dir / "grid0" / "cam0" / "data");
+  cv::Size size;
+  std::vector<double> shifts;
+  for (const fs::path& p : images) {
+    const cv::Mat grey = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
+    size = grey.size();
+    const vision::BoardDetection d = vision::DetectBoard(grey, board, detect);
+    Corners ours, seen;
+    if (d.found) {
+      shifts.push_back(d.edge_shift_px);
+      for (size_t t = 0; t < d.tag_ids.size(); ++t) {
+        std::array<cv::Point2d, 4> c;
+        for (int k = 0; k < 4; ++k) c[k] = d.image_points[4 * t + k];
+        const auto back = vision::RemoveEdgeShift(c, -d.edge_shift_px, nullptr);
+        for (int k = 0; k < 4; ++k) {
+          ours[{d.tag_ids[t], k}] = c[k];
+          seen[{d.tag_ids[t], k}] = back[k];
+        }
+      }
+    }
+    odocal.frames.push_back(ours);
+    as_seen.frames.push_back(seen);
+    {
+      vision::BoardDetectionOptions o = detect;
+      o.aprilgrid_whole_tag_fit = true;
+      const vision::BoardDetection w = vision::DetectBoard(grey, board, o);
+      Corners c;
+      if (w.found)
+        for (size_t t = 0; t < w.tag_ids.size(); ++t)
+          for (int k = 0; k < 4; ++k) c[{w.tag_ids[t], k}] = w.image_points[4 * t + k];
+      whole.frames.push_back(c);
+    }
+    if (have_yac) yac.frames.push_back(ReadYac(dir / "grid0" / "cam0" / "data" / (p.stem().string() + ".csv")));
+    aruco.frames.push_back(Aruco(grey, board));
+  }
+  std::vector<Method> methods = {odocal, as_seen, whole};
+  if (have_yac) methods.push_back(yac);
+  methods.push_back(aruco);
+  const size_t F = images.size();
+
+  std::printf("# Real photographs: %s (%zu frames, %dx%d), %dx%d %s, tag %.1f mm, spacing %.2f\n\n", dir.c_str(), F,
+              size.width, size.height, board.cols, board.rows, board.tag_family.c_str(), board.square_m * 1e3,
+              board.spacing);
+  std::sort(shifts.begin(), shifts.end());
+  if (!shifts.empty())
+    std::printf("odocal's edge shift per view: median %+.3f px, range %+.3f .. %+.3f px (negative: the black looks "
+                "thinner than printed)\n\n",
+                shifts[shifts.size() / 2], shifts.front(), shifts.back());
+
+  // aruco's corner order against tag.h's, from the data rather than assumed:
+  // the rotation of aruco's four corners that lies nearest odocal's.
+  {
+    auto map = [](int k, int r, int sign) { return ((r + sign * k) % 4 + 4) % 4; };
+    double best = 1e18;
+    int best_r = 0, best_sign = 1;
+    for (int sign : {1, -1})
+      for (int r = 0; r < 4; ++r) {
+        double sum = 0.0;
+        for (size_t f = 0; f < F; ++f)
+          for (const auto& [key, p] : aruco.frames[f])
+            if (auto it = odocal.frames[f].find({key.first, map(key.second, r, sign)}); it != odocal.frames[f].end())
+              sum += cv::norm(p - it->second);
+        if (sum < best) best = sum, best_r = r, best_sign = sign;
+      }
+    for (Corners& c : aruco.frames) {
+      Corners turned;
+      for (const auto& [key, p] : c) turned[{key.first, map(key.second, best_r, best_sign)}] = p;
+      c = turned;
+    }
+    methods.back() = aruco;
+    std::printf("aruco's corner k is tag.h's corner %d %c k (mod 4)\n", best_r, best_sign > 0 ? '+' : '-');
+  }
+  // Convention check: the peers' corners against odocal's on the tags both found.
+  for (size_t m = 3; m < methods.size(); ++m) {
+    double sum = 0.0;
+    int n = 0;
+    for (size_t f = 0; f < F; ++f)
+      for (const auto& [key, p] : methods[m].frames[f])
+        if (auto it = odocal.frames[f].find(key); it != odocal.frames[f].end()) {
+          sum += cv::norm(p - it->second);
+          ++n;
+        }
+    std::printf("%s vs odocal: %d corners in common, mean distance %.3f px\n", methods[m].name.c_str(), n,
+                n ? sum / n : NAN);
+  }
+
+  // Calibration from each method's corners, all frames, and refits.
+  std::printf("\n## Calibration from each method's corners (CalibrateCamera, plumb_bob)\n\n");
+  std::printf("| corners | tags found | views | RMS [px] | per-view RMS median / max [px] | fx, fy, cx, cy [px] | "
+              "spread over %d refits without a fifth of the frames: fx, fy, cx, cy [px] |\n|---|---|---|---|---|---|---|\n",
+              refits);
+  std::vector<vision::CameraCalibrationResult> full(methods.size());
+  for (size_t m = 0; m < methods.size(); ++m) {
+    int tags = 0;
+    for (const Corners& c : methods[m].frames) tags += TagsIn(c);
+    full[m] = Calibrate(methods[m], board, size, std::vector<bool>(F, true));
+    const auto& r = full[m];
+    if (!r.ok()) {
+      std::printf("| %s | %d | — | %s |\n", methods[m].name.c_str(), tags, r.message.c_str());
+      continue;
+    }
+    std::mt19937 rng(seed);
+    std::vector<double> fx, fy, cx, cy;
+    for (int k = 0; k < refits; ++k) {
+      std::vector<size_t> order(F);
+      for (size_t i = 0; i < F; ++i) order[i] = i;
+      std::shuffle(order.begin(), order.end(), rng);
+      std::vector<bool> use(F, true);
+      for (size_t i = 0; i < F / 5; ++i) use[order[i]] = false;
+      const auto s = Calibrate(methods[m], board, size, use);
+      if (!s.ok()) continue;
+      fx.push_back(s.intrinsics.fx);
+      fy.push_back(s.intrinsics.fy);
+      cx.push_back(s.intrinsics.cx);
+      cy.push_back(s.intrinsics.cy);
+    }
+    std::vector<double> per_view = r.per_view_rms_px;
+    std::printf("| %s | %d | %d | %.4f | %.3f / %.3f | %.2f, %.2f, %.2f, %.2f | %.2f, %.2f, %.2f, %.2f |\n",
+                methods[m].name.c_str(), tags, r.views, r.rms_reprojection_error_px, Median(per_view),
+                *std::max_element(per_view.begin(), per_view.end()), r.intrinsics.fx, r.intrinsics.fy,
+                r.intrinsics.cx, r.intrinsics.cy, StdDev(fx), StdDev(fy), StdDev(cx), StdDev(cy));
+  }
+
+  // (a) and (b) per frame, intrinsics from the other frames.
+  std::vector<std::vector<FrameScore>> scores(methods.size());
+  std::vector<size_t> used_frames;
+  for (size_t f = 0; f < F; ++f) {
+    bool all = true;
+    for (const Method& m : methods) all = all && TagsIn(m.frames[f]) >= 5;
+    const std::set<int> tags = CommonTags(methods, f);
+    if (!all || tags.size() < 5) continue;
+    used_frames.push_back(f);
+    std::vector<bool> use(F, true);
+    use[f] = false;
+    for (size_t m = 0; m < methods.size(); ++m) {
+      const auto cal = Calibrate(methods[m], board, size, use);
+      scores[m].push_back(cal.ok() ? Score(methods[m].frames[f], tags, board, cal.intrinsics) : FrameScore{});
+    }
+  }
+  std::printf("\n## Per frame, intrinsics from the other frames (%zu frames where every method sees >= 5 tags; "
+              "the tags all of them found)\n\n",
+              used_frames.size());
+  std::printf("| corners | (a) board RMS, median / mean over frames [px] | (b) across the line of sight, median / "
+              "mean [mm] | (b) about the normal, median / mean [deg] | tags whose own pose flipped (IPPE's other solution) |\n|---|---|---|---|---|\n");
+  for (size_t m = 0; m < methods.size(); ++m) {
+    std::vector<double> a, b, h;
+    for (const FrameScore& s : scores[m]) {
+      a.push_back(s.board_rms_px);
+      b.push_back(s.across_mm);
+      h.push_back(s.heading_deg);
+    }
+    auto mean = [](const std::vector<double>& v) {
+      double s = 0.0;
+      int n = 0;
+      for (double x : v)
+        if (std::isfinite(x)) s += x, ++n;
+      return n ? s / n : NAN;
+    };
+    int flipped = 0;
+    for (const FrameScore& s : scores[m]) flipped += s.flipped;
+    std::printf("| %s | %.4f / %.4f | %.3f / %.3f | %.4f / %.4f | %d |\n", methods[m].name.c_str(), Median(a),
+                mean(a), Median(b), mean(b), Median(h), mean(h), flipped);
+  }
+  std::printf("\n(a) by part, median over frames: RMS per corner coordinate [px] of the residual each tag's four "
+              "corners share as a move, a growth (along the diagonals), a turn, and what is left\n\n"
+              "| corners | moved | grown | turned | rest |\n|---|---|---|---|---|\n");
+  for (size_t m = 0; m < methods.size(); ++m) {
+    std::array<std::vector<double>, 4> parts;
+    for (const FrameScore& s : scores[m])
+      for (int k = 0; k < 4; ++k) parts[k].push_back(s.parts_px[k]);
+    std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", methods[m].name.c_str(), Median(parts[0]), Median(parts[1]),
+                Median(parts[2]), Median(parts[3]));
+  }
+  // odocal's two (methods 0 and 2) against each peer, frame by frame.
+  for (size_t ref : {size_t{0}, size_t{2}}) {
+    std::printf("\nFrames where %s is below the peer (of %zu):\n\n| peer | (a) board | (b) across | (b) heading |\n"
+                "|---|---|---|---|\n",
+                methods[ref].name.c_str(), used_frames.size());
+    for (size_t m = 0; m < methods.size(); ++m) {
+      if (m == ref) continue;
+      int a = 0, b = 0, h = 0;
+      for (size_t i = 0; i < used_frames.size(); ++i) {
+        a += scores[ref][i].board_rms_px < scores[m][i].board_rms_px;
+        b += scores[ref][i].across_mm < scores[m][i].across_mm;
+        h += scores[ref][i].heading_deg < scores[m][i].heading_deg;
+      }
+      std::printf("| %s | %d | %d | %d |\n", methods[m].name.c_str(), a, b, h);
+    }
+  }
+  return 0;
+}

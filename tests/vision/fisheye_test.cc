@@ -20,6 +20,7 @@
 #include "odocal/vision/edge_quality.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/renderer.h"
+#include "odocal/vision/tag_survey.h"
 #include "vision_fixtures.h"
 
 namespace odocal::vision {
@@ -132,6 +133,51 @@ TEST(FisheyeLens, RenderedTagPoseIsUnbiasedAcrossTheField) {
     EXPECT_LT(std::abs(mh), std::max(3.0 * sh, 0.005));
     EXPECT_LT(std::abs(mh), 0.015);
   }
+}
+
+
+// detect's per-corner sigma through a fisheye: the edges are fitted on the
+// undistorted plane, where a pixel near the field's edge is up to 1.5 times
+// as wide; the sigma is stated in the image's pixels, and must be the
+// corners' scatter there over frames with fresh noise (the same pose).
+TEST(FisheyeLens, CornerSigmaIsInTheImagesPixels) {
+  const CameraModel camera(Fisheye(), FisheyeMount());
+  RenderOptions options = testing::StandardRender();
+  options.noise_sigma = 4.0;
+  auto r = Renderer::Create(camera, testing::StandardTag(), options);
+  ASSERT_TRUE(r.ok) << r.message;
+  TagSurveyOptions survey;
+  survey.quad_decimate = 2.0f;  // the refinement is on the full image anyway
+  survey.collect_rejected = false;
+  constexpr int kFrames = 16;
+  double scatter2 = 0.0, stated2 = 0.0;
+  int dof = 0, n = 0;
+  for (const Pose2& truth : {Pose2::FromXYHeading(0.75, -0.45, 0.4), Pose2::FromXYHeading(-0.8, 0.5, -2.2)}) {
+    std::array<std::vector<cv::Point2d>, 4> corners;
+    for (int i = 0; i < kFrames; ++i) {
+      const RenderedFrame f = r.renderer->Render(truth);
+      const TagSurvey s = SurveyTags(f.image, &camera, survey);
+      ASSERT_TRUE(s.ok) << s.message;
+      ASSERT_EQ(s.tags.size(), 1u);
+      ASSERT_TRUE(s.tags[0].refined) << s.tags[0].refine_message;
+      for (int k = 0; k < 4; ++k) {
+        corners[k].push_back(s.tags[0].corners_px[k]);
+        stated2 += std::pow(s.tags[0].corner_sigma_px[k], 2);
+        ++n;
+      }
+    }
+    for (const auto& c : corners) {
+      cv::Point2d mean(0, 0);
+      for (const cv::Point2d& p : c) mean += p * (1.0 / c.size());
+      for (const cv::Point2d& p : c) scatter2 += (p - mean).dot(p - mean) / 2.0;  // per axis
+      dof += static_cast<int>(c.size()) - 1;
+    }
+  }
+  const double scatter = std::sqrt(scatter2 / dof), stated = std::sqrt(stated2 / n);
+  std::printf("figures: fisheye corners near the field's edge: scatter %.4f px per axis, stated sigma %.4f px (%d "
+              "corners)\n",
+              scatter, stated, n);
+  EXPECT_NEAR(stated / scatter, 1.0, 0.3);
 }
 
 }  // namespace

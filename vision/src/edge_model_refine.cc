@@ -195,11 +195,25 @@ CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
   if (!result.ok) return result;
   result.rms_line_residual_px = std::sqrt(sq / 4.0);  // here: grey-level rms of the fits
   if (corner_covariance_px) {
-    // In undistorted pixels when a camera is given; the lens changes the
-    // scale by a few per cent at most, so they stand for the image's pixels.
     for (int k = 0; k < 4; ++k) {
       (*corner_covariance_px)[k] =
           CornerCovariance(lines[(k + 3) % 4], line_cov[(k + 3) % 4], lines[k], line_cov[k]);
+    }
+    // The lines are the undistorted plane's, so is that covariance: back to
+    // the image's pixels through the lens at each corner (C = U^-1 C_u U^-T,
+    // U = d undistorted / d pixel; a fisheye's U is up to 2 off the identity).
+    if (camera) {
+      constexpr double h = 0.25;
+      for (int k = 0; k < 4; ++k) {
+        const cv::Point2d c = result.corners_px[k];
+        const std::vector<cv::Point2d> u =
+            camera->UndistortPixels({{c.x + h, c.y}, {c.x - h, c.y}, {c.x, c.y + h}, {c.x, c.y - h}});
+        const cv::Point2d dx = (u[0] - u[1]) * (0.5 / h), dy = (u[2] - u[3]) * (0.5 / h);
+        const cv::Matx22d U(dx.x, dy.x, dx.y, dy.y);
+        if (!(std::abs(cv::determinant(U)) > 1e-9)) continue;
+        const cv::Matx22d Ui = U.inv();
+        (*corner_covariance_px)[k] = Ui * (*corner_covariance_px)[k] * Ui.t();
+      }
     }
   }
   return result;

@@ -14,7 +14,8 @@ namespace odocal::vision::internal {
 // RefineTagCornersByEdgeModel, and when `corner_covariance_px` is given each
 // corner's 2x2 covariance (px^2): each edge's line from its fit's
 // Gauss-Newton covariance scaled by the fit's residual variance, the two
-// lines through a corner taken as independent.
+// lines through a corner taken as independent; in the image's pixels (with a
+// camera, mapped from the undistorted plane through the lens at the corner).
 CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
     const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px, const CameraModel* camera,
     const CornerRefineOptions& options, const cv::Point& origin,

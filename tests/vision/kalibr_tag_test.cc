@@ -466,7 +466,7 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
               shifts[shifts.size() / 2]);
   // The print's black looks thinner than printed in every view...
   EXPECT_LT(shifts.back(), -0.05);
-  EXPECT_GT(shifts.front(), -0.35);
+  EXPECT_GT(shifts.front(), -0.45);
   // ...and with that measured inside the tags and removed, odocal's corners
   // fit one camera and one rigid board per view as well as yac's X-corners
   // (0.292 vs 0.294 px), where the corners as their edges show them do not.

@@ -443,6 +443,8 @@ int main(int argc, char** argv) {
 
   // (a) and (b) per frame, intrinsics from the other frames.
   std::vector<std::vector<FrameScore>> scores(methods.size());
+  // Per peer m: (odocal's corners with m's intrinsics, m's corners with odocal's).
+  std::vector<std::pair<std::vector<FrameScore>, std::vector<FrameScore>>> cross;
   std::vector<size_t> used_frames;
   for (size_t f = 0; f < F; ++f) {
     bool all = true;
@@ -452,9 +454,17 @@ int main(int argc, char** argv) {
     used_frames.push_back(f);
     std::vector<bool> use(F, true);
     use[f] = false;
+    std::vector<vision::CameraCalibrationResult> cals;
     for (size_t m = 0; m < methods.size(); ++m) {
-      const auto cal = Calibrate(methods[m], board, size, use);
-      scores[m].push_back(cal.ok() ? Score(methods[m].frames[f], tags, board, cal.intrinsics) : FrameScore{});
+      cals.push_back(Calibrate(methods[m], board, size, use));
+      scores[m].push_back(cals[m].ok() ? Score(methods[m].frames[f], tags, board, cals[m].intrinsics) : FrameScore{});
+    }
+    // Each peer's corners under odocal's camera and odocal's under each
+    // peer's: is a difference the corners' or the calibration's?
+    cross.resize(methods.size());
+    for (size_t m = 1; m < methods.size(); ++m) {
+      cross[m].first.push_back(cals[m].ok() ? Score(methods[0].frames[f], tags, board, cals[m].intrinsics) : FrameScore{});
+      cross[m].second.push_back(cals[0].ok() ? Score(methods[m].frames[f], tags, board, cals[0].intrinsics) : FrameScore{});
     }
   }
   std::printf("\n## Per frame, intrinsics from the other frames (%zu frames where every method sees >= 5 tags; "
@@ -480,6 +490,14 @@ int main(int argc, char** argv) {
     for (const FrameScore& s : scores[m]) flipped += s.flipped;
     std::printf("| %s | %.4f / %.4f | %.3f / %.3f | %.4f / %.4f | %d |\n", methods[m].name.c_str(), Median(a),
                 mean(a), Median(b), mean(b), Median(h), mean(h), flipped);
+  }
+  std::printf("\nThe corners or the camera? (a) board RMS, median over frames [px], with the intrinsics swapped:\n\n"
+              "| peer | odocal's corners, peer's intrinsics | peer's corners, odocal's intrinsics |\n|---|---|---|\n");
+  for (size_t m = 1; m < methods.size(); ++m) {
+    std::vector<double> a, b;
+    for (const FrameScore& s : cross[m].first) a.push_back(s.board_rms_px);
+    for (const FrameScore& s : cross[m].second) b.push_back(s.board_rms_px);
+    std::printf("| %s | %.4f | %.4f |\n", methods[m].name.c_str(), Median(a), Median(b));
   }
   std::printf("\n(a) by part, median over frames: RMS per corner coordinate [px] of the residual each tag's four "
               "corners share as a move, a growth (along the diagonals), a turn, and what is left\n\n"

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <random>
 #include <sstream>
@@ -195,31 +196,52 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
   }
 }
 
-// Kalibr's aprilgrid rendered with exact truth (board_render.h: the tags'
-// bitmaps and the black corner squares touching their corners): DetectBoard's
-// corners against the true ones. The real frames' 0.23 px radial offset to
-// yac's X-corners must not be odocal's: here the radial mean is ~0.
-TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
+// The real frames' target (and the rendered ones'): Kalibr's 6 x 6
+// aprilgrid of 88 mm tag36h11b2 tags, gap 0.3 of a tag.
+CalibrationBoard KalibrBoard() {
   CalibrationBoard board;
   board.type = CalibrationBoard::Type::kAprilgrid;
   board.cols = board.rows = 6;
   board.square_m = 0.088;
   board.spacing = 0.3;
-  std::string why;
-  const auto pattern = AprilgridPattern(board, &why);
-  ASSERT_TRUE(pattern) << why;
-  std::vector<Eigen::Vector3d> truth_points;  // every tag corner, id-major, in the pattern's frame
+  return board;
+}
+
+// The rendered aprilgrid's scene: every tag corner of KalibrBoard() (id-major,
+// in the pattern's frame), a 640 x 480 camera like the real frames', and
+// `count` views that fill 45-65 % of it (a square board in a 4:3 image),
+// tilted up to 35 degrees.
+struct RenderedGridScene {
+  CalibrationBoard board = KalibrBoard();
+  std::optional<BoardPattern> pattern;
+  std::vector<Eigen::Vector3d> truth_points;
+  Intrinsics intrinsics{640, 480, 610.0, 608.0, 321.0, 242.0, {-0.05, 0.02, 0.0, 0.0, 0.0}};
+  std::optional<std::vector<Eigen::Isometry3d>> poses;
+};
+RenderedGridScene GridScene(int count, unsigned seed) {
+  RenderedGridScene scene;
+  scene.pattern = AprilgridPattern(scene.board);
   for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k) truth_points.push_back(AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
-  const Intrinsics intrinsics{640, 480, 610.0, 608.0, 321.0, 242.0, {-0.05, 0.02, 0.0, 0.0, 0.0}};
+    for (int k = 0; k < 4; ++k)
+      scene.truth_points.push_back(AprilgridPointInPattern(scene.board, *scene.board.AprilgridCorner(id, k)));
   BoardPoseSampling sampling;
-  sampling.count = 6;
-  sampling.seed = 11;
-  sampling.min_fill = 0.45;  // a square board in a 4:3 image
+  sampling.count = count;
+  sampling.seed = seed;
+  sampling.min_fill = 0.45;
   sampling.max_fill = 0.65;
   sampling.max_tilt_deg = 35.0;
-  const auto poses = SampleBoardPoses(intrinsics, truth_points, sampling);
-  ASSERT_TRUE(poses);
+  scene.poses = SampleBoardPoses(scene.intrinsics, scene.truth_points, sampling);
+  return scene;
+}
+
+// Kalibr's aprilgrid rendered with exact truth (board_render.h: the tags'
+// bitmaps and the black corner squares touching their corners): DetectBoard's
+// corners against the true ones. The real frames' 0.23 px radial offset to
+// yac's X-corners must not be odocal's: here the radial mean is ~0.
+TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
+  const RenderedGridScene scene = GridScene(6, 11);
+  ASSERT_TRUE(scene.pattern && scene.poses);
+  const auto& [board, pattern, truth_points, intrinsics, poses] = scene;
   Stats s;
   double radial = 0.0, normalised_sq = 0.0;  // error / stated sigma, per axis
   int tags = 0;
@@ -269,25 +291,9 @@ TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
 // odocal's edge corners against cv::cornerSubPix on the same X-junctions
 // (yac's and Kalibr's method), per corner and per tag as a whole.
 TEST(KalibrTagRendered, EdgeCornersBeatXCornersThroughJpegAndSharpening) {
-  CalibrationBoard board;
-  board.type = CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
-  const auto pattern = AprilgridPattern(board);
-  ASSERT_TRUE(pattern);
-  std::vector<Eigen::Vector3d> truth_points;
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k) truth_points.push_back(AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
-  const Intrinsics intrinsics{640, 480, 610.0, 608.0, 321.0, 242.0, {-0.05, 0.02, 0.0, 0.0, 0.0}};
-  BoardPoseSampling sampling;
-  sampling.count = 2;
-  sampling.seed = 12;
-  sampling.min_fill = 0.45;
-  sampling.max_fill = 0.65;
-  sampling.max_tilt_deg = 35.0;
-  const auto poses = SampleBoardPoses(intrinsics, truth_points, sampling);
-  ASSERT_TRUE(poses);
+  const RenderedGridScene scene = GridScene(2, 12);
+  ASSERT_TRUE(scene.pattern && scene.poses);
+  const auto& [board, pattern, truth_points, intrinsics, poses] = scene;
   struct Case {
     int jpeg_quality;
     double sharpen;
@@ -399,11 +405,7 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   ASSERT_EQ(frames.size(), 30u);
 
   // The production path: DetectBoard on Kalibr's target (camera_calibration.h).
-  CalibrationBoard board;
-  board.type = CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
+  const CalibrationBoard board = KalibrBoard();
   std::string why;
   ASSERT_TRUE(board.IsValid(&why)) << why;
   // AprilTag 3's own family as shipped, for contrast.
@@ -509,11 +511,7 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
 TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
-  CalibrationBoard board;
-  board.type = CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
+  const CalibrationBoard board = KalibrBoard();
   std::vector<BoardDetection> ours, yacs, as_seen;
   std::vector<double> shifts;
   for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) {

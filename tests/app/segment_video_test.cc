@@ -152,6 +152,11 @@ void SegmentVideo::SetupCheckPredictsWhatBatchThenMeasures() {
   EXPECT_NEAR(j["camera_mount"]["height_mm"].get<double>(), 2000.0, 20.0);
   EXPECT_NEAR(j["camera_mount"]["pitch_deg"].get<double>(), 3.0, 0.5);
   EXPECT_TRUE(j["floor"]["squares_fit"].get<bool>());
+  // odocal's renderer draws the print exactly: the edge shift is measured and
+  // is about nothing.
+  ASSERT_TRUE(j.contains("edge_shift")) << j.dump(1);
+  EXPECT_LT(std::abs(j["edge_shift"]["shift_px"].get<double>()), 0.06);
+  EXPECT_THAT(r.out, HasSubstr("the tag's edges lie"));
 
   // The prediction against the errors batch then made. One video holds
   // three closed runs (6 position, 3 heading errors) and one still second

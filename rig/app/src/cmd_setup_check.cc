@@ -154,6 +154,11 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                        {"pitch_deg", r.mount.pitch_deg}, {"yaw_deg", r.mount.yaw_deg},
                        {"from", r.mount_from_tag_size ? "tag_size" : "mount_guess"},
                        {"tilt_fitted", r.plane_from_tag}};
+  if (r.edge_shift.ok)
+    j["edge_shift"] = {{"shift_px", r.edge_shift.shift_px},
+                       {"sigma_px", r.edge_shift.sigma_px},
+                       {"views", r.edge_shift.views},
+                       {"scale_error_removed", r.edge_shift.RelativeScaleError()}};
   j["noise"] = {{"frame_position_mm", r.frame_sigma_position_m * 1e3},
                 {"frame_heading_deg", r.frame_sigma_heading_rad * kRadToDeg},
                 {"shared_position_mm", r.shared_sigma_position_m * 1e3},
@@ -209,6 +214,11 @@ void RunSetupCheck(const SetupCheckArgs& args) {
               r.mount.roll_deg, r.mount.pitch_deg,
               r.mount_from_tag_size ? "from the tag's apparent size" : "from the mount guess",
               r.plane_from_tag ? ", tilt fitted to the still tag" : "");
+  if (r.edge_shift.ok)
+    std::printf("the tag's edges lie %.3f ± %.3f px %s the print (tone curve, blur, ink: %.2f %% of the scale, "
+                "removed)\n",
+                std::abs(r.edge_shift.shift_px), r.edge_shift.sigma_px,
+                r.edge_shift.shift_px >= 0.0 ? "outside" : "inside", 100.0 * std::abs(r.edge_shift.RelativeScaleError()));
   std::printf("noise at rest: %.3f mm, %.4f deg per frame; %.3f mm, %.4f deg shared by every frame\n",
               r.frame_sigma_position_m * 1e3, r.frame_sigma_heading_rad * kRadToDeg, r.shared_sigma_position_m * 1e3,
               r.shared_sigma_heading_rad * kRadToDeg);

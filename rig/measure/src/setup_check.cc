@@ -125,6 +125,24 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
                                "camera lower",
                                r.quality.side_px));
   }
+  // The tag's edge shift (a tone curve, blur or ink that makes its black look
+  // larger or smaller), measured in up to 8 frames and taken out of every
+  // frame's corners: the height below is the tag's apparent size.
+  double print_side_px = r.quality.side_px;
+  {
+    std::string why;
+    if (const auto cells = vision::TagCells::Of(options.tag.family, options.tag.id, &why)) {
+      std::vector<vision::EdgeShiftResult> shifts;
+      const size_t step = std::max<size_t>(1, corners.size() / 8);
+      for (size_t k = 0; k < corners.size(); k += step)
+        shifts.push_back(vision::MeasureEdgeShift(frames[frame_of[k]].grey, corners[k], *cells, &camera));
+      r.edge_shift = vision::PoolEdgeShifts(shifts);
+      if (r.edge_shift.ok) {
+        for (vision::TagCorners& c : corners) c = vision::RemoveEdgeShift(c, r.edge_shift.shift_px, &camera);
+        print_side_px -= 2.0 * r.edge_shift.shift_px;
+      }
+    }
+  }
   // The mount: the operator's, or a level camera at the height the tag's
   // apparent size implies (f x size / side, plus the tag's height).
   if (options.mount_guess) {
@@ -132,7 +150,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   } else {
     const double f = 0.5 * (options.intrinsics.fx + options.intrinsics.fy);
     vision::CameraMount level;
-    level.height_mm = options.tag.height_mm + f * options.tag.size_mm / r.quality.side_px;
+    level.height_mm = options.tag.height_mm + f * options.tag.size_mm / print_side_px;
     r.mount = level;
     r.mount_from_tag_size = true;
   }

@@ -40,6 +40,7 @@
 
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_quality.h"
+#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/tag.h"
 
@@ -93,6 +94,9 @@ struct SetupCheckResult {
   vision::CameraMount mount;  // used for the floor geometry
   bool mount_from_tag_size = false;
   bool plane_from_tag = false;  // roll, pitch and height fitted to the still tag's views
+  // The tag's edge shift (vision/edge_shift.h) in up to 8 frames, removed
+  // before the height and the tilt were found; not ok when not measured.
+  vision::EdgeShiftEstimate edge_shift;
   // Per frame (spread about the mean) and shared by every frame (the
   // closure's expectation, this still second's).
   double frame_sigma_position_m = 0.0, frame_sigma_heading_rad = 0.0;

@@ -126,7 +126,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
                                r.quality.side_px));
   }
   // The tag's edge shift (a tone curve, blur or ink that makes its black look
-  // larger or smaller), measured in up to 8 frames and taken out of every
+  // larger or smaller), measured in every (n / 8)-th frame and taken out of every
   // frame's corners: the height below is the tag's apparent size.
   double print_side_px = r.quality.side_px;
   {

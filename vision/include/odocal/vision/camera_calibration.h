@@ -109,7 +109,7 @@ struct BoardDetectionOptions {
   // their corners (edge_shift.h). On the 30 real D435i frames the tags' edges
   // lie ~0.16 px inside the print (docs/vision.md, "Real photographs").
   bool aprilgrid_edge_shift = true;
-  // ... in this many of the view's tags, evenly spread (~60 ms each for a
+  // ... in every (n / this)-th of the view's n tags (8-9 of a 6 x 6 grid) (~60 ms each for a
   // 28 px tag): their mean is the view's (the view's tags share the print
   // and the optics).
   int aprilgrid_edge_shift_tags = 8;

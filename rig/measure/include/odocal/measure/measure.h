@@ -44,8 +44,9 @@ struct MeasureOptions {
   // hence every measured distance, depends on the tag's apparent size).
   bool exact_plane_refinement = true;
   // Measure the tag's edge shift (vision/edge_shift.h: a tone curve, blur or
-  // ink that makes the black look larger or smaller) in this many of the
-  // plane's views, ~0.1 s each, and remove it from every view; 0 = off.
+  // ink that makes the black look larger or smaller) in every (n / this)-th
+  // of the plane's n views, ~0.1 s each, and remove it from every view;
+  // 0 = off.
   int edge_shift_views = 16;
   calibration::RestOptions rest;
   // Refine the frames of each start and end rest with the exact edge model
@@ -239,10 +240,11 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality = nullptr,
     const vision::QualityGate& gate = {});
-// The tag's edge shift (vision/edge_shift.h) in up to `max_frames` of
-// `frames` (evenly spread; each refined exactly from its kept crop first),
-// pooled; not ok with the reason when none could be measured. `lens`: the
-// camera's lens (its mount does not matter).
+// The tag's edge shift (vision/edge_shift.h) in every (n / `max_frames`)-th
+// of the n `frames` (all of them when n < max_frames, else max_frames to
+// twice that), each refined exactly from its kept crop first, pooled; not ok
+// with the reason when none could be measured. `lens`: the camera's lens
+// (its mount does not matter).
 vision::EdgeShiftEstimate MeasureTagEdgeShift(const std::vector<const vision::FrameObservation*>& frames,
                                               const vision::TagSpec& tag, const vision::CameraModel& lens,
                                               int max_frames);

@@ -94,7 +94,7 @@ struct SetupCheckResult {
   vision::CameraMount mount;  // used for the floor geometry
   bool mount_from_tag_size = false;
   bool plane_from_tag = false;  // roll, pitch and height fitted to the still tag's views
-  // The tag's edge shift (vision/edge_shift.h) in up to 8 frames, removed
+  // The tag's edge shift (vision/edge_shift.h) in every (n / 8)-th of the n refined frames, removed
   // before the height and the tilt were found; not ok when not measured.
   vision::EdgeShiftEstimate edge_shift;
   // Per frame (spread about the mean) and shared by every frame (the

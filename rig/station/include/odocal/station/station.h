@@ -106,8 +106,9 @@ struct StationOptions {
   }();
   vision::CameraPlaneOptions plane;
   int max_plane_views = 300;
-  // Rest frames of the first round in which the tag's edge shift is measured
-  // (vision/edge_shift.h; as batch's MeasureOptions::edge_shift_views); 0 = off.
+  // The first round's rest frames in which the tag's edge shift is measured:
+  // every (n / this)-th (vision/edge_shift.h; as batch's
+  // MeasureOptions::edge_shift_views); 0 = off.
   int edge_shift_frames = 16;
   double min_view_separation_px = 8.0;
   // Floors on a return error's sigma (what the spread of a rest's frames

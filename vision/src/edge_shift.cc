@@ -13,7 +13,6 @@
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/vision/tag.h"
@@ -199,10 +198,6 @@ cv::Point2d Apply(const cv::Matx33d& H, const cv::Point2d& p) {
   const cv::Vec3d v = H * cv::Vec3d(p.x, p.y, 1.0);
   return {v[0] / v[2], v[1] / v[2]};
 }
-
-}  // namespace
-
-namespace {
 
 // MeasureEdgeShift, and with `print_corners` RefineTagByPattern.
 EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px,

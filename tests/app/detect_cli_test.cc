@@ -108,6 +108,11 @@ TEST(CliDetect, KalibrTagCornersSigmaAndPoseAgainstRenderedTruth) {
     EXPECT_GT(s, 0.002) << k;
     EXPECT_LT(s, 0.05) << k;
   }
+  // The renderer draws the print exactly: the edge shift is measured and is
+  // about nothing.
+  ASSERT_TRUE(tag["edge_shift_px"].is_number()) << tag.dump();
+  EXPECT_LT(std::abs(tag["edge_shift_px"].get<double>()), 0.03);
+  EXPECT_GT(tag["edge_shift_sigma_px"].get<double>(), 0.0);
   // The pose in the camera frame against the scene's: T_camera_tag =
   // T_camera_world * T_world_tag (the tag face up at 150 mm).
   Eigen::Isometry3d T_world_tag = Eigen::Isometry3d::Identity();

@@ -10,6 +10,7 @@
 #include "edge_model_refine.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
+#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/tag.h"
 
 // libapriltag's first stage (apriltag_quad_thresh.c): the candidate quads of
@@ -142,6 +143,18 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
       if (r.ok) {
         t.corners_px = r.corners_px;
         for (int k = 0; k < 4; ++k) t.corner_sigma_px[k] = std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1)));
+        // The edge shift (edge_shift.h), measured in the tag and taken out of
+        // its corners: they are then the print's, and a pose from them has
+        // the print's distance.
+        std::string why;
+        if (const auto cells = TagCells::Of(options.family, d.id, &why)) {
+          const EdgeShiftResult shift = MeasureEdgeShift(grey, t.corners_px, *cells, camera);
+          if (shift.ok) {
+            t.edge_shift_px = shift.shift_px;
+            t.edge_shift_sigma_px = shift.sigma_px;
+            t.corners_px = RemoveEdgeShift(t.corners_px, shift.shift_px, camera);
+          }
+        }
       } else {
         t.refine_message = r.message;
       }

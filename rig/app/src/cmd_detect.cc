@@ -178,6 +178,8 @@ void RunDetect(const DetectArgs& args) {
         t.id = bd.tag_ids[i];
         t.refined = true;
         t.hamming = -1;
+        t.edge_shift_px = bd.edge_shift_px;  // the view's, taken out of every board tag
+        t.edge_shift_sigma_px = bd.edge_shift_sigma_px;
         for (int k = 0; k < 4; ++k) {
           t.corners_px[k] = bd.image_points[4 * i + k];
           t.corner_sigma_px[k] = bd.point_sigma_px[4 * i + k];
@@ -220,6 +222,8 @@ void RunDetect(const DetectArgs& args) {
                 {"decision_margin", t.hamming >= 0 ? json(t.decision_margin) : json(nullptr)}};
       if (t.refined) {
         j["corner_sigma_px"] = t.corner_sigma_px;
+        j["edge_shift_px"] = std::isfinite(t.edge_shift_px) ? json(t.edge_shift_px) : json(nullptr);
+        j["edge_shift_sigma_px"] = std::isfinite(t.edge_shift_sigma_px) ? json(t.edge_shift_sigma_px) : json(nullptr);
       } else {
         j["corner_sigma_px"] = nullptr;
         j["refine_message"] = t.refine_message;

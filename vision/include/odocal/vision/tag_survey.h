@@ -17,6 +17,7 @@
 #define ODOCAL_VISION_TAG_SURVEY_H_
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,11 @@ struct SurveyedTag {
   std::array<double, 4> corner_sigma_px{};
   bool refined = false;
   std::string refine_message;  // why not, when not refined
+  // When refined: the tag's edge shift (edge_shift.h; how far its black
+  // looks larger (+) than printed), already taken out of corners_px; NaN when
+  // it could not be measured (cells under 2 px, too little contrast).
+  double edge_shift_px = std::numeric_limits<double>::quiet_NaN();
+  double edge_shift_sigma_px = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct RejectedQuad {

@@ -190,8 +190,9 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
   // The edge shift (edge_shift.h): the black of a real print through a real
   // camera looks larger or smaller than printed, and the tags' edge corners
   // with it, while the board's pitch does not change. Measured inside every
-  // tag, one value per view (the view's tags share the print and the optics),
-  // removed from every tag.
+  // (n / aprilgrid_edge_shift_tags)-th tag, one value per view (the view's
+  // tags share the print and the optics), removed from every tag; the
+  // whole-tag fit instead places each tag by its own pattern and shift.
   if (options.aprilgrid_whole_tag_fit) {
     std::vector<EdgeShiftResult> shifts;
     for (size_t t = 0; t < out.tag_ids.size(); ++t) {

@@ -1,7 +1,9 @@
 #include "odocal/vision/tag_observer.h"
 
-
 #include <opencv2/imgproc.hpp>
+
+#include "odocal/vision/edge_shift.h"
+#include "odocal/vision/tag.h"
 
 
 namespace odocal::vision {
@@ -32,8 +34,14 @@ std::unique_ptr<TagObserver> TagObserver::Create(const TagSpec& tag, const Intri
     if (error) *error = created.message;
     return nullptr;
   }
-  return std::unique_ptr<TagObserver>(
-      new TagObserver(tag, intrinsics, options, std::move(created.detector)));
+  // The refinement sized for the family's black border (a cell is the side
+  // over it), unless the caller chose a width; families with the border
+  // inside the data (tagStandard41h12) keep the default.
+  VideoTrackOptions sized = options;
+  std::string no_cells;
+  if (options.refine.width_at_border == CornerRefineOptions{}.width_at_border && TagCells::Of(tag.family, tag.id, &no_cells))
+    sized.refine.width_at_border = TagWidthAtBorder(tag.family);
+  return std::unique_ptr<TagObserver>(new TagObserver(tag, intrinsics, sized, std::move(created.detector)));
 }
 
 TagObserver::TagObserver(const TagSpec& tag, const Intrinsics& intrinsics,
@@ -56,6 +64,7 @@ FrameObservation TagObserver::Observe(const cv::Mat& grey, double t_s) {
   FrameObservation obs;
   obs.index = index_;
   obs.t_s = t_s;
+  obs.width_at_border = options_.refine.width_at_border;
   // While lost, a full-frame search only every few frames.
   obs.searched = !lost_ || lost_for_ % options_.reacquire_every == 0;
   if (obs.searched) {
@@ -95,11 +104,17 @@ FrameObservation TagObserver::Observe(const cv::Mat& grey, double t_s) {
   return obs;
 }
 
+CornerRefineOptions RefineOptionsFor(const FrameObservation& observation) {
+  CornerRefineOptions o;
+  o.width_at_border = observation.width_at_border;
+  return o;
+}
+
 std::optional<TagCorners> RefineObservationExactly(const FrameObservation& observation,
                                                    const CameraModel& camera) {
   if (!observation.corners_px || observation.crop.empty()) return std::nullopt;
   const CornerRefineResult r = RefineTagCornersByEdgeModel(
-      observation.crop, *observation.corners_px, &camera, CornerRefineOptions{}, observation.crop_origin);
+      observation.crop, *observation.corners_px, &camera, RefineOptionsFor(observation), observation.crop_origin);
   if (!r.ok) return std::nullopt;
   return r.corners_px;
 }

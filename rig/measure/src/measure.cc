@@ -367,7 +367,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     if (quality) {
       if (f.crop.empty()) continue;
       const vision::ModelFreeRefineResult r = vision::RefineTagCornersModelFree(
-          f.crop, *f.corners_px, &camera, vision::CornerRefineOptions{}, f.crop_origin);
+          f.crop, *f.corners_px, &camera, vision::RefineOptionsFor(f), f.crop_origin);
       FrameQuality fq;
       fq.t_s = f.t_s;
       fq.fitted = r.ok;

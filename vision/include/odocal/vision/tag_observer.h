@@ -52,6 +52,10 @@ struct FrameObservation {
   // pixel crop_origin.
   cv::Mat crop;
   cv::Point crop_origin;
+  // Cells across the tag's black border (CornerRefineOptions::width_at_border)
+  // for refining this frame again from its crop: the family's (10 for
+  // Kalibr's tag36h11b2), as the observer refined it.
+  int width_at_border = CornerRefineOptions{}.width_at_border;
 };
 
 // The per-frame half of TrackTagInVideo, for frames that arrive one at a time
@@ -85,6 +89,10 @@ class TagObserver {
   int lost_for_ = 0;
   bool lost_ = true;
 };
+
+// The refinement options a frame's crop is refined again with (its family's
+// border width; the rest CornerRefineOptions' defaults).
+CornerRefineOptions RefineOptionsFor(const FrameObservation& observation);
 
 // The exact refinement (RefineTagCornersByEdgeModel) of a frame's corners
 // from its kept crop; nullopt without a crop or when the fit fails.

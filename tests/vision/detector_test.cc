@@ -26,15 +26,6 @@ struct Stats {
   int n = 0;
 };
 
-cv::Rect AroundCorners(const std::array<cv::Point2d, 4>& c, int margin) {
-  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-  for (const auto& p : c) {
-    x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
-  }
-  return cv::Rect(cvFloor(x0) - margin, cvFloor(y0) - margin, cvCeil(x1 - x0) + 2 * margin,
-                  cvCeil(y1 - y0) + 2 * margin);
-}
-
 std::unique_ptr<TagDetector> MakeDetector(const DetectorOptions& o = {}) {
   auto d = TagDetector::Create(o);
   EXPECT_TRUE(d.ok) << d.message;
@@ -68,7 +59,7 @@ class StandardCondition : public ::testing::Test {
     double sq = 0;
     for (const auto& f : *frames_) {
       if (f.corners_px[0].x < x_min || f.corners_px[0].x >= x_max) continue;
-      const FindResult found = detector->Find(f.image, 5, AroundCorners(f.corners_px, 40));
+      const FindResult found = detector->Find(f.image, 5, testing::AroundCorners(f.corners_px, 40));
       EXPECT_EQ(found.status, DetectStatus::kOk) << found.message;
       if (!found.detection) continue;
       auto corners = found.detection->corners_px;
@@ -147,7 +138,7 @@ TEST_F(StandardCondition, RoiDetectionMatchesFullFrame) {
   auto detector = MakeDetector();
   const RenderedFrame& f = frames_->front();
   const FindResult full = detector->Find(f.image, 5);
-  const FindResult roi = detector->Find(f.image, 5, AroundCorners(f.corners_px, 30));
+  const FindResult roi = detector->Find(f.image, 5, testing::AroundCorners(f.corners_px, 30));
   ASSERT_EQ(full.status, DetectStatus::kOk);
   ASSERT_EQ(roi.status, DetectStatus::kOk);
   for (int k = 0; k < 4; ++k) {
@@ -209,7 +200,7 @@ TEST(DetectorBadInput, WrongIdWrongFamilyNotInViewDuplicateAndEmpty) {
 
   // Two copies of the same tag in one frame.
   cv::Mat twice = f.image.clone();
-  const cv::Rect src = AroundCorners(f.corners_px, 12);
+  const cv::Rect src = testing::AroundCorners(f.corners_px, 12);
   f.image(src).copyTo(twice(src + cv::Point(-src.x + 10, -src.y + 10)));
   EXPECT_EQ(detector->Find(twice, 5).status, DetectStatus::kDuplicateId);
 

@@ -84,15 +84,6 @@ struct Stats {
   }
 };
 
-cv::Rect AroundCorners(const std::array<cv::Point2d, 4>& c, int margin) {
-  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-  for (const auto& p : c) {
-    x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
-  }
-  return cv::Rect(cvFloor(x0) - margin, cvFloor(y0) - margin, cvCeil(x1 - x0) + 2 * margin,
-                  cvCeil(y1 - y0) + 2 * margin);
-}
-
 // The standard condition (docs/vision.md) with the robot's tag printed
 // Kalibr-style: 16 seeded poses over the image.
 TEST(KalibrTagRendered, CornersAreUnbiasedAgainstRenderedTruth) {
@@ -114,7 +105,7 @@ TEST(KalibrTagRendered, CornersAreUnbiasedAgainstRenderedTruth) {
     const RenderedFrame f = r.renderer->Render(Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng)));
     if (!f.tag_visible) continue;
     ++frames;
-    const cv::Rect roi = AroundCorners(f.corners_px, 40);
+    const cv::Rect roi = testing::AroundCorners(f.corners_px, 40);
     const FindResult found = detector->Find(f.image, tag.id, roi);
     ASSERT_EQ(found.status, DetectStatus::kOk) << found.message;
     // The 1-bit layout reads the second black ring as data: nothing decodes.

@@ -3,6 +3,11 @@
 #ifndef ODOCAL_TESTS_VISION_VISION_FIXTURES_H_
 #define ODOCAL_TESTS_VISION_VISION_FIXTURES_H_
 
+#include <algorithm>
+#include <array>
+
+#include <opencv2/core.hpp>
+
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/renderer.h"
 #include "odocal/vision/tag.h"
@@ -37,6 +42,17 @@ inline RenderOptions StandardRender() {
 inline CameraModel SmallCamera() {
   return CameraModel(Intrinsics{640, 480, 700.0, 700.0, 320.0, 240.0, {-0.12, 0.05, 0.0, 0.0, 0.0}},
                      CameraMount{0.0, 0.0, 1200.0, 0.0, 2.0, 0.0});
+}
+
+// The pixel box around four corners, `margin` px wider all round (a
+// detector's region of interest, a crop).
+inline cv::Rect AroundCorners(const std::array<cv::Point2d, 4>& c, int margin) {
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (const auto& p : c) {
+    x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
+  }
+  return cv::Rect(cvFloor(x0) - margin, cvFloor(y0) - margin, cvCeil(x1 - x0) + 2 * margin,
+                  cvCeil(y1 - y0) + 2 * margin);
 }
 
 }  // namespace odocal::vision::testing

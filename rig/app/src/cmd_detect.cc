@@ -169,9 +169,12 @@ void RunDetect(const DetectArgs& args) {
     json board_refused = json::array();
     if (board) {
       // The board's tags as calibrate-camera sees them (vision::DetectBoard:
-      // upsampled decoding, the edge model sized for the aprilgrid), the
-      // survey's for the rest; quads inside a board tag are not refusals.
-      const vision::BoardDetection bd = vision::DetectBoard(f.grey, *board);
+      // upsampled decoding, the edge model sized for the aprilgrid, the
+      // edges through the lens when a calibration is given), the survey's
+      // for the rest; quads inside a board tag are not refusals.
+      vision::BoardDetectionOptions board_options;
+      if (intrinsics) board_options.lens = *intrinsics;
+      const vision::BoardDetection bd = vision::DetectBoard(f.grey, *board, board_options);
       std::vector<vision::SurveyedTag> merged;
       for (size_t i = 0; i < bd.tag_ids.size(); ++i) {
         vision::SurveyedTag t;

@@ -102,9 +102,17 @@ struct BoardDetectionOptions {
   // resolution, but decodes the bits and fits its edges on the interpolated
   // image. Kalibr targets fill the image with small tags (2-3 px a cell at
   // 640x480): on the 30 real frames 3 finds 948 tags where 1 finds 895, in
-  // the plain pass (1041 with the thinned and painted passes, camera_calibration.cc;
+  // the plain pass (1047 with the thinned and painted passes, camera_calibration.cc;
   // yac: 1007). The corners are then refined on the original image.
   int aprilgrid_upsample = 3;
+  // Aprilgrid: at most this many passes with the corner squares painted
+  // white around the tags found so far (camera_calibration.cc); each stops
+  // the search when it finds no new tag.
+  int aprilgrid_paint_rounds = 4;
+  // ... each square through the homography of the nearest found tag within
+  // this many tags of it (0: the squares touching found tags; 1: also their
+  // neighbours'), the board's homography beyond.
+  double aprilgrid_paint_reach = 1.0;
   // Aprilgrid: measure the edge shift inside the tags and remove it from
   // their corners (edge_shift.h). On the 30 real D435i frames the tags' edges
   // lie ~0.16 px inside the print (docs/vision.md, "Real photographs").
@@ -119,6 +127,11 @@ struct BoardDetectionOptions {
   bool aprilgrid_whole_tag_fit = false;
   // (Each tag corrected by its own shift instead was tried on the real frames:
   // no better, 0.2405 vs 0.2391 px board residual.)
+  // Aprilgrid: the lens the tags' edges are seen through, when known (a
+  // first calibration, or a camera file). A straight printed edge is a curve
+  // in the image; the edge model then fits it as one (corner_refine.h), and the
+  // corners do not move with the curvature of the lens at their tag.
+  std::optional<Intrinsics> lens;
 
   // Valid: a half window of at least 1 px, min_charuco_corners >= 4 (a
   // view with fewer corners cannot enter CalibrateCamera), min_aprilgrid_tags

@@ -13,8 +13,11 @@
 //
 // Methods:
 //   odocal          DetectBoard: the exact edge model, the edge shift
-//                   measured inside the tags and removed (edge_shift.h)
-//   odocal, shift   the same corners with the view's edge shift left in
+//                   measured inside the tags (edge_shift.h), each edge line
+//                   fitted on through the corner squares' edges that
+//                   continue it; and (unless --variants 0) its variants: the
+//                   tags' own edges only, those with the shift left in, the
+//                   whole-tag fit, and refined through its own lens
 //   yac             the data set's own detections (X-corners, cornerSubPix)
 //   aruco           OpenCV's aruco, DICT_APRILTAG_36h11, markerBorderBits 2,
 //                   CORNER_REFINE_SUBPIX
@@ -280,19 +283,21 @@ double StdDev(const std::vector<double>& v) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--refits N] [--seed S]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--refits N] [--seed S] [--variants 0]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
   fs::path target;
   int refits = 10;
   unsigned seed = 1;
+  bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
   vision::BoardDetectionOptions detect;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--target") target = argv[i + 1];
     else if (a == "--refits") refits = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
+    else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -316,62 +321,59 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  Method odocal{"odocal", {}}, as_seen{"odocal, edge shift left in", {}}, yac{"yac (data set)", {}},
-      aruco{"OpenCV aruco", {}}, whole{"odocal, whole-tag fit", {}};
+  Method odocal{"odocal", {}}, yac{"yac (data set)", {}}, aruco{"OpenCV aruco", {}};
   const bool have_yac = fs::exists(dir / "grid0" / "cam0" / "data");
+  // odocal's variants: what each part of DetectBoard's aprilgrid refinement
+  // is worth.
+  struct Variant {
+    Method method;
+    vision::BoardDetectionOptions options;
+  };
+  std::vector<Variant> variants;
+  if (with_variants) {
+    vision::BoardDetectionOptions own = detect, left_in = detect, whole = detect;
+    own.aprilgrid_collinear_edges = false;
+    left_in.aprilgrid_collinear_edges = false;
+    left_in.aprilgrid_edge_shift = false;
+    whole.aprilgrid_whole_tag_fit = true;
+    variants = {{{"odocal, the tags' own edges", {}}, own},
+                {{"odocal, own edges, edge shift left in", {}}, left_in},
+                {{"odocal, whole-tag fit", {}}, whole}};
+  }
+  const auto corners_of = [](const vision::BoardDetection& d) {
+    Corners c;
+    if (d.found)
+      for (size_t t = 0; t < d.tag_ids.size(); ++t)
+        for (int k = 0; k < 4; ++k) c[{d.tag_ids[t], k}] = d.image_points[4 * t + k];
+    return c;
+  };
   cv::Size size;
   std::vector<double> shifts;
   for (const fs::path& p : images) {
     const cv::Mat grey = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
     size = grey.size();
     const vision::BoardDetection d = vision::DetectBoard(grey, board, detect);
-    Corners ours, seen;
-    if (d.found) {
-      shifts.push_back(d.edge_shift_px);
-      for (size_t t = 0; t < d.tag_ids.size(); ++t) {
-        std::array<cv::Point2d, 4> c;
-        for (int k = 0; k < 4; ++k) c[k] = d.image_points[4 * t + k];
-        const auto back = vision::RemoveEdgeShift(c, -d.edge_shift_px, nullptr);
-        for (int k = 0; k < 4; ++k) {
-          ours[{d.tag_ids[t], k}] = c[k];
-          seen[{d.tag_ids[t], k}] = back[k];
-        }
-      }
-    }
-    odocal.frames.push_back(ours);
-    as_seen.frames.push_back(seen);
-    {
-      vision::BoardDetectionOptions o = detect;
-      o.aprilgrid_whole_tag_fit = true;
-      const vision::BoardDetection w = vision::DetectBoard(grey, board, o);
-      Corners c;
-      if (w.found)
-        for (size_t t = 0; t < w.tag_ids.size(); ++t)
-          for (int k = 0; k < 4; ++k) c[{w.tag_ids[t], k}] = w.image_points[4 * t + k];
-      whole.frames.push_back(c);
-    }
+    if (d.found) shifts.push_back(d.edge_shift_px);
+    odocal.frames.push_back(corners_of(d));
+    for (Variant& v : variants) v.method.frames.push_back(corners_of(vision::DetectBoard(grey, board, v.options)));
     if (have_yac) yac.frames.push_back(ReadYac(dir / "grid0" / "cam0" / "data" / (p.stem().string() + ".csv")));
     aruco.frames.push_back(Aruco(grey, board));
   }
   // odocal again, its tags' edges refined through the lens it calibrated
   // from its own first-pass corners (a straight printed edge is a curve in
   // the image): what `calibrate-camera` does on its second pass.
-  Method lensed{"odocal, through its own lens", {}};
-  {
+  if (with_variants) {
+    Variant lensed{{"odocal, through its own lens", {}}, detect};
     const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true));
-    vision::BoardDetectionOptions o = detect;
-    if (first.ok()) o.lens = first.intrinsics;
-    for (const fs::path& p : images) {
-      const cv::Mat grey = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
-      const vision::BoardDetection w = vision::DetectBoard(grey, board, o);
-      Corners c;
-      if (w.found)
-        for (size_t t = 0; t < w.tag_ids.size(); ++t)
-          for (int k = 0; k < 4; ++k) c[{w.tag_ids[t], k}] = w.image_points[4 * t + k];
-      lensed.frames.push_back(c);
-    }
+    if (first.ok()) lensed.options.lens = first.intrinsics;
+    for (const fs::path& p : images)
+      lensed.method.frames.push_back(
+          corners_of(vision::DetectBoard(cv::imread(p.string(), cv::IMREAD_GRAYSCALE), board, lensed.options)));
+    variants.push_back(lensed);
   }
-  std::vector<Method> methods = {odocal, as_seen, whole, lensed};
+  std::vector<Method> methods = {odocal};
+  for (const Variant& v : variants) methods.push_back(v.method);
+  const size_t first_peer = methods.size();
   if (have_yac) methods.push_back(yac);
   methods.push_back(aruco);
   const size_t F = images.size();
@@ -409,7 +411,7 @@ int main(int argc, char** argv) {
     std::printf("aruco's corner k is tag.h's corner %d %c k (mod 4)\n", best_r, best_sign > 0 ? '+' : '-');
   }
   // Convention check: the peers' corners against odocal's on the tags both found.
-  for (size_t m = 4; m < methods.size(); ++m) {
+  for (size_t m = first_peer; m < methods.size(); ++m) {
     double sum = 0.0;
     int n = 0;
     for (size_t f = 0; f < F; ++f)
@@ -527,8 +529,8 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", methods[m].name.c_str(), Median(parts[0]), Median(parts[1]),
                 Median(parts[2]), Median(parts[3]));
   }
-  // odocal's two (methods 0 and 2) against each peer, frame by frame.
-  for (size_t ref : {size_t{0}, size_t{2}}) {
+  // odocal against each peer and variant, frame by frame.
+  for (size_t ref : {size_t{0}}) {
     std::printf("\nFrames where %s is below the peer (of %zu):\n\n| peer | (a) board | (b) across | (b) heading |\n"
                 "|---|---|---|---|\n",
                 methods[ref].name.c_str(), used_frames.size());

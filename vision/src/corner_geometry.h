@@ -53,6 +53,10 @@ struct EdgeBandSamples {
   // as wide there, and wider on the outer side of an edge than the inner.
   std::vector<cv::Vec4d> jacobian;
   std::vector<double> value;             // grey level
+  // +1 where the dark side is inside (towards the tag's centre), -1 where it
+  // is outside (an aprilgrid's corner square beyond the tag's corner, whose
+  // edge continues the tag's); empty: all +1.
+  std::vector<double> polarity;
   std::vector<double> offset_px;         // signed distance from the edge, outwards positive
   cv::Point2d normal_px;                 // outwards, distorted pixels
   // The detector's edge mapped like the pixels: the line n . q = c with n at

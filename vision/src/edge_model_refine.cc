@@ -16,7 +16,9 @@
 // in the image through the undistortion's local Jacobian, so the model holds
 // for a fisheye's curved edges too (d, n and the widths above are then the
 // image's, the line the undistorted plane's).
+#include <array>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -35,12 +37,15 @@ using internal::H;
 
 using EdgePixels = internal::EdgeBandSamples;
 
-// Parameters: theta (normal angle), c (offset along the normal), a, b, log s.
+// Parameters: theta (normal angle), c (offset along the normal), a, b, log s;
+// and the edge shift.
 class EdgeModelCost {
  public:
+  // shift[0]: the black grown by this much towards the white (edge_shift.h);
+  // the line is then where the print's edge is.
   explicit EdgeModelCost(const EdgePixels* pixels) : pixels_(pixels) {}
   template <typename T>
-  bool operator()(const T* const p, T* residual) const {
+  bool operator()(const T* const p, const T* const shift, T* residual) const {
     using std::abs;
     using std::cos;
     using std::exp;
@@ -58,7 +63,8 @@ class EdgeModelCost {
       const T gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
       const T g = sqrt(gx * gx + gy * gy);
       const T w1 = abs(gx) / (g * s), w2 = abs(gy) / (g * s);
-      const T u = (nx * q.x + ny * q.y - p[1]) / (g * s);
+      const double polarity = pixels_->polarity.empty() ? 1.0 : pixels_->polarity[i];
+      const T u = ((nx * q.x + ny * q.y - p[1]) / g - polarity * shift[0]) / s;
       T fraction;
       if (w2 < 1e-3 || w1 < 1e-3) {
         const T w = w1 < 1e-3 ? w2 : w1;  // a single box
@@ -68,6 +74,7 @@ class EdgeModelCost {
                     H(u - 0.5 * w1 + 0.5 * w2) + H(u - 0.5 * w1 - 0.5 * w2)) /
                    (w1 * w2);
       }
+      if (polarity < 0) fraction = T(1.0) - fraction;
       residual[i] = p[2] + p[3] * fraction - pixels_->value[i];
     }
     return true;
@@ -82,12 +89,30 @@ using FittedLine = internal::EdgeLine;
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                   const CameraModel* camera, double half_width, double end_margin,
+                                  double extension, double extension_margin, double shift_px,
+                                  double shift_freedom_px,
                                   const SolverSettings& settings,
                                   double* rms, cv::Matx22d* cov_angle_offset = nullptr) {
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
-  const EdgePixels pixels =
+  EdgePixels pixels =
       internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, end_margin);
+  if (extension > 0.0 && extension > 2.0 * extension_margin) {
+    // The line's continuation beyond each corner, polarity swapped.
+    pixels.polarity.assign(pixels.value.size(), 1.0);
+    const cv::Point2d ab = b_px - a_px;
+    const std::array<std::pair<cv::Point2d, cv::Point2d>, 2> stretches = {
+        std::pair{a_px - ab * (extension - extension_margin), a_px - ab * extension_margin},
+        std::pair{b_px + ab * extension_margin, b_px + ab * (extension - extension_margin)}};
+    for (const auto& [from, to] : stretches) {
+      const EdgePixels more = internal::SampleEdgeBand(grey, origin, from, to, centre_px, camera, half_width, 0.0);
+      pixels.undistorted.insert(pixels.undistorted.end(), more.undistorted.begin(), more.undistorted.end());
+      pixels.jacobian.insert(pixels.jacobian.end(), more.jacobian.begin(), more.jacobian.end());
+      pixels.value.insert(pixels.value.end(), more.value.begin(), more.value.end());
+      pixels.offset_px.insert(pixels.offset_px.end(), more.offset_px.begin(), more.offset_px.end());
+      pixels.polarity.insert(pixels.polarity.end(), more.value.size(), -1.0);
+    }
+  }
   if (pixels.value.size() < 20) return std::nullopt;
   double dark = 255.0, light = 0.0;
   for (double v : pixels.value) {
@@ -97,11 +122,22 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   if (light - dark < 20.0) return std::nullopt;
   // Start: the detector's edge, mapped like the pixels.
   double p[5] = {pixels.start_angle, pixels.start_offset, dark, light - dark, std::log(0.9)};
+  // The edge's own shift: the known one, free within `shift_freedom_px` of
+  // it where the band has both polarities (then the two sides of the line
+  // tell the shift from the line: black grown moves them apart).
+  double shift = shift_px;
+  const bool free_shift = shift_freedom_px > 0.0 && !pixels.polarity.empty();
   ceres::Problem problem;
   problem.AddResidualBlock(
-      new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5>(
+      new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5, 1>(
           new EdgeModelCost(&pixels), static_cast<int>(pixels.value.size())),
-      nullptr, p);
+      nullptr, p, &shift);
+  if (free_shift) {
+    problem.SetParameterLowerBound(&shift, 0, shift_px - shift_freedom_px);
+    problem.SetParameterUpperBound(&shift, 0, shift_px + shift_freedom_px);
+  } else {
+    problem.SetParameterBlockConstant(&shift);
+  }
   // The blur between 0.05 and 20 px: on a tiny or low-contrast edge an
   // unbounded log s can run off to where exp underflows and the model is NaN.
   problem.SetParameterLowerBound(p, 4, std::log(0.05));
@@ -114,22 +150,27 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
   *rms = std::sqrt(2.0 * summary.final_cost / pixels.value.size());
   if (cov_angle_offset) {
-    // Gauss-Newton covariance of the five parameters, scaled by the fit's own
-    // residual variance (the image noise as these pixels show it, JPEG and
-    // model error included); (angle, offset) is its marginal.
+    // Gauss-Newton covariance of the free parameters, scaled by the fit's
+    // own residual variance (the image noise as these pixels show it, JPEG
+    // and model error included); (angle, offset) is its marginal.
     ceres::CRSMatrix jac;
-    problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &jac);
-    cv::Matx<double, 5, 5> jtj = cv::Matx<double, 5, 5>::zeros();
+    ceres::Problem::EvaluateOptions evaluate;
+    evaluate.parameter_blocks = {p};
+    if (free_shift) evaluate.parameter_blocks.push_back(&shift);
+    problem.Evaluate(evaluate, nullptr, nullptr, nullptr, &jac);
+    const int k = free_shift ? 6 : 5;
+    cv::Mat jtj = cv::Mat::zeros(k, k, CV_64F);
     for (int r = 0; r < jac.num_rows; ++r) {
       for (int i = jac.rows[r]; i < jac.rows[r + 1]; ++i) {
         for (int j = jac.rows[r]; j < jac.rows[r + 1]; ++j) {
-          jtj(jac.cols[i], jac.cols[j]) += jac.values[i] * jac.values[j];
+          jtj.at<double>(jac.cols[i], jac.cols[j]) += jac.values[i] * jac.values[j];
         }
       }
     }
-    const int dof = std::max<int>(1, static_cast<int>(pixels.value.size()) - 5);
-    const cv::Matx<double, 5, 5> cov = jtj.inv(cv::DECOMP_SVD) * (2.0 * summary.final_cost / dof);
-    *cov_angle_offset = cv::Matx22d(cov(0, 0), cov(0, 1), cov(1, 0), cov(1, 1));
+    const int dof = std::max<int>(1, static_cast<int>(pixels.value.size()) - k);
+    const cv::Mat cov = jtj.inv(cv::DECOMP_SVD) * (2.0 * summary.final_cost / dof);
+    *cov_angle_offset = cv::Matx22d(cov.at<double>(0, 0), cov.at<double>(0, 1), cov.at<double>(1, 0),
+                                    cov.at<double>(1, 1));
   }
   const cv::Point2d n(std::cos(p[0]), std::sin(p[0]));
   return FittedLine{n * p[1], cv::Point2d(-n.y, n.x)};
@@ -182,7 +223,9 @@ CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
   for (int k = 0; k < 4; ++k) {
     double rms = 0.0;
     const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
-                              half_width, options.end_margin, options.edge_model_solver, &rms,
+                              half_width, options.end_margin, options.collinear_extension,
+                              options.extension_margin, options.edge_shift_px, options.edge_shift_freedom_px,
+                              options.edge_model_solver, &rms,
                               corner_covariance_px ? &line_cov[k] : nullptr);
     if (!line) {
       result.message = "edge " + std::to_string(k) + " could not be fitted";

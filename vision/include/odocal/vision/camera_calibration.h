@@ -113,6 +113,9 @@ struct BoardDetectionOptions {
   // this many tags of it (0: the squares touching found tags; 1: also their
   // neighbours'), the board's homography beyond.
   double aprilgrid_paint_reach = 1.0;
+  // Aprilgrid: each tag edge's line fitted on through the corner squares'
+  // edges that continue it (CornerRefineOptions::collinear_extension).
+  bool aprilgrid_collinear_edges = true;
   // Aprilgrid: measure the edge shift inside the tags and remove it from
   // their corners (edge_shift.h). On the 30 real D435i frames the tags' edges
   // lie ~0.16 px inside the print (docs/vision.md, "Real photographs").

@@ -36,6 +36,25 @@ struct CornerRefineOptions {
   // Refinement needs cells at least this wide (px); smaller tags are returned
   // unchanged with ok = false.
   double min_cell_px = 3.0;
+  // RefineTagCornersByEdgeModel on an aprilgrid: each edge's line continues
+  // beyond both corners along a corner square's edge, black and white
+  // swapped, for this fraction of the edge's length (Kalibr's spacing, 0.3);
+  // those stretches, `extension_margin` (of the edge's length) short of
+  // either end, are fitted with the edge. The corner is then where the
+  // measured line crosses the next, not an extrapolation beyond its ends.
+  // 0: the tag's own edges only.
+  double collinear_extension = 0.0;
+  double extension_margin = 0.06;
+  // RefineTagCornersByEdgeModel: the edge shift (edge_shift.h) when known:
+  // the black grown by this much towards the white [px]. Each edge is then
+  // fitted where the print's edge is (with collinear_extension, the corner
+  // square's edge, black on the other side, lies 2 shifts from the tag's).
+  double edge_shift_px = 0.0;
+  // ... and where an edge is seen with black on both sides of its line (with
+  // collinear_extension), its own shift is fitted within this much of
+  // edge_shift_px: the blur, and with it the shift, changes across a board
+  // at different depths. 0: edge_shift_px for every edge.
+  double edge_shift_freedom_px = 0.0;
   // Tag bits across the black border (8 for tag36h11).
   int width_at_border = 8;
   // Ceres (dense QR) on each edge's profile model (RefineTagCornersByEdgeModel):

@@ -16,6 +16,7 @@
 // in the image through the undistortion's local Jacobian, so the model holds
 // for a fisheye's curved edges too (d, n and the widths above are then the
 // image's, the line the undistorted plane's).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <utility>
@@ -97,15 +98,31 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // (in distorted pixels, where the detector's corners are), away from its ends.
   EdgePixels pixels =
       internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, end_margin);
+  // The mean grey level inside (towards the tag's centre) minus outside, more
+  // than half a pixel from the line.
+  const auto contrast = [](const EdgePixels& band) {
+    double in = 0.0, out = 0.0;
+    int n_in = 0, n_out = 0;
+    for (size_t i = 0; i < band.value.size(); ++i) {
+      if (band.offset_px[i] < -0.5) in += band.value[i], ++n_in;
+      if (band.offset_px[i] > 0.5) out += band.value[i], ++n_out;
+    }
+    return n_in > 3 && n_out > 3 ? in / n_in - out / n_out : 0.0;
+  };
   if (extension > 0.0 && extension > 2.0 * extension_margin) {
-    // The line's continuation beyond each corner, polarity swapped.
+    // The line's continuation beyond each corner, polarity swapped: where it
+    // is there. A stretch whose black is not outside the line by at least
+    // half the tag's edge's contrast (no corner square printed, something in
+    // the way, the image's border) is left out.
     pixels.polarity.assign(pixels.value.size(), 1.0);
+    const double own = -contrast(pixels);  // the tag's edge: light outside
     const cv::Point2d ab = b_px - a_px;
     const std::array<std::pair<cv::Point2d, cv::Point2d>, 2> stretches = {
         std::pair{a_px - ab * (extension - extension_margin), a_px - ab * extension_margin},
         std::pair{b_px + ab * extension_margin, b_px + ab * (extension - extension_margin)}};
     for (const auto& [from, to] : stretches) {
       const EdgePixels more = internal::SampleEdgeBand(grey, origin, from, to, centre_px, camera, half_width, 0.0);
+      if (!(own > 0.0 && contrast(more) > 0.5 * own)) continue;
       pixels.undistorted.insert(pixels.undistorted.end(), more.undistorted.begin(), more.undistorted.end());
       pixels.jacobian.insert(pixels.jacobian.end(), more.jacobian.begin(), more.jacobian.end());
       pixels.value.insert(pixels.value.end(), more.value.begin(), more.value.end());
@@ -126,7 +143,8 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // it where the band has both polarities (then the two sides of the line
   // tell the shift from the line: black grown moves them apart).
   double shift = shift_px;
-  const bool free_shift = shift_freedom_px > 0.0 && !pixels.polarity.empty();
+  const bool free_shift = shift_freedom_px > 0.0 &&
+                          std::any_of(pixels.polarity.begin(), pixels.polarity.end(), [](double p) { return p < 0.0; });
   ceres::Problem problem;
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5, 1>(

@@ -272,8 +272,13 @@ TEST(CliCalibrateCamera, RealAprilgridFromKalibrTargetFile) {
               doc["distortion"][0].get<double>());
   // Frames with fewer than 4 tags exist (README); the rest are views.
   EXPECT_GE(doc["views_used"].get<int>(), 27);
-  // 0.42 px measured; yac's own corners give 0.29 (kalibr_tag_test.cc, docs/vision.md).
-  EXPECT_LT(doc["rms_reprojection_error_px"].get<double>(), 0.5);
+  // 0.20 px measured (0.29 with the tags' own edges only, 0.42 before the edge
+  // shift); yac's own corners give 0.294 (kalibr_tag_test.cc, docs/vision.md).
+  EXPECT_LT(doc["rms_reprojection_error_px"].get<double>(), 0.25);
+  // The second pass, the tags' edges through the first pass's lens: a D435i
+  // bends them little, so the RMS barely moves (and must not grow).
+  ASSERT_TRUE(doc["first_pass_rms_px"].is_number()) << doc.dump();
+  EXPECT_LT(doc["rms_reprojection_error_px"].get<double>(), doc["first_pass_rms_px"].get<double>() + 0.005);
   // A D435i colour camera at 640x480: fx ~ fy ~ 610 (yac's corners: 606.6, 610.0).
   EXPECT_NEAR(doc["fx"].get<double>(), 606.6, 0.01 * 606.6);
   EXPECT_NEAR(doc["fy"].get<double>(), 610.0, 0.01 * 610.0);

@@ -120,10 +120,10 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     int added = 0;
     for (const TagDetection& d : pass) {
       if (!board.AprilgridCorner(d.id, 0)) continue;  // another board's tag, or a stray one
-      if (count[d.id] > 1) ambiguous[d.id] = std::max(ambiguous[d.id], count[d.id]);
-      if (ambiguous.count(d.id)) continue;
       auto it = tags.find(d.id);
       if (it != tags.end() && it->second.refined.ok) continue;
+      if (count[d.id] > 1) ambiguous[d.id] = std::max(ambiguous[d.id], count[d.id]);
+      if (ambiguous.count(d.id)) continue;
       std::array<cv::Point2d, 4> corners;
       for (int k = 0; k < 4; ++k) corners[k] = to_image(d.corners_px[k]);
       FoundTag f;

@@ -65,7 +65,8 @@ class EdgeModelCost {
       const T g = sqrt(gx * gx + gy * gy);
       const T w1 = abs(gx) / (g * s), w2 = abs(gy) / (g * s);
       const double polarity = pixels_->polarity.empty() ? 1.0 : pixels_->polarity[i];
-      const T u = ((nx * q.x + ny * q.y - p[1]) / g - polarity * shift[0]) / s;
+      // (Written so that with no shift it is the same arithmetic as without one.)
+      const T u = (nx * q.x + ny * q.y - p[1] - polarity * shift[0] * g) / (g * s);
       T fraction;
       if (w2 < 1e-3 || w1 < 1e-3) {
         const T w = w1 < 1e-3 ? w2 : w1;  // a single box

@@ -90,15 +90,15 @@ using FittedLine = internal::EdgeLine;
 
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
-                                  const CameraModel* camera, double half_width, double end_margin,
-                                  double extension, double extension_margin, double shift_px,
-                                  double shift_freedom_px,
-                                  const SolverSettings& settings,
-                                  double* rms, cv::Matx22d* cov_angle_offset = nullptr) {
+                                  const CameraModel* camera, double half_width,
+                                  const CornerRefineOptions& options, double* rms,
+                                  cv::Matx22d* cov_angle_offset = nullptr) {
+  const double extension = options.collinear_extension, extension_margin = options.extension_margin;
+  const double shift_px = options.edge_shift_px, shift_freedom_px = options.edge_shift_freedom_px;
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
   EdgePixels pixels =
-      internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, end_margin);
+      internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, options.end_margin);
   // The mean grey level inside (towards the tag's centre) minus outside, more
   // than half a pixel from the line.
   const auto contrast = [](const EdgePixels& band) {
@@ -145,7 +145,7 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // tell the shift from the line: black grown moves them apart).
   double shift = shift_px;
   const bool free_shift = shift_freedom_px > 0.0 &&
-                          std::any_of(pixels.polarity.begin(), pixels.polarity.end(), [](double p) { return p < 0.0; });
+                          std::any_of(pixels.polarity.begin(), pixels.polarity.end(), [](double side) { return side < 0.0; });
   ceres::Problem problem;
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5, 1>(
@@ -161,11 +161,11 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // unbounded log s can run off to where exp underflows and the model is NaN.
   problem.SetParameterLowerBound(p, 4, std::log(0.05));
   problem.SetParameterUpperBound(p, 4, std::log(20.0));
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  ApplyTo(settings, &options);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  ApplyTo(options.edge_model_solver, &solver);
   ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
+  ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
   *rms = std::sqrt(2.0 * summary.final_cost / pixels.value.size());
   if (cov_angle_offset) {
@@ -241,11 +241,8 @@ CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) {
     double rms = 0.0;
-    const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera,
-                              half_width, options.end_margin, options.collinear_extension,
-                              options.extension_margin, options.edge_shift_px, options.edge_shift_freedom_px,
-                              options.edge_model_solver, &rms,
-                              corner_covariance_px ? &line_cov[k] : nullptr);
+    const auto line = FitEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], centre, camera, half_width,
+                              options, &rms, corner_covariance_px ? &line_cov[k] : nullptr);
     if (!line) {
       result.message = "edge " + std::to_string(k) + " could not be fitted";
       return result;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -335,6 +336,25 @@ class UnpluggedAfter final : public media::FrameSource {
   int left_;
 };
 
+// A camera unplugged at the first grab after `now()` turns true.
+class UnpluggedOnce final : public media::FrameSource {
+ public:
+  UnpluggedOnce(media::FrameSource& inner, std::function<bool()> now) : inner_(inner), now_(std::move(now)) {}
+  std::optional<media::CameraFrame> Grab(std::string* error) override {
+    if (unplugged_ || (unplugged_ = now_())) {
+      *error = "no frame (unplugged)";
+      return std::nullopt;
+    }
+    return inner_.Grab(error);
+  }
+  std::string Describe() const override { return "unplugged " + inner_.Describe(); }
+
+ private:
+  media::FrameSource& inner_;
+  std::function<bool()> now_;
+  bool unplugged_ = false;
+};
+
 TEST(StationFailure, CameraUnpluggedDuringARun) {
   auto vs = MakeStation(ScenarioText(kMisCalibrated, -100, -1000, 2000, 1));
   ASSERT_TRUE(vs);
@@ -364,14 +384,19 @@ TEST(StationFailure, CameraUnpluggedWhileACommandDrives) {
   vs->setup.driver = driver.get();
   vs->setup.run_log_dir = o.work_dir + "/runs";
   station::StationOptions options;
-  UnpluggedAfter unplugged(*vs->camera, options.rest_frames + 5);  // a few frames into the run
+  // Unplugged once the robot has started the square (the command's log says
+  // so), not after a count of frames: on a loaded machine the frames can
+  // come before the command has even opened the link.
+  const std::string log = o.work_dir + "/runs/round1/run01_umbmark_cw.log";
+  UnpluggedOnce unplugged(*vs->camera, [&log] {
+    return test_util::Slurp(log).find("started") != std::string::npos;
+  });
   vs->setup.camera = &unplugged;
   const station::StationResult r = station::RunStation(vs->setup, options);
   EXPECT_EQ(r.status, station::StationStatus::kCameraLost) << r.message;
   EXPECT_THAT(r.cleanup, ::testing::HasSubstr("the run's command killed")) << r.cleanup;
   // The killed `robot run` stopped the robot: the square was not finished.
-  EXPECT_THAT(test_util::Slurp(o.work_dir + "/runs/round1/run01_umbmark_cw.log"),
-              ::testing::HasSubstr("interrupted: robot stopped"));
+  EXPECT_THAT(test_util::Slurp(log), ::testing::HasSubstr("interrupted: robot stopped"));
   ExpectLeftAsItWas(*vs, r);
 }
 

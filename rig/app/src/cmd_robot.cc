@@ -179,6 +179,11 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
     if (!csv) Fail(kExitOther, "--telemetry " + f.telemetry + ": cannot write");
     csv << "t_s,left_ticks,right_ticks,x_mm,y_mm,heading_deg,moving\n";
   }
+  // The handler first: a SIGTERM while the link is being opened must not
+  // kill the process silently (the caller reads this log to know whether
+  // the robot moved).
+  std::signal(SIGINT, OnRunSignal);
+  std::signal(SIGTERM, OnRunSignal);
   Session s = Connect(link);
   if (!f.telemetry.empty()) {
     s.client->SetTelemetryCallback([&csv](const rl::TelemetrySample& t) {
@@ -190,8 +195,7 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
     });
     Check(s.client->SetTelemetryRate(50));
   }
-  std::signal(SIGINT, OnRunSignal);
-  std::signal(SIGTERM, OnRunSignal);
+  if (g_run_stop) Fail(kExitInterrupted, "interrupted before the run started: the robot did not move");
   const uint16_t id = Check(s.client->StartRun(rl::RunCommand::FromRunSpec(spec)));
   std::cerr << "odocal robot: run " << id << " started\n";
   const auto t0 = std::chrono::steady_clock::now();

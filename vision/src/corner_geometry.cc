@@ -101,11 +101,25 @@ EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, con
       probes.emplace_back(q.x, q.y - h);
     }
     const std::vector<cv::Point2d> u = camera->UndistortPixels(probes);
+    // A pixel the lens cannot undistort (a fisheye's rays at or beyond 90
+    // degrees off the axis have no pinhole image) is left out of the band.
+    size_t kept = 0;
     for (size_t i = 0; i < centres.size(); ++i) {
       const cv::Point2d dx = (u[4 * i] - u[4 * i + 1]) * (0.5 / h), dy = (u[4 * i + 2] - u[4 * i + 3]) * (0.5 / h);
-      if (std::isfinite(dx.x) && std::isfinite(dx.y) && std::isfinite(dy.x) && std::isfinite(dy.y))
-        band.jacobian[i] = cv::Vec4d(dx.x, dy.x, dx.y, dy.y);
+      const cv::Point2d& q = band.undistorted[i];
+      if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(dx.x) && std::isfinite(dx.y) &&
+            std::isfinite(dy.x) && std::isfinite(dy.y)))
+        continue;
+      band.undistorted[kept] = q;
+      band.jacobian[kept] = cv::Vec4d(dx.x, dy.x, dx.y, dy.y);
+      band.value[kept] = band.value[i];
+      band.offset_px[kept] = band.offset_px[i];
+      ++kept;
     }
+    band.undistorted.resize(kept);
+    band.jacobian.resize(kept);
+    band.value.resize(kept);
+    band.offset_px.resize(kept);
   }
   std::vector<cv::Point2d> ends = {a_px, b_px};
   if (camera) ends = camera->UndistortPixels(ends);
@@ -114,6 +128,13 @@ EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, con
   if (u_normal.dot(normal) < 0) u_normal = -u_normal;
   band.start_angle = std::atan2(u_normal.y, u_normal.x);
   band.start_offset = u_normal.dot(ends[0]);
+  if (!std::isfinite(band.start_angle) || !std::isfinite(band.start_offset)) {
+    // The segment's ends have no pinhole image: no band.
+    band.undistorted.clear();
+    band.jacobian.clear();
+    band.value.clear();
+    band.offset_px.clear();
+  }
   return band;
 }
 

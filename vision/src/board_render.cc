@@ -265,4 +265,49 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
   return poses;
 }
 
+std::optional<std::vector<Eigen::Isometry3d>> SampleFieldBoardPoses(
+    const Intrinsics& intrinsics, const std::vector<Eigen::Vector3d>& points_board,
+    const FieldPoseSampling& sampling) {
+  if (points_board.empty()) return std::nullopt;
+  const CameraModel camera(intrinsics, CameraMount{});
+  Eigen::Vector3d lo = points_board[0], hi = points_board[0];
+  for (const auto& p : points_board) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  constexpr double kDeg = M_PI / 180.0;
+  std::mt19937_64 rng(sampling.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<Eigen::Isometry3d> poses;
+  for (int attempt = 0; attempt < 1000 * sampling.count && static_cast<int>(poses.size()) < sampling.count;
+       ++attempt) {
+    // Uniform over the cap of directions up to max_off_axis (area ~ off^2).
+    const double off = sampling.max_off_axis_deg * kDeg * std::sqrt(unit(rng));
+    const double azimuth = 2.0 * M_PI * unit(rng);
+    const double distance = sampling.near_m + (sampling.far_m - sampling.near_m) * unit(rng);
+    const Eigen::Vector3d ray(std::sin(off) * std::cos(azimuth), std::sin(off) * std::sin(azimuth), std::cos(off));
+    // The board's z axis (away from the camera seeing its face) along the ray, then tilted and turned.
+    const double tilt = sampling.max_tilt_deg * kDeg;
+    const Eigen::Matrix3d R =
+        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), ray).toRotationMatrix() *
+        (Eigen::AngleAxisd((2.0 * unit(rng) - 1.0) * tilt, Eigen::Vector3d::UnitX()) *
+         Eigen::AngleAxisd((2.0 * unit(rng) - 1.0) * tilt, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(2.0 * M_PI * unit(rng), Eigen::Vector3d::UnitZ()))
+            .toRotationMatrix();
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = R;
+    T.translation() = distance * ray - R * centre;
+    int in_view = 0;
+    for (const auto& p : points_board) {
+      const Eigen::Vector3d c = T * p;
+      const auto px = c.z() > 0.0 ? camera.ProjectCamera(c) : std::nullopt;
+      in_view += px && camera.InImage(*px, sampling.margin_px);
+    }
+    if (in_view >= sampling.min_points_in_view) poses.push_back(T);
+  }
+  if (static_cast<int>(poses.size()) < sampling.count) return std::nullopt;
+  return poses;
+}
+
 }  // namespace odocal::vision

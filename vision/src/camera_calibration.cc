@@ -1,6 +1,7 @@
 #include "odocal/vision/camera_calibration.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -11,7 +12,9 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aprilgrid_search.h"
 #include "edge_model_refine.h"
+#include "fisheye_fit.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/edge_shift.h"
@@ -221,6 +224,37 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     if (added == 0) break;
   }
 
+  // Last, the tags no pass found, looked for where the found ones put them
+  // (aprilgrid_search.h): refined from there by the edge model and kept when
+  // their own bits are there. Through a fisheye a large tag's edges are curves
+  // no quad fits; repeated while it finds tags, each ring opening the next.
+  for (int round = 0; round < options.aprilgrid_predict_rounds; ++round) {
+    std::map<int, internal::TagCorners> measured;
+    for (const auto& [id, f] : tags)
+      if (f.refined.ok && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
+    const auto prediction = internal::BoardPrediction::Fit(board, measured, lens);
+    if (!prediction) break;
+    int added = 0;
+    for (int i = 0; i < board.cols * board.rows; ++i) {
+      const int id = board.first_id + i;
+      if (measured.count(id) || ambiguous.count(id)) continue;
+      const auto predicted = prediction->Corners(id);
+      if (!predicted) continue;
+      FoundTag f;
+      f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, *predicted, lens, refine, {0, 0}, &f.cov);
+      if (!f.refined.ok) continue;
+      std::string why;
+      const auto cells = TagCells::Of(board.tag_family, id, &why);
+      const auto code = cells ? internal::CheckTagCode(gray, f.refined.corners_px, *cells, lens) : std::nullopt;
+      if (!code || code->contrast < options.aprilgrid_predicted_min_contrast ||
+          code->mismatches > options.aprilgrid_predicted_max_mismatch * code->cells)
+        continue;
+      tags[id] = f;
+      ++added;
+    }
+    if (added == 0) break;
+  }
+
   int on_board = 0;
   std::vector<std::array<cv::Point2d, 4>> refined;  // per used tag, for the edge shift
   for (const auto& [id, f] : tags) {
@@ -231,6 +265,15 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       continue;
     }
     const CornerRefineResult& r = f.refined;
+    const double m = options.aprilgrid_min_border_px;
+    if (std::any_of(r.corners_px.begin(), r.corners_px.end(), [&](const cv::Point2d& c) {
+          return !(c.x >= m && c.y >= m && c.x <= gray.cols - 1 - m && c.y <= gray.rows - 1 - m);
+        })) {
+      char why[64];
+      std::snprintf(why, sizeof(why), "a corner within %g px of the image's border", m);
+      out.tags_refused.emplace_back(id, why);
+      continue;
+    }
     out.tag_ids.push_back(id);
     refined.push_back(r.corners_px);
     for (int k = 0; k < 4; ++k) {
@@ -392,6 +435,10 @@ bool BoardDetectionOptions::IsValid(std::string* why) const {
     if (why) *why = "aprilgrid_edge_shift_tags must be >= 1";
     return false;
   }
+  if (!(aprilgrid_min_border_px >= 0.0)) {
+    if (why) *why = "aprilgrid_min_border_px must be >= 0";
+    return false;
+  }
   if (aprilgrid_paint_rounds < 0) {
     if (why) *why = "aprilgrid_paint_rounds must be >= 0";
     return false;
@@ -520,13 +567,17 @@ bool CameraCalibrationOptions::IsValid(std::string* why) const {
 
 namespace {
 
-// cv::fisheye::calibrate on `objects`/`images`; nullopt with `why` when it
-// gives no camera. Skew fixed at 0, extrinsics recomputed at each step.
-// `dropped`: the input indices of views left out as ill-conditioned.
+// The equidistant lens for `objects`/`images`; nullopt with `why` when no
+// camera comes out. cv::fisheye::calibrate gives the start (skew fixed at 0,
+// extrinsics recomputed at each step), leaving out views it finds
+// ill-conditioned; then the lens and every view's pose are adjusted together
+// (fisheye_fit.h), the left-out views back in. When cv::fisheye gives no
+// camera at all, the adjustment starts from an ideal equidistant lens at a
+// few focal lengths instead. `dropped`: the input indices of views with no
+// pose.
 std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>& objects,
                                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
-                                     double* rms, std::vector<cv::Vec3d>* rvecs, std::vector<cv::Vec3d>* tvecs,
-                                     std::string* why, std::vector<int>* dropped) {
+                                     double* rms, std::string* why, std::vector<int>* dropped) {
   // cv::fisheye wants 1xN two- and three-channel double arrays.
   std::vector<cv::Mat> obj, img;
   for (size_t v = 0; v < objects.size(); ++v) {
@@ -538,51 +589,70 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
     obj.push_back(o);
     img.push_back(p);
   }
-  cv::Matx33d K = cv::Matx33d::eye();
-  cv::Vec4d D(0, 0, 0, 0);
   // One ill-conditioned view (a board seen nearly edge-on, or small in the
   // view) leaves cv::fisheye at its starting guess for every view; with
-  // CALIB_CHECK_COND it names the view instead, which is then left out.
-  std::vector<int> index(obj.size());
-  for (size_t v = 0; v < index.size(); ++v) index[v] = static_cast<int>(v);
+  // CALIB_CHECK_COND it names the view instead, which is left out of the start.
+  std::vector<Intrinsics> starts;
+  std::string opencv_error;
   for (;;) {
+    cv::Matx33d K = cv::Matx33d::eye();
+    cv::Vec4d D(0, 0, 0, 0);
+    std::vector<cv::Vec3d> rvecs, tvecs;
     try {
-      K = cv::Matx33d::eye();
-      D = cv::Vec4d(0, 0, 0, 0);
-      *rms = cv::fisheye::calibrate(
-          obj, img, size, K, D, *rvecs, *tvecs,
+      const double e = cv::fisheye::calibrate(
+          obj, img, size, K, D, rvecs, tvecs,
           cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW | cv::fisheye::CALIB_CHECK_COND,
           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
+      std::string ignored;
+      if (std::isfinite(e))
+        if (const auto start = Intrinsics::FromCv(cv::Mat(K), cv::Mat(D).reshape(1, 1), size.width, size.height,
+                                                  &ignored, LensModel::kEquidistant))
+          starts.push_back(*start);
       break;
     } catch (const cv::Exception& e) {
       const std::string marker = "input array ";
       const size_t at = e.err.find(marker);
       const int bad = at == std::string::npos ? -1 : std::atoi(e.err.c_str() + at + marker.size());
       if (bad < 0 || bad >= static_cast<int>(obj.size()) || obj.size() <= 3) {
-        if (why) *why = "cv::fisheye::calibrate failed: " + e.err;
-        return std::nullopt;
+        opencv_error = e.err;
+        break;
       }
-      if (dropped) dropped->push_back(index[bad]);
       obj.erase(obj.begin() + bad);
       img.erase(img.begin() + bad);
-      index.erase(index.begin() + bad);
     }
   }
-  if (!std::isfinite(*rms)) {
-    if (why) *why = "cv::fisheye::calibrate gave a non-finite error";
+  if (starts.empty()) {
+    // An ideal equidistant lens (r = f theta) centred in the image, with the
+    // image's half width at 60, 80 or 100 degrees off the axis.
+    for (const double half_angle_deg : {60.0, 80.0, 100.0}) {
+      const double f = 0.5 * size.width / (half_angle_deg * M_PI / 180.0);
+      Intrinsics guess{size.width, size.height, f, f, 0.5 * (size.width - 1), 0.5 * (size.height - 1), {0, 0, 0, 0, 0}};
+      guess.lens = LensModel::kEquidistant;
+      starts.push_back(guess);
+    }
+  }
+  std::optional<internal::EquidistantFit> best;
+  std::string fit_error;
+  for (const Intrinsics& start : starts) {
+    auto fit = internal::FitEquidistant(objects, images, start, &fit_error);
+    if (fit && (!best || fit->rms_px < best->rms_px)) best = std::move(fit);
+  }
+  if (!best) {
+    if (why)
+      *why = opencv_error.empty() ? fit_error : "cv::fisheye::calibrate failed: " + opencv_error + "; " + fit_error;
     return std::nullopt;
   }
-  return Intrinsics::FromCv(cv::Mat(K), cv::Mat(D).reshape(1, 1), size.width, size.height, why,
-                            LensModel::kEquidistant);
+  *rms = best->rms_px;
+  if (dropped) *dropped = best->views_left_out;
+  return best->intrinsics;
 }
 
 void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
                       const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
                       CameraCalibrationResult* result) {
-  std::vector<cv::Vec3d> rvecs, tvecs;
   std::string why;
   double rms = 0.0;
-  const auto fitted = FisheyeFit(objects, images, size, &rms, &rvecs, &tvecs, &why, &result->views_left_out);
+  const auto fitted = FisheyeFit(objects, images, size, &rms, &why, &result->views_left_out);
   if (!fitted) {
     result->status = StatusCode::kFailed;
     result->message = "calibration gave no valid camera: " + why;
@@ -625,10 +695,9 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
         o.push_back(objects[v]);
         p.push_back(images[v]);
       }
-    std::vector<cv::Vec3d> r, t;
     double e = 0.0;
     if (o.size() < 3) continue;
-    if (const auto refit = FisheyeFit(o, p, size, &e, &r, &t, nullptr, nullptr))
+    if (const auto refit = FisheyeFit(o, p, size, &e, nullptr, nullptr))
       estimates.push_back({refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0], refit->distortion[1],
                            refit->distortion[2], refit->distortion[3]});
   }

@@ -105,6 +105,11 @@ struct BoardDetectionOptions {
   // the plain pass (1047 with the thinned and painted passes, camera_calibration.cc;
   // yac: 1007). The corners are then refined on the original image.
   int aprilgrid_upsample = 3;
+  // Aprilgrid: a tag with a corner closer than this to the image's border is
+  // refused (its edges' bands are cut by the border and the corner
+  // extrapolated: 0.4 px off on a rendered 752 x 480 view, sigma 0.035).
+  // Kalibr's minBorderDistance, the same default.
+  double aprilgrid_min_border_px = 4.0;
   // Aprilgrid: at most this many passes with the corner squares painted
   // white around the tags found so far (camera_calibration.cc); each stops
   // the search when it finds no new tag.
@@ -113,6 +118,16 @@ struct BoardDetectionOptions {
   // this many tags of it (0: the squares touching found tags; 1: also their
   // neighbours'), the board's homography beyond.
   double aprilgrid_paint_reach = 1.0;
+  // Aprilgrid: at most this many rounds looking for the tags no pass found
+  // where the found ones put them (the board's homography, through the lens
+  // when known), each refined from there and kept when its own cells read
+  // as its bitmap: at most this fraction of its cells (and the white ring
+  // around it) on the wrong side of the threshold, the white and black cells
+  // this many grey levels apart. A neighbouring id's bitmap differs in at
+  // least 11 of tag36h11's 36 bits.
+  int aprilgrid_predict_rounds = 3;
+  double aprilgrid_predicted_max_mismatch = 0.04;
+  double aprilgrid_predicted_min_contrast = 20.0;
   // Aprilgrid: each tag edge's line fitted on through the corner squares'
   // edges that continue it (CornerRefineOptions::collinear_extension).
   bool aprilgrid_collinear_edges = true;

@@ -1,0 +1,121 @@
+#include "fisheye_fit.h"
+
+#include <cmath>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+
+namespace odocal::vision::internal {
+namespace {
+
+// One corner: lens (fx, fy, cx, cy, k1..k4), view pose (angle-axis, t).
+// theta = atan2(rho, Z) is the ray's angle off the axis (any angle, even
+// beyond 90 degrees), theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8), and
+// the distorted normalised point is theta_d (X, Y) / rho (camera_model.h).
+struct EquidistantCorner {
+  EquidistantCorner(const cv::Point3f& board, const cv::Point2f& seen) : X(board), u(seen) {}
+  template <typename T>
+  bool operator()(const T* const lens, const T* const pose, T* residual) const {
+    const T p[3] = {T(X.x), T(X.y), T(X.z)};
+    T c[3];
+    ceres::AngleAxisRotatePoint(pose, p, c);
+    c[0] += pose[3];
+    c[1] += pose[4];
+    c[2] += pose[5];
+    const T rho2 = c[0] * c[0] + c[1] * c[1];
+    T mx, my;
+    if (rho2 < T(1e-18)) {
+      mx = c[0] / c[2];
+      my = c[1] / c[2];
+    } else {
+      using std::atan2;
+      using std::sqrt;
+      const T rho = sqrt(rho2);
+      const T theta = atan2(rho, c[2]);
+      const T t2 = theta * theta;
+      const T theta_d = theta * (T(1.0) + t2 * (lens[4] + t2 * (lens[5] + t2 * (lens[6] + t2 * lens[7]))));
+      mx = theta_d * c[0] / rho;
+      my = theta_d * c[1] / rho;
+    }
+    residual[0] = lens[0] * mx + lens[2] - T(u.x);
+    residual[1] = lens[1] * my + lens[3] - T(u.y);
+    return true;
+  }
+  cv::Point3f X;
+  cv::Point2f u;
+};
+
+}  // namespace
+
+std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
+                                             const std::vector<std::vector<cv::Point2f>>& images,
+                                             const Intrinsics& start, std::string* why) {
+  const CameraModel camera(start, CameraMount{});
+  EquidistantFit out;
+  double lens[8] = {start.fx, start.fy, start.cx, start.cy, start.distortion[0], start.distortion[1],
+                    start.distortion[2], start.distortion[3]};
+  std::vector<std::array<double, 6>> poses(objects.size());
+  std::vector<bool> used(objects.size(), false);
+  ceres::Problem problem;
+  int n_views = 0;
+  size_t n_points = 0;
+  for (size_t v = 0; v < objects.size(); ++v) {
+    // The view's pose through the start lens: its corners undistorted to the
+    // normalised plane, where the board is a homography away.
+    std::vector<cv::Point2d> px(images[v].begin(), images[v].end());
+    const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(px);
+    std::vector<cv::Point3f> o;
+    std::vector<cv::Point2d> n;
+    for (size_t i = 0; i < normalised.size(); ++i)
+      if (std::isfinite(normalised[i].x) && std::isfinite(normalised[i].y)) o.push_back(objects[v][i]), n.push_back(normalised[i]);
+    cv::Vec3d rvec, tvec;
+    bool posed = o.size() >= 4;
+    try {
+      posed = posed && cv::solvePnP(o, n, cv::Matx33d::eye(), cv::noArray(), rvec, tvec);
+    } catch (const cv::Exception&) {
+      posed = false;
+    }
+    if (!posed || !std::isfinite(rvec[0]) || !std::isfinite(tvec[2]) || !(tvec[2] > 0.0)) {
+      out.views_left_out.push_back(static_cast<int>(v));
+      continue;
+    }
+    poses[v] = {rvec[0], rvec[1], rvec[2], tvec[0], tvec[1], tvec[2]};
+    used[v] = true;
+    ++n_views;
+    for (size_t i = 0; i < objects[v].size(); ++i) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
+                                   new EquidistantCorner(objects[v][i], images[v][i])),
+                               nullptr, lens, poses[v].data());
+      ++n_points;
+    }
+  }
+  if (n_views < 3) {
+    if (why) *why = "fewer than 3 views with a pose through the first lens";
+    return std::nullopt;
+  }
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.max_num_iterations = 200;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.gradient_tolerance = 1e-14;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !std::isfinite(summary.final_cost)) {
+    if (why) *why = "the fisheye adjustment failed: " + summary.message;
+    return std::nullopt;
+  }
+  out.rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
+  out.intrinsics = start;
+  out.intrinsics.fx = lens[0];
+  out.intrinsics.fy = lens[1];
+  out.intrinsics.cx = lens[2];
+  out.intrinsics.cy = lens[3];
+  out.intrinsics.distortion = {lens[4], lens[5], lens[6], lens[7], 0.0};
+  if (!out.intrinsics.IsValid(why)) return std::nullopt;
+  return out;
+}
+
+}  // namespace odocal::vision::internal

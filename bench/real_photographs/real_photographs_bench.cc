@@ -3,7 +3,13 @@
 // the target's own layout, with each method's camera calibrated by itself
 // from the other frames.
 //
-//   real_photographs_bench DATA_DIR [--target FILE] [--refits N] [--seed S]
+//   real_photographs_bench DATA_DIR [--target FILE] [--model plumb_bob|fisheye]
+//                          [--refits N] [--seed S] [--variants 0]
+//
+// The lens model: --model, else the target file's cam0 dist_model (yac's
+// radtan / equi4; Kalibr's camchain distortion_model), else plumb_bob; a
+// fisheye is scored through its lens (the corners undistorted to the
+// normalised plane for solvePnP, projected back through the lens).
 //
 // DATA_DIR is laid out as Kalibr/yac data sets are: cam0/data/*.jpg|*.png,
 // a target file (Kalibr target.yaml or a yac camera file with calib_target:,
@@ -37,6 +43,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <optional>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -52,6 +60,7 @@
 
 #include "odocal/config/calib_target.h"
 #include "odocal/vision/camera_calibration.h"
+#include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_shift.h"
 
 namespace fs = std::filesystem;
@@ -141,14 +150,53 @@ vision::BoardDetection AsDetection(const Corners& c, const vision::CalibrationBo
 }
 
 vision::CameraCalibrationResult Calibrate(const Method& m, const vision::CalibrationBoard& board, cv::Size size,
-                                          const std::vector<bool>& use) {
+                                          const std::vector<bool>& use, vision::LensModel lens) {
   std::vector<vision::BoardDetection> views;
   for (size_t f = 0; f < m.frames.size(); ++f) {
     if (!use[f]) continue;
     vision::BoardDetection d = AsDetection(m.frames[f], board);
     if (d.found) views.push_back(std::move(d));
   }
-  return vision::CalibrateCamera(views, size);
+  vision::CameraCalibrationOptions options;
+  options.lens = lens;
+  return vision::CalibrateCamera(views, size, options);
+}
+
+// solvePnP through any lens: the points undistorted to the normalised plane
+// (K = I, no distortion), so that plumb_bob and a fisheye are scored alike.
+bool SolvePnPThroughLens(const std::vector<cv::Point3f>& object, const std::vector<cv::Point2f>& image,
+                         const vision::CameraModel& camera, cv::Mat& rvec, cv::Mat& tvec, int flags = cv::SOLVEPNP_ITERATIVE) {
+  const vision::Intrinsics& in = camera.intrinsics();
+  if (in.lens == vision::LensModel::kPlumbBob)  // OpenCV's own, as the figures in docs/vision.md were made
+    return cv::solvePnP(object, image, in.CameraMatrix(), in.DistortionCoeffs(), rvec, tvec, false, flags);
+  std::vector<cv::Point2d> px(image.begin(), image.end());
+  const std::vector<cv::Point2d> n = camera.UndistortToNormalized(px);
+  std::vector<cv::Point2f> nf;
+  for (const cv::Point2d& p : n) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return false;
+    nf.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  }
+  return cv::solvePnP(object, nf, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, flags);
+}
+
+std::vector<cv::Point2f> ProjectThroughLens(const std::vector<cv::Point3f>& object, const cv::Mat& rvec,
+                                            const cv::Mat& tvec, const vision::CameraModel& camera) {
+  const vision::Intrinsics& in = camera.intrinsics();
+  if (in.lens == vision::LensModel::kPlumbBob) {
+    std::vector<cv::Point2f> out;
+    cv::projectPoints(object, rvec, tvec, in.CameraMatrix(), in.DistortionCoeffs(), out);
+    return out;
+  }
+  cv::Matx33d R;
+  cv::Rodrigues(rvec, R);
+  const cv::Vec3d t(tvec);
+  std::vector<cv::Point2f> out;
+  for (const cv::Point3f& p : object) {
+    const cv::Vec3d c = R * cv::Vec3d(p.x, p.y, p.z) + t;
+    const auto px = camera.ProjectCamera(Eigen::Vector3d(c[0], c[1], c[2]));
+    out.emplace_back(px ? static_cast<float>(px->x()) : NAN, px ? static_cast<float>(px->y()) : NAN);
+  }
+  return out;
 }
 
 struct FrameScore {
@@ -162,13 +210,12 @@ struct FrameScore {
 FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::CalibrationBoard& board,
                  const vision::Intrinsics& in) {
   FrameScore s;
-  const cv::Mat K = in.CameraMatrix(), D = in.DistortionCoeffs();
+  const vision::CameraModel camera(in, vision::CameraMount{});
   // (a) one rigid pose for every corner.
   const vision::BoardDetection all = AsDetection(c, board, &tags);
   cv::Mat rvec, tvec;
-  if (!cv::solvePnP(all.object_points, all.image_points, K, D, rvec, tvec)) return s;
-  std::vector<cv::Point2f> projected;
-  cv::projectPoints(all.object_points, rvec, tvec, K, D, projected);
+  if (!SolvePnPThroughLens(all.object_points, all.image_points, camera, rvec, tvec)) return s;
+  const std::vector<cv::Point2f> projected = ProjectThroughLens(all.object_points, rvec, tvec, camera);
   double sq = 0.0;
   for (size_t i = 0; i < projected.size(); ++i) {
     const cv::Point2f e = projected[i] - all.image_points[i];
@@ -224,14 +271,14 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
     if (others.size() < 4) continue;
     const vision::BoardDetection rest = AsDetection(c, board, &others);
     cv::Mat rb, tb;
-    if (!cv::solvePnP(rest.object_points, rest.image_points, K, D, rb, tb)) continue;
+    if (!SolvePnPThroughLens(rest.object_points, rest.image_points, camera, rb, tb)) continue;
     // IPPE_SQUARE's object order: (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2),
     // i.e. top-left, top-right, bottom-right, bottom-left in a y-up square:
     // tag.h's corners 3, 2, 1, 0.
     std::vector<cv::Point2f> own;
     for (int k : {3, 2, 1, 0}) own.emplace_back(static_cast<float>(c.at({id, k}).x), static_cast<float>(c.at({id, k}).y));
     cv::Mat rt, tt;
-    if (!cv::solvePnP(square, own, K, D, rt, tt, false, cv::SOLVEPNP_IPPE_SQUARE)) continue;
+    if (!SolvePnPThroughLens(square, own, camera, rt, tt, cv::SOLVEPNP_IPPE_SQUARE)) continue;
     // The tag's centre and axes on the board, through the others' pose.
     const cv::Point3f c0 = *board.AprilgridCorner(id, 0), c2 = *board.AprilgridCorner(id, 2);
     const cv::Vec3d centre_board(0.5 * (c0.x + c2.x), 0.5 * (c0.y + c2.y), 0.0);
@@ -263,6 +310,25 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
   return s;
 }
 
+// The lens a yac or Kalibr camera file names (cam0's dist_model /
+// distortion_model: radtan, equi4, equidistant, fisheye); nullopt when none.
+std::optional<vision::LensModel> LensOfTargetFile(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    for (const char* key : {"dist_model:", "distortion_model:"}) {
+      const size_t at = line.find(key);
+      if (at == std::string::npos) continue;
+      std::string v = line.substr(at + std::strlen(key));
+      v.erase(std::remove_if(v.begin(), v.end(), [](char ch) { return ch == ' ' || ch == '"' || ch == '\''; }), v.end());
+      if (const size_t hash = v.find('#'); hash != std::string::npos) v.resize(hash);
+      if (v.rfind("equi", 0) == 0 || v == "fisheye") return vision::LensModel::kEquidistant;
+      if (v.rfind("radtan", 0) == 0 || v == "plumb_bob") return vision::LensModel::kPlumbBob;
+    }
+  }
+  return std::nullopt;
+}
+
 double Median(std::vector<double> v) {
   v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
   if (v.empty()) return NAN;
@@ -283,7 +349,7 @@ double StdDev(const std::vector<double>& v) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--refits N] [--seed S] [--variants 0]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--model plumb_bob|fisheye] [--refits N] [--seed S] [--variants 0]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
@@ -291,6 +357,7 @@ int main(int argc, char** argv) {
   int refits = 10;
   unsigned seed = 1;
   bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
+  std::optional<vision::LensModel> model;  // --model; else the target file's cam0 dist_model, else plumb_bob
   vision::BoardDetectionOptions detect;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -298,6 +365,13 @@ int main(int argc, char** argv) {
     else if (a == "--refits") refits = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
     else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
+    else if (a == "--model") {
+      model = vision::ParseLensModel(argv[i + 1]);
+      if (!model) {
+        std::fprintf(stderr, "--model %s: plumb_bob or fisheye (equidistant)\n", argv[i + 1]);
+        return 2;
+      }
+    }
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -312,6 +386,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const vision::CalibrationBoard board = *board_or;
+  if (!model) model = LensOfTargetFile(target);
+  const vision::LensModel lens_model = model.value_or(vision::LensModel::kPlumbBob);
   std::vector<fs::path> images;
   for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
     if (e.path().extension() == ".jpg" || e.path().extension() == ".png") images.push_back(e.path());
@@ -364,7 +440,7 @@ int main(int argc, char** argv) {
   // the image): what `calibrate-camera` does on its second pass.
   if (with_variants) {
     Variant lensed{{"odocal, through its own lens", {}}, detect};
-    const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true));
+    const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true), lens_model);
     if (first.ok()) lensed.options.lens = first.intrinsics;
     for (const fs::path& p : images)
       lensed.method.frames.push_back(
@@ -425,7 +501,7 @@ int main(int argc, char** argv) {
   }
 
   // Calibration from each method's corners, all frames, and refits.
-  std::printf("\n## Calibration from each method's corners (CalibrateCamera, plumb_bob)\n\n");
+  std::printf("\n## Calibration from each method's corners (CalibrateCamera, %s)\n\n", vision::LensModelName(lens_model));
   std::printf("| corners | tags found | views | RMS [px] | per-view RMS median / max [px] | fx, fy, cx, cy [px] | "
               "spread over %d refits without a fifth of the frames: fx, fy, cx, cy [px] |\n|---|---|---|---|---|---|---|\n",
               refits);
@@ -433,7 +509,7 @@ int main(int argc, char** argv) {
   for (size_t m = 0; m < methods.size(); ++m) {
     int tags = 0;
     for (const Corners& c : methods[m].frames) tags += TagsIn(c);
-    full[m] = Calibrate(methods[m], board, size, std::vector<bool>(F, true));
+    full[m] = Calibrate(methods[m], board, size, std::vector<bool>(F, true), lens_model);
     const auto& r = full[m];
     if (!r.ok()) {
       std::printf("| %s | %d | — | %s |\n", methods[m].name.c_str(), tags, r.message.c_str());
@@ -447,7 +523,7 @@ int main(int argc, char** argv) {
       std::shuffle(order.begin(), order.end(), rng);
       std::vector<bool> use(F, true);
       for (size_t i = 0; i < F / 5; ++i) use[order[i]] = false;
-      const auto s = Calibrate(methods[m], board, size, use);
+      const auto s = Calibrate(methods[m], board, size, use, lens_model);
       if (!s.ok()) continue;
       fx.push_back(s.intrinsics.fx);
       fy.push_back(s.intrinsics.fy);
@@ -476,7 +552,7 @@ int main(int argc, char** argv) {
     use[f] = false;
     std::vector<vision::CameraCalibrationResult> cals;
     for (size_t m = 0; m < methods.size(); ++m) {
-      cals.push_back(Calibrate(methods[m], board, size, use));
+      cals.push_back(Calibrate(methods[m], board, size, use, lens_model));
       scores[m].push_back(cals[m].ok() ? Score(methods[m].frames[f], tags, board, cals[m].intrinsics) : FrameScore{});
     }
     // Each peer's corners under odocal's camera and odocal's under each

@@ -2,7 +2,9 @@
 // calibrate-camera` -> camera file and report, against the known camera.
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -159,6 +161,86 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
     EXPECT_EQ(r.exit_code, 2);
     EXPECT_THAT(r.err, ::testing::HasSubstr("--board: unknown ArUco dictionary 'DICT_NOPE'")) << r.err;
   }
+}
+
+// A Kalibr/ROS data set keeps its frames in a folder (cam0/data): the folder
+// stands for its images, other files ignored; the camera file's directory is
+// made before the work; an empty folder or a folder named as the output is
+// bad input, said before any detection.
+TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_dir_");
+  std::filesystem::create_directories(dir + "/cam0/data");
+  WriteViews(dir + "/cam0/data", 5, 4);
+  { std::ofstream(dir + "/cam0/data/notes.txt") << "not an image\n"; }
+  const std::string out = dir + "/results/today/camera.yaml";
+  CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
+                               "/cam0/data --board chessboard:9x6:25 --out " + out + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["views_used"], 5);
+  ASSERT_EQ(doc["images"].size(), 5u);
+  EXPECT_EQ(doc["images"][0]["path"], dir + "/cam0/data/view0.png");  // sorted by name
+  EXPECT_TRUE(std::filesystem::exists(out));
+
+  std::filesystem::create_directories(dir + "/empty");
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir + "/empty --board chessboard:9x6:25 --out " +
+                 dir + "/x.yaml");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr(dir + "/empty: a directory with no .png")) << r.err;
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir + "/cam0/data --board chessboard:9x6:25 --out " +
+                 dir + "/results");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--out " + dir + "/results: is a directory")) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.yaml"));
+}
+
+// A fisheye fitted as plumb_bob leaves pixels of error and no hint; the
+// command fits the same views as a fisheye and says so. Rendered: Kalibr's
+// aprilgrid through a 190-degree (TUM-VI-like) lens, 5 views.
+TEST(CliCalibrateCamera, AFisheyeFittedAsPlumbBobIsNamed) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_fisheye_");
+  vision::CalibrationBoard board;
+  board.type = vision::CalibrationBoard::Type::kAprilgrid;
+  board.cols = board.rows = 6;
+  board.square_m = 0.088;
+  board.spacing = 0.3;
+  const auto pattern = vision::AprilgridPattern(board);
+  ASSERT_TRUE(pattern);
+  std::vector<Eigen::Vector3d> points;
+  for (int id = 0; id < 36; ++id)
+    for (int k = 0; k < 4; ++k) points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
+  lens.lens = vision::LensModel::kEquidistant;
+  vision::FieldPoseSampling sampling;
+  sampling.count = 5;
+  sampling.seed = 5;
+  sampling.max_off_axis_deg = 50.0;
+  sampling.near_m = 0.4;
+  sampling.far_m = 0.7;
+  sampling.min_points_in_view = 144;
+  const auto poses = vision::SampleFieldBoardPoses(lens, points, sampling);
+  ASSERT_TRUE(poses);
+  for (size_t i = 0; i < poses->size(); ++i) {
+    vision::BoardRenderOptions o;
+    o.seed = 70 + i;
+    o.supersample = 8;
+    const auto r = vision::RenderBoard(lens, *pattern, (*poses)[i], points, o);
+    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(cv::imwrite(dir + "/view" + std::to_string(i) + ".png", r.frame.image));
+  }
+  const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
+                                     " --board aprilgrid:6x6:88:0.3 --json --out " + dir + "/camera.yaml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["distortion_model"], "plumb_bob");
+  EXPECT_GT(doc["rms_reprojection_error_px"].get<double>(), 1.0);
+  // Measured: plumb_bob 1.70 px, the same views as a fisheye 0.045 px.
+  ASSERT_TRUE(doc["fisheye_rms_px"].is_number()) << r.out;
+  EXPECT_LT(doc["fisheye_rms_px"].get<double>(), 0.1);
+  const CommandResult text = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
+                                        " --board aprilgrid:6x6:88:0.3 --out " + dir + "/camera.yaml");
+  EXPECT_THAT(text.out, ::testing::HasSubstr("this looks like a fisheye lens; calibrate again with --model fisheye"))
+      << text.out;
 }
 
 }  // namespace

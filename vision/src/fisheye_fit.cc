@@ -1,5 +1,6 @@
 #include "fisheye_fit.h"
 
+#include <array>
 #include <cmath>
 
 #include <ceres/ceres.h>
@@ -51,69 +52,84 @@ struct EquidistantCorner {
 std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
                                              const std::vector<std::vector<cv::Point2f>>& images,
                                              const Intrinsics& start, std::string* why) {
-  const CameraModel camera(start, CameraMount{});
-  EquidistantFit out;
   double lens[8] = {start.fx, start.fy, start.cx, start.cy, start.distortion[0], start.distortion[1],
                     start.distortion[2], start.distortion[3]};
+  const auto current = [&] {
+    Intrinsics in = start;
+    in.fx = lens[0], in.fy = lens[1], in.cx = lens[2], in.cy = lens[3];
+    in.distortion = {lens[4], lens[5], lens[6], lens[7], 0.0};
+    return in;
+  };
   std::vector<std::array<double, 6>> poses(objects.size());
-  std::vector<bool> used(objects.size(), false);
-  ceres::Problem problem;
-  int n_views = 0;
-  size_t n_points = 0;
-  for (size_t v = 0; v < objects.size(); ++v) {
-    // The view's pose through the start lens: its corners undistorted to the
-    // normalised plane, where the board is a homography away.
-    std::vector<cv::Point2d> px(images[v].begin(), images[v].end());
-    const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(px);
-    std::vector<cv::Point3f> o;
-    std::vector<cv::Point2d> n;
-    for (size_t i = 0; i < normalised.size(); ++i)
-      if (std::isfinite(normalised[i].x) && std::isfinite(normalised[i].y)) o.push_back(objects[v][i]), n.push_back(normalised[i]);
-    cv::Vec3d rvec, tvec;
-    bool posed = o.size() >= 4;
-    try {
-      posed = posed && cv::solvePnP(o, n, cv::Matx33d::eye(), cv::noArray(), rvec, tvec);
-    } catch (const cv::Exception&) {
-      posed = false;
+  std::vector<bool> posed(objects.size(), false);
+  // Each view's pose through the lens as it stands: its corners undistorted
+  // to the normalised plane, where the board is a homography away. A view
+  // the start lens cannot pose (its corners beyond where a lens fitted
+  // without it undistorts) is tried again through the adjusted lens.
+  const auto pose_views = [&](const CameraModel& camera) {
+    int added = 0;
+    for (size_t v = 0; v < objects.size(); ++v) {
+      if (posed[v]) continue;
+      std::vector<cv::Point2d> px(images[v].begin(), images[v].end());
+      const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(px);
+      std::vector<cv::Point3f> o;
+      std::vector<cv::Point2d> n;
+      for (size_t i = 0; i < normalised.size(); ++i)
+        if (std::isfinite(normalised[i].x) && std::isfinite(normalised[i].y))
+          o.push_back(objects[v][i]), n.push_back(normalised[i]);
+      cv::Vec3d rvec, tvec;
+      bool ok = o.size() >= 4;
+      try {
+        ok = ok && cv::solvePnP(o, n, cv::Matx33d::eye(), cv::noArray(), rvec, tvec);
+      } catch (const cv::Exception&) {
+        ok = false;
+      }
+      if (!ok || !std::isfinite(rvec[0]) || !std::isfinite(tvec[2]) || !(tvec[2] > 0.0)) continue;
+      poses[v] = {rvec[0], rvec[1], rvec[2], tvec[0], tvec[1], tvec[2]};
+      posed[v] = true;
+      ++added;
     }
-    if (!posed || !std::isfinite(rvec[0]) || !std::isfinite(tvec[2]) || !(tvec[2] > 0.0)) {
-      out.views_left_out.push_back(static_cast<int>(v));
-      continue;
+    return added;
+  };
+  EquidistantFit out;
+  for (int round = 0; round < 3; ++round) {
+    if (pose_views(CameraModel(current(), CameraMount{})) == 0 && round > 0) break;
+    ceres::Problem problem;
+    int n_views = 0;
+    size_t n_points = 0;
+    for (size_t v = 0; v < objects.size(); ++v) {
+      if (!posed[v]) continue;
+      ++n_views;
+      for (size_t i = 0; i < objects[v].size(); ++i) {
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
+                                     new EquidistantCorner(objects[v][i], images[v][i])),
+                                 nullptr, lens, poses[v].data());
+        ++n_points;
+      }
     }
-    poses[v] = {rvec[0], rvec[1], rvec[2], tvec[0], tvec[1], tvec[2]};
-    used[v] = true;
-    ++n_views;
-    for (size_t i = 0; i < objects[v].size(); ++i) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
-                                   new EquidistantCorner(objects[v][i], images[v][i])),
-                               nullptr, lens, poses[v].data());
-      ++n_points;
+    if (n_views < 3) {
+      if (why) *why = "fewer than 3 views with a pose through the first lens";
+      return std::nullopt;
     }
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_SCHUR;
+    options.max_num_iterations = 200;
+    options.function_tolerance = 1e-12;
+    options.parameter_tolerance = 1e-12;
+    options.gradient_tolerance = 1e-14;
+    options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, &problem, &summary);
+    if (!summary.IsSolutionUsable() || !std::isfinite(summary.final_cost)) {
+      if (why) *why = "the fisheye adjustment failed: " + summary.message;
+      return std::nullopt;
+    }
+    out.rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
   }
-  if (n_views < 3) {
-    if (why) *why = "fewer than 3 views with a pose through the first lens";
-    return std::nullopt;
-  }
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_SCHUR;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-12;
-  options.gradient_tolerance = 1e-14;
-  options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  if (!summary.IsSolutionUsable() || !std::isfinite(summary.final_cost)) {
-    if (why) *why = "the fisheye adjustment failed: " + summary.message;
-    return std::nullopt;
-  }
-  out.rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
-  out.intrinsics = start;
-  out.intrinsics.fx = lens[0];
-  out.intrinsics.fy = lens[1];
-  out.intrinsics.cx = lens[2];
-  out.intrinsics.cy = lens[3];
-  out.intrinsics.distortion = {lens[4], lens[5], lens[6], lens[7], 0.0};
+  out.views_left_out.clear();
+  for (size_t v = 0; v < objects.size(); ++v)
+    if (!posed[v]) out.views_left_out.push_back(static_cast<int>(v));
+  out.intrinsics = current();
   if (!out.intrinsics.IsValid(why)) return std::nullopt;
   return out;
 }

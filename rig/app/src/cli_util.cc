@@ -1,6 +1,7 @@
 #include "cli_util.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
@@ -115,6 +116,41 @@ vision::CameraMount ParseMountOption(const std::string& command, const std::stri
   if (v.size() != 6)
     Fail(command, kExitBadInput, option + " " + text + ": expected x,y,height,roll,pitch,yaw (mm, deg)");
   return {v[0], v[1], v[2], v[3], v[4], v[5]};
+}
+
+std::vector<std::string> ExpandDirectories(const std::string& command, const std::vector<std::string>& inputs,
+                                           const std::vector<std::string>& extensions) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  for (const std::string& input : inputs) {
+    std::error_code ec;
+    if (!fs::is_directory(input, ec)) {
+      out.push_back(input);
+      continue;
+    }
+    std::vector<std::string> found;
+    for (const fs::directory_entry& e : fs::directory_iterator(input, ec)) {
+      if (!e.is_regular_file(ec)) continue;
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (std::find(extensions.begin(), extensions.end(), ext) != extensions.end()) found.push_back(e.path().string());
+    }
+    if (ec) Fail(command, kExitBadInput, input + ": cannot list the directory (" + ec.message() + ")");
+    if (found.empty()) {
+      std::string list;
+      for (const std::string& x : extensions) list += (list.empty() ? "" : " ") + x;
+      Fail(command, kExitBadInput, input + ": a directory with no " + list + " files");
+    }
+    std::sort(found.begin(), found.end());
+    out.insert(out.end(), found.begin(), found.end());
+  }
+  return out;
+}
+
+const std::vector<std::string>& ImageExtensions() {
+  static const std::vector<std::string> kImages = {".png", ".jpg", ".jpeg", ".bmp", ".tif",
+                                                   ".tiff", ".pgm", ".ppm", ".webp"};
+  return kImages;
 }
 
 vision::CalibrationBoard ParseBoardOption(const std::string& command, const std::string& option,

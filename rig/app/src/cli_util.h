@@ -27,6 +27,16 @@ inline constexpr int kExitBadInput = 2;
 // `exit_code` (through CLI11, so main returns it).
 [[noreturn]] void Fail(const std::string& command, int exit_code, const std::string& message);
 
+// The inputs with every directory replaced by the files in it whose
+// extension is one of `extensions` (lower case, with the dot; matched
+// case-insensitively), sorted by name, as Kalibr/ROS data sets keep frames
+// (cam0/data/*.png). A directory with none of them fails the command
+// (bad input), naming it. Files are passed through unchecked.
+std::vector<std::string> ExpandDirectories(const std::string& command, const std::vector<std::string>& inputs,
+                                           const std::vector<std::string>& extensions);
+// Still images OpenCV reads: .png .jpg .jpeg .bmp .tif .tiff .pgm .ppm .webp.
+const std::vector<std::string>& ImageExtensions();
+
 // "1.5,-2,0.25" -> {1.5, -2, 0.25}; nullopt unless every field is a finite number.
 std::optional<std::vector<double>> ParseNumberList(const std::string& text);
 

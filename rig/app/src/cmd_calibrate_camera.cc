@@ -1,4 +1,4 @@
-// odocal calibrate-camera IMAGES... --board SPEC --out camera.yaml [--format opencv|ros] [--json]
+// odocal calibrate-camera IMAGES|DIRS... --board SPEC --out camera.yaml [--format opencv|ros] [--json]
 //
 // Loads the images, finds the board in each (vision::DetectBoard), calibrates
 // (vision::CalibrateCamera) and writes the camera file (camera_io.h) with the
@@ -39,7 +39,7 @@ struct ImageOutcome {
   std::string reason;  // when not used
   int corners = 0;
   double rms_px = 0.0;
-  bool left_out = false;  // board found, but the fisheye fit found the view ill-conditioned
+  bool left_out = false;  // board found, but no pose for it through the fitted fisheye lens
 };
 
 }  // namespace
@@ -66,11 +66,22 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   if (*lens == vision::LensModel::kEquidistant && args.fix_k3)
     Fail(kCommand, kExitBadInput, "--fix-k3 is plumb_bob's; the fisheye model has k1..k4");
 
+  // Where the camera file goes, settled before minutes of detection: its
+  // directory made if missing, a directory named as the file refused.
+  {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (fs::is_directory(args.out, ec)) Fail(kCommand, kExitBadInput, "--out " + args.out + ": is a directory");
+    const fs::path parent = fs::path(args.out).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, ec) && !fs::create_directories(parent, ec))
+      Fail(kCommand, kExitBadInput, "--out " + args.out + ": cannot make the directory " + parent.string() +
+                                        (ec ? " (" + ec.message() + ")" : ""));
+  }
   std::vector<ImageOutcome> outcomes;
   std::vector<vision::BoardDetection> views;
   std::vector<size_t> view_image;  // views[i] came from outcomes[view_image[i]]
   cv::Size size;
-  for (const std::string& path : args.images) {
+  for (const std::string& path : ExpandDirectories(kCommand, args.images, ImageExtensions())) {
     ImageOutcome o;
     o.path = path;
     const cv::Mat image =
@@ -141,6 +152,18 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
       result = std::move(second);
     }
   }
+  // A plumb_bob fit that leaves pixels: is it a fisheye? The same views
+  // through the equidistant model; suggested when it halves the error (a
+  // 190-degree lens fitted as plumb_bob: 2.39 px, as a fisheye 0.034 px).
+  double fisheye_rms_px = NAN;
+  if (*lens == vision::LensModel::kPlumbBob && result.rms_reprojection_error_px > 0.5) {
+    vision::CameraCalibrationOptions other = options;
+    other.lens = vision::LensModel::kEquidistant;
+    other.fix_k3 = false;
+    const vision::CameraCalibrationResult f = vision::CalibrateCamera(views, size, other);
+    if (f.ok() && f.rms_reprojection_error_px < 0.5 * result.rms_reprojection_error_px)
+      fisheye_rms_px = f.rms_reprojection_error_px;
+  }
   for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
   for (int v : result.views_left_out) outcomes[view_image[v]].left_out = true;
 
@@ -168,7 +191,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     for (const ImageOutcome& o : outcomes) {
       if (o.used) {
         images.push_back({{"path", o.path}, {"used", !o.left_out}, {"corners", o.corners}, {"rms_px", o.rms_px}});
-        if (o.left_out) images.back()["reason"] = "ill-conditioned for the fisheye fit (left out)";
+        if (o.left_out) images.back()["reason"] = "no pose through the fitted fisheye lens (left out)";
       } else {
         images.push_back({{"path", o.path}, {"used", false}, {"reason", o.reason}});
       }
@@ -184,6 +207,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         {"sigma", sigma},
         {"rms_reprojection_error_px", result.rms_reprojection_error_px},
         {"first_pass_rms_px", std::isfinite(first_pass_rms_px) ? nlohmann::json(first_pass_rms_px) : nlohmann::json()},
+        {"fisheye_rms_px", std::isfinite(fisheye_rms_px) ? nlohmann::json(fisheye_rms_px) : nlohmann::json()},
         {"views_used", result.views},
         {"corners_used", result.corners},
         {"images", images},
@@ -207,11 +231,15 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   if (std::isfinite(first_pass_rms_px))
     std::cout << " (the tags' edges refined through the lens; " << Fixed(first_pass_rms_px, 4)
               << " px as straight lines)";
-  std::cout << "\n\n";
+  std::cout << "\n";
+  if (std::isfinite(fisheye_rms_px))
+    std::cout << "  warning: the same views fit the fisheye (equidistant) model with RMS " << Fixed(fisheye_rms_px, 4)
+              << " px: this looks like a fisheye lens; calibrate again with --model fisheye\n";
+  std::cout << "\n";
   for (const ImageOutcome& o : outcomes) {
     std::cout << "  " << o.path << ": "
               << (o.used ? Fixed(o.rms_px, 4) + " px RMS, " + std::to_string(o.corners) + " corners" +
-                               (o.left_out ? " (left out of the fit: ill-conditioned)" : "")
+                               (o.left_out ? " (left out of the fit: no pose through the fisheye lens)" : "")
                          : "skipped (" + o.reason + ")")
               << "\n";
   }
@@ -225,7 +253,9 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
       "Camera intrinsics (fx fy cx cy, k1 k2 p1 p2 k3) from images of a calibration board.\n"
       "Images where the board is not found are named and skipped; at least 3 must remain.\n"
       "Writes OpenCV FileStorage or ROS camera_info YAML with the reprojection errors.");
-  cmd->add_option("images", args->images, "Images of the board (any format OpenCV reads)")->required();
+  cmd->add_option("images", args->images,
+                  "Images of the board (any format OpenCV reads), or directories of them (e.g. a Kalibr data set's cam0/data)")
+      ->required();
   cmd->add_option("--board", args->board,
                   "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25) or\n"
                   "charuco:COLSxROWS:SQUARE_MM:MARKER_MM:DICT (squares, e.g. charuco:7x5:40:30:DICT_5X5_100) or\n"

@@ -139,7 +139,9 @@ void RunDetect(const DetectArgs& args) {
                args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
                std::to_string(intrinsics->height));
   };
-  for (const std::string& path : args.inputs) {
+  // A directory stands for the images in it (a Kalibr data set's cam0/data).
+  const std::vector<std::string> inputs = ExpandDirectories(kCommand, args.inputs, ImageExtensions());
+  for (const std::string& path : inputs) {
     if (!fs::is_regular_file(path))
       Fail(kCommand, kExitBadInput, path + ": " + (fs::exists(path) ? "not a regular file" : "no such file"));
     if (IsVideo(path)) {
@@ -331,7 +333,7 @@ void RunDetect(const DetectArgs& args) {
     }
     images.push_back(image);
   };
-  for (const std::string& path : args.inputs) {
+  for (const std::string& path : inputs) {
     if (IsVideo(path)) {
       media::VideoReader reader;
       const Status opened = reader.Open(path);
@@ -345,7 +347,7 @@ void RunDetect(const DetectArgs& args) {
       process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)});
     }
   }
-  if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + args.inputs.front());
+  if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + inputs.front());
   if (board && board_views == 0) {
     Fail(kCommand, kExitBadInput,
          "--board " + args.board + ": no image of " + std::to_string(frame_count) + " shows 4 or more of its " +
@@ -407,7 +409,7 @@ void RegisterDetectCommand(CLI::App& app) {
       "counter-clockwise), each corner's sigma; with --calibration the tag's (or board's) pose in the camera\n"
       "frame with its covariance. The tool to reach for when a tag is not found: --annotate draws the tags\n"
       "found and the quads refused.");
-  cmd->add_option("inputs", args->inputs, "Images (any format OpenCV reads) or videos (.mp4 .avi .mkv .mov .webm)")
+  cmd->add_option("inputs", args->inputs, "Images (any format OpenCV reads), videos (.mp4 .avi .mkv .mov .webm), or directories of images")
       ->required();
   cmd->add_option("--tag", args->tag,
                   "FAMILY:ID:SIZE_MM[:HEIGHT_MM]: the family to look for (tag36h11, or tag36h11b2 for a\n"

@@ -194,8 +194,8 @@ struct CameraCalibrationResult {
   std::array<double, 9> sigma{};
   int views = 0;
   int corners = 0;
-  // Views (input order) the fit left out: cv::fisheye found them
-  // ill-conditioned (edge-on, or too small). per_view_rms_px still has them.
+  // Views (input order) the fisheye fit left out: no pose for them through
+  // the lens, even once adjusted (fisheye_fit.h). per_view_rms_px still has them.
   std::vector<int> views_left_out;
 
   bool ok() const { return status == StatusCode::kOk; }

@@ -214,9 +214,40 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
     }
   }
   const cv::Mat K = intrinsics.CameraMatrix(), D = intrinsics.DistortionCoeffs();
+  const bool fisheye = intrinsics.lens == LensModel::kEquidistant;
+  // The points' pixels and their Jacobian in (rvec, tvec) through the lens:
+  // cv::projectPoints for plumb_bob (its Jacobian's first 6 columns),
+  // cv::fisheye::projectPoints for the equidistant lens (columns 8..13 of
+  // its 2N x 15: f, c, k1..k4, then om and T).
+  const auto project = [&](const cv::Mat& r, const cv::Mat& t, std::vector<cv::Point2d>* px, cv::Mat* J6) {
+    cv::Mat J;
+    if (fisheye) {
+      cv::fisheye::projectPoints(object_points, *px, r, t, K, D, 0.0, J);
+      *J6 = J.colRange(8, 14).clone();
+    } else {
+      cv::projectPoints(object_points, r, t, K, D, *px, J);
+      *J6 = J.colRange(0, 6).clone();
+    }
+  };
   cv::Mat rvec, tvec;
   try {
-    if (!cv::solvePnP(object_points, image_points, K, D, rvec, tvec, false, cv::SOLVEPNP_IPPE)) {
+    bool solved = false;
+    if (fisheye) {
+      // IPPE on the points undistorted to the normalised plane (K = I).
+      const CameraModel camera(intrinsics, CameraMount{});
+      const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(image_points);
+      for (const cv::Point2d& q : normalised) {
+        if (!std::isfinite(q.x) || !std::isfinite(q.y)) {
+          pose.message = "a point lies where the lens has no pinhole image (90 degrees or more off the axis)";
+          return pose;
+        }
+      }
+      solved = cv::solvePnP(object_points, normalised, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false,
+                            cv::SOLVEPNP_IPPE);
+    } else {
+      solved = cv::solvePnP(object_points, image_points, K, D, rvec, tvec, false, cv::SOLVEPNP_IPPE);
+    }
+    if (!solved) {
       pose.message = "no planar pose fits these points";
       return pose;
     }
@@ -228,7 +259,7 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
     for (int iteration = 0; iteration < 10; ++iteration) {
       std::vector<cv::Point2d> projected;
       cv::Mat J;
-      cv::projectPoints(object_points, rvec, tvec, K, D, projected, J);
+      project(rvec, tvec, &projected, &J);
       J_w = cv::Mat(static_cast<int>(2 * n), 6, CV_64F);
       cv::Mat r_w(static_cast<int>(2 * n), 1, CV_64F);
       for (size_t i = 0; i < n; ++i) {
@@ -247,7 +278,7 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
     }
     std::vector<cv::Point2d> projected;
     cv::Mat J;
-    cv::projectPoints(object_points, rvec, tvec, K, D, projected, J);
+    project(rvec, tvec, &projected, &J);
     cv::Mat JtJ = cv::Mat::zeros(6, 6, CV_64F);
     double sq = 0.0;
     for (size_t i = 0; i < n; ++i) {

@@ -14,8 +14,9 @@
 // DATA_DIR is laid out as Kalibr/yac data sets are: cam0/data/*.jpg|*.png,
 // a target file (Kalibr target.yaml or a yac camera file with calib_target:,
 // the first *.yaml in DATA_DIR unless --target), and optionally yac's
-// detections, grid0/cam0/data/<frame>.csv (ts, rows, cols, size, spacing,
-// kp_x, kp_y, ..., tag_id, corner_index).
+// detections, <frame>.csv (ts, rows, cols, size, spacing, kp_x, kp_y, ...,
+// tag_id, corner_index): in --peer DIR, else grid0/cam0/data/, else anywhere
+// under DATA_DIR.
 //
 // Methods:
 //   odocal          DetectBoard: the exact edge model, the edge shift
@@ -40,6 +41,7 @@
 // (a) and (b) on the tags every method found in that frame (all 4 corners),
 // on the frames where each method sees at least 5 tags.
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -349,11 +351,12 @@ double StdDev(const std::vector<double>& v) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--model plumb_bob|fisheye] [--refits N] [--seed S] [--variants 0]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--peer DIR] [--model plumb_bob|fisheye] [--refits N] [--seed S] "
+                 "[--variants 0]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
-  fs::path target;
+  fs::path target, peer_dir;
   int refits = 10;
   unsigned seed = 1;
   bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
@@ -362,6 +365,7 @@ int main(int argc, char** argv) {
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--target") target = argv[i + 1];
+    else if (a == "--peer") peer_dir = argv[i + 1];
     else if (a == "--refits") refits = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
     else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
@@ -388,17 +392,45 @@ int main(int argc, char** argv) {
   const vision::CalibrationBoard board = *board_or;
   if (!model) model = LensOfTargetFile(target);
   const vision::LensModel lens_model = model.value_or(vision::LensModel::kPlumbBob);
+  // The frames: cam0/data (Kalibr/yac), mav0/cam0/data (EuRoC), or DATA_DIR itself.
   std::vector<fs::path> images;
-  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
-    if (e.path().extension() == ".jpg" || e.path().extension() == ".png") images.push_back(e.path());
+  for (const fs::path& folder : {dir / "cam0" / "data", dir / "mav0" / "cam0" / "data", dir}) {
+    if (!fs::is_directory(folder)) continue;
+    for (const auto& e : fs::directory_iterator(folder)) {
+      std::string ext = e.path().extension().string();
+      for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".bmp" || ext == ".pgm" || ext == ".tif" ||
+          ext == ".tiff")
+        images.push_back(e.path());
+    }
+    if (!images.empty()) break;
+  }
   std::sort(images.begin(), images.end());
   if (images.empty()) {
-    std::fprintf(stderr, "%s: no images in cam0/data\n", dir.c_str());
+    std::fprintf(stderr, "%s: no images in cam0/data, mav0/cam0/data or the directory itself\n", dir.c_str());
     return 2;
   }
 
   Method odocal{"odocal", {}}, yac{"yac (data set)", {}}, aruco{"OpenCV aruco", {}};
-  const bool have_yac = fs::exists(dir / "grid0" / "cam0" / "data");
+  // yac's detections: grid0/cam0/data/<frame>.csv (the D435i set), else
+  // --peer DIR, else any <frame>.csv elsewhere under DATA_DIR (yac's own test
+  // data keeps them beside the frames' folder, cam0/<frame>.csv).
+  std::map<std::string, fs::path> peer_csv;
+  {
+    const fs::path preferred = !peer_dir.empty() ? peer_dir : dir / "grid0" / "cam0" / "data";
+    std::set<std::string> stems;
+    for (const fs::path& p : images) stems.insert(p.stem().string());
+    if (fs::is_directory(preferred)) {
+      for (const auto& e : fs::directory_iterator(preferred))
+        if (e.path().extension() == ".csv" && stems.count(e.path().stem().string()))
+          peer_csv[e.path().stem().string()] = e.path();
+    } else {
+      for (const auto& e : fs::recursive_directory_iterator(dir))
+        if (e.path().extension() == ".csv" && stems.count(e.path().stem().string()))
+          peer_csv[e.path().stem().string()] = e.path();
+    }
+  }
+  const bool have_yac = !peer_csv.empty();
   // odocal's variants: what each part of DetectBoard's aprilgrid refinement
   // is worth.
   struct Variant {
@@ -432,7 +464,10 @@ int main(int argc, char** argv) {
     if (d.found) shifts.push_back(d.edge_shift_px);
     odocal.frames.push_back(corners_of(d));
     for (Variant& v : variants) v.method.frames.push_back(corners_of(vision::DetectBoard(grey, board, v.options)));
-    if (have_yac) yac.frames.push_back(ReadYac(dir / "grid0" / "cam0" / "data" / (p.stem().string() + ".csv")));
+    if (have_yac) {
+      const auto it = peer_csv.find(p.stem().string());
+      yac.frames.push_back(it == peer_csv.end() ? Corners{} : ReadYac(it->second));
+    }
     aruco.frames.push_back(Aruco(grey, board));
   }
   // odocal again, its tags' edges refined through the lens it calibrated

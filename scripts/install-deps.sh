@@ -2,26 +2,38 @@
 # Installs the Debian 12 packages odocal builds against, only those missing.
 # Safe to run again: when everything is present it does nothing and asks no mirror.
 set -euo pipefail
+#   bash scripts/install-deps.sh            everything: the build, the tests, the benchmarks, the firmware
+#   bash scripts/install-deps.sh --runtime  only what building and running odocal needs (README's first command)
+mode=all
+case "${1:-}" in
+  "" | --all) mode=all ;;
+  --runtime) mode=runtime ;;
+  *) echo "install-deps: unknown option '$1' (--runtime or --all)" >&2; exit 2 ;;
+esac
 packages=(
   build-essential cmake ninja-build pkg-config
-  libgtest-dev libgmock-dev libbenchmark-dev
   libeigen3-dev libceres-dev
   libopencv-dev libapriltag-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libboost-dev
   libcpp-httplib-dev  # the live view's HTTP server (rig/live)
-  chromium  # headless, for the live view's screenshot test (tests/live)
   ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
-  # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)
-  gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1 arduino-core-avr
-  gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 )
+if [[ $mode == all ]]; then
+  packages+=(
+    libgtest-dev libgmock-dev libbenchmark-dev
+    chromium  # headless, for the live view's screenshot test (tests/live)
+    # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)
+    gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1 arduino-core-avr
+    gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
+  )
+fi
 missing=()
 for p in "${packages[@]}"; do
   status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
   [[ "$status" == "install ok installed" ]] || missing+=("$p")
 done
 if ((${#missing[@]} == 0)); then
-  echo "install-deps: all ${#packages[@]} packages present"
+  echo "install-deps: all ${#packages[@]} packages present ($mode)"
   exit 0
 fi
 echo "install-deps: installing ${missing[*]}"

@@ -209,12 +209,20 @@ struct RenderedGridScene {
   Intrinsics intrinsics{640, 480, 610.0, 608.0, 321.0, 242.0, {-0.05, 0.02, 0.0, 0.0, 0.0}};
   std::optional<std::vector<Eigen::Isometry3d>> poses;
 };
+// Every tag corner of `board` (id-major, tag.h's corner order), in the
+// frame of AprilgridPattern(board).
+std::vector<Eigen::Vector3d> AprilgridTruthPoints(const CalibrationBoard& board) {
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < board.cols * board.rows; ++i)
+    for (int k = 0; k < 4; ++k)
+      points.push_back(AprilgridPointInPattern(board, *board.AprilgridCorner(board.first_id + i, k)));
+  return points;
+}
+
 RenderedGridScene GridScene(int count, unsigned seed) {
   RenderedGridScene scene;
   scene.pattern = AprilgridPattern(scene.board);
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k)
-      scene.truth_points.push_back(AprilgridPointInPattern(scene.board, *scene.board.AprilgridCorner(id, k)));
+  scene.truth_points = AprilgridTruthPoints(scene.board);
   BoardPoseSampling sampling;
   sampling.count = count;
   sampling.seed = seed;
@@ -319,9 +327,7 @@ TEST(KalibrTagRendered, FisheyeAprilgridCornersThroughTheLens) {
   scene.intrinsics = Intrinsics{640, 480, 300.0, 301.0, 318.5, 242.25, {-0.03, 0.006, -0.002, 0.0004, 0.0}};
   scene.intrinsics.lens = LensModel::kEquidistant;
   scene.pattern = AprilgridPattern(scene.board);
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k)
-      scene.truth_points.push_back(AprilgridPointInPattern(scene.board, *scene.board.AprilgridCorner(id, k)));
+  scene.truth_points = AprilgridTruthPoints(scene.board);
   BoardPoseSampling sampling;
   sampling.count = 10;
   sampling.seed = 23;
@@ -411,10 +417,7 @@ TEST(KalibrTagRendered, WideFisheyeFindsTheCurvedTagsAndCalibratesFromEveryView)
   const CalibrationBoard board = KalibrBoard();
   const auto pattern = AprilgridPattern(board);
   ASSERT_TRUE(pattern);
-  std::vector<Eigen::Vector3d> truth_points;
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k)
-      truth_points.push_back(AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  const std::vector<Eigen::Vector3d> truth_points = AprilgridTruthPoints(board);
   Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
   lens.lens = LensModel::kEquidistant;
   FieldPoseSampling sampling;

@@ -4,6 +4,7 @@
 #include <optional>
 #include <limits>
 #include <random>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -217,16 +218,26 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
   return result;
 }
 
+namespace {
+
+// The corners of the axis-aligned box around `points` (not empty).
+std::pair<Eigen::Vector3d, Eigen::Vector3d> BoundingBox(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d lo = points[0], hi = points[0];
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return {lo, hi};
+}
+
+}  // namespace
+
 std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
     const Intrinsics& intrinsics, const std::vector<Eigen::Vector3d>& points_board,
     const BoardPoseSampling& sampling) {
   if (points_board.empty() || !intrinsics.IsValid(nullptr)) return std::nullopt;
   const CameraModel camera(intrinsics, CameraMount{});
-  Eigen::Vector3d lo = points_board[0], hi = points_board[0];
-  for (const auto& p : points_board) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
+  const auto [lo, hi] = BoundingBox(points_board);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double extent_m = (hi - lo).head<2>().norm();
   constexpr double kDeg = M_PI / 180.0;
@@ -268,13 +279,9 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
 std::optional<std::vector<Eigen::Isometry3d>> SampleFieldBoardPoses(
     const Intrinsics& intrinsics, const std::vector<Eigen::Vector3d>& points_board,
     const FieldPoseSampling& sampling) {
-  if (points_board.empty()) return std::nullopt;
+  if (points_board.empty() || !intrinsics.IsValid(nullptr)) return std::nullopt;
   const CameraModel camera(intrinsics, CameraMount{});
-  Eigen::Vector3d lo = points_board[0], hi = points_board[0];
-  for (const auto& p : points_board) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
+  const auto [lo, hi] = BoundingBox(points_board);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   constexpr double kDeg = M_PI / 180.0;
   std::mt19937_64 rng(sampling.seed);

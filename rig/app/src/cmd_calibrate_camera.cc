@@ -1,7 +1,7 @@
 // odocal calibrate-camera IMAGES|DIRS... --board SPEC --out camera.yaml [--format opencv|ros] [--json]
 //
 // Loads the images, finds the board in each (vision::DetectBoard), calibrates
-// (vision::CalibrateCamera) and writes the camera file (camera_io.h) with the
+// (vision::CalibrateCamera) and writes the camera file (config/camera_file.h) with the
 // reprojection errors. Images without the board are named and skipped.
 #include <cmath>
 #include <cstdlib>

@@ -6,7 +6,7 @@
 //
 // SESSION is a session file (session.yaml: videos measured by the camera
 // pipeline, telemetry beside them), or an `odocal simulate --out` directory
-// seen through the stand-in camera of measured_session_io.h (fast, for
+// seen through the stand-in camera of simulation/stand_in_camera.h (fast, for
 // experiments). It never reads the scenario's effects or truth.json's truth.
 #include <algorithm>
 #include <cmath>

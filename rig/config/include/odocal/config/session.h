@@ -86,7 +86,7 @@ struct Session {
 Result<Session> LoadSession(const std::string& path);
 // Writes `session` to `path` with paths relative to its directory, and (with
 // a camera) the intrinsics to session.camera_file (OpenCV FileStorage YAML;
-// camera_io.h). `comment` lines (without '#') head the file.
+// camera_file.h). `comment` lines (without '#') head the file.
 std::optional<std::string> WriteSession(const Session& session, const std::string& path,
                                         const std::vector<std::string>& comment = {});
 

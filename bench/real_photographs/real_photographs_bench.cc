@@ -45,6 +45,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <optional>
 #include <filesystem>
@@ -78,25 +79,15 @@ struct Method {
   std::vector<Corners> frames;  // per frame
 };
 
+// yac's corners of one frame (config::ReadYacAprilgridCsv); exits on a bad file.
 Corners ReadYac(const fs::path& csv) {
-  Corners out;
-  std::ifstream in(csv);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<double> v;
-    std::stringstream ss(line);
-    for (std::string f; std::getline(ss, f, ',');) {
-      try {
-        v.push_back(std::stod(f));
-      } catch (...) {
-        v.clear();
-        break;
-      }
-    }
-    if (v.size() != 12) continue;
-    out[{static_cast<int>(v[10]), static_cast<int>(v[11])}] = cv::Point2d(v[5], v[6]);
+  const auto read = config::ReadYacAprilgridCsv(csv.string());
+  if (!read) {
+    std::fprintf(stderr, "%s\n", read.message.c_str());
+    std::exit(2);
   }
+  Corners out;
+  for (const config::YacAprilgridCorner& c : *read) out[{c.tag_id, c.corner}] = cv::Point2d(c.x_px, c.y_px);
   return out;
 }
 

@@ -28,6 +28,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/config/calib_target.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/board_render.h"
 #include "odocal/vision/camera_calibration.h"
@@ -621,17 +622,11 @@ fs::path AprilgridDir() {
 
 // yac's corners of one frame: (tag id, corner index) -> pixel.
 std::map<std::pair<int, int>, cv::Point2d> ReadYac(const fs::path& csv) {
+  const auto read = config::ReadYacAprilgridCsv(csv.string());
+  EXPECT_TRUE(read) << read.message;
   std::map<std::pair<int, int>, cv::Point2d> out;
-  std::ifstream in(csv);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<double> v;
-    std::stringstream ss(line);
-    for (std::string f; std::getline(ss, f, ',');) v.push_back(std::stod(f));
-    if (v.size() != 12) continue;
-    out[{static_cast<int>(v[10]), static_cast<int>(v[11])}] = cv::Point2d(v[5], v[6]);
-  }
+  if (read)
+    for (const config::YacAprilgridCorner& c : *read) out[{c.tag_id, c.corner}] = cv::Point2d(c.x_px, c.y_px);
   return out;
 }
 

@@ -1,5 +1,7 @@
 #include "odocal/config/calib_target.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -79,6 +81,52 @@ Result<vision::CalibrationBoard> ReadCalibrationTarget(const std::string& path) 
     buffer << in.rdbuf();
     return ParseCalibrationTarget(buffer.str(), path, error);
   });
+}
+
+Result<std::vector<YacAprilgridCorner>> ReadYacAprilgridCsv(const std::string& path) {
+  return ReadFileAs<std::vector<YacAprilgridCorner>>(
+      path, [&](std::string* error) -> std::optional<std::vector<YacAprilgridCorner>> {
+        std::ifstream in(path);
+        if (!in) {
+          *error = path + ": cannot open file";
+          return std::nullopt;
+        }
+        std::vector<YacAprilgridCorner> out;
+        std::string line;
+        for (int number = 1; std::getline(in, line); ++number) {
+          if (!line.empty() && line.back() == '\r') line.pop_back();
+          if (line.empty() || line[0] == '#') continue;
+          std::vector<double> v;
+          std::stringstream fields(line);
+          bool numbers = true;
+          for (std::string f; std::getline(fields, f, ',');) {
+            char* end = nullptr;
+            const double x = std::strtod(f.c_str(), &end);
+            numbers = numbers && end != f.c_str() && std::isfinite(x);
+            v.push_back(x);
+          }
+          if (!numbers || v.size() != 12) {
+            *error = path + ":" + std::to_string(number) +
+                     ": expected 12 numbers (ts, tag_rows, tag_cols, tag_size, tag_spacing, kp_x, kp_y, p_x, p_y, "
+                     "p_z, tag_id, corner_idx)";
+            return std::nullopt;
+          }
+          YacAprilgridCorner c;
+          c.tag_id = static_cast<int>(v[10]);
+          c.corner = static_cast<int>(v[11]);
+          if (c.corner < 0 || c.corner > 3) {
+            *error = path + ":" + std::to_string(number) + ": corner_idx " + std::to_string(c.corner) +
+                     " is not 0..3";
+            return std::nullopt;
+          }
+          c.x_px = v[5];
+          c.y_px = v[6];
+          c.board_x_m = v[7];
+          c.board_y_m = v[8];
+          out.push_back(c);
+        }
+        return out;
+      });
 }
 
 }  // namespace odocal::config

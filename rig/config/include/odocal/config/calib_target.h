@@ -18,6 +18,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "odocal/base/status.h"
 #include "odocal/vision/camera_calibration.h"
@@ -28,6 +29,20 @@ namespace odocal::config {
 std::optional<vision::CalibrationBoard> ParseCalibrationTarget(const std::string& text, const std::string& name,
                                                                std::string* error);
 Result<vision::CalibrationBoard> ReadCalibrationTarget(const std::string& path);
+
+// One corner of yac's aprilgrid detections, the per-frame CSV yac writes
+// beside its data sets (`#ts,tag_rows,tag_cols,tag_size,tag_spacing,kp_x,kp_y,
+// p_x,p_y,p_z,tag_id,corner_idx`): the pixel (OpenCV's convention) and the
+// corner's board point (m). corner_idx is tag.h's corner order.
+struct YacAprilgridCorner {
+  int tag_id = 0;
+  int corner = 0;
+  double x_px = 0.0, y_px = 0.0;
+  double board_x_m = 0.0, board_y_m = 0.0;
+};
+// Every corner of one frame's file; '#' lines skipped. A line without 12
+// numbers, or a corner index outside 0..3, is an error naming FILE:LINE.
+Result<std::vector<YacAprilgridCorner>> ReadYacAprilgridCsv(const std::string& path);
 
 }  // namespace odocal::config
 

@@ -46,7 +46,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <optional>
 #include <filesystem>
 #include <fstream>
@@ -60,6 +59,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "odocal/config/calib_target.h"
 #include "odocal/vision/camera_calibration.h"
@@ -306,18 +306,16 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
 // The lens a yac or Kalibr camera file names (cam0's dist_model /
 // distortion_model: radtan, equi4, equidistant, fisheye); nullopt when none.
 std::optional<vision::LensModel> LensOfTargetFile(const fs::path& file) {
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
-    for (const char* key : {"dist_model:", "distortion_model:"}) {
-      const size_t at = line.find(key);
-      if (at == std::string::npos) continue;
-      std::string v = line.substr(at + std::strlen(key));
-      v.erase(std::remove_if(v.begin(), v.end(), [](char ch) { return ch == ' ' || ch == '"' || ch == '\''; }), v.end());
-      if (const size_t hash = v.find('#'); hash != std::string::npos) v.resize(hash);
+  try {
+    const YAML::Node cam0 = YAML::LoadFile(file.string())["cam0"];
+    for (const char* key : {"dist_model", "distortion_model"}) {
+      if (!cam0 || !cam0[key]) continue;
+      const std::string v = cam0[key].as<std::string>();
       if (v.rfind("equi", 0) == 0 || v == "fisheye") return vision::LensModel::kEquidistant;
       if (v.rfind("radtan", 0) == 0 || v == "plumb_bob") return vision::LensModel::kPlumbBob;
     }
+  } catch (const YAML::Exception&) {
+    // Not YAML, or no such key: the target file's reader says what is wrong.
   }
   return std::nullopt;
 }

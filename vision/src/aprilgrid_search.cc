@@ -44,13 +44,12 @@ std::optional<BoardPrediction> BoardPrediction::Fit(const CalibrationBoard& boar
   out.board_ = &board;
   out.lens_ = lens;
   for (const auto& [id, corners] : measured) {
+    if (!board.AprilgridCorner(id, 0)) continue;  // not this board's tag
     std::vector<cv::Point2d> b(4), px(corners.begin(), corners.end());
     for (int k = 0; k < 4; ++k) {
-      const auto c = board.AprilgridCorner(id, k);
-      if (!c) break;
-      b[k] = cv::Point2d(c->x, c->y);
+      const cv::Point3f c = *board.AprilgridCorner(id, k);
+      b[k] = cv::Point2d(c.x, c.y);
     }
-    if (!board.AprilgridCorner(id, 0)) continue;
     if (lens) {
       px = lens->UndistortToNormalized(px);
       if (!std::all_of(px.begin(), px.end(), [](const cv::Point2d& p) { return std::isfinite(p.x) && std::isfinite(p.y); }))

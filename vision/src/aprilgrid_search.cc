@@ -122,6 +122,14 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
   // (its four diagonal cells left out: a Kalibr grid's corner squares).
   std::vector<double> value;
   std::vector<bool> black;
+  std::vector<bool> data;
+  // The rings of the bitmap all one colour (the border) are not data.
+  const auto ring_of = [&](int row, int col) { return std::min({row, col, cells.n - 1 - row, cells.n - 1 - col}); };
+  std::vector<bool> uniform(static_cast<size_t>(cells.n), true);
+  for (int row = 0; row < cells.n; ++row)
+    for (int col = 0; col < cells.n; ++col)
+      if (cells.Black(row, col) != cells.Black(ring_of(row, col), ring_of(row, col)))
+        uniform[static_cast<size_t>(ring_of(row, col))] = false;
   for (int row = -1; row <= cells.n; ++row) {
     for (int col = -1; col <= cells.n; ++col) {
       const bool ring = row < 0 || col < 0 || row == cells.n || col == cells.n;
@@ -137,6 +145,7 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
       if (!v) return std::nullopt;
       value.push_back(*v);
       black.push_back(!ring && cells.Black(row, col));
+      data.push_back(!ring && !uniform[static_cast<size_t>(ring_of(row, col))]);
     }
   }
   double sum_black = 0.0, sum_white = 0.0;
@@ -148,7 +157,80 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
   out.contrast = light - dark;
   const double threshold = 0.5 * (dark + light);
   out.cells = static_cast<int>(value.size());
-  for (size_t i = 0; i < value.size(); ++i) out.mismatches += black[i] ? value[i] > threshold : value[i] < threshold;
+  for (size_t i = 0; i < value.size(); ++i) {
+    const bool wrong = black[i] ? value[i] > threshold : value[i] < threshold;
+    out.mismatches += wrong;
+    out.data_mismatches += data[i] && wrong;
+    out.data_cells += data[i];
+  }
+  // The data area pixel by pixel. Each pixel's place on the tag (cells, the
+  // bitmap's centre at 0, y up) through the inverse homography.
+  int border = 0;
+  while (border < cells.n / 2 && uniform[static_cast<size_t>(border)]) ++border;
+  const double inner = h - border;  // the data bits
+  cv::Rect box = cv::boundingRect(std::vector<cv::Point2f>{
+      cv::Point2f(static_cast<float>(corners[0].x), static_cast<float>(corners[0].y)),
+      cv::Point2f(static_cast<float>(corners[1].x), static_cast<float>(corners[1].y)),
+      cv::Point2f(static_cast<float>(corners[2].x), static_cast<float>(corners[2].y)),
+      cv::Point2f(static_cast<float>(corners[3].x), static_cast<float>(corners[3].y))});
+  box &= cv::Rect(0, 0, grey.cols, grey.rows);
+  if (box.empty()) return out;
+  const int stride = std::max(1, static_cast<int>(std::sqrt(box.area() / 20000.0)));
+  std::vector<cv::Point2d> pixels;
+  for (int y = box.y; y < box.y + box.height; y += stride)
+    for (int x = box.x; x < box.x + box.width; x += stride) pixels.emplace_back(x, y);
+  std::vector<cv::Point2d> plane = lens ? lens->UndistortToNormalized(pixels) : pixels;
+  const cv::Matx33d Hinv = H.inv();
+  std::vector<cv::Point2d> where;  // cells
+  std::vector<double> observed;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    if (!std::isfinite(plane[i].x) || !std::isfinite(plane[i].y)) continue;
+    const cv::Point2d c = Apply(Hinv, plane[i]);
+    if (!(std::abs(c.x) < inner && std::abs(c.y) < inner)) continue;
+    where.push_back(c);
+    observed.push_back(grey.at<std::uint8_t>(static_cast<int>(pixels[i].y), static_cast<int>(pixels[i].x)));
+  }
+  if (where.size() < 16) return out;
+  // The bitmap drawn at `kScale` samples a cell (white 1), blurred.
+  constexpr int kScale = 8, kPad = 2;
+  const int side = (cells.n + 2 * kPad) * kScale;
+  cv::Mat bitmap(side, side, CV_32F, cv::Scalar(1.0f));
+  for (int row = 0; row < cells.n; ++row)
+    for (int col = 0; col < cells.n; ++col)
+      if (cells.Black(row, col))
+        bitmap(cv::Rect((col + kPad) * kScale, (row + kPad) * kScale, kScale, kScale)).setTo(0.0f);
+  double perimeter = 0.0;
+  for (int k = 0; k < 4; ++k) perimeter += cv::norm(corners[(k + 1) % 4] - corners[k]);
+  const double cell_px = perimeter / 4.0 / cells.n;
+  double sum_o = 0.0, sum_oo = 0.0;
+  for (double o : observed) sum_o += o, sum_oo += o * o;
+  const double n = static_cast<double>(observed.size());
+  const double var_o = sum_oo - sum_o * sum_o / n;
+  for (const double blur_px : {0.35, 0.6, 0.9, 1.3}) {
+    cv::Mat blurred;
+    const double sigma = blur_px / cell_px * kScale;
+    cv::GaussianBlur(bitmap, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+    double sum_e = 0.0, sum_ee = 0.0, sum_oe = 0.0;
+    for (size_t i = 0; i < where.size(); ++i) {
+      // Bitmap column/row of the point, in samples (pixel centres at +0.5).
+      const double x = (where[i].x + h + kPad) * kScale - 0.5, y = (h - where[i].y + kPad) * kScale - 0.5;
+      const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+      const double fx = x - x0, fy = y - y0;
+      const auto at = [&](int yy, int xx) {
+        return static_cast<double>(blurred.at<float>(std::clamp(yy, 0, side - 1), std::clamp(xx, 0, side - 1)));
+      };
+      const double e = (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+                       fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+      sum_e += e, sum_ee += e * e, sum_oe += observed[i] * e;
+    }
+    const double var_e = sum_ee - sum_e * sum_e / n, cov = sum_oe - sum_o * sum_e / n;
+    if (!(var_e > 0.0) || !(var_o > 0.0)) continue;
+    const double r = cov / std::sqrt(var_e * var_o);
+    if (r > out.data_correlation) {
+      out.data_correlation = r;
+      out.data_contrast = cov / var_e;
+    }
+  }
   return out;
 }
 

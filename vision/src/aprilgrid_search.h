@@ -55,6 +55,15 @@ class BoardPrediction {
 struct CodeCheck {
   int mismatches = 0;
   int cells = 0;
+  // Of which the tag's data bits (the cells inside its all-black border).
+  int data_mismatches = 0;
+  int data_cells = 0;
+  // Every pixel over the data bits (and half a cell of the border around
+  // them) against the bitmap blurred as the image is: the best Pearson
+  // correlation over a few blurs, and that fit's grey levels per unit of
+  // the bitmap (its contrast; near 0 on a plain square).
+  double data_correlation = 0.0;
+  double data_contrast = 0.0;
   double contrast = 0.0;  // grey levels
 };
 std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,

@@ -289,8 +289,10 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleFieldBoardPoses(
   std::vector<Eigen::Isometry3d> poses;
   for (int attempt = 0; attempt < 1000 * sampling.count && static_cast<int>(poses.size()) < sampling.count;
        ++attempt) {
-    // Uniform over the cap of directions up to max_off_axis (area ~ off^2).
-    const double off = sampling.max_off_axis_deg * kDeg * std::sqrt(unit(rng));
+    // Uniform over the ring of directions min..max off the axis (area ~ off^2).
+    const double lo2 = sampling.min_off_axis_deg * sampling.min_off_axis_deg;
+    const double hi2 = sampling.max_off_axis_deg * sampling.max_off_axis_deg;
+    const double off = kDeg * std::sqrt(lo2 + (hi2 - lo2) * unit(rng));
     const double azimuth = 2.0 * M_PI * unit(rng);
     const double distance = sampling.near_m + (sampling.far_m - sampling.near_m) * unit(rng);
     const Eigen::Vector3d ray(std::sin(off) * std::cos(azimuth), std::sin(off) * std::sin(azimuth), std::cos(off));

@@ -131,7 +131,9 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
       pixels.polarity.insert(pixels.polarity.end(), more.value.size(), -1.0);
     }
   }
-  if (pixels.value.size() < 20) return std::nullopt;
+  // Five parameters: 12 pixels leave 7 degrees of freedom for the residual
+  // that scales the covariance (a 10 px tag's steep edge has 14-19).
+  if (pixels.value.size() < 12) return std::nullopt;
   double dark = 255.0, light = 0.0;
   for (double v : pixels.value) {
     dark = std::min(dark, v);

@@ -118,13 +118,14 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
     const BoardPoseSampling& sampling);
 
 // Views a wide lens sees (a fisheye's rim, a board partly out of the
-// image): the board's centre on a ray up to max_off_axis_deg off the optical
-// axis at near_m..far_m, facing the camera within max_tilt_deg about each of
+// image): the board's centre on a ray min_off_axis_deg..max_off_axis_deg
+// off the optical axis at near_m..far_m, facing the camera within max_tilt_deg about each of
 // its axes, turned freely in its plane; kept when at least
 // min_points_in_view of `points_board` land margin_px inside the image.
 struct FieldPoseSampling {
   int count = 8;
   uint64_t seed = 1;
+  double min_off_axis_deg = 0.0;
   double max_off_axis_deg = 60.0;
   double near_m = 0.4;
   double far_m = 1.0;

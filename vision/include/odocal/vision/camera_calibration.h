@@ -110,6 +110,16 @@ struct BoardDetectionOptions {
   // extrapolated: 0.4 px off on a rendered 752 x 480 view, sigma 0.035).
   // Kalibr's minBorderDistance, the same default.
   double aprilgrid_min_border_px = 4.0;
+  // Aprilgrid: a tag with a corner whose stated sigma exceeds this is
+  // refused: the calibration weighs every corner alike, and a corner this
+  // uncertain (a 10-17 px tag at a fisheye's rim: 0.3 px, 0.75 px off) is
+  // worth less than its pull. The 30 real D435i frames: all under 0.13 px.
+  double aprilgrid_max_corner_sigma_px = 0.25;
+  // Aprilgrid: tags smaller than this (mean side, px) are not refined, nor
+  // used. 8 px: 0.8 px a bit of a b2 tag, the edge model's band 0.7 px to
+  // either side of each edge; on a rendered 190-degree lens tags of 10-15 px
+  // came out 0.1-0.25 px rms, their sigmas saying so (docs/vision.md).
+  double aprilgrid_min_tag_px = 8.0;
   // Aprilgrid: at most this many passes with the corner squares painted
   // white around the tags found so far (camera_calibration.cc); each stops
   // the search when it finds no new tag.
@@ -128,9 +138,23 @@ struct BoardDetectionOptions {
   int aprilgrid_predict_rounds = 3;
   double aprilgrid_predicted_max_mismatch = 0.04;
   double aprilgrid_predicted_min_contrast = 20.0;
+  // ... or, a small tag (a cell 1-1.5 px: blur greys its isolated bits,
+  // 6-11 of 36 misread at their centres on a rendered 190-degree lens), when
+  // every pixel over its data bits correlates with its bitmap, blurred as
+  // the image is, at least this well, better by this margin than with any
+  // other id of the board's, with this contrast (grey levels) at least.
+  // Rendered 8-15 px tags: their own id 0.84-0.99, the best other id
+  // 0.64-0.87, 0.10 or more below; a plain square ~0.
+  double aprilgrid_predicted_min_correlation = 0.8;
+  double aprilgrid_predicted_min_margin = 0.05;
   // Aprilgrid: each tag edge's line fitted on through the corner squares'
   // edges that continue it (CornerRefineOptions::collinear_extension).
   bool aprilgrid_collinear_edges = true;
+  // ... a refit kept only when each corner lies within 4 of its first fit's
+  // sigmas of that fit shifted by the view's edge shift, or this close, or
+  // this fraction of the tag's side (px per px) close.
+  double aprilgrid_refit_min_disagreement_px = 0.15;
+  double aprilgrid_refit_disagreement_per_px = 0.02;
   // Aprilgrid: measure the edge shift inside the tags and remove it from
   // their corners (edge_shift.h). On the 30 real D435i frames the tags' edges
   // lie ~0.16 px inside the print (docs/vision.md, "Real photographs").

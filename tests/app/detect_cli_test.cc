@@ -226,6 +226,13 @@ TEST(CliDetect, RealAprilgridBoardPoseAndResiduals) {
   ASSERT_EQ(c.exit_code, 0) << c.err;
   const nlohmann::json doc = nlohmann::json::parse(c.out);
   ASSERT_EQ(doc["images"].size(), 3u);
+  // The images are searched on one worker each; on one worker in all, the
+  // same output in the same order.
+  const CommandResult one = RunCommand(test_util::OdocalBinary() + " detect " + frames[0] + " " + frames[10] + " " +
+                                       frames[20] + " --board aprilgrid:6x6:88:0.3 --calibration " + camera +
+                                       " --json - --threads 1");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_EQ(nlohmann::json::parse(one.out), doc);
   for (const auto& image : doc["images"]) {
     ASSERT_TRUE(image["board"]["usable"].get<bool>()) << image["file"];
     const auto& pose = image["board"]["pose_in_camera"];

@@ -15,6 +15,7 @@
 #include "aprilgrid_search.h"
 #include "edge_model_refine.h"
 #include "fisheye_fit.h"
+#include "odocal/base/parallel.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/edge_shift.h"
@@ -625,6 +626,10 @@ bool CameraCalibrationOptions::IsValid(std::string* why) const {
     if (why) *why = "min_views must be >= 3 (fewer cannot fix the principal point)";
     return false;
   }
+  if (threads < 0) {
+    if (why) *why = "threads must be >= 0 (0: one per core)";
+    return false;
+  }
   return true;
 }
 
@@ -711,7 +716,7 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
 }
 
 void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
-                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
+                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size, int threads,
                       CameraCalibrationResult* result) {
   std::string why;
   double rms = 0.0;
@@ -749,21 +754,24 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
   // spread the intrinsics would have on other frames of the same camera.
   const int n = static_cast<int>(objects.size());
   const int groups = std::min(n, 10);
-  std::vector<std::array<double, 8>> estimates;
-  for (int g = 0; g < groups; ++g) {
+  std::vector<std::optional<std::array<double, 8>>> refits(static_cast<size_t>(groups));
+  ParallelFor(refits.size(), static_cast<unsigned>(threads), [&](size_t g) {
     std::vector<std::vector<cv::Point3f>> o;
     std::vector<std::vector<cv::Point2f>> p;
     for (int v = 0; v < n; ++v)
-      if (v % groups != g) {
+      if (v % groups != static_cast<int>(g)) {
         o.push_back(objects[v]);
         p.push_back(images[v]);
       }
     double e = 0.0;
-    if (o.size() < 3) continue;
+    if (o.size() < 3) return;
     if (const auto refit = FisheyeFit(o, p, size, &e, nullptr, nullptr))
-      estimates.push_back({refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0], refit->distortion[1],
-                           refit->distortion[2], refit->distortion[3]});
-  }
+      refits[g] = std::array<double, 8>{refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0],
+                                        refit->distortion[1], refit->distortion[2], refit->distortion[3]};
+  });
+  std::vector<std::array<double, 8>> estimates;
+  for (const auto& r : refits)
+    if (r) estimates.push_back(*r);
   const int m = static_cast<int>(estimates.size());
   if (m >= 3) {
     for (int k = 0; k < 8; ++k) {
@@ -816,7 +824,7 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     return result;
   }
   if (options.lens == LensModel::kEquidistant) {
-    CalibrateFisheye(object_points, image_points, image_size, &result);
+    CalibrateFisheye(object_points, image_points, image_size, options.threads, &result);
     return result;
   }
   int flags = 0;

@@ -24,6 +24,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/parallel.h"
 #include "odocal/base/units.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
@@ -46,6 +47,7 @@ struct DetectArgs {
   std::string calibration;
   std::string json_out;
   std::string annotate_dir;
+  int threads = 0;  // 0: one per core
 };
 
 // One image (a file, or one frame of a video) and what was found in it.
@@ -164,19 +166,33 @@ void RunDetect(const DetectArgs& args) {
   std::vector<std::pair<std::string, std::vector<uchar>>> annotations;
   int total_tags = 0, total_rejected = 0, board_views = 0;
   int frame_count = 0;
-  const auto process = [&](const Frame& f) {
-    ++frame_count;
-    vision::TagSurvey survey = SurveyTags(f.grey, camera ? &*camera : nullptr, survey_options);
-    if (!survey.ok) Fail(kCommand, kExitFailure, f.file + ": " + survey.message);
-    json board_refused = json::array();
-    if (board) {
+  // The searches (most of the time: the edge models' fits) on their own
+  // workers; what they found is reported in the inputs' order.
+  struct Found {
+    vision::TagSurvey survey;
+    vision::BoardDetection board;
+  };
+  const auto find = [&](const cv::Mat& grey) {
+    Found found;
+    found.survey = SurveyTags(grey, camera ? &*camera : nullptr, survey_options);
+    if (board && found.survey.ok) {
       // The board's tags as calibrate-camera sees them (vision::DetectBoard:
       // upsampled decoding, the edge model sized for the aprilgrid, the
       // edges through the lens when a calibration is given), the survey's
       // for the rest; quads inside a board tag are not refusals.
       vision::BoardDetectionOptions board_options;
       if (intrinsics) board_options.lens = *intrinsics;
-      const vision::BoardDetection bd = vision::DetectBoard(f.grey, *board, board_options);
+      found.board = vision::DetectBoard(grey, *board, board_options);
+    }
+    return found;
+  };
+  const auto process = [&](const Frame& f, Found found) {
+    ++frame_count;
+    vision::TagSurvey& survey = found.survey;
+    if (!survey.ok) Fail(kCommand, kExitFailure, f.file + ": " + survey.message);
+    json board_refused = json::array();
+    if (board) {
+      const vision::BoardDetection& bd = found.board;
       std::vector<vision::SurveyedTag> merged;
       for (size_t i = 0; i < bd.tag_ids.size(); ++i) {
         vision::SurveyedTag t;
@@ -333,7 +349,12 @@ void RunDetect(const DetectArgs& args) {
     }
     images.push_back(image);
   };
-  for (const std::string& path : inputs) {
+  std::vector<Found> found_in_image(inputs.size());
+  ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
+    if (!IsVideo(inputs[i])) found_in_image[i] = find(cv::imread(inputs[i], cv::IMREAD_GRAYSCALE));
+  });
+  for (size_t n = 0; n < inputs.size(); ++n) {
+    const std::string& path = inputs[n];
     if (IsVideo(path)) {
       media::VideoReader reader;
       const Status opened = reader.Open(path);
@@ -341,10 +362,10 @@ void RunDetect(const DetectArgs& args) {
       cv::Mat grey;
       for (int i = 0; reader.Read(&grey); ++i) {
         if (i == 0) check_size(path, grey);
-        process(Frame{path, i, grey});
+        process(Frame{path, i, grey}, find(grey));
       }
     } else {
-      process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)});
+      process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)}, std::move(found_in_image[n]));
     }
   }
   if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + inputs.front());
@@ -419,6 +440,8 @@ void RegisterDetectCommand(CLI::App& app) {
   cmd->add_option("--calibration", args->calibration, "Camera file (calibrate-camera's): poses and covariances");
   cmd->add_option("--json", args->json_out, "Write everything as JSON to this file ('-': stdout)");
   cmd->add_option("--annotate", args->annotate_dir, "Write one annotated PNG per image into this directory");
+  cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([args]() { RunDetect(*args); });
 }
 

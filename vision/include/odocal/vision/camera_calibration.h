@@ -198,6 +198,8 @@ struct CameraCalibrationOptions {
   // sigmas from a delete-a-group jackknife over the views (OpenCV's fisheye
   // calibration gives none).
   LensModel lens = LensModel::kPlumbBob;
+  // The jackknife's refits on at most this many workers (0: one per core).
+  int threads = 0;
 
   bool IsValid(std::string* why) const;
 };

@@ -1,23 +1,31 @@
-# odocal_test(name [SERIAL] [SOURCES ...] [LIBS ...])
+# odocal_test(name [SERIAL] [SERIAL_FILTER GTEST_FILTER] [SOURCES ...] [LIBS ...])
 # One line registers a test: tests/<dir>/<name>.cc linked to GoogleTest, the
 # shared test_util library and the listed module libraries. SERIAL: its
-# tests run with nothing beside them (one of them loads every core on purpose).
+# tests run with nothing beside them; SERIAL_FILTER: only those the filter
+# names (one that loads every core on purpose), the rest beside others. A
+# serial test makes ctest drain every running test first (a 7-minute one
+# included) with the other core idle: keep the list short.
 include(GoogleTest)
 function(odocal_test name)
-  cmake_parse_arguments(ARG "SERIAL" "" "SOURCES;LIBS" ${ARGN})
-  set(serial)
-  if(ARG_SERIAL)
-    set(serial RUN_SERIAL TRUE)
-  endif()
+  cmake_parse_arguments(ARG "SERIAL" "SERIAL_FILTER" "SOURCES;LIBS" ${ARGN})
   if(NOT ARG_SOURCES)
     set(ARG_SOURCES ${name}.cc)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE odocal::test_util GTest::gmock_main ${ARG_LIBS})
-  gtest_discover_tests(${name}
-    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-    PROPERTIES ENVIRONMENT "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}" ${serial}
-    DISCOVERY_TIMEOUT 60)
+  set(env "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+  if(ARG_SERIAL)
+    gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+  elseif(ARG_SERIAL_FILTER)
+    gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} TEST_FILTER "-${ARG_SERIAL_FILTER}"
+      PROPERTIES ENVIRONMENT "${env}" DISCOVERY_TIMEOUT 60)
+    gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} TEST_FILTER "${ARG_SERIAL_FILTER}"
+      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+  else()
+    gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+      PROPERTIES ENVIRONMENT "${env}" DISCOVERY_TIMEOUT 60)
+  endif()
 endfunction()
 
 # odocal_module(name SOURCES ... [PUBLIC ...] [PRIVATE ...])

@@ -289,7 +289,12 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
       sq += e.dot(e);
     }
     pose.rms_residual_px = std::sqrt(sq / n);
-    const cv::Mat cov = JtJ.inv(cv::DECOMP_SVD);
+    double chi2 = 0.0;
+    for (size_t i = 0; i < n; ++i) chi2 += pose.residuals_px[i].dot(pose.residuals_px[i]) * w[i] * w[i];
+    const int dof = static_cast<int>(2 * n) - 6;
+    pose.chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
+    pose.covariance_scale = dof >= 10 ? std::max(1.0, pose.chi2_per_dof) : 1.0;
+    const cv::Mat cov = JtJ.inv(cv::DECOMP_SVD) * pose.covariance_scale;
     for (int r = 0; r < 6; ++r)
       for (int c = 0; c < 6; ++c) pose.covariance(r, c) = cov.at<double>(r, c);
   } catch (const cv::Exception& e) {

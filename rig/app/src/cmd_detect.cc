@@ -87,7 +87,9 @@ json PoseJson(const vision::ObjectPose& pose) {
           {"sigma_translation_mm", {1e3 * sd(3), 1e3 * sd(4), 1e3 * sd(5)}},
           {"sigma_rotation_deg", {kRadToDeg * sd(0), kRadToDeg * sd(1), kRadToDeg * sd(2)}},
           {"covariance", cov},
-          {"rms_residual_px", pose.rms_residual_px}};
+          {"rms_residual_px", pose.rms_residual_px},
+          {"chi2_per_dof", pose.chi2_per_dof},
+          {"covariance_scale", pose.covariance_scale}};
 }
 
 std::vector<double> SigmasOrOne(const std::array<double, 4>& s) {

@@ -93,10 +93,18 @@ struct ObjectPose {
   std::string message;
   Eigen::Isometry3d T_camera_object = Eigen::Isometry3d::Identity();
   // Of (rotation vector [rad], translation [m]) — OpenCV's rvec, tvec — from
-  // the points' sigmas (not rescaled by the fit's residual).
+  // the points' sigmas, times covariance_scale.
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   std::vector<cv::Point2d> residuals_px;  // measured - reprojected, per point
   double rms_residual_px = 0.0;
+  // sum((residual / sigma)^2) over the 2n - 6 degrees of freedom: 1 when the
+  // sigmas are right. With 8 points or more (10 degrees of freedom) the
+  // covariance is scaled by it where it is above 1: the points' sigmas hold
+  // the image noise only, and on real frames the board's residual is 5-18
+  // times that (the lens model, the print; docs/formats.md, detect). With
+  // fewer (one tag: 2) it is reported, and the covariance left as it is.
+  double chi2_per_dof = 0.0;
+  double covariance_scale = 1.0;
 };
 
 // `object_points` on the plane z = 0 (>= 4, not collinear); `sigma_px` one

@@ -68,9 +68,13 @@ BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& 
 BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& board,
                                const BoardDetectionOptions& options) {
   BoardDetection out;
+  // 0: by the image's size (aprilgrid_upsample's comment).
+  const int up = options.aprilgrid_upsample > 0
+                     ? options.aprilgrid_upsample
+                     : std::clamp(static_cast<int>(std::lround(1920.0 / std::max(gray.cols, gray.rows))), 1, 3);
   DetectorOptions detector_options;
   detector_options.family = board.tag_family;
-  detector_options.quad_decimate = static_cast<float>(options.aprilgrid_upsample);
+  detector_options.quad_decimate = static_cast<float>(up);
   auto created = TagDetector::Create(detector_options);
   if (!created.ok) {
     out.message = "aprilgrid: " + created.message;
@@ -86,7 +90,6 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
   // several; and the corner squares painted white (below). The
   // thinned passes' corners lie a little inside the tag; the edge model
   // refits every tag's corners on the original image either way.
-  const int up = options.aprilgrid_upsample;
   cv::Mat big = gray;
   if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
   // The edge model's band reaches 0.45 "cell" to either side of an edge,
@@ -272,6 +275,11 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
 
   int on_board = 0;
   std::vector<std::array<cv::Point2d, 4>> refined;  // per used tag, for the edge shift
+  // The tags refined and clear of the border, with their worst corner's
+  // sigma; the view's median corner sigma.
+  const auto corner_sigma = [](const FoundTag& f, int k) { return std::sqrt(0.5 * (f.cov[k](0, 0) + f.cov[k](1, 1))); };
+  std::vector<std::pair<int, double>> candidates;
+  std::vector<double> sigmas;
   for (const auto& [id, f] : tags) {
     ++on_board;
     if (ambiguous.count(id)) continue;
@@ -289,20 +297,34 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       out.tags_refused.emplace_back(id, why);
       continue;
     }
-    double sigma = 0.0;
-    for (int k = 0; k < 4; ++k) sigma = std::max(sigma, std::sqrt(0.5 * (f.cov[k](0, 0) + f.cov[k](1, 1))));
-    if (!(sigma <= options.aprilgrid_max_corner_sigma_px)) {
-      char why[96];
-      std::snprintf(why, sizeof(why), "a corner's sigma %.2f px over %g px", sigma, options.aprilgrid_max_corner_sigma_px);
+    double worst = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      sigmas.push_back(corner_sigma(f, k));
+      worst = std::max(worst, sigmas.back());
+    }
+    candidates.emplace_back(id, worst);
+  }
+  double median_sigma = 0.0;
+  if (!sigmas.empty()) {
+    std::nth_element(sigmas.begin(), sigmas.begin() + static_cast<long>(sigmas.size() / 2), sigmas.end());
+    median_sigma = sigmas[sigmas.size() / 2];
+  }
+  for (const auto& [id, worst] : candidates) {
+    const FoundTag& f = tags.at(id);
+    if (!(worst <= options.aprilgrid_max_corner_sigma_ratio * median_sigma)) {
+      char why[112];
+      std::snprintf(why, sizeof(why), "a corner's sigma %.3f px, over %g times the view's median %.3f px", worst,
+                    options.aprilgrid_max_corner_sigma_ratio, median_sigma);
       out.tags_refused.emplace_back(id, why);
       continue;
     }
     out.tag_ids.push_back(id);
-    refined.push_back(r.corners_px);
+    refined.push_back(f.refined.corners_px);
     for (int k = 0; k < 4; ++k) {
-      out.image_points.emplace_back(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
+      out.image_points.emplace_back(static_cast<float>(f.refined.corners_px[k].x),
+                                    static_cast<float>(f.refined.corners_px[k].y));
       out.object_points.push_back(*board.AprilgridCorner(id, k));
-      out.point_sigma_px.push_back(std::sqrt(0.5 * (f.cov[k](0, 0) + f.cov[k](1, 1))));
+      out.point_sigma_px.push_back(corner_sigma(f, k));
     }
   }
   for (const auto& [id, n] : ambiguous) {
@@ -491,8 +513,8 @@ bool BoardDetectionOptions::IsValid(std::string* why) const {
     if (why) *why = "a ChArUco view needs at least 4 corners (min_charuco_corners >= 4)";
     return false;
   }
-  if (min_aprilgrid_tags < 1 || aprilgrid_upsample < 1 || aprilgrid_upsample > 4) {
-    if (why) *why = "min_aprilgrid_tags must be >= 1 and aprilgrid_upsample in [1, 4]";
+  if (min_aprilgrid_tags < 1 || aprilgrid_upsample < 0 || aprilgrid_upsample > 4) {
+    if (why) *why = "min_aprilgrid_tags must be >= 1 and aprilgrid_upsample in [0, 4] (0: by the image's size)";
     return false;
   }
   if (aprilgrid_edge_shift_tags < 1) {

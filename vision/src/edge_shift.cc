@@ -24,7 +24,7 @@ namespace odocal::vision {
 
 bool EdgeShiftOptions::IsValid(std::string* why) const {
   if (!(margin_cells >= 0.0 && margin_cells <= 2.0) || !(corner_cells >= 0.0) || !(min_cell_px > 0.0) ||
-      !(max_blur_cells > 0.0)) {
+      !(max_blur_cells > 0.0) || !(max_pixels >= 100.0)) {
     if (why) *why = "edge shift options out of range";
     return false;
   }
@@ -247,9 +247,13 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
     result.message = "tag outside the image";
     return result;
   }
+  // A large tag's pixels one in stride x stride: the fit's cost grows with
+  // the tag's area, its information with its edges' length.
+  const double area = static_cast<double>(ix1 - ix0 + 1) * (iy1 - iy0 + 1);
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / options.max_pixels))));
   std::vector<cv::Point2d> centres;
-  for (int y = iy0; y <= iy1; ++y)
-    for (int x = ix0; x <= ix1; ++x) centres.emplace_back(x, y);
+  for (int y = iy0; y <= iy1; y += stride)
+    for (int x = ix0; x <= ix1; x += stride) centres.emplace_back(x, y);
   // Each centre and its four half-pixel neighbours, undistorted in one call.
   constexpr double h = 0.25;
   std::vector<cv::Point2d> probes;

@@ -104,17 +104,23 @@ struct BoardDetectionOptions {
   // 640x480): on the 30 real frames 3 finds 948 tags where 1 finds 895, in
   // the plain pass (1047 with the thinned and painted passes, camera_calibration.cc;
   // yac: 1007). The corners are then refined on the original image.
-  int aprilgrid_upsample = 3;
+  // 0 (the default): 1920 / the image's longer side, rounded, 1 to 3 (640 and
+  // 752 px: 3; 1024-1280: 2; 1920 and more: 1). Upsampling a large image
+  // helps nothing and costs much: a D435i frame scaled to 3840 x 2880 took
+  // 82 s and 460 MB at 3 and found no tag; at 1, 36 tags.
+  int aprilgrid_upsample = 0;
   // Aprilgrid: a tag with a corner closer than this to the image's border is
   // refused (its edges' bands are cut by the border and the corner
   // extrapolated: 0.4 px off on a rendered 752 x 480 view, sigma 0.035).
   // Kalibr's minBorderDistance, the same default.
   double aprilgrid_min_border_px = 4.0;
-  // Aprilgrid: a tag with a corner whose stated sigma exceeds this is
-  // refused: the calibration weighs every corner alike, and a corner this
-  // uncertain (a 10-17 px tag at a fisheye's rim: 0.3 px, 0.75 px off) is
-  // worth less than its pull. The 30 real D435i frames: all under 0.13 px.
-  double aprilgrid_max_corner_sigma_px = 0.25;
+  // Aprilgrid: a tag with a corner whose stated sigma exceeds this many times
+  // the view's median corner sigma is refused: the calibration weighs every
+  // corner alike, and a corner this uncertain against its view's others (a
+  // 17 px tag at a fisheye's rim: 0.33 px, 0.75 px off, in a view of 0.03-0.05
+  // px) is worth less than its pull. Relative, since a sigma in pixels scales
+  // with the resolution and the blur (a D435i frame scaled 6x: 0.26-1.5 px).
+  double aprilgrid_max_corner_sigma_ratio = 5.0;
   // Aprilgrid: tags smaller than this (mean side, px) are not refined, nor
   // used. 8 px: 0.8 px a bit of a b2 tag, the edge model's band 0.7 px to
   // either side of each edge; on a rendered 190-degree lens tags of 10-15 px

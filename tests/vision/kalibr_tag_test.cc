@@ -419,8 +419,7 @@ TEST(KalibrTagRendered, WideFisheyeFindsTheCurvedTagsAndCalibratesFromEveryView)
   const auto pattern = AprilgridPattern(board);
   ASSERT_TRUE(pattern);
   const std::vector<Eigen::Vector3d> truth_points = AprilgridTruthPoints(board);
-  Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
-  lens.lens = LensModel::kEquidistant;
+  const Intrinsics lens = testing::TumViLikeFisheye();
   FieldPoseSampling sampling;
   sampling.count = 8;
   sampling.seed = 11;
@@ -540,8 +539,7 @@ TEST(KalibrTagRendered, SmallTagsAtAFisheyesRimAreReadByTheirWholeBitmap) {
   auto pattern = AprilgridPattern(board);
   ASSERT_TRUE(pattern);
   const std::vector<Eigen::Vector3d> truth_points = AprilgridTruthPoints(board);
-  Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
-  lens.lens = LensModel::kEquidistant;
+  const Intrinsics lens = testing::TumViLikeFisheye();
   FieldPoseSampling sampling;
   sampling.count = 3;
   sampling.seed = 23;

@@ -44,6 +44,14 @@ inline CameraModel SmallCamera() {
                      CameraMount{0.0, 0.0, 1200.0, 0.0, 2.0, 0.0});
 }
 
+// TUM-VI's 512x512 190-degree fisheye (its published equidistant
+// intrinsics, rounded): the wide lens of the aprilgrid tests.
+inline Intrinsics TumViLikeFisheye() {
+  Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
+  lens.lens = LensModel::kEquidistant;
+  return lens;
+}
+
 // The pixel box around four corners, `margin` px wider all round (a
 // detector's region of interest, a crop).
 inline cv::Rect AroundCorners(const std::array<cv::Point2d, 4>& c, int margin) {

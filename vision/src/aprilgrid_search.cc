@@ -102,9 +102,12 @@ std::optional<TagCorners> BoardPrediction::Corners(int id) const {
   return out;
 }
 
-std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
-                                      const CameraModel* lens) {
-  const double h = 0.5 * cells.n;
+namespace {
+
+// Tag cells (the bitmap's centre at 0, y up) -> the undistorted plane
+// (normalised through `lens`, else pixels); nullopt where a corner has none.
+std::optional<cv::Matx33d> CellsToPlane(const TagCorners& corners, int n, const CameraModel* lens) {
+  const double h = 0.5 * n;
   // Corner k in cells, y up the bitmap (edge_shift.h's TagCells).
   const std::vector<cv::Point2f> tag = {{static_cast<float>(-h), static_cast<float>(-h)},
                                         {static_cast<float>(h), static_cast<float>(-h)},
@@ -117,19 +120,21 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) return std::nullopt;
     image_f.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   }
-  const cv::Matx33d H(cv::getPerspectiveTransform(tag, image_f));
+  return cv::Matx33d(cv::getPerspectiveTransform(tag, image_f));
+}
+
+}  // namespace
+
+std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
+                                      const CameraModel* lens) {
+  const double h = 0.5 * cells.n;
+  const auto plane = CellsToPlane(corners, cells.n, lens);
+  if (!plane) return std::nullopt;
+  const cv::Matx33d& H = *plane;
   // The n x n cells, and the ring of white one cell outside the black border
   // (its four diagonal cells left out: a Kalibr grid's corner squares).
   std::vector<double> value;
   std::vector<bool> black;
-  std::vector<bool> data;
-  // The rings of the bitmap all one colour (the border) are not data.
-  const auto ring_of = [&](int row, int col) { return std::min({row, col, cells.n - 1 - row, cells.n - 1 - col}); };
-  std::vector<bool> uniform(static_cast<size_t>(cells.n), true);
-  for (int row = 0; row < cells.n; ++row)
-    for (int col = 0; col < cells.n; ++col)
-      if (cells.Black(row, col) != cells.Black(ring_of(row, col), ring_of(row, col)))
-        uniform[static_cast<size_t>(ring_of(row, col))] = false;
   for (int row = -1; row <= cells.n; ++row) {
     for (int col = -1; col <= cells.n; ++col) {
       const bool ring = row < 0 || col < 0 || row == cells.n || col == cells.n;
@@ -145,7 +150,6 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
       if (!v) return std::nullopt;
       value.push_back(*v);
       black.push_back(!ring && cells.Black(row, col));
-      data.push_back(!ring && !uniform[static_cast<size_t>(ring_of(row, col))]);
     }
   }
   double sum_black = 0.0, sum_white = 0.0;
@@ -157,16 +161,28 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
   out.contrast = light - dark;
   const double threshold = 0.5 * (dark + light);
   out.cells = static_cast<int>(value.size());
-  for (size_t i = 0; i < value.size(); ++i) {
-    const bool wrong = black[i] ? value[i] > threshold : value[i] < threshold;
-    out.mismatches += wrong;
-    out.data_mismatches += data[i] && wrong;
-    out.data_cells += data[i];
-  }
-  // The data area pixel by pixel. Each pixel's place on the tag (cells, the
-  // bitmap's centre at 0, y up) through the inverse homography.
+  for (size_t i = 0; i < value.size(); ++i) out.mismatches += black[i] ? value[i] > threshold : value[i] < threshold;
+  return out;
+}
+
+std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
+                                                const CameraModel* lens) {
+  const double h = 0.5 * cells.n;
+  const auto to_plane = CellsToPlane(corners, cells.n, lens);
+  if (!to_plane) return std::nullopt;
+  const cv::Matx33d& H = *to_plane;
+  DataCorrelation out;
+  // The border: the outer rings of the bitmap all one colour.
+  const auto ring_of = [&](int row, int col) { return std::min({row, col, cells.n - 1 - row, cells.n - 1 - col}); };
+  std::vector<bool> uniform(static_cast<size_t>(cells.n), true);
+  for (int row = 0; row < cells.n; ++row)
+    for (int col = 0; col < cells.n; ++col)
+      if (cells.Black(row, col) != cells.Black(ring_of(row, col), ring_of(row, col)))
+        uniform[static_cast<size_t>(ring_of(row, col))] = false;
   int border = 0;
   while (border < cells.n / 2 && uniform[static_cast<size_t>(border)]) ++border;
+  // The data area pixel by pixel, each pixel's place on the tag through the
+  // inverse homography.
   const double inner = h - border;  // the data bits
   cv::Rect box = cv::boundingRect(std::vector<cv::Point2f>{
       cv::Point2f(static_cast<float>(corners[0].x), static_cast<float>(corners[0].y)),
@@ -174,7 +190,7 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
       cv::Point2f(static_cast<float>(corners[2].x), static_cast<float>(corners[2].y)),
       cv::Point2f(static_cast<float>(corners[3].x), static_cast<float>(corners[3].y))});
   box &= cv::Rect(0, 0, grey.cols, grey.rows);
-  if (box.empty()) return out;
+  if (box.empty()) return std::nullopt;
   const int stride = std::max(1, static_cast<int>(std::sqrt(box.area() / 20000.0)));
   std::vector<cv::Point2d> pixels;
   for (int y = box.y; y < box.y + box.height; y += stride)
@@ -190,7 +206,7 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
     where.push_back(c);
     observed.push_back(grey.at<std::uint8_t>(static_cast<int>(pixels[i].y), static_cast<int>(pixels[i].x)));
   }
-  if (where.size() < 16) return out;
+  if (where.size() < 16) return std::nullopt;
   // The bitmap drawn at `kScale` samples a cell (white 1), blurred.
   constexpr int kScale = 8, kPad = 2;
   const int side = (cells.n + 2 * kPad) * kScale;
@@ -226,9 +242,9 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
     const double var_e = sum_ee - sum_e * sum_e / n, cov = sum_oe - sum_o * sum_e / n;
     if (!(var_e > 0.0) || !(var_o > 0.0)) continue;
     const double r = cov / std::sqrt(var_e * var_o);
-    if (r > out.data_correlation) {
-      out.data_correlation = r;
-      out.data_contrast = cov / var_e;
+    if (r > out.correlation) {
+      out.correlation = r;
+      out.contrast = cov / var_e;
     }
   }
   return out;

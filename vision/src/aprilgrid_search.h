@@ -55,19 +55,22 @@ class BoardPrediction {
 struct CodeCheck {
   int mismatches = 0;
   int cells = 0;
-  // Of which the tag's data bits (the cells inside its all-black border).
-  int data_mismatches = 0;
-  int data_cells = 0;
-  // Every pixel over the data bits (and half a cell of the border around
-  // them) against the bitmap blurred as the image is: the best Pearson
-  // correlation over a few blurs, and that fit's grey levels per unit of
-  // the bitmap (its contrast; near 0 on a plain square).
-  double data_correlation = 0.0;
-  double data_contrast = 0.0;
   double contrast = 0.0;  // grey levels
 };
 std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
                                       const CameraModel* lens);
+
+// For a tag too small for the above (isolated bits blurred to grey): every
+// pixel over its data bits (inside the border) against the bitmap blurred as
+// the image is, the best Pearson correlation over a few blurs, and that fit's
+// grey levels per unit of the bitmap (near 0 on a plain square); nullopt
+// when too few pixels lie there.
+struct DataCorrelation {
+  double correlation = 0.0;
+  double contrast = 0.0;  // grey levels
+};
+std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
+                                                const CameraModel* lens);
 
 }  // namespace odocal::vision::internal
 

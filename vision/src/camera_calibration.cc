@@ -255,16 +255,20 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       // area against its bitmap's and every other id's.
       bool accepted = code && code->contrast >= options.aprilgrid_predicted_min_contrast &&
                       code->mismatches <= options.aprilgrid_predicted_max_mismatch * code->cells;
-      if (!accepted && code && code->data_correlation >= options.aprilgrid_predicted_min_correlation &&
-          code->data_contrast >= options.aprilgrid_predicted_min_contrast) {
-        double rival = 0.0;
-        for (int other = board.first_id; other < board.first_id + board.cols * board.rows; ++other) {
-          if (other == id) continue;
-          const auto other_cells = TagCells::Of(board.tag_family, other, &why);
-          const auto r = other_cells ? internal::CheckTagCode(gray, f.refined.corners_px, *other_cells, lens) : std::nullopt;
-          if (r) rival = std::max(rival, r->data_correlation);
+      if (!accepted && cells) {
+        const auto own = internal::CorrelateTagData(gray, f.refined.corners_px, *cells, lens);
+        if (own && own->correlation >= options.aprilgrid_predicted_min_correlation &&
+            own->contrast >= options.aprilgrid_predicted_min_contrast) {
+          double rival = 0.0;
+          for (int other = board.first_id; other < board.first_id + board.cols * board.rows; ++other) {
+            if (other == id) continue;
+            const auto other_cells = TagCells::Of(board.tag_family, other, &why);
+            const auto r =
+                other_cells ? internal::CorrelateTagData(gray, f.refined.corners_px, *other_cells, lens) : std::nullopt;
+            if (r) rival = std::max(rival, r->correlation);
+          }
+          accepted = own->correlation - rival >= options.aprilgrid_predicted_min_margin;
         }
-        accepted = code->data_correlation - rival >= options.aprilgrid_predicted_min_margin;
       }
       if (!accepted) continue;
       tags[id] = f;

@@ -47,8 +47,23 @@ TEST(CameraScenario, WithoutProfileKeysNothingChanges) {
   ASSERT_TRUE(s && s->camera) << error;
   EXPECT_FALSE(s->camera->render.formation.HasSensorChain());
   EXPECT_FALSE(s->camera->render.formation.psf.has_value());
-  EXPECT_EQ(s->camera->crf, 6);
+  // Stored near-losslessly: intra-coded CRF 18, ultrafast (bench/codec).
+  EXPECT_EQ(s->camera->crf, 18);
+  EXPECT_EQ(s->camera->x264_preset, "ultrafast");
+  EXPECT_EQ(s->camera->keyint, 1);
   EXPECT_NEAR(s->camera->tag_print_scale, 1.0, 1e-12);
+}
+
+// `crf: N` is a camera that records H.264 itself, as `codec: {h264: N}`:
+// inter-coded like such a camera, not the simulator's intra-coded store.
+TEST(CameraScenario, ACrfIsACameraThatCodesH264Itself) {
+  for (const std::string extra : {"  crf: 23\n", "  codec: {h264: 23}\n"}) {
+    const auto s = config::LoadScenario(WriteTemp(ScenarioText(extra)));
+    ASSERT_TRUE(s && s->camera) << extra;
+    EXPECT_EQ(s->camera->crf, 23) << extra;
+    EXPECT_EQ(s->camera->x264_preset, "veryfast") << extra;
+    EXPECT_EQ(s->camera->keyint, 0) << extra;
+  }
 }
 
 TEST(CameraScenario, ProfileThenOverrides) {

@@ -127,6 +127,10 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
     const long long crf = Integer(node["crf"], "camera.crf");
     if (crf < 0 || crf > 51) Fail(node["crf"], "camera.crf", "must be 0 to 51 (x264 CRF)");
     c.crf = static_cast<int>(crf);
+    // A camera that records H.264 at this CRF: inter-coded, as cameras do
+    // (the same as `codec: {h264: CRF}`).
+    c.x264_preset = "veryfast";
+    c.keyint = 0;
   }
   // Image formation of a real camera (vision/image_formation.h):
   // a named profile, then any part given here on top of it. Without any of
@@ -182,7 +186,11 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
     Fail(node["crf"], "camera.crf", "give the codec once: crf, or codec/profile");
   // The video file is H.264 either way: MJPEG is applied frame by frame in
   // the renderer and then stored losslessly (CRF 0), so it is not coded twice.
-  if (f.codec.kind == vision::CodecOptions::Kind::kH264) c.crf = f.codec.crf;
+  if (f.codec.kind == vision::CodecOptions::Kind::kH264) {
+    c.crf = f.codec.crf;
+    c.x264_preset = "veryfast";
+    c.keyint = 0;
+  }
   if (f.codec.kind == vision::CodecOptions::Kind::kMjpeg) c.crf = 0;
   if (const YAML::Node tag = node["tag"]) {
     CheckKeys(tag, "camera.tag", {"print_scale", "bow_mm", "black_level", "white_level"});

@@ -27,11 +27,25 @@ bool Mp4WriterOptions::IsValid(std::string* why) const {
   }
   static const char* kPresets[] = {"ultrafast", "superfast", "veryfast", "faster", "fast",
                                    "medium",    "slow",      "slower",   "veryslow"};
-  for (const char* p : kPresets) {
-    if (preset == p) return true;
+  bool known = false;
+  for (const char* p : kPresets) known = known || preset == p;
+  if (!known) {
+    if (why) *why = "unknown x264 preset '" + preset + "'";
+    return false;
   }
-  if (why) *why = "unknown x264 preset '" + preset + "'";
-  return false;
+  static const char* kTunes[] = {"", "film", "animation", "grain", "stillimage", "psnr", "ssim", "fastdecode",
+                                 "zerolatency"};
+  known = false;
+  for (const char* t : kTunes) known = known || tune == t;
+  if (!known) {
+    if (why) *why = "unknown x264 tune '" + tune + "'";
+    return false;
+  }
+  if (keyint < 0) {
+    if (why) *why = "H.264 keyint must not be negative";
+    return false;
+  }
+  return true;
 }
 
 struct Mp4Writer::Impl {
@@ -98,8 +112,10 @@ Status Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_size,
   const std::string crf = std::to_string(options.crf);
   std::vector<std::string> args = {"ffmpeg", "-nostdin", "-y", "-loglevel", "error", "-f", "rawvideo",
                                    "-pix_fmt", "gray", "-s", size, "-r", rate, "-i", "pipe:0",
-                                   "-c:v", "libx264", "-preset", options.preset, "-crf", crf,
-                                   "-pix_fmt", "yuv420p", "-movflags", "+faststart", path};
+                                   "-c:v", "libx264", "-preset", options.preset, "-crf", crf};
+  if (!options.tune.empty()) args.insert(args.end(), {"-tune", options.tune});
+  if (options.keyint > 0) args.insert(args.end(), {"-g", std::to_string(options.keyint)});
+  args.insert(args.end(), {"-pix_fmt", "yuv420p", "-movflags", "+faststart", path});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

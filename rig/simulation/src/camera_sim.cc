@@ -52,6 +52,8 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   media::Mp4WriterOptions writer_options;
   writer_options.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
   writer_options.crf = cam.crf;
+  writer_options.preset = cam.x264_preset;
+  writer_options.keyint = cam.keyint;
   const odocal::Status opened =
       writer.Open(out->video, cam.fps, cv::Size(cam.intrinsics.width, cam.intrinsics.height),
                   writer_options);

@@ -30,10 +30,18 @@ struct CameraScenario {
   vision::CameraMount mount;
   double fps = 30.0;
   vision::RenderOptions render;  // noise, blur, exposure; seeded from the scenario
-  // H.264 quality (0 lossless; 23 is x264's default). Compression shifts
-  // edges parallel to the pixel grid: the mean heading of a rest is off by
-  // ~0.01 deg at CRF 12 and <= 0.003 deg at CRF 6 (docs/vision.md).
-  int crf = 6;
+  // How the video is stored: x264 at this CRF (0 lossless), preset and key
+  // frame interval. A camera without a codec of its own (no `crf`, `codec`
+  // or `profile`) is stored every frame intra-coded at CRF 18 with the
+  // ultrafast preset: its artefacts are then independent from frame to frame
+  // and a rest's mean is within 0.010 mm / 0.009 deg of the lossless one, at
+  // a sixth of the bytes and a sixth of the coding time of inter-coded CRF 6
+  // (bench/codec, docs/vision.md "The codec of simulate"). A camera that
+  // records H.264 itself (`crf: N`, `codec: {h264: N}`, a profile) is
+  // inter-coded as such a camera would (veryfast, x264's key frame interval).
+  int crf = 18;
+  std::string x264_preset = "ultrafast";
+  int keyint = 1;  // 0: x264's default (250)
   // The tag as printed is tag_print_scale x the size the operator states
   // (tag.size_mm): the renderer draws the printed one, the session file keeps
   // the stated one (`camera.tag.print_scale`).

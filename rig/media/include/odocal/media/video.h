@@ -30,6 +30,11 @@ struct Mp4WriterOptions {
   int crf = 12;  // kFfmpegCli only; 0 = lossless H.264
   // kFfmpegCli only: x264 speed preset (ultrafast ... veryslow).
   std::string preset = "veryfast";
+  // kFfmpegCli only: x264 tune ("" none, or e.g. "fastdecode").
+  std::string tune;
+  // kFfmpegCli only: the longest interval between key frames (0 = x264's
+  // default of 250; 1 = every frame intra, artefacts independent per frame).
+  int keyint = 0;
   bool IsValid(std::string* why) const;
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -32,6 +33,19 @@ bool RenderOptions::IsValid(std::string* why) const {
 }
 
 namespace {
+
+// A Pose2 with its rotation evaluated once: the renderer transforms millions
+// of points by a handful of poses a frame, and Pose2's operator* takes a
+// sine and a cosine every time. The same arithmetic, so the same bits.
+struct Rigid2 {
+  explicit Rigid2(const Pose2& pose)
+      : c(std::cos(pose.heading())), s(std::sin(pose.heading())), x(pose.x()), y(pose.y()) {}
+  Eigen::Vector2d operator*(const Eigen::Vector2d& p) const {
+    return {x + c * p.x() - s * p.y(), y + s * p.x() + c * p.y()};
+  }
+  double c, s, x, y;
+};
+
 
 // Value noise: a seeded hash of the lattice point, smoothstep-interpolated.
 double LatticeValue(int64_t ix, int64_t iy, uint64_t seed) {
@@ -179,7 +193,7 @@ struct Renderer::Impl {
     }
   }
 
-  int Classify(const Eigen::Vector2d& q_robot, const Pose2& T_tag_robot) const {
+  int Classify(const Eigen::Vector2d& q_robot, const Rigid2& T_tag_robot) const {
     const Eigen::Vector2d t = T_tag_robot * q_robot;
     if (std::abs(t.x()) <= plate_half_m && std::abs(t.y()) <= plate_half_m) {
       const double half = 0.5 * total_width * cell_m;
@@ -205,11 +219,12 @@ struct Renderer::Impl {
     return floor_value;
   }
 
-  // Robot-frame point where the ray through a (fractional) pixel corner meets
-  // the tag plane; corner index (cu, cv) is pixel position (cu - 0.5, cv - 0.5).
+  // World (x, y) where the ray through a (fractional) pixel corner meets the
+  // tag plane; corner index (cu, cv) is pixel position (cu - 0.5, cv - 0.5).
   // Rays between the stored integer corners are interpolated bilinearly: the
-  // undistortion map is smooth far beyond what that needs.
-  Eigen::Vector2d CornerOnPlane(double cu, double cv_, const Pose2& T_robot_world) const {
+  // undistortion map is smooth far beyond what that needs. nullopt when the
+  // ray looks away from the plane. The same for every pose of an exposure.
+  std::optional<Eigen::Vector2d> PlanePoint(double cu, double cv_) const {
     const int u0 = std::min(static_cast<int>(cu), corner_rays.cols - 2);
     const int v0 = std::min(static_cast<int>(cv_), corner_rays.rows - 2);
     const double fu = cu - u0, fv = cv_ - v0;
@@ -218,14 +233,30 @@ struct Renderer::Impl {
     const Eigen::Vector3d d = camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
     const Eigen::Vector3d c = camera.T_world_camera().translation();
     const double s = (tag.height_m() - c.z()) / d.z();
-    if (!(s > 0.0)) return Eigen::Vector2d(1e9, 1e9);  // looks away from the plane: floor
+    if (!(s > 0.0)) return std::nullopt;
     const Eigen::Vector3d p = c + s * d;
-    Eigen::Vector2d q = T_robot_world * Eigen::Vector2d(p.x(), p.y());
+    return Eigen::Vector2d(p.x(), p.y());
+  }
+
+  // Robot-frame point of a pixel corner whose plane point is `plane` (from
+  // PlanePoint at (cu, cv)), the robot at T_robot_world.
+  Eigen::Vector2d CornerOnPlane(const std::optional<Eigen::Vector2d>& plane, double cu, double cv_,
+                                const Rigid2& T_robot_world) const {
+    if (!plane) return Eigen::Vector2d(1e9, 1e9);  // looks away from the plane: floor
+    Eigen::Vector2d q = T_robot_world * *plane;
     if (options.tag_bow_mm > 0.0) {
       // The ray meets the bowed paper where its height matches: a fixed
       // point, converged to < 1 nm in three steps (the lift is ~1e-3 of the range).
+      const int u0 = std::min(static_cast<int>(cu), corner_rays.cols - 2);
+      const int v0 = std::min(static_cast<int>(cv_), corner_rays.rows - 2);
+      const double fu = cu - u0, fv = cv_ - v0;
+      const cv::Vec2d n = (corner_rays.at<cv::Vec2d>(v0, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0, u0 + 1) * fu) * (1 - fv) +
+                          (corner_rays.at<cv::Vec2d>(v0 + 1, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0 + 1, u0 + 1) * fu) * fv;
+      const Eigen::Vector3d d = camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
+      const Eigen::Vector3d c = camera.T_world_camera().translation();
+      const Rigid2 T_tag_robot(tag_T_robot);
       for (int it = 0; it < 3; ++it) {
-        const double lift = BowLift(tag_T_robot * q);
+        const double lift = BowLift(T_tag_robot * q);
         const Eigen::Vector3d b = c + ((tag.height_m() + lift - c.z()) / d.z()) * d;
         q = T_robot_world * Eigen::Vector2d(b.x(), b.y());
       }
@@ -242,17 +273,32 @@ struct Renderer::Impl {
 
   // Adds weight * (the scene at pose T_world_robot) over `roi` to acc, which
   // holds `roi` at `scale` x the image resolution.
-  void RenderPose(const Pose2& T_world_robot, const cv::Rect& roi, double weight,
+  // The plane points of the (w + 1) x (h + 1) corners of `roi` at `scale`
+  // x the resolution (row-major), shared by every pose of an exposure.
+  std::vector<std::optional<Eigen::Vector2d>> PlanePoints(const cv::Rect& roi, int scale) const {
+    const int w = roi.width * scale, h = roi.height * scale;
+    std::vector<std::optional<Eigen::Vector2d>> plane((w + 1) * (h + 1));
+    for (int j = 0; j <= h; ++j) {
+      for (int i = 0; i <= w; ++i) {
+        plane[j * (w + 1) + i] =
+            PlanePoint(roi.x + static_cast<double>(i) / scale, roi.y + static_cast<double>(j) / scale);
+      }
+    }
+    return plane;
+  }
+
+  void RenderPose(const Pose2& T_world_robot, const cv::Rect& roi,
+                  const std::vector<std::optional<Eigen::Vector2d>>& plane, double weight,
                   std::uint64_t jitter_seed, int scale, cv::Mat* acc) const {
-    const Pose2 T_robot_world = T_world_robot.inverse();
-    const Pose2 T_tag_robot = tag.T_robot_tag().inverse();
+    const Rigid2 T_robot_world(T_world_robot.inverse());
+    const Rigid2 T_tag_robot(tag.T_robot_tag().inverse());
     const int w = roi.width * scale, h = roi.height * scale;
     std::vector<Eigen::Vector2d> q((w + 1) * (h + 1));
     std::vector<int> id((w + 1) * (h + 1));
     for (int j = 0; j <= h; ++j) {
       for (int i = 0; i <= w; ++i) {
         const int k = j * (w + 1) + i;
-        q[k] = CornerOnPlane(roi.x + static_cast<double>(i) / scale,
+        q[k] = CornerOnPlane(plane[k], roi.x + static_cast<double>(i) / scale,
                              roi.y + static_cast<double>(j) / scale, T_robot_world);
         id[k] = Classify(q[k], T_tag_robot);
       }
@@ -536,7 +582,8 @@ RenderedFrame Renderer::RenderBands(
     }
     cv::Mat acc = cv::Mat::zeros(strip.height * scale, strip.width * scale, CV_32F);
     const double weight = 1.0 / static_cast<double>(poses.size());
-    for (const auto& pose : poses) m.RenderPose(pose, strip, weight, jitter_seed, scale, &acc);
+    const auto plane = m.PlanePoints(strip, scale);
+    for (const auto& pose : poses) m.RenderPose(pose, strip, plane, weight, jitter_seed, scale, &acc);
     cv::Mat blurred_fine, band_image;
     m.Blur(acc, &blurred_fine, scale);
     if (scale > 1) {

@@ -9,6 +9,7 @@
 
 #include <boost/math/distributions/chi_squared.hpp>
 
+#include "odocal/base/parallel.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
@@ -62,6 +63,16 @@ std::vector<ParameterEstimate> ParamsOf(const TrajectoryFitResult& fit, Effect e
   return out;
 }
 
+unsigned Threads(const ExplainOptions& options) { return options.threads > 0 ? static_cast<unsigned>(options.threads) : 0u; }
+
+// A fit kept only for its parameters: its Jacobian and residuals hold the
+// whole session.
+void DropJacobian(TrajectoryFitResult* fit) {
+  fit->jacobian.resize(0, 0);
+  fit->residuals.clear();
+  fit->residuals.shrink_to_fit();
+}
+
 // The folds of a cross-validation by run over the runs `fit` used: each run
 // alone (leave one out), or run j of them in fold j mod k.
 std::vector<std::vector<int>> Folds(const TrajectoryFitResult& fit, const ExplainOptions& options,
@@ -113,9 +124,13 @@ FoldFits PrepareFolds(const MeasuredSession& session, const TrajectoryFitResult&
     for (size_t i = 0; i < session.runs.size(); ++i)
       if (std::find(fold.begin(), fold.end(), static_cast<int>(i)) == fold.end())
         train.runs.push_back(session.runs[i]);
-    f.without.push_back(FitTrajectory(train, o));
     f.training.push_back(std::move(train));
   }
+  f.without.resize(f.folds.size());
+  ParallelFor(f.folds.size(), Threads(options), [&](size_t k) {
+    f.without[k] = FitTrajectory(f.training[k], o);
+    DropJacobian(&f.without[k]);
+  });
   return f;
 }
 
@@ -131,19 +146,22 @@ CrossValidation CrossValidate(const MeasuredSession& session, const TrajectoryFi
   TrajectoryFitOptions o = options.fit;
   o.effects = current.options.effects;
   o.effects.push_back(candidate);
-  double sum_before = 0.0, sum_after = 0.0;
-  int failed_fits = 0, failed_replays = 0;
-  for (size_t k = 0; k < folds->folds.size(); ++k) {
+  // Each fold's refit with the candidate and its held-out replays, in
+  // parallel; summed afterwards in fold order (the same sums whatever the
+  // threads).
+  struct FoldOutcome {
+    bool fitted = false;
+    int failed_replays = 0;
+    std::vector<std::pair<double, double>> squares;  // per replayed run: before, after
+  };
+  std::vector<FoldOutcome> outcomes(folds->folds.size());
+  ParallelFor(folds->folds.size(), Threads(options), [&](size_t k) {
     const TrajectoryFitResult& without = folds->without[k];
-    if (!without.ok()) {
-      ++failed_fits;
-      continue;
-    }
+    if (!without.ok()) return;
     const TrajectoryFitResult with = FitTrajectory(folds->training[k], o, &without);
-    if (!with.ok()) {
-      ++failed_fits;
-      continue;
-    }
+    if (!with.ok()) return;
+    FoldOutcome& out = outcomes[k];
+    out.fitted = true;
     for (int i : folds->folds[k]) {
       ReplayOptions ro = options.replay;
       ro.left_direction0 = folds->directions[i].first;
@@ -153,11 +171,24 @@ CrossValidation CrossValidate(const MeasuredSession& session, const TrajectoryFi
       const RunReplay b = ReplayRun(session.runs[i], session.believed, {with.scales, with.effects},
                                     session.camera, ro);
       if (!a.ok || !b.ok) {
-        ++failed_replays;
+        ++out.failed_replays;
         continue;
       }
-      sum_before += a.rms_position_error_m * a.rms_position_error_m;
-      sum_after += b.rms_position_error_m * b.rms_position_error_m;
+      out.squares.emplace_back(a.rms_position_error_m * a.rms_position_error_m,
+                               b.rms_position_error_m * b.rms_position_error_m);
+    }
+  });
+  double sum_before = 0.0, sum_after = 0.0;
+  int failed_fits = 0, failed_replays = 0;
+  for (const FoldOutcome& out : outcomes) {
+    if (!out.fitted) {
+      ++failed_fits;
+      continue;
+    }
+    failed_replays += out.failed_replays;
+    for (const auto& [before, after] : out.squares) {
+      sum_before += before;
+      sum_after += after;
       ++cv.heldout_runs;
     }
   }
@@ -188,6 +219,10 @@ bool ExplainOptions::IsValid(std::string* why) const {
   }
   if (!(min_score >= 0.0)) {
     if (why) *why = "min_score must not be negative";
+    return false;
+  }
+  if (threads < 0) {
+    if (why) *why = "threads must not be negative";
     return false;
   }
   if (max_effects < 0) {
@@ -346,10 +381,10 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   while (static_cast<int>(current.options.effects.size()) < options.max_effects) {
     std::vector<CandidateTrial> trials;
     const TrajectoryFitResult* best = nullptr;
-    std::vector<TrajectoryFitResult> fits;
-    fits.reserve(candidates.size());
     double best_score = -INFINITY;
     Effect best_effect = Effect::kTagOffset;
+    // The candidates that can be fitted, in order; then their fits, in parallel.
+    std::vector<size_t> to_fit;  // indices into trials
     for (Effect e : candidates) {
       if (Contains(current.options.effects, e)) continue;
       CandidateTrial trial;
@@ -363,26 +398,30 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
         continue;
       }
       trial.alias = CheckAliasing(current, e, options.alias_tolerance);
-      if (trial.alias.aliased) {
-        trials.push_back(trial);
-        continue;
-      }
+      if (!trial.alias.aliased) to_fit.push_back(trials.size());
+      trials.push_back(trial);
+    }
+    std::vector<TrajectoryFitResult> fits(to_fit.size());
+    ParallelFor(to_fit.size(), Threads(options), [&](size_t k) {
       TrajectoryFitOptions o = fit_options;
       o.effects = current.options.effects;
-      o.effects.push_back(e);
-      fits.push_back(FitTrajectory(session, o, &current));
-      const TrajectoryFitResult& f = fits.back();
+      o.effects.push_back(trials[to_fit[k]].effect);
+      fits[k] = FitTrajectory(session, o, &current);
+    });
+    for (size_t k = 0; k < to_fit.size(); ++k) {
+      CandidateTrial& trial = trials[to_fit[k]];
+      const Effect e = trial.effect;
+      TrajectoryFitResult& f = fits[k];
       trial.fitted = f.ok();
       if (f.ok()) {
         trial.score = BicScore(current, f);
         trial.gap_m = f.gap_m;
         trial.explained_m = std::sqrt(std::max(0.0, current.gap_m * current.gap_m - f.gap_m * f.gap_m));
         trial.wald = f.Wald(e);
-        const int k = static_cast<int>(EffectTestedIndices(e).size());
+        const int dof = static_cast<int>(EffectTestedIndices(e).size());
         trial.wald_threshold = boost::math::quantile(
-            boost::math::complement(boost::math::chi_squared(k), options.wald_alpha));
+            boost::math::complement(boost::math::chi_squared(dof), options.wald_alpha));
       }
-      trials.push_back(trial);
     }
     // The candidates that pass the three gates, best score first; the first
     // that also predicts held-out runs better is named.
@@ -417,6 +456,10 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       result.rejected = trials;
       break;
     }
+    // Only the chosen fit goes on (as `current`, whose Jacobian the next
+    // round's aliasing checks use); the others' Jacobians go now.
+    for (TrajectoryFitResult& f : fits)
+      if (&f != best) DropJacobian(&f);
     ExplainStep step;
     step.effect = best_effect;
     step.score = best_score;
@@ -427,7 +470,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     step.params = ParamsOf(current, best_effect);
     result.steps.push_back(step);
   }
-  if (options.jackknife_final) AddRunJackknife(session, &current);
+  if (options.jackknife_final) AddRunJackknife(session, &current, options.threads);
   // Refresh the parameters of every step from the final fit (they were
   // refitted together as effects were added).
   for (ExplainStep& s : result.steps) {

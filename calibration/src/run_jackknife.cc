@@ -1,19 +1,19 @@
-// The delete-one jackknife over runs: how far each parameter of a trajectory
-// fit moves when one run is left out (trajectory_fit.h, AddRunJackknife).
+// The delete-one (or delete-a-group) jackknife over runs: how far each
+// parameter of a trajectory fit moves when runs are left out (trajectory_fit.h, AddRunJackknife).
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "odocal/base/parallel.h"
 #include "odocal/calibration/trajectory_fit.h"
 
 namespace odocal::calibration {
 
 int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads,
-                    std::vector<RunLeftOut>* left_out) {
+                    std::vector<RunLeftOut>* left_out, int max_groups) {
   fit->jackknife_runs = 0;
+  fit->jackknife_groups = 0;
   if (left_out) left_out->assign(session.runs.size(), RunLeftOut{});
   if (!fit->ok()) return 0;
   std::vector<size_t> used;
@@ -21,45 +21,45 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
     if (fit->run_used[i]) used.push_back(i);
   const int n = static_cast<int>(used.size());
   if (n < 3) return 0;
+  // Up to max_groups refits: one run each, or for more runs used run k in
+  // group k mod g (delete-a-group), so that the cost grows with the runs as
+  // one fit does, not as their square.
+  const int g = std::min(n, std::max(3, max_groups));
+  std::vector<std::vector<size_t>> groups(g);  // positions in the session
+  for (int k = 0; k < n; ++k) groups[k % g].push_back(used[k]);
 
-  // Refit without run used[k], for every k; independent, so in parallel.
-  // Each starts from the full fit's solution (one run fewer moves it a
-  // little), which takes a few iterations instead of a cold start's many.
-  std::vector<TrajectoryFitResult> refits(used.size());
-  std::atomic<size_t> next{0};
-  const auto worker = [&] {
-    for (size_t k = next++; k < used.size(); k = next++) {
-      const auto at = static_cast<std::ptrdiff_t>(used[k]);
-      MeasuredSession without = session;
+  // Refit without each group; independent, so in parallel. Each starts from
+  // the full fit's solution (a few runs fewer move it a little), which takes
+  // a few iterations instead of a cold start's many.
+  std::vector<TrajectoryFitResult> refits(g);
+  ParallelFor(groups.size(), threads > 0 ? static_cast<unsigned>(threads) : 0u, [&](size_t j) {
+    MeasuredSession without = session;
+    TrajectoryFitResult warm;
+    warm.status = fit->status;
+    warm.scales = fit->scales;
+    warm.effects = fit->effects;
+    warm.run_used = fit->run_used;
+    warm.start_poses = fit->start_poses;
+    // Erase from the back so the positions of the group stay valid.
+    for (auto it = groups[j].rbegin(); it != groups[j].rend(); ++it) {
+      const auto at = static_cast<std::ptrdiff_t>(*it);
       without.runs.erase(without.runs.begin() + at);
-      TrajectoryFitResult warm;
-      warm.status = fit->status;
-      warm.scales = fit->scales;
-      warm.effects = fit->effects;
-      warm.run_used = fit->run_used;
       warm.run_used.erase(warm.run_used.begin() + at);
-      warm.start_poses = fit->start_poses;
       warm.start_poses.erase(warm.start_poses.begin() + at);
-      refits[k] = FitTrajectory(without, fit->options, &warm);
-      // Only the parameters are kept: the Jacobian and the residuals of
-      // every refit at once would hold the whole session n times.
-      refits[k].jacobian.resize(0, 0);
-      refits[k].residuals.clear();
-      refits[k].residuals.shrink_to_fit();
     }
-  };
-  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
-  const size_t workers = std::min<size_t>(used.size(), threads > 0 ? static_cast<size_t>(threads) : hardware);
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+    refits[j] = FitTrajectory(without, fit->options, &warm);
+    // Only the parameters are kept: the Jacobian and the residuals of
+    // every refit at once would hold the whole session g times.
+    refits[j].jacobian.resize(0, 0);
+    refits[j].residuals.clear();
+    refits[j].residuals.shrink_to_fit();
+  });
 
   int failed = 0;
   for (const TrajectoryFitResult& r : refits) failed += r.ok() ? 0 : 1;
   if (left_out)
     for (size_t k = 0; k < used.size(); ++k) {
-      const TrajectoryFitResult& r = refits[k];
+      const TrajectoryFitResult& r = refits[k % g];  // the refit without run k's group
       RunLeftOut& o = (*left_out)[used[k]];
       o.refitted = true;
       o.scales = r.scales;
@@ -74,6 +74,7 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
       }
     }
   fit->jackknife_runs = n;
+  fit->jackknife_groups = g;
   for (ParameterEstimate& p : fit->parameters) {
     p.sigma_between_runs = std::numeric_limits<double>::quiet_NaN();
     if (failed > 0 || !p.identifiable) continue;
@@ -83,13 +84,13 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
       if (q == nullptr || !q->identifiable) break;
       values.push_back(q->value);
     }
-    if (static_cast<int>(values.size()) != n) continue;
+    if (static_cast<int>(values.size()) != g) continue;
     double mean = 0.0;
     for (double v : values) mean += v;
-    mean /= n;
+    mean /= g;
     double sum = 0.0;
     for (double v : values) sum += (v - mean) * (v - mean);
-    p.sigma_between_runs = std::sqrt((n - 1.0) / n * sum);
+    p.sigma_between_runs = std::sqrt((g - 1.0) / g * sum);
     // What every run shares, their disagreement cannot show: the camera's
     // length scale moves Es and Eb 1:1 in all runs alike (measured_session.h).
     if (p.name == "Es" || p.name == "Eb")

@@ -1064,7 +1064,10 @@ std::string TrajectoryFitResult::BriefReport() const {
   os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap "
      << Fixed(gap_m * 1e3, 3) << " mm (noise floor " << Fixed(noise_floor_m * 1e3, 3)
      << " mm), condition " << std::setprecision(3) << condition_number;
-  if (jackknife_runs > 0) os << ", jackknifed over " << jackknife_runs << " runs";
+  if (jackknife_runs > 0) {
+    os << ", jackknifed over " << jackknife_runs << " runs";
+    if (jackknife_groups < jackknife_runs) os << " in " << jackknife_groups << " groups";
+  }
   os << "\n";
   for (const ParameterEstimate& p : parameters) {
     os << "  " << std::left << std::setw(36) << p.name << std::right << std::setw(14)

@@ -85,6 +85,7 @@ struct ExplainArgs {
   double home_radius_mm = 0.0;
   std::string camera_centre_mm = "1000,0";
   double camera_height_mm = 2500.0;
+  int threads = 0;
 };
 
 void RunExplain(const ExplainArgs& args) {
@@ -119,7 +120,9 @@ void RunExplain(const ExplainArgs& args) {
              {"camera", session->camera ? "camera pipeline (videos measured)"
                                         : "pose logs (tracker; no camera)"}};
   }
-  const calibration::ExplainResult result = calibration::Explain(*session);
+  calibration::ExplainOptions explain_options;
+  explain_options.threads = args.threads;
+  const calibration::ExplainResult result = calibration::Explain(*session, explain_options);
   if (!result.ok()) Fail("explain", kExitFailure, result.message);
   std::fputs(result.BriefReport().c_str(), stdout);
   nlohmann::json j = report::ExplainJson(*session, result);
@@ -134,7 +137,7 @@ void RunExplain(const ExplainArgs& args) {
     std::printf("camera refit: k1 %+.5f, measuring the videos again\n", dk1);
     const auto remeasured = MeasureSessionForExplain(args.session, dk1, &error);
     if (!remeasured) Fail("explain", kExitFailure, "camera refit: " + error);
-    const calibration::ExplainResult refit = calibration::Explain(*remeasured);
+    const calibration::ExplainResult refit = calibration::Explain(*remeasured, explain_options);
     if (!refit.ok()) Fail("explain", kExitFailure, "camera refit: " + refit.message);
     j["camera_refit"] = report::CameraRefitJson(dk1, *remeasured, refit);
     std::printf("camera refit (k1 corrected by %+.5f):\n", dk1);
@@ -169,6 +172,11 @@ void RegisterExplainCommand(CLI::App& app) {
                   "Floor point under the optical axis, X,Y")
       ->capture_default_str();
   cmd->add_option("--camera-height-mm", args->camera_height_mm, "Camera height above the floor")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads,
+                  "Worker threads for the candidates' fits, the cross-validation and the jackknife (0: one per "
+                  "core); the result is the same whatever the number")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->callback([args]() { RunExplain(*args); });
 }

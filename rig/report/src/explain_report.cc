@@ -79,6 +79,7 @@ nlohmann::json FitJson(const calibration::TrajectoryFitResult& fit) {
           {"lag1_autocorrelation", fit.lag1_autocorrelation},
           {"variance_factor", fit.variance_factor},
           {"jackknife_runs", fit.jackknife_runs},
+          {"jackknife_groups", fit.jackknife_groups},
           {"not_identifiable", fit.unidentifiable}};
 }
 

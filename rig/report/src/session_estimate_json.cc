@@ -67,6 +67,7 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
               {"identifiable", p->identifiable}};
   }
   j["jackknife_runs"] = fit.jackknife_runs;
+  j["jackknife_groups"] = fit.jackknife_groups;
   if (all_identifiable) {
     const calibration::WheelParams corrected = calibration::ApplyWheelScales(nominal, fit.scales);
     j["corrected"] = WheelParamsJson(corrected);

@@ -107,6 +107,10 @@ struct ExplainOptions {
   // jackknife over runs, AddRunJackknife): on a real robot the model's sigma
   // is several times too small (docs/realdata.md, "How sure").
   bool jackknife_final = true;
+  // Worker threads for the candidates' fits of a round, the folds of the
+  // cross-validation and the jackknife's refits (0: one per core). The
+  // result is the same whatever the number.
+  int threads = 0;
   // Unexplained remainder (step 5 above).
   double unexplained_alpha = 1e-3;
   double unexplained_min_excess_m = 0.1e-3;

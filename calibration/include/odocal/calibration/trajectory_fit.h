@@ -264,6 +264,8 @@ struct TrajectoryFitResult {
   std::vector<std::string> unidentifiable;
   // Runs of the delete-one jackknife behind sigma_between_runs (0: none).
   int jackknife_runs = 0;
+  // The jackknife's refits: jackknife_runs, or kMaxJackknifeGroups groups of runs.
+  int jackknife_groups = 0;
 
   // The whitened, robust-weighted Jacobian at the solution over every
   // parameter, enabled or not: base (r_left, r_right, Eb), the effect block
@@ -289,7 +291,10 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // in turn and sets every parameter's sigma_between_runs to the delete-one
 // jackknife's standard error
 //   sigma^2 = (n - 1) / n * sum_i (theta_(i) - mean)^2
-// over the n used runs (Efron & Stein 1981: in expectation it does not read
+// over the n used runs; with more than kMaxJackknifeGroups runs, the
+// delete-a-group jackknife over g = kMaxJackknifeGroups groups (used run k in
+// group k mod g), sigma^2 = (g - 1) / g * sum_j (theta_(j) - mean)^2, so that
+// hundreds of short runs cost g refits, not hundreds (Efron & Stein 1981: in expectation it does not read
 // low, and it reads high when the runs differ in kind, each carrying what the
 // others lack: 2-2.7x the model's sigma on a simulated plan of squares,
 // spins and an out-and-back with the model right, 0.85x on six squares).
@@ -300,9 +305,9 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
 // some refit could not determine keeps NaN. Returns the number of refits
 // that failed (0 when every one converged); threads: up to `threads` refits
 // at once (0: the hardware's).
-// `left_out`, when given, receives each refit's wheel scales, one entry per
-// run of `session` (refitted false for a run the fit did not use, or with
-// fewer than 3 used runs): the leave-one-run-out fits that batch's
+// `left_out`, when given, receives for each run of `session` the wheel
+// scales of the refit that left it out (its group's, with groups; refitted
+// false for a run the fit did not use, or with fewer than 3 used runs): the leave-one-run-out fits that batch's
 // estimator choice replays each run through (rig/measure/estimator_choice.h).
 struct RunLeftOut {
   bool refitted = false;
@@ -311,8 +316,9 @@ struct RunLeftOut {
   WheelScales scales;
   std::string message;  // why not, when refitted and not determines_wheels
 };
+inline constexpr int kMaxJackknifeGroups = 20;
 int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, int threads = 0,
-                    std::vector<RunLeftOut>* left_out = nullptr);
+                    std::vector<RunLeftOut>* left_out = nullptr, int max_groups = kMaxJackknifeGroups);
 
 // The model's prediction of what the pose source measures for one run: the
 // run's ticks dead-reckoned from `start` (the robot's pose at the run's first

@@ -442,7 +442,7 @@ SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFit
       ceres_problem.SetManifold(params->effects.values.data(),
                                 new ceres::SubsetManifold(kEffectParams, held_at_zero));
     ceres::Solver::Options solver_options;
-    solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     ApplyTo(options.solver, &solver_options);
     ceres::Solve(solver_options, &ceres_problem, &summary);
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {

@@ -219,18 +219,23 @@ struct Renderer::Impl {
     return floor_value;
   }
 
-  // World (x, y) where the ray through a (fractional) pixel corner meets the
-  // tag plane; corner index (cu, cv) is pixel position (cu - 0.5, cv - 0.5).
-  // Rays between the stored integer corners are interpolated bilinearly: the
-  // undistortion map is smooth far beyond what that needs. nullopt when the
-  // ray looks away from the plane. The same for every pose of an exposure.
-  std::optional<Eigen::Vector2d> PlanePoint(double cu, double cv_) const {
+  // The world direction of the ray through a (fractional) pixel corner;
+  // corner index (cu, cv) is pixel position (cu - 0.5, cv - 0.5). Rays
+  // between the stored integer corners are interpolated bilinearly: the
+  // undistortion map is smooth far beyond what that needs.
+  Eigen::Vector3d RayDirection(double cu, double cv_) const {
     const int u0 = std::min(static_cast<int>(cu), corner_rays.cols - 2);
     const int v0 = std::min(static_cast<int>(cv_), corner_rays.rows - 2);
     const double fu = cu - u0, fv = cv_ - v0;
     const cv::Vec2d n = (corner_rays.at<cv::Vec2d>(v0, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0, u0 + 1) * fu) * (1 - fv) +
                         (corner_rays.at<cv::Vec2d>(v0 + 1, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0 + 1, u0 + 1) * fu) * fv;
-    const Eigen::Vector3d d = camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
+    return camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
+  }
+
+  // World (x, y) where that ray meets the tag plane; nullopt when it looks
+  // away from the plane. The same for every pose of an exposure.
+  std::optional<Eigen::Vector2d> PlanePoint(double cu, double cv_) const {
+    const Eigen::Vector3d d = RayDirection(cu, cv_);
     const Eigen::Vector3d c = camera.T_world_camera().translation();
     const double s = (tag.height_m() - c.z()) / d.z();
     if (!(s > 0.0)) return std::nullopt;
@@ -247,12 +252,7 @@ struct Renderer::Impl {
     if (options.tag_bow_mm > 0.0) {
       // The ray meets the bowed paper where its height matches: a fixed
       // point, converged to < 1 nm in three steps (the lift is ~1e-3 of the range).
-      const int u0 = std::min(static_cast<int>(cu), corner_rays.cols - 2);
-      const int v0 = std::min(static_cast<int>(cv_), corner_rays.rows - 2);
-      const double fu = cu - u0, fv = cv_ - v0;
-      const cv::Vec2d n = (corner_rays.at<cv::Vec2d>(v0, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0, u0 + 1) * fu) * (1 - fv) +
-                          (corner_rays.at<cv::Vec2d>(v0 + 1, u0) * (1 - fu) + corner_rays.at<cv::Vec2d>(v0 + 1, u0 + 1) * fu) * fv;
-      const Eigen::Vector3d d = camera.T_world_camera().linear() * Eigen::Vector3d(n[0], n[1], 1.0);
+      const Eigen::Vector3d d = RayDirection(cu, cv_);
       const Eigen::Vector3d c = camera.T_world_camera().translation();
       const Rigid2 T_tag_robot(tag_T_robot);
       for (int it = 0; it < 3; ++it) {

@@ -411,7 +411,7 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
     for (size_t k = 0; k < to_fit.size(); ++k) {
       CandidateTrial& trial = trials[to_fit[k]];
       const Effect e = trial.effect;
-      TrajectoryFitResult& f = fits[k];
+      const TrajectoryFitResult& f = fits[k];
       trial.fitted = f.ok();
       if (f.ok()) {
         trial.score = BicScore(current, f);
@@ -456,10 +456,6 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
       result.rejected = trials;
       break;
     }
-    // Only the chosen fit goes on (as `current`, whose Jacobian the next
-    // round's aliasing checks use); the others' Jacobians go now.
-    for (TrajectoryFitResult& f : fits)
-      if (&f != best) DropJacobian(&f);
     ExplainStep step;
     step.effect = best_effect;
     step.score = best_score;

@@ -70,6 +70,26 @@ const char* EffectAdvice(calibration::Effect effect) {
   return "";
 }
 
+// The largest deviation from 1 of a CVRA factor, in standard errors. With
+// `pushed_from` (the round whose estimate the robot now runs), each factor's
+// standard error includes that estimate's: the correction it pushed was off
+// by about that much, so a factor left that far from 1 is what the push
+// predicts, not an error a further push could remove.
+std::optional<double> CvraMaxZ(const measure::SessionEstimate& e, const measure::SessionEstimate* pushed_from) {
+  std::optional<double> max_z;
+  for (auto f : {&measure::SessionEstimate::ratio, &measure::SessionEstimate::scale, &measure::SessionEstimate::track}) {
+    const std::optional<measure::PooledCvra>& now = e.*f;
+    if (!now || !now->standard_error) continue;
+    // The camera's length scale is one error common to both rounds: counted once.
+    double se = std::hypot(*now->standard_error, now->camera_scale_sigma);
+    if (pushed_from)
+      if (const std::optional<measure::PooledCvra>& before = (*pushed_from).*f; before && before->standard_error)
+        se = std::hypot(se, *before->standard_error);
+    if (se > 0.0) max_z = std::max(max_z.value_or(0.0), std::abs(now->mean - 1.0) / se);
+  }
+  return max_z;
+}
+
 // Camera clock - robot clock for telemetry without arrival times (a
 // command's CSV): when the wheels first and last turned, against when the
 // camera first saw the tag leave its start and last saw it short of its end
@@ -510,15 +530,7 @@ std::optional<Station::Failure> Station::MeasureRound(
     return Failure{StationStatus::kEstimateFailed, "no estimate from the round's runs" + notes};
   }
   iteration->corrected = ToParamSet(measure::CorrectedParams(ToWheelParams(current_), e), current_.ticks_per_rev);
-  // CVRA factors: how far from 1, in standard errors.
-  for (const auto* pooled : {&e.ratio, &e.scale, &e.track}) {
-    if (!*pooled || !(*pooled)->standard_error) continue;
-    const double se = std::hypot(*(*pooled)->standard_error, pooled == &e.scale ? (*pooled)->camera_scale_sigma : 0.0);
-    if (se > 0.0) {
-      const double z = std::abs((*pooled)->mean - 1.0) / se;
-      iteration->cvra_max_z = std::max(iteration->cvra_max_z.value_or(0.0), z);
-    }
-  }
+  iteration->cvra_max_z = CvraMaxZ(e, nullptr);
   // Turn slip: the spins' track factors by rate.
   if (e.track) {
     std::vector<SpinTrack> spins;
@@ -531,26 +543,7 @@ std::optional<Station::Failure> Station::MeasureRound(
   if (!e.umbmark) return std::nullopt;
   iteration->input = *e.umbmark_input;
   iteration->estimate = *e.umbmark;
-  // Standard error of E_max,syst: radial, for the larger centre of gravity;
-  // from the spread of repeated runs, else from the camera's own sigmas.
-  const calibration::UmbmarkSummary& s = iteration->estimate;
-  const bool cw_larger = s.cw.radius_m() >= s.ccw.radius_m();
-  const calibration::CentreOfGravity& cg = cw_larger ? s.cw : s.ccw;
-  double camera_var_x = 0.0, camera_var_y = 0.0;
-  int n = 0;
-  for (const StationRun& run : iteration->runs) {
-    if (run.spec.procedure != calibration::Procedure::kUmbmark) continue;
-    if ((run.spec.direction == calibration::Direction::kCw) != cw_larger) continue;
-    camera_var_x += run.return_error.covariance(0, 0);
-    camera_var_y += run.return_error.covariance(1, 1);
-    ++n;
-  }
-  if (n > 0) {
-    const double sx = cg.sigma_x_m.value_or(std::sqrt(camera_var_x) / n);
-    const double sy = cg.sigma_y_m.value_or(std::sqrt(camera_var_y) / n);
-    const double r = cg.radius_m();
-    iteration->emax_sigma_m = r > 0.0 ? std::hypot(cg.x_m * sx, cg.y_m * sy) / r : std::hypot(sx, sy);
-  }
+  iteration->emax_sigma_m = EmaxSystSigma(iteration->estimate, iteration->runs);
   return std::nullopt;
 }
 // The camera's length scale, as batch finds it: with a floor reference the
@@ -833,14 +826,11 @@ StationResult Station::Run() {
                        (*pooled)->standard_error ? Format(" ± %.6f", *(*pooled)->standard_error).c_str() : "");
     Log(line);
     if (!iteration.turn_slip.advice.empty()) Log(iteration.turn_slip.advice);
-    const bool umbmark_small = !s.ok() || (iteration.emax_sigma_m &&
-                                           s.emax_syst_m <= options_.converge_sigmas * *iteration.emax_sigma_m);
-    const bool cvra_small = !iteration.cvra_max_z || *iteration.cvra_max_z <= options_.converge_sigmas;
     if (round >= 2) {
       const StationIteration& previous = result.iterations.back();
-      if (umbmark_small && cvra_small) {
+      if (const std::optional<std::string> within = WithinUncertainty(iteration, previous, options_.converge_sigmas)) {
         iteration.converged = true;
-        iteration.note = "converged: what is left is within the measurement uncertainty";
+        iteration.note = "converged: what is left is within the measurement uncertainty (" + *within + ")";
       } else if (s.ok() && previous.estimate.ok() && s.emax_syst_m >= previous.estimate.emax_syst_m) {
         iteration.converged = true;
         iteration.note = "stopped: no improvement on the previous round";
@@ -925,6 +915,50 @@ StationResult Station::Run() {
   return finish(std::nullopt);
 }
 }  // namespace
+
+std::optional<double> EmaxSystSigma(const calibration::UmbmarkSummary& s, const std::vector<StationRun>& runs) {
+  // Radial, for the larger centre of gravity; from the spread of repeated
+  // runs, else from the camera's own sigmas.
+  const bool cw_larger = s.cw.radius_m() >= s.ccw.radius_m();
+  const calibration::CentreOfGravity& cg = cw_larger ? s.cw : s.ccw;
+  double camera_var_x = 0.0, camera_var_y = 0.0;
+  int n = 0;
+  for (const StationRun& run : runs) {
+    if (run.spec.procedure != calibration::Procedure::kUmbmark) continue;
+    if ((run.spec.direction == calibration::Direction::kCw) != cw_larger) continue;
+    camera_var_x += run.return_error.covariance(0, 0);
+    camera_var_y += run.return_error.covariance(1, 1);
+    ++n;
+  }
+  if (n == 0) return std::nullopt;
+  const double sx = cg.sigma_x_m.value_or(std::sqrt(camera_var_x) / n);
+  const double sy = cg.sigma_y_m.value_or(std::sqrt(camera_var_y) / n);
+  const double r = cg.radius_m();
+  return r > 0.0 ? std::hypot(cg.x_m * sx, cg.y_m * sy) / r : std::hypot(sx, sy);
+}
+
+// A remainder within the rule cannot be expected to shrink by pushing
+// again: a second push would trade an error the size of one estimate's
+// uncertainty for another.
+std::optional<std::string> WithinUncertainty(const StationIteration& now, const StationIteration& pushed_from,
+                                             double k) {
+  std::string why;
+  const calibration::UmbmarkSummary& s = now.estimate;
+  if (s.ok()) {
+    if (!now.emax_sigma_m) return std::nullopt;
+    const double sigma = std::hypot(*now.emax_sigma_m, pushed_from.emax_sigma_m.value_or(0.0));
+    if (s.emax_syst_m > k * sigma) return std::nullopt;
+    why = Format("E_max,syst %.3f mm, %.1f sigma of this round's %.3f mm and the pushed estimate's %.3f mm",
+                 s.emax_syst_m * 1e3, sigma > 0.0 ? s.emax_syst_m / sigma : 0.0, *now.emax_sigma_m * 1e3,
+                 pushed_from.emax_sigma_m.value_or(0.0) * 1e3);
+  }
+  if (const std::optional<double> z = CvraMaxZ(now.session_estimate, &pushed_from.session_estimate)) {
+    if (*z > k) return std::nullopt;
+    why += Format("%sCVRA factors within %.1f sigma of 1", why.empty() ? "" : "; ", *z);
+  }
+  return why;
+}
+
 
 const char* ToString(StationStatus status) {
   switch (status) {

@@ -118,9 +118,9 @@ struct StationOptions {
   // saw verification rounds 3.1 sigma from zero with no error left to correct.
   calibration::SystematicFloor systematic_floor{0.02e-3, 0.005 * M_PI / 180.0};
   // Converged when E_max,syst is within this many of its standard errors
-  // and every CVRA factor within this many of 1 (the remaining error is not
-  // measurably different from zero), or when a round does not improve on
-  // the one before.
+  // and every CVRA factor within this many of 1, each error counting the
+  // pushed estimate's too (WithinUncertainty), or when a round does not
+  // improve on the one before.
   double converge_sigmas = 3.0;
   // The camera watching a run: the tag has moved once a corner is this far
   // from where it stood; it has stopped (drivers that end by the camera:
@@ -287,7 +287,19 @@ struct StationResult {
 // Runs the loop. Never throws; the result says how it went.
 StationResult RunStation(const StationSetup& setup, const StationOptions& options);
 
+// The standard error of E_max,syst (radial, for the larger of the two
+// centres of gravity): from the spread of repeated squares, else from the
+// camera's covariance of each run's return error. nullopt without squares.
+std::optional<double> EmaxSystSigma(const calibration::UmbmarkSummary& s, const std::vector<StationRun>& runs);
 
+// The convergence rule, for a round measured after the robot took the
+// estimate of round `pushed_from`: E_max,syst within `k` of this round's and
+// the pushed estimate's standard errors together (the push left an error of
+// about the latter's size, which this round measures with its own), and
+// every CVRA factor within `k` of 1 likewise. Says why when it holds,
+// nullopt when not (or when the round has no standard error to judge by).
+std::optional<std::string> WithinUncertainty(const StationIteration& now, const StationIteration& pushed_from,
+                                             double k);
 
 }  // namespace odocal::station
 

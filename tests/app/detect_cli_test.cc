@@ -146,6 +146,34 @@ TEST(CliDetect, KalibrTagCornersSigmaAndPoseAgainstRenderedTruth) {
   EXPECT_TRUE(fs::exists(dir + "/vpng/clip_000002.png"));
 }
 
+// A machine-vision camera's 10- and 12-bit frames, stored as 16-bit PNG:
+// read by their sensor's full scale (OpenCV's own 8-bit reading keeps the top
+// byte: values 0-15, no tag), the corners where the 8-bit frame puts them.
+TEST(CliDetect, TwelveBitFramesInSixteenBitFilesAreReadByTheirFullScale) {
+  const std::string dir = test_util::MakeTempDir("odocal_detect_");
+  const Rendered r = Render(dir, "tag36h11b2", -0.04, 0.02, -0.7);
+  for (const auto& [bits, file] : {std::pair{10, "/deep10.png"}, std::pair{12, "/deep12.png"}}) {
+    cv::Mat deep;
+    r.frame.image.convertTo(deep, CV_16U, std::ldexp(1.0, bits - 8));
+    ASSERT_TRUE(cv::imwrite(dir + file, deep));
+  }
+  const CommandResult c = RunCommand(test_util::OdocalBinary() + " detect " + dir + "/deep10.png " + dir +
+                                     "/deep12.png --tag tag36h11b2:5:80 --json -");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_THAT(c.out, HasSubstr("read as a 12-bit sensor"));
+  const nlohmann::json doc = nlohmann::json::parse(c.out.substr(c.out.find('{')));
+  ASSERT_EQ(doc["images"].size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    const auto& image = doc["images"][i];
+    EXPECT_THAT(image["read_as"].get<std::string>(), HasSubstr(i == 0 ? "10-bit sensor" : "12-bit sensor"));
+    ASSERT_EQ(image["tags"].size(), 1u) << image.dump();
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_NEAR(image["tags"][0]["corners_px"][k][0].get<double>(), r.frame.corners_px[k].x, 0.06) << k;
+      EXPECT_NEAR(image["tags"][0]["corners_px"][k][1].get<double>(), r.frame.corners_px[k].y, 0.06) << k;
+    }
+  }
+}
+
 TEST(CliDetect, ABorderThatDoesNotMatchIsNotFoundAndShownAsRefused) {
   const std::string dir = test_util::MakeTempDir("odocal_detect_");
   const Rendered one_bit = Render(dir, "tag36h11", -0.05, 0.02, -0.7);

@@ -15,12 +15,12 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utils/logger.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "cli_util.h"
 #include "commands.h"
 #include "odocal/base/parallel.h"
 #include "odocal/config/camera_file.h"
+#include "odocal/media/image_file.h"
 #include "odocal/vision/camera_calibration.h"
 
 namespace odocal::app {
@@ -92,7 +92,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   ParallelFor(paths.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
     const std::string& path = paths[i];
     const cv::Mat image =
-        std::filesystem::is_regular_file(path) ? cv::imread(path, cv::IMREAD_GRAYSCALE) : cv::Mat();
+        std::filesystem::is_regular_file(path) ? media::ReadGreyImage(path).grey : cv::Mat();
     if (image.empty()) {
       searched[i].unreadable = !std::filesystem::exists(path)       ? "no such file"
                                : std::filesystem::is_directory(path) ? "is a directory"
@@ -164,7 +164,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     std::vector<vision::BoardDetection> again = views;
     ParallelFor(views.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
       ImageOutcome& o = outcomes[view_image[i]];
-      vision::BoardDetection d = vision::DetectBoard(cv::imread(o.path, cv::IMREAD_GRAYSCALE), board, through);
+      vision::BoardDetection d = vision::DetectBoard(media::ReadGreyImage(o.path).grey, board, through);
       if (!d.found) return;
       o.corners = static_cast<int>(d.image_points.size());
       again[i] = std::move(d);

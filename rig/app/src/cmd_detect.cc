@@ -28,6 +28,7 @@
 #include "odocal/base/units.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
+#include "odocal/media/image_file.h"
 #include "odocal/media/video.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/tag.h"
@@ -55,6 +56,7 @@ struct Frame {
   std::string file;
   int frame = -1;  // videos only
   cv::Mat grey;
+  std::string read_as;  // how a deeper image file became 8-bit grey (media::GreyImage)
 };
 
 bool IsVideo(const std::string& path) {
@@ -153,7 +155,7 @@ void RunDetect(const DetectArgs& args) {
       const Status opened = reader.Open(path);
       if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
     } else {
-      const cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE);
+      const cv::Mat grey = media::ReadGreyImage(path).grey;
       if (grey.empty()) Fail(kCommand, kExitBadInput, path + ": cannot be read as an image");
       check_size(path, grey);
     }
@@ -229,6 +231,7 @@ void RunDetect(const DetectArgs& args) {
     }
     json image = {{"file", f.file}, {"width", f.grey.cols}, {"height", f.grey.rows}};
     if (f.frame >= 0) image["frame"] = f.frame;
+    if (!f.read_as.empty()) image["read_as"] = f.read_as;
     json tags = json::array();
     // The board's points, when a board is named.
     std::vector<cv::Point3d> board_points;
@@ -353,7 +356,7 @@ void RunDetect(const DetectArgs& args) {
   };
   std::vector<Found> found_in_image(inputs.size());
   ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
-    if (!IsVideo(inputs[i])) found_in_image[i] = find(cv::imread(inputs[i], cv::IMREAD_GRAYSCALE));
+    if (!IsVideo(inputs[i])) found_in_image[i] = find(media::ReadGreyImage(inputs[i]).grey);
   });
   for (size_t n = 0; n < inputs.size(); ++n) {
     const std::string& path = inputs[n];
@@ -367,7 +370,8 @@ void RunDetect(const DetectArgs& args) {
         process(Frame{path, i, grey}, find(grey));
       }
     } else {
-      process(Frame{path, -1, cv::imread(path, cv::IMREAD_GRAYSCALE)}, std::move(found_in_image[n]));
+      media::GreyImage image = media::ReadGreyImage(path);
+      process(Frame{path, -1, std::move(image.grey), std::move(image.conversion)}, std::move(found_in_image[n]));
     }
   }
   if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + inputs.front());
@@ -418,6 +422,7 @@ void RunDetect(const DetectArgs& args) {
       std::cout << (has ? "; tag " + std::to_string(tag->id) + " found" : "; tag " + std::to_string(tag->id) + " NOT found");
     }
     if (board) std::cout << "; board: " << image["board"]["tags_used"].get<int>() << " tags";
+    if (image.contains("read_as")) std::cout << " (" << image["read_as"].get<std::string>() << ")";
     std::cout << "\n";
   }
   if (!args.json_out.empty()) std::cout << "  wrote " << args.json_out << "\n";

@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include <ceres/jet.h>
+
 namespace odocal::vision::internal {
 
 template <typename T>
@@ -30,6 +32,28 @@ T H(const T& z) {
 template <typename T>
 T G(const T& z) {
   return z * Phi(z) + SmallPhi(z);
+}
+
+// The same on Ceres' Jets, by their derivatives (Phi' = SmallPhi,
+// G' = Phi, H' = G): one erf and one exp of the scalar part and one scaled
+// copy of the derivative part, where Jet arithmetic through the formulas
+// above takes an erf and two exps and a dozen Jet products.
+template <typename T, int N>
+ceres::Jet<T, N> Phi(const ceres::Jet<T, N>& z) {
+  return ceres::Jet<T, N>(Phi(z.a), SmallPhi(z.a) * z.v);
+}
+
+template <typename T, int N>
+ceres::Jet<T, N> G(const ceres::Jet<T, N>& z) {
+  const T phi = Phi(z.a);
+  return ceres::Jet<T, N>(z.a * phi + SmallPhi(z.a), phi * z.v);
+}
+
+template <typename T, int N>
+ceres::Jet<T, N> H(const ceres::Jet<T, N>& z) {
+  const T phi = Phi(z.a), small_phi = SmallPhi(z.a);
+  const T g = z.a * phi + small_phi;
+  return ceres::Jet<T, N>(0.5 * ((z.a * z.a + 1.0) * phi + z.a * small_phi), g * z.v);
 }
 
 // Mean over a pixel of Phi(d / s) for an edge with unit normal (nx, ny), the

@@ -27,7 +27,7 @@
 #include "odocal/vision/corner_refine.h"
 
 #include "corner_geometry.h"
-#include "edge_functions.h"
+#include "odocal/vision/internal/edge_functions.h"
 #include "edge_model_refine.h"
 
 namespace odocal::vision {

@@ -18,7 +18,7 @@
 #include "odocal/vision/tag.h"
 
 #include "apriltag_util.h"
-#include "edge_functions.h"
+#include "odocal/vision/internal/edge_functions.h"
 
 namespace odocal::vision {
 

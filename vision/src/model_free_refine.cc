@@ -9,7 +9,7 @@
 #include "odocal/vision/edge_quality.h"
 
 #include "corner_geometry.h"
-#include "edge_functions.h"
+#include "odocal/vision/internal/edge_functions.h"
 
 namespace odocal::vision {
 

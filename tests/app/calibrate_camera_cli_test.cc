@@ -1,6 +1,7 @@
 // End to end: rendered chessboard photographs -> the real `odocal
 // calibrate-camera` -> camera file and report, against the known camera.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -95,6 +96,12 @@ TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
   EXPECT_NEAR(e.cx, t.cx, 1.0);
   EXPECT_NEAR(e.cy, t.cy, 1.0);
   EXPECT_NEAR(e.distortion[0], t.distortion[0], 0.006);
+  // The default --model auto keeps plumb_bob for a lens that is one.
+  EXPECT_EQ(e.lens, vision::LensModel::kPlumbBob);
+  ASSERT_TRUE(doc["model_choice"].is_object()) << r.out;
+  EXPECT_EQ(doc["model_choice"]["chosen"], "plumb_bob");
+  std::printf("figures: --model auto on a plumb_bob lens: %.4f px as plumb_bob, %.4f px as a fisheye\n",
+              doc["model_choice"]["plumb_bob_rms_px"].get<double>(), doc["model_choice"]["fisheye_rms_px"].get<double>());
   // The report and the file agree, and carry the reprojection errors.
   EXPECT_NEAR(doc["fx"].get<double>(), e.fx, 1e-9 * e.fx);
   ASSERT_TRUE(file->rms_reprojection_error_px);
@@ -194,10 +201,11 @@ TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/x.yaml"));
 }
 
-// A fisheye fitted as plumb_bob leaves pixels of error and no hint; the
-// command fits the same views as a fisheye and says so. Rendered: Kalibr's
+// A fisheye: the default (--model auto) fits both models and takes the
+// fisheye; named --model plumb_bob, the fit leaves pixels of error and the
+// command says what the same views give as a fisheye. Rendered: Kalibr's
 // aprilgrid through a 190-degree (TUM-VI-like) lens, 5 views.
-TEST(CliCalibrateCamera, AFisheyeFittedAsPlumbBobIsNamed) {
+TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) {
   const std::string dir = test_util::MakeTempDir("odocal_calcam_fisheye_");
   vision::CalibrationBoard board;
   board.type = vision::CalibrationBoard::Type::kAprilgrid;
@@ -228,17 +236,35 @@ TEST(CliCalibrateCamera, AFisheyeFittedAsPlumbBobIsNamed) {
     ASSERT_TRUE(r.ok) << r.message;
     ASSERT_TRUE(cv::imwrite(dir + "/view" + std::to_string(i) + ".png", r.frame.image));
   }
+  const CommandResult chosen = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
+                                          " --board aprilgrid:6x6:88:0.3 --json --out " + dir + "/auto.yaml");
+  ASSERT_EQ(chosen.exit_code, 0) << chosen.err;
+  const nlohmann::json automatic = nlohmann::json::parse(chosen.out);
+  EXPECT_EQ(automatic["distortion_model"], "equidistant");
+  ASSERT_TRUE(automatic["model_choice"].is_object()) << chosen.out;
+  EXPECT_EQ(automatic["model_choice"]["chosen"], "equidistant");
+  EXPECT_EQ(automatic["model_choice"]["views_compared"], 5);
+  EXPECT_GT(automatic["model_choice"]["plumb_bob_rms_px"].get<double>(), 1.0);
+  EXPECT_LT(automatic["rms_reprojection_error_px"].get<double>(), 0.1);
+  EXPECT_NEAR(automatic["fx"].get<double>(), lens.fx, 0.5);
+  EXPECT_NEAR(automatic["cx"].get<double>(), lens.cx, 0.5);
+  const auto camera = config::ReadCameraFile(dir + "/auto.yaml");
+  ASSERT_TRUE(camera.ok()) << camera.message;
+  EXPECT_EQ(camera.value->intrinsics.lens, vision::LensModel::kEquidistant);
+
   const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
-                                     " --board aprilgrid:6x6:88:0.3 --json --out " + dir + "/camera.yaml");
+                                     " --board aprilgrid:6x6:88:0.3 --model plumb_bob --json --out " + dir +
+                                     "/camera.yaml");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(doc["model_choice"].is_null());
   EXPECT_EQ(doc["distortion_model"], "plumb_bob");
   EXPECT_GT(doc["rms_reprojection_error_px"].get<double>(), 1.0);
   // Measured: plumb_bob 1.70 px, the same views as a fisheye 0.045 px.
   ASSERT_TRUE(doc["fisheye_rms_px"].is_number()) << r.out;
   EXPECT_LT(doc["fisheye_rms_px"].get<double>(), 0.1);
   const CommandResult text = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
-                                        " --board aprilgrid:6x6:88:0.3 --out " + dir + "/camera.yaml");
+                                        " --board aprilgrid:6x6:88:0.3 --model plumb_bob --out " + dir + "/camera.yaml");
   EXPECT_THAT(text.out, ::testing::HasSubstr("this looks like a fisheye lens; calibrate again with --model fisheye"))
       << text.out;
 }

@@ -3,6 +3,7 @@
 // Loads the images, finds the board in each (vision::DetectBoard), calibrates
 // (vision::CalibrateCamera) and writes the camera file (config/camera_file.h) with the
 // reprojection errors. Images without the board are named and skipped.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -43,6 +44,47 @@ struct ImageOutcome {
   bool left_out = false;  // board found, but no pose for it through the fitted fisheye lens
 };
 
+nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+// --model auto's choice: each model's RMS over the views both fitted.
+struct ModelChoice {
+  double plumb_bob_rms_px = NAN;
+  double fisheye_rms_px = NAN;
+  int views = 0;  // compared on
+  vision::LensModel chosen = vision::LensModel::kPlumbBob;
+};
+
+ModelChoice CompareLensModels(const std::vector<vision::BoardDetection>& views,
+                              const vision::CameraCalibrationResult& plumb_bob,
+                              const vision::CameraCalibrationResult& fisheye) {
+  ModelChoice c;
+  if (!fisheye.ok()) return c;
+  if (!plumb_bob.ok()) {
+    c.fisheye_rms_px = fisheye.rms_reprojection_error_px;
+    c.chosen = vision::LensModel::kEquidistant;
+    return c;
+  }
+  // The fisheye fit may leave views out (no pose through its lens): the two
+  // are compared on the views both kept, each view weighted by its corners.
+  auto left_out = [](const vision::CameraCalibrationResult& r, size_t i) {
+    return std::find(r.views_left_out.begin(), r.views_left_out.end(), static_cast<int>(i)) != r.views_left_out.end();
+  };
+  double pb = 0.0, fe = 0.0, n = 0.0;
+  for (size_t i = 0; i < views.size() && i < plumb_bob.per_view_rms_px.size() && i < fisheye.per_view_rms_px.size(); ++i) {
+    if (left_out(plumb_bob, i) || left_out(fisheye, i)) continue;
+    const double corners = static_cast<double>(views[i].image_points.size());
+    pb += corners * plumb_bob.per_view_rms_px[i] * plumb_bob.per_view_rms_px[i];
+    fe += corners * fisheye.per_view_rms_px[i] * fisheye.per_view_rms_px[i];
+    n += corners;
+    ++c.views;
+  }
+  if (n == 0.0) return c;
+  c.plumb_bob_rms_px = std::sqrt(pb / n);
+  c.fisheye_rms_px = std::sqrt(fe / n);
+  if (c.fisheye_rms_px < 0.95 * c.plumb_bob_rms_px) c.chosen = vision::LensModel::kEquidistant;
+  return c;
+}
+
 }  // namespace
 
 struct CalibrateCameraArgs {
@@ -52,7 +94,7 @@ struct CalibrateCameraArgs {
   std::string format = "opencv";
   std::string camera_name = "camera";
   bool fix_k3 = false;
-  std::string model = "plumb_bob";
+  std::string model = "auto";
   bool json = false;
   int threads = 0;  // 0: one per core
 };
@@ -63,8 +105,9 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   const vision::CalibrationBoard board = ParseBoardOption(kCommand, "--board", args.board);
   const auto format = config::ParseCameraFileFormat(args.format);
   if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
-  const auto lens = vision::ParseLensModel(args.model);
-  if (!lens) Fail(kCommand, kExitBadInput, "--model: expected plumb_bob or fisheye, got '" + args.model + "'");
+  const bool auto_model = args.model == "auto";
+  const auto lens = auto_model ? std::optional(vision::LensModel::kPlumbBob) : vision::ParseLensModel(args.model);
+  if (!lens) Fail(kCommand, kExitBadInput, "--model: expected auto, plumb_bob or fisheye, got '" + args.model + "'");
   if (*lens == vision::LensModel::kEquidistant && args.fix_k3)
     Fail(kCommand, kExitBadInput, "--fix-k3 is plumb_bob's; the fisheye model has k1..k4");
 
@@ -152,6 +195,21 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
              " (no camera file written)");
   }
   vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
+  // --model auto: both models on the same views; the fisheye (equidistant,
+  // k1..k4) when it fits them better than plumb_bob (k1 k2 p1 p2 k3) with its
+  // one coefficient fewer, by 5 % (ties go to the usual model).
+  std::optional<ModelChoice> choice;
+  if (auto_model) {
+    vision::CameraCalibrationOptions other = options;
+    other.lens = vision::LensModel::kEquidistant;
+    other.fix_k3 = false;
+    vision::CameraCalibrationResult f = vision::CalibrateCamera(views, size, other);
+    choice = CompareLensModels(views, result, f);
+    if (choice->chosen == vision::LensModel::kEquidistant) {
+      options = other;
+      result = std::move(f);
+    }
+  }
   if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
   // An aprilgrid's corners come from its tags' edges, which the lens bends
   // (through a fisheye by 0.15 px rms at a tag's corners, docs/vision.md):
@@ -179,7 +237,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   // through the equidistant model; suggested when it halves the error (a
   // 190-degree lens fitted as plumb_bob: 2.39 px, as a fisheye 0.034 px).
   double fisheye_rms_px = NAN;
-  if (*lens == vision::LensModel::kPlumbBob && result.rms_reprojection_error_px > 0.5) {
+  if (!auto_model && *lens == vision::LensModel::kPlumbBob && result.rms_reprojection_error_px > 0.5) {
     vision::CameraCalibrationOptions other = options;
     other.lens = vision::LensModel::kEquidistant;
     other.fix_k3 = false;
@@ -231,6 +289,12 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         {"rms_reprojection_error_px", result.rms_reprojection_error_px},
         {"first_pass_rms_px", std::isfinite(first_pass_rms_px) ? nlohmann::json(first_pass_rms_px) : nlohmann::json()},
         {"fisheye_rms_px", std::isfinite(fisheye_rms_px) ? nlohmann::json(fisheye_rms_px) : nlohmann::json()},
+        {"model_choice",
+         choice ? nlohmann::json{{"plumb_bob_rms_px", Finite(choice->plumb_bob_rms_px)},
+                                 {"fisheye_rms_px", Finite(choice->fisheye_rms_px)},
+                                 {"views_compared", choice->views},
+                                 {"chosen", vision::LensModelName(choice->chosen)}}
+                : nlohmann::json()},
         {"views_used", result.views},
         {"corners_used", result.corners},
         {"images", images},
@@ -246,6 +310,10 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
             << "  cy " << std::setw(12) << Fixed(in.cy, 3) << "  +/- " << Fixed(result.sigma[3], 3) << " px\n";
   std::cout << "  lens " << vision::LensModelName(in.lens)
             << (fisheye ? " (sigmas from a jackknife over the views)" : "") << "\n";
+  if (choice)
+    std::cout << "  (--model auto: first-pass RMS over " << choice->views << " views " << Fixed(choice->plumb_bob_rms_px, 4)
+              << " px as plumb_bob, " << Fixed(choice->fisheye_rms_px, 4) << " px as a fisheye; "
+              << vision::LensModelName(choice->chosen) << " chosen)\n";
   for (size_t i = 0; i < names.size(); ++i) {
     std::cout << "  " << names[i] << " " << std::setw(12) << Fixed(in.distortion[i], 6) << "  +/- "
               << Fixed(result.sigma[4 + i], 6) << "\n";
@@ -273,7 +341,8 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   auto args = std::make_shared<CalibrateCameraArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate-camera",
-      "Camera intrinsics (fx fy cx cy, k1 k2 p1 p2 k3) from images of a calibration board.\n"
+      "Camera intrinsics (fx fy cx cy and the lens's distortion, plumb_bob or fisheye) from images of a\n"
+      "calibration board.\n"
       "Images where the board is not found are named and skipped; at least 3 must remain.\n"
       "Writes OpenCV FileStorage or ROS camera_info YAML with the reprojection errors.");
   cmd->add_option("images", args->images,
@@ -291,8 +360,8 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   cmd->add_option("--camera-name", args->camera_name, "camera_name in ROS files (default: camera)");
   cmd->add_flag("--fix-k3", args->fix_k3, "Keep k3 = 0 (lenses with a modest field of view)");
   cmd->add_option("--model", args->model,
-                  "Lens model: plumb_bob (default; OpenCV's k1 k2 p1 p2 k3) or fisheye (equidistant, "
-                  "cv::fisheye's k1..k4)");
+                  "Lens model: auto (default: both fitted, the fisheye when it fits the views 5 % better), plumb_bob "
+                  "(OpenCV's k1 k2 p1 p2 k3) or fisheye (equidistant, cv::fisheye's k1..k4)");
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
       ->check(CLI::NonNegativeNumber);

@@ -4,15 +4,10 @@
 #include <cmath>
 #include <ostream>
 
+#include "odocal/calibration/statistics.h"
+
 namespace odocal::calibration {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
 
 // Mean of a set of poses: positions averaged, headings averaged as offsets
 // from the first (rests never span a wrap-around in practice, and this is

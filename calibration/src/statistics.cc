@@ -1,5 +1,6 @@
 #include "odocal/calibration/statistics.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <numeric>
@@ -9,6 +10,13 @@ namespace odocal::calibration {
 double Mean(const std::vector<double>& values) {
   assert(!values.empty());
   return std::accumulate(values.begin(), values.end(), 0.0) / values.size();
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
 }
 
 std::optional<double> SampleStdDev(const std::vector<double>& values) {

@@ -14,6 +14,7 @@
 
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/internal/trajectory_fit_stages.h"
+#include "odocal/calibration/statistics.h"
 
 namespace odocal::calibration {
 namespace internal {
@@ -206,13 +207,6 @@ std::string Fixed(double v, int precision) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(precision) << v;
   return os.str();
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
 }
 
 // The parameter blocks in the order of the cost blocks.

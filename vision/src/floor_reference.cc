@@ -8,17 +8,11 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "apriltag_util.h"
+#include "odocal/calibration/statistics.h"
 #include "odocal/vision/detector.h"
 
 namespace odocal::vision {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(m), v.end());
-  return v[m];
-}
 
 // Intersection of the diagonals 0-2 and 1-3 of four points.
 std::optional<cv::Point2d> DiagonalCrossing(const std::vector<cv::Point2d>& p) {
@@ -164,9 +158,9 @@ std::vector<FloorTagSighting> ObserveFloorTags(const std::vector<cv::Mat>& frame
       resid.push_back(q.rms_residual_grey);
     }
     s.median_quality = qualities[k].front();
-    s.median_quality.side_px = Median(side);
-    s.median_quality.contrast_grey = Median(contrast);
-    s.median_quality.blur_sigma_px = Median(blur);
+    s.median_quality.side_px = calibration::Median(side);
+    s.median_quality.contrast_grey = calibration::Median(contrast);
+    s.median_quality.blur_sigma_px = calibration::Median(blur);
     s.median_quality.saturated_fraction = *std::max_element(sat.begin(), sat.end());
     s.median_quality.rms_residual_grey = *std::max_element(resid.begin(), resid.end());
   }

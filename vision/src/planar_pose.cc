@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "odocal/base/units.h"
+#include "odocal/calibration/statistics.h"
 
 namespace odocal::vision {
 
@@ -70,11 +71,6 @@ struct RollingShutterCornerResidual {
   }
   CornerResidual c;
 };
-
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 
@@ -266,9 +262,9 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     result.message = "too few views gave a pose for the starting estimate";
     return result;
   }
-  const Eigen::Vector3d n0 = Eigen::Vector3d(Median(nx), Median(ny), Median(nz)).normalized();
+  const Eigen::Vector3d n0 = Eigen::Vector3d(calibration::Median(nx), calibration::Median(ny), calibration::Median(nz)).normalized();
   double camera[3] = {std::atan2(-n0.y(), -n0.z()), std::asin(std::clamp(-n0.x(), -1.0, 1.0)),
-                      Median(dist)};
+                      calibration::Median(dist)};
   CameraMount start = nominal_mount;
   start.roll_deg = camera[0] * kRadToDeg;
   start.pitch_deg = camera[1] * kRadToDeg;

@@ -9,6 +9,7 @@
 
 #include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
+#include "odocal/calibration/statistics.h"
 
 namespace odocal::measure {
 
@@ -101,12 +102,6 @@ double Interpolate(const Series& s, double t) {
   const size_t k = static_cast<size_t>(std::upper_bound(s.t.begin(), s.t.end(), t) - s.t.begin());
   const double u = (t - s.t[k - 1]) / (s.t[k] - s.t[k - 1]);
   return s.v[k - 1] + u * (s.v[k] - s.v[k - 1]);
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
 }
 
 // The heading by the ticks (nominal parameters), unwrapped, at each record.
@@ -375,7 +370,7 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   stats->rows = static_cast<int>(frames.size());
   std::vector<double> periods;
   for (size_t i = 1; i < frames.size(); ++i) periods.push_back(frames[i].t_s - frames[i - 1].t_s);
-  stats->pose_period_s = Median(periods);
+  stats->pose_period_s = calibration::Median(periods);
 
   // The robot's pose from the body's: T_world_robot = T_world_body * T_robot_body^-1.
   const Pose2 T_robot_body = Pose2::FromXYHeading(tracker.offset_x_mm * 1e-3,

@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/calibration/statistics.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -16,12 +17,6 @@ namespace odocal::measure {
 namespace {
 
 using calibration::Pose2;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 std::string Fmt(const char* fmt, double a, double b = 0.0) {
   char buf[640];
@@ -107,7 +102,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     auto med = [&](auto field) {
       std::vector<double> v;
       for (const auto& q : qualities) v.push_back(q.*field);
-      return Median(v);
+      return calibration::Median(v);
     };
     r.quality.side_px = med(&vision::TagImageQuality::side_px);
     r.quality.cell_px = med(&vision::TagImageQuality::cell_px);

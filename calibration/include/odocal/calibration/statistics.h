@@ -10,6 +10,10 @@
 namespace odocal::calibration {
 
 double Mean(const std::vector<double>& values);
+
+// The middle value (of an even count, the upper of the two middle ones: a
+// value the data hold, as robust estimates of scatter want); 0 for none.
+double Median(std::vector<double> values);
 // Sample standard deviation (n - 1); nullopt for fewer than two values.
 std::optional<double> SampleStdDev(const std::vector<double>& values);
 // Standard error of the mean; nullopt for fewer than two values.

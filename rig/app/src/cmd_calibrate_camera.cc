@@ -27,7 +27,7 @@
 namespace odocal::app {
 namespace {
 
-constexpr const char* kCommand = "calibrate-camera";
+constexpr const char* kCalibrateCamera = "calibrate-camera";
 
 std::string Fixed(double value, int precision) {
   std::ostringstream os;
@@ -102,30 +102,30 @@ struct CalibrateCameraArgs {
 void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   // Every unreadable image is reported once, by us, in one line.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  const vision::CalibrationBoard board = ParseBoardOption(kCommand, "--board", args.board);
+  const vision::CalibrationBoard board = ParseBoardOption(kCalibrateCamera, "--board", args.board);
   const auto format = config::ParseCameraFileFormat(args.format);
-  if (!format) Fail(kCommand, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
+  if (!format) Fail(kCalibrateCamera, kExitBadInput, "--format: expected opencv or ros, got '" + args.format + "'");
   const bool auto_model = args.model == "auto";
   const auto lens = auto_model ? std::optional(vision::LensModel::kPlumbBob) : vision::ParseLensModel(args.model);
-  if (!lens) Fail(kCommand, kExitBadInput, "--model: expected auto, plumb_bob or fisheye, got '" + args.model + "'");
+  if (!lens) Fail(kCalibrateCamera, kExitBadInput, "--model: expected auto, plumb_bob or fisheye, got '" + args.model + "'");
   if (*lens == vision::LensModel::kEquidistant && args.fix_k3)
-    Fail(kCommand, kExitBadInput, "--fix-k3 is plumb_bob's; the fisheye model has k1..k4");
+    Fail(kCalibrateCamera, kExitBadInput, "--fix-k3 is plumb_bob's; the fisheye model has k1..k4");
 
   // Where the camera file goes, settled before minutes of detection: its
   // directory made if missing, a directory named as the file refused.
   {
     namespace fs = std::filesystem;
     std::error_code ec;
-    if (fs::is_directory(args.out, ec)) Fail(kCommand, kExitBadInput, "--out " + args.out + ": is a directory");
+    if (fs::is_directory(args.out, ec)) Fail(kCalibrateCamera, kExitBadInput, "--out " + args.out + ": is a directory");
     const fs::path parent = fs::path(args.out).parent_path();
     if (!parent.empty() && !fs::is_directory(parent, ec) && !fs::create_directories(parent, ec))
-      Fail(kCommand, kExitBadInput, "--out " + args.out + ": cannot make the directory " + parent.string() +
+      Fail(kCalibrateCamera, kExitBadInput, "--out " + args.out + ": cannot make the directory " + parent.string() +
                                         (ec ? " (" + ec.message() + ")" : ""));
   }
   // Every image read and searched on its own worker (the edge models'
   // fits are most of the time: ~1.5 s a 640x480 aprilgrid frame); then, in
   // the images' order, the first readable one sets the size.
-  const std::vector<std::string> paths = ExpandDirectories(kCommand, args.images, ImageExtensions());
+  const std::vector<std::string> paths = ExpandDirectories(kCalibrateCamera, args.images, ImageExtensions());
   struct Searched {
     cv::Size size;
     std::string unreadable;  // why, when the image could not be read
@@ -171,14 +171,14 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         o.reason = d.message;
       }
     }
-    if (!o.used) std::cerr << "odocal " << kCommand << ": skipping " << o.path << ": " << o.reason << "\n";
+    if (!o.used) std::cerr << "odocal " << kCalibrateCamera << ": skipping " << o.path << ": " << o.reason << "\n";
     outcomes.push_back(o);
   }
 
   if (board.type == vision::CalibrationBoard::Type::kAprilgrid && views.empty()) {
     // The board named is not the board filmed (or not with enough of it):
     // bad input rather than a failed calibration.
-    Fail(kCommand, kExitBadInput,
+    Fail(kCalibrateCamera, kExitBadInput,
          "--board aprilgrid " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " (" +
              board.tag_family + ", ids " + std::to_string(board.first_id) + "-" +
              std::to_string(board.first_id + board.cols * board.rows - 1) + "): no image of " +
@@ -189,7 +189,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   options.lens = *lens;
   options.threads = args.threads;
   if (static_cast<int>(views.size()) < options.min_views) {
-    Fail(kCommand, kExitFailure,
+    Fail(kCalibrateCamera, kExitFailure,
          "only " + std::to_string(views.size()) + " of " + std::to_string(outcomes.size()) +
              " images show the board; need at least " + std::to_string(options.min_views) +
              " (no camera file written)");
@@ -210,7 +210,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
       result = std::move(f);
     }
   }
-  if (!result.ok()) Fail(kCommand, kExitFailure, result.message + " (no camera file written)");
+  if (!result.ok()) Fail(kCalibrateCamera, kExitFailure, result.message + " (no camera file written)");
   // An aprilgrid's corners come from its tags' edges, which the lens bends
   // (through a fisheye by 0.15 px rms at a tag's corners, docs/vision.md):
   // a second pass refines them through the first pass's lens and calibrates
@@ -253,7 +253,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   file.camera_name = args.camera_name;
   file.rms_reprojection_error_px = result.rms_reprojection_error_px;
   file.per_view_reprojection_errors_px = result.per_view_rms_px;
-  if (const auto error = config::WriteCameraFile(args.out, file, *format)) Fail(kCommand, kExitFailure, *error);
+  if (const auto error = config::WriteCameraFile(args.out, file, *format)) Fail(kCalibrateCamera, kExitFailure, *error);
 
   const vision::Intrinsics& in = result.intrinsics;
   // The coefficients by the lens's names (plumb_bob k1 k2 p1 p2 k3, equidistant k1..k4).

@@ -37,7 +37,7 @@
 namespace odocal::app {
 namespace {
 
-constexpr const char* kCommand = "detect";
+constexpr const char* kDetect = "detect";
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -114,25 +114,25 @@ void RunDetect(const DetectArgs& args) {
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   // 1. Everything the user typed, checked before any work.
   if (args.tag.empty() == args.board.empty())
-    Fail(kCommand, kExitBadInput, "name exactly one of --tag SPEC or --board SPEC");
+    Fail(kDetect, kExitBadInput, "name exactly one of --tag SPEC or --board SPEC");
   std::optional<vision::TagSpec> tag;
   std::optional<vision::CalibrationBoard> board;
   std::string family;
   if (!args.tag.empty()) {
-    tag = ParseTagOption(kCommand, "--tag", args.tag);
+    tag = ParseTagOption(kDetect, "--tag", args.tag);
     std::string why;
-    if (!tag->IsValid(&why)) Fail(kCommand, kExitBadInput, "--tag " + args.tag + ": " + why);
+    if (!tag->IsValid(&why)) Fail(kDetect, kExitBadInput, "--tag " + args.tag + ": " + why);
     family = tag->family;
   } else {
-    board = ParseBoardOption(kCommand, "--board", args.board);
+    board = ParseBoardOption(kDetect, "--board", args.board);
     if (board->type != vision::CalibrationBoard::Type::kAprilgrid)
-      Fail(kCommand, kExitBadInput, "--board " + args.board + ": detect finds tags; name an aprilgrid (or its target.yaml)");
+      Fail(kDetect, kExitBadInput, "--board " + args.board + ": detect finds tags; name an aprilgrid (or its target.yaml)");
     family = board->tag_family;
   }
   std::optional<vision::Intrinsics> intrinsics;
   if (!args.calibration.empty()) {
     const auto file = config::ReadCameraFile(args.calibration);
-    if (!file) Fail(kCommand, kExitBadInput, "--calibration: " + file.message);
+    if (!file) Fail(kDetect, kExitBadInput, "--calibration: " + file.message);
     intrinsics = file->intrinsics;
   }
 
@@ -140,23 +140,23 @@ void RunDetect(const DetectArgs& args) {
   // fails before any output; video frames are decoded one at a time below.
   const auto check_size = [&](const std::string& path, const cv::Mat& grey) {
     if (intrinsics && (grey.cols != intrinsics->width || grey.rows != intrinsics->height))
-      Fail(kCommand, kExitBadInput,
+      Fail(kDetect, kExitBadInput,
            path + ": " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + ", but --calibration " +
                args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
                std::to_string(intrinsics->height));
   };
   // A directory stands for the images in it (a Kalibr data set's cam0/data).
-  const std::vector<std::string> inputs = ExpandDirectories(kCommand, args.inputs, ImageExtensions());
+  const std::vector<std::string> inputs = ExpandDirectories(kDetect, args.inputs, ImageExtensions());
   for (const std::string& path : inputs) {
     if (!fs::is_regular_file(path))
-      Fail(kCommand, kExitBadInput, path + ": " + (fs::exists(path) ? "not a regular file" : "no such file"));
+      Fail(kDetect, kExitBadInput, path + ": " + (fs::exists(path) ? "not a regular file" : "no such file"));
     if (IsVideo(path)) {
       media::VideoReader reader;
       const Status opened = reader.Open(path);
-      if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
+      if (!opened.ok()) Fail(kDetect, kExitBadInput, path + ": " + opened.message);
     } else {
       const cv::Mat grey = media::ReadGreyImage(path).grey;
-      if (grey.empty()) Fail(kCommand, kExitBadInput, path + ": cannot be read as an image");
+      if (grey.empty()) Fail(kDetect, kExitBadInput, path + ": cannot be read as an image");
       check_size(path, grey);
     }
   }
@@ -193,7 +193,7 @@ void RunDetect(const DetectArgs& args) {
   const auto process = [&](const Frame& f, Found found) {
     ++frame_count;
     vision::TagSurvey& survey = found.survey;
-    if (!survey.ok) Fail(kCommand, kExitFailure, f.file + ": " + survey.message);
+    if (!survey.ok) Fail(kDetect, kExitFailure, f.file + ": " + survey.message);
     json board_refused = json::array();
     if (board) {
       const vision::BoardDetection& bd = found.board;
@@ -363,20 +363,20 @@ void RunDetect(const DetectArgs& args) {
     if (IsVideo(path)) {
       media::VideoReader reader;
       const Status opened = reader.Open(path);
-      if (!opened.ok()) Fail(kCommand, kExitBadInput, path + ": " + opened.message);
+      if (!opened.ok()) Fail(kDetect, kExitBadInput, path + ": " + opened.message);
       cv::Mat grey;
       for (int i = 0; reader.Read(&grey); ++i) {
         if (i == 0) check_size(path, grey);
-        process(Frame{path, i, grey}, find(grey));
+        process(Frame{path, i, grey, {}}, find(grey));
       }
     } else {
       media::GreyImage image = media::ReadGreyImage(path);
       process(Frame{path, -1, std::move(image.grey), std::move(image.conversion)}, std::move(found_in_image[n]));
     }
   }
-  if (frame_count == 0) Fail(kCommand, kExitBadInput, "no frames in " + inputs.front());
+  if (frame_count == 0) Fail(kDetect, kExitBadInput, "no frames in " + inputs.front());
   if (board && board_views == 0) {
-    Fail(kCommand, kExitBadInput,
+    Fail(kDetect, kExitBadInput,
          "--board " + args.board + ": no image of " + std::to_string(frame_count) + " shows 4 or more of its " +
              family + " tags (ids " + std::to_string(board->first_id) + "-" +
              std::to_string(board->first_id + board->cols * board->rows - 1) + "); nothing written");
@@ -391,10 +391,10 @@ void RunDetect(const DetectArgs& args) {
   doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
   if (!args.annotate_dir.empty()) {
     if (const auto error = config::EnsureDirectory(args.annotate_dir))
-      Fail(kCommand, kExitFailure, "--annotate: " + *error);
+      Fail(kDetect, kExitFailure, "--annotate: " + *error);
     for (const auto& [path, png] : annotations) {
       if (const auto error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())))
-        Fail(kCommand, kExitFailure, *error);
+        Fail(kDetect, kExitFailure, *error);
     }
   }
   if (args.json_out == "-") {
@@ -403,7 +403,7 @@ void RunDetect(const DetectArgs& args) {
   }
   if (!args.json_out.empty()) {
     if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
-      Fail(kCommand, kExitFailure, *error);
+      Fail(kDetect, kExitFailure, *error);
   }
   std::cout << frame_count << " image" << (frame_count == 1 ? "" : "s") << ", " << total_tags << " " << family
             << " tag" << (total_tags == 1 ? "" : "s") << " found, " << total_rejected << " quad"

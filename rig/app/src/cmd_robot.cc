@@ -53,14 +53,14 @@ int ExitCode(odocal::StatusCode s) {
   }
 }
 
-[[noreturn]] void Fail(int code, const std::string& message) {
+[[noreturn]] void FailRobot(int code, const std::string& message) {
   std::cerr << "odocal robot: " << message << "\n";
   throw CLI::RuntimeError(code);
 }
 
 template <typename T>
 T Check(odocal::Result<T> r) {
-  if (!r.ok()) Fail(ExitCode(r.status), r.message);
+  if (!r.ok()) FailRobot(ExitCode(r.status), r.message);
   return std::move(*r.value);
 }
 
@@ -87,7 +87,7 @@ Session Connect(const LinkFlags& f) {
   options.reply_timeout = std::chrono::milliseconds(f.timeout_ms);
   options.max_attempts = f.attempts;
   std::string why;
-  if (!options.IsValid(&why)) Fail(kExitOther, why);
+  if (!options.IsValid(&why)) FailRobot(kExitOther, why);
   s.client = std::make_unique<rl::Client>(*s.transport, options);
   s.info = Check(s.client->Hello());
   return s;
@@ -104,7 +104,7 @@ size_t ParamIndexOrFail(const std::string& name) {
   if (!index) {
     std::string known;
     for (const rl::ParamInfo& p : rl::ParamTable()) known += " " + std::string(p.name);
-    Fail(kExitOther, "unknown parameter '" + name + "' (known:" + known + ")");
+    FailRobot(kExitOther, "unknown parameter '" + name + "' (known:" + known + ")");
   }
   return *index;
 }
@@ -112,7 +112,7 @@ size_t ParamIndexOrFail(const std::string& name) {
 rl::ParamValue ValueOrFail(size_t index, const std::string& text) {
   std::optional<rl::ParamValue> v = rl::ParseValue(index, text);
   if (!v) {
-    Fail(kExitOther, "bad value '" + text + "' for " + std::string(rl::ParamTable()[index].name) +
+    FailRobot(kExitOther, "bad value '" + text + "' for " + std::string(rl::ParamTable()[index].name) +
                          (rl::ParamTable()[index].type == rl::ParamType::kU32
                               ? " (expected an unsigned integer)"
                               : " (expected a number)"));
@@ -152,7 +152,7 @@ calibration::RunSpec RunSpecOrFail(const RunFlags& f) {
   const std::optional<Procedure> p = calibration::ParseProcedure(f.procedure);
   if (!p || (*p != Procedure::kUmbmark && *p != Procedure::kStraight && *p != Procedure::kSpin &&
              *p != Procedure::kOutAndBack))
-    Fail(kExitOther, "--procedure '" + f.procedure + "': expected umbmark, straight, spin or out_and_back");
+    FailRobot(kExitOther, "--procedure '" + f.procedure + "': expected umbmark, straight, spin or out_and_back");
   const calibration::Direction d = f.direction == "cw" ? calibration::Direction::kCw : calibration::Direction::kCcw;
   calibration::RunSpec spec;
   switch (*p) {
@@ -164,7 +164,7 @@ calibration::RunSpec RunSpecOrFail(const RunFlags& f) {
   if (f.speed_mm_s > 0.0) spec.speed_m_s = f.speed_mm_s * 1e-3;
   if (f.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = f.turn_rate_deg_s * M_PI / 180.0;
   std::string why;
-  if (!spec.IsValid(&why)) Fail(kExitOther, "run: " + why + " (--side-mm, --distance-mm, --turns, --repeats)");
+  if (!spec.IsValid(&why)) FailRobot(kExitOther, "run: " + why + " (--side-mm, --distance-mm, --turns, --repeats)");
   return spec;
 }
 
@@ -176,7 +176,7 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
   std::ofstream csv;
   if (!f.telemetry.empty()) {
     csv.open(f.telemetry);
-    if (!csv) Fail(kExitOther, "--telemetry " + f.telemetry + ": cannot write");
+    if (!csv) FailRobot(kExitOther, "--telemetry " + f.telemetry + ": cannot write");
     csv << "t_s,left_ticks,right_ticks,x_mm,y_mm,heading_deg,moving\n";
   }
   // The handler first: a SIGTERM while the link is being opened must not
@@ -195,7 +195,7 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
     });
     Check(s.client->SetTelemetryRate(50));
   }
-  if (g_run_stop) Fail(kExitInterrupted, "interrupted before the run started: the robot did not move");
+  if (g_run_stop) FailRobot(kExitInterrupted, "interrupted before the run started: the robot did not move");
   const uint16_t id = Check(s.client->StartRun(rl::RunCommand::FromRunSpec(spec)));
   std::cerr << "odocal robot: run " << id << " started\n";
   const auto t0 = std::chrono::steady_clock::now();
@@ -203,15 +203,15 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
     const bool timed_out = std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(f.timeout_s);
     if (g_run_stop || timed_out) {
       const odocal::Status stopped = s.client->Stop();
-      Fail(timed_out ? kExitRunFailed : kExitInterrupted,
+      FailRobot(timed_out ? kExitRunFailed : kExitInterrupted,
            std::string(timed_out ? "run not completed within --timeout-s" : "interrupted") +
                (stopped.ok() ? ": robot stopped" : ": could not stop the robot (" + stopped.message + ")"));
     }
     const rl::RobotStatus status = Check(s.client->GetStatus());
     if (status.state == rl::RunState::kIdle) {
-      if (status.last_run_id != id) Fail(kExitRunFailed, "the robot is idle and does not know run " + std::to_string(id));
+      if (status.last_run_id != id) FailRobot(kExitRunFailed, "the robot is idle and does not know run " + std::to_string(id));
       if (status.last_run.status != rl::RunStatus::kCompleted)
-        Fail(kExitRunFailed, "the robot reports the run " + std::string(rl::ToString(status.last_run.status)));
+        FailRobot(kExitRunFailed, "the robot reports the run " + std::string(rl::ToString(status.last_run.status)));
       break;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -277,11 +277,11 @@ void RegisterRobotCommand(CLI::App& app) {
     // NAME=VALUE as push takes it, or NAME VALUE; not both, not neither.
     if (const size_t eq = set_name->find('='); eq != std::string::npos) {
       if (!set_value->empty())
-        Fail(kExitOther, "give NAME VALUE or NAME=VALUE, not both ('" + *set_name + "' and '" + *set_value + "')");
+        FailRobot(kExitOther, "give NAME VALUE or NAME=VALUE, not both ('" + *set_name + "' and '" + *set_value + "')");
       *set_value = set_name->substr(eq + 1);
       set_name->resize(eq);
     }
-    if (set_value->empty()) Fail(kExitOther, "no value for '" + *set_name + "': NAME VALUE or NAME=VALUE");
+    if (set_value->empty()) FailRobot(kExitOther, "no value for '" + *set_name + "': NAME VALUE or NAME=VALUE");
     const size_t index = ParamIndexOrFail(*set_name);
     const rl::ParamValue value = ValueOrFail(index, *set_value);
     Session s = Connect(*flags);
@@ -298,7 +298,7 @@ void RegisterRobotCommand(CLI::App& app) {
     std::map<size_t, rl::ParamValue> changes;
     for (const std::string& a : *assignments) {
       const size_t eq = a.find('=');
-      if (eq == std::string::npos) Fail(kExitOther, "expected NAME=VALUE, got '" + a + "'");
+      if (eq == std::string::npos) FailRobot(kExitOther, "expected NAME=VALUE, got '" + a + "'");
       const size_t index = ParamIndexOrFail(a.substr(0, eq));
       changes[index] = ValueOrFail(index, a.substr(eq + 1));
     }

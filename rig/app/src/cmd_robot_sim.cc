@@ -21,8 +21,8 @@
 namespace odocal::app {
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
-void OnSignal(int) { g_stop = 1; }
+volatile std::sig_atomic_t g_robot_sim_stop = 0;
+void OnSignal(int) { g_robot_sim_stop = 1; }
 
 }  // namespace
 
@@ -56,7 +56,7 @@ void RunRobotSim(const RobotSimArgs& args) {
   std::cerr << "robot-sim: serving the virtual robot of " << args.scenario << " on "
             << (*host.value)->device_path() << " (Ctrl-C to stop)" << std::endl;
   const auto start = std::chrono::steady_clock::now();
-  while (!g_stop) {
+  while (!g_robot_sim_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (args.seconds > 0.0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > args.seconds)

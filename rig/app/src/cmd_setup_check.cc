@@ -45,7 +45,7 @@ struct SetupCheckArgs {
   std::string out;
 };
 
-constexpr const char* kName = "setup-check";
+constexpr const char* kSetupCheck = "setup-check";
 
 // A video file: its frames with their own times (index / fps, or the
 // timestamps file beside it); a device: live frames for `seconds`.
@@ -54,7 +54,7 @@ std::vector<measure::SetupFrame> Grab(const std::string& camera, double seconds)
   if (std::filesystem::is_regular_file(camera)) {
     media::VideoReader reader;
     const Status opened = reader.Open(camera);
-    if (!opened.ok()) Fail(kName, kExitBadInput, opened.message);
+    if (!opened.ok()) Fail(kSetupCheck, kExitBadInput, opened.message);
     const double fps = reader.fps() > 0.0 ? reader.fps() : 30.0;
     cv::Mat grey;
     for (int k = 0; reader.Read(&grey); ++k) {
@@ -62,17 +62,17 @@ std::vector<measure::SetupFrame> Grab(const std::string& camera, double seconds)
       if (t > seconds) break;
       frames.push_back({grey.clone(), t});
     }
-    if (frames.empty()) Fail(kName, kExitBadInput, camera + ": no frame could be read");
+    if (frames.empty()) Fail(kSetupCheck, kExitBadInput, camera + ": no frame could be read");
     return frames;
   }
   std::string error;
   std::unique_ptr<media::CaptureSource> source = media::CaptureSource::Open(camera, &error);
-  if (!source) Fail(kName, kExitBadInput, "--camera " + camera + ": " + error);
+  if (!source) Fail(kSetupCheck, kExitBadInput, "--camera " + camera + ": " + error);
   double t0 = -1.0;
   while (true) {
     std::optional<media::CameraFrame> frame = source->Grab(&error);
     if (!frame) {
-      if (frames.empty()) Fail(kName, kExitFailure, source->Describe() + ": " + error);
+      if (frames.empty()) Fail(kSetupCheck, kExitFailure, source->Describe() + ": " + error);
       break;
     }
     if (t0 < 0.0) t0 = frame->t_s;
@@ -122,7 +122,7 @@ void WritePng(const measure::SetupCheckResult& r, const measure::SetupCheckOptio
     cv::putText(image, line, cv::Point(10, y), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1);
     y += 22;
   }
-  if (!cv::imwrite(path, image)) Fail(kName, kExitFailure, path + ": cannot write");
+  if (!cv::imwrite(path, image)) Fail(kSetupCheck, kExitFailure, path + ": cannot write");
 }
 
 nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCheckOptions& o,
@@ -183,27 +183,27 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
 
 void RunSetupCheck(const SetupCheckArgs& args) {
   measure::SetupCheckOptions o;
-  o.tag = ParseTagOption(kName, "--tag", args.tag);
-  if (!args.mount.empty()) o.mount_guess = ParseMountOption(kName, "--mount-guess", args.mount);
+  o.tag = ParseTagOption(kSetupCheck, "--tag", args.tag);
+  if (!args.mount.empty()) o.mount_guess = ParseMountOption(kSetupCheck, "--mount-guess", args.mount);
   const auto file = config::ReadCameraFile(args.calibration);
-  if (!file) Fail(kName, kExitBadInput, file.message);
+  if (!file) Fail(kSetupCheck, kExitBadInput, file.message);
   o.intrinsics = file->intrinsics;
-  if (!(args.seconds > 0.0)) Fail(kName, kExitBadInput, "--seconds must be positive");
-  if (!(args.square_mm > 0.0)) Fail(kName, kExitBadInput, "--square-mm must be positive");
-  if (args.runs < 1) Fail(kName, kExitBadInput, "--runs must be at least 1");
+  if (!(args.seconds > 0.0)) Fail(kSetupCheck, kExitBadInput, "--seconds must be positive");
+  if (!(args.square_mm > 0.0)) Fail(kSetupCheck, kExitBadInput, "--square-mm must be positive");
+  if (args.runs < 1) Fail(kSetupCheck, kExitBadInput, "--runs must be at least 1");
   o.square_side_m = args.square_mm * 1e-3;
   o.runs_per_direction = args.runs;
   o.track_m = args.track_mm * 1e-3;
   o.rest_s = args.rest_s;
   const std::vector<measure::SetupFrame> frames = Grab(args.camera, args.seconds);
-  if (auto e = config::EnsureDirectory(args.out)) Fail(kName, kExitFailure, *e);
+  if (auto e = config::EnsureDirectory(args.out)) Fail(kSetupCheck, kExitFailure, *e);
   const measure::SetupCheckResult r = measure::CheckSetup(frames, o);
   const nlohmann::json j = ToJson(r, o, args);
   if (auto e = config::WriteFileAtomically(args.out + "/setup_check.json", j.dump(2) + "\n"))
-    Fail(kName, kExitFailure, *e);
+    Fail(kSetupCheck, kExitFailure, *e);
   if (!r.ok) {
     for (const std::string& w : r.warnings) std::printf("warning: %s\n", w.c_str());
-    Fail(kName, kExitFailure, r.message + " (" + args.out + "/setup_check.json)");
+    Fail(kSetupCheck, kExitFailure, r.message + " (" + args.out + "/setup_check.json)");
   }
   WritePng(r, o, args.out + "/setup_check.png");
   std::printf("tag %s id %d: found in %d of %d frames (%.1f fps), %.0f px across (cell %.1f px), contrast %.0f, "
@@ -233,7 +233,7 @@ void RunSetupCheck(const SetupCheckArgs& args) {
   for (const std::string& w : r.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("wrote %s/setup_check.json and setup_check.png\n", args.out.c_str());
   if (!r.squares_fit || !r.quality_flags.empty())
-    Fail(kName, kExitFailure, "this setup cannot measure the plan as it stands (warnings above)");
+    Fail(kSetupCheck, kExitFailure, "this setup cannot measure the plan as it stands (warnings above)");
 }
 
 }  // namespace

@@ -62,8 +62,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::atomic<bool> g_stop{false};
-void OnStationSignal(int) { g_stop = true; }
+std::atomic<bool> g_station_stop{false};
+void OnStationSignal(int) { g_station_stop = true; }
 
 // Exit codes, one per cause (the robot command's where they overlap).
 int ExitCode(station::StationStatus status) {
@@ -214,7 +214,7 @@ void RunStation(const StationArgs& args) {
   options.max_rounds = args.max_rounds;
   options.rest_frames = args.rest_frames;
   station::StationSetup setup;
-  setup.stop_requested = &g_stop;
+  setup.stop_requested = &g_station_stop;
   setup.progress = Progress;
   std::string error;
 

@@ -40,14 +40,14 @@
 namespace odocal::app {
 namespace {
 
-constexpr const char* kName = "watch";
+constexpr const char* kWatch = "watch";
 // Views of the tag the camera's tilt and height are fitted to (evenly
 // thinned to kMaxPlaneViews): about a second of a 30 fps camera.
 constexpr int kPlaneViews = 30;
 constexpr int kMaxPlaneViews = 15;
 
-std::atomic<bool> g_stop{false};
-void OnWatchSignal(int) { g_stop = true; }
+std::atomic<bool> g_watch_stop{false};
+void OnWatchSignal(int) { g_watch_stop = true; }
 
 struct WatchArgs {
   std::string camera;
@@ -78,17 +78,17 @@ class Source {
   explicit Source(const std::string& camera) : name_(camera) {
     if (std::filesystem::is_regular_file(camera)) {
       const Status opened = video_.Open(camera);
-      if (!opened.ok()) Fail(kName, kExitBadInput, "CAMERA " + camera + ": " + opened.message);
+      if (!opened.ok()) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": " + opened.message);
       fps_ = video_.fps() > 0.0 ? video_.fps() : 30.0;
       is_file_ = true;
       return;
     }
     const bool device_like = camera.find("://") != std::string::npos || camera.rfind("/dev/", 0) == 0 ||
                              camera.find_first_not_of("0123456789") == std::string::npos;
-    if (!device_like) Fail(kName, kExitBadInput, "CAMERA " + camera + ": no such file, and not a device or URL");
+    if (!device_like) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": no such file, and not a device or URL");
     std::string error;
     capture_ = media::CaptureSource::Open(camera, &error);
-    if (!capture_) Fail(kName, kExitBadInput, "CAMERA " + camera + ": cannot be opened: " + error);
+    if (!capture_) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": cannot be opened: " + error);
   }
   bool is_file() const { return is_file_; }
   std::string Describe() const { return is_file_ ? name_ : capture_->Describe(); }
@@ -143,48 +143,48 @@ double MeanSidePx(const vision::TagCorners& c) {
 }
 
 void RunWatch(const WatchArgs& args) {
-  const vision::TagSpec tag = ParseTagOption(kName, "--tag", args.tag);
+  const vision::TagSpec tag = ParseTagOption(kWatch, "--tag", args.tag);
   std::string why;
   if (!vision::IsKnownTagFamily(tag.family))
-    Fail(kName, kExitBadInput, "--tag " + args.tag + ": unknown family '" + tag.family + "'");
+    Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": unknown family '" + tag.family + "'");
   std::optional<vision::CameraMount> mount_guess;
-  if (!args.mount.empty()) mount_guess = ParseMountOption(kName, "--mount-guess", args.mount);
+  if (!args.mount.empty()) mount_guess = ParseMountOption(kWatch, "--mount-guess", args.mount);
   if (args.port < 0 || args.port > 65535)
-    Fail(kName, kExitBadInput, "--port " + std::to_string(args.port) + ": not in 0..65535 (0: any free port)");
+    Fail(kWatch, kExitBadInput, "--port " + std::to_string(args.port) + ": not in 0..65535 (0: any free port)");
   live::LiveServerOptions server_options;
   server_options.bind_address = args.bind;
   server_options.port = args.port;
-  if (!server_options.IsValid(&why)) Fail(kName, kExitBadInput, "--bind " + args.bind + ": " + why);
-  if (args.seconds < 0.0) Fail(kName, kExitBadInput, "--seconds must be >= 0 (0: until the source ends)");
-  if (args.hold_s < 0.0) Fail(kName, kExitBadInput, "--hold-s must be >= 0");
-  if (args.delay_s < 0.0) Fail(kName, kExitBadInput, "--delay-s must be >= 0");
+  if (!server_options.IsValid(&why)) Fail(kWatch, kExitBadInput, "--bind " + args.bind + ": " + why);
+  if (args.seconds < 0.0) Fail(kWatch, kExitBadInput, "--seconds must be >= 0 (0: until the source ends)");
+  if (args.hold_s < 0.0) Fail(kWatch, kExitBadInput, "--hold-s must be >= 0");
+  if (args.delay_s < 0.0) Fail(kWatch, kExitBadInput, "--delay-s must be >= 0");
   const auto file = config::ReadCameraFile(args.calibration);
-  if (!file) Fail(kName, kExitBadInput, "--calibration: " + file.message);
+  if (!file) Fail(kWatch, kExitBadInput, "--calibration: " + file.message);
   const vision::Intrinsics& intrinsics = file->intrinsics;
 
   Source source(args.camera);
   vision::VideoTrackOptions track;
   track.keep_crops = false;
   std::unique_ptr<vision::TagObserver> observer = vision::TagObserver::Create(tag, intrinsics, track, &why);
-  if (!observer) Fail(kName, kExitBadInput, "--tag " + args.tag + ": " + why);
+  if (!observer) Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": " + why);
 
   live::LiveState state;
   state.SetSource(source.Describe());
   state.SetProgress(0, 0, "", "watch: no plan, the camera only");
   auto server = live::LiveServer::Start(state, server_options);
   if (!server)
-    Fail(kName, kExitBadInput, "--bind " + args.bind + " --port " + std::to_string(args.port) + ": " + server.message);
+    Fail(kWatch, kExitBadInput, "--bind " + args.bind + " --port " + std::to_string(args.port) + ": " + server.message);
   const std::string url = (*server)->url();
   std::printf("live view: %s%s\n", url.c_str(),
               args.bind == "0.0.0.0" ? " (every interface: open this machine's address on the phone)" : "");
   std::fflush(stdout);
-  g_stop = false;
+  g_watch_stop = false;
   std::signal(SIGINT, OnWatchSignal);
   std::signal(SIGTERM, OnWatchSignal);
 
   // Time to open the page before a video starts.
   const Clock::time_point delay_from = Clock::now();
-  while (!g_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  while (!g_watch_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 
   std::optional<vision::CameraModel> camera;
   vision::CameraMount mount;
@@ -193,7 +193,7 @@ void RunWatch(const WatchArgs& args) {
   long frames = 0, found = 0;
   std::string error, ended;
   const Clock::time_point t0 = Clock::now();
-  while (!g_stop) {
+  while (!g_watch_stop) {
     std::optional<media::CameraFrame> frame = source.Next(&error);
     if (!frame) {
       ended = error;
@@ -201,7 +201,7 @@ void RunWatch(const WatchArgs& args) {
     }
     if (args.seconds > 0.0 && frame->t_s > args.seconds) break;
     if (frame->grey.cols != intrinsics.width || frame->grey.rows != intrinsics.height) {
-      Fail(kName, kExitBadInput,
+      Fail(kWatch, kExitBadInput,
            source.Describe() + " delivers " + std::to_string(frame->grey.cols) + "x" +
                std::to_string(frame->grey.rows) + " frames, --calibration " + args.calibration + " is for " +
                std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
@@ -270,7 +270,7 @@ void RunWatch(const WatchArgs& args) {
   const double elapsed = Since(t0);
   std::printf("watched %ld frames in %.2f s (%.1f frames/s), tag found in %ld\n", frames, elapsed,
               elapsed > 0.0 ? frames / elapsed : 0.0, found);
-  if (g_stop) {
+  if (g_watch_stop) {
     std::printf("stopped (Ctrl-C)\n");
     return;
   }
@@ -282,10 +282,10 @@ void RunWatch(const WatchArgs& args) {
     state.SetWarning("source_ended", end_text + "; the page stays for " + Fmt("%.0f s", args.hold_s));
     std::fflush(stdout);
     const Clock::time_point hold_from = Clock::now();
-    while (!g_stop && Since(hold_from) < args.hold_s) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    while (!g_watch_stop && Since(hold_from) < args.hold_s) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   (*server)->Stop();
-  if (failed) Fail(kName, kExitFailure, end_text);
+  if (failed) Fail(kWatch, kExitFailure, end_text);
 }
 
 }  // namespace

@@ -626,7 +626,9 @@ TEST(StationHomeArea, RunsThatLeaveTheViewNeverAbortTheStationIdleOrUnderLoad) {
           dropped += run.frames_dropped;
           // The robot left the view: a gap too long to unwrap.
           EXPECT_GT(run.unseen_s, 1.0) << run.name;
-          if (run.turned_rad) EXPECT_NEAR(std::abs(*run.turned_rad), 2.0 * M_PI, 0.2) << run.name;
+          if (run.turned_rad) {
+            EXPECT_NEAR(std::abs(*run.turned_rad), 2.0 * M_PI, 0.2) << run.name;
+          }
         }
       const nlohmann::json report = station::StationReportJson(r);
       EXPECT_TRUE(report["iterations"][0]["runs"][0].contains("frames_dropped"));

@@ -956,9 +956,9 @@ std::optional<std::string> WithinUncertainty(const StationIteration& now, const 
     if (*z > k) return std::nullopt;
     why += Format("%sCVRA factors within %.1f sigma of 1", why.empty() ? "" : "; ", *z);
   }
+  if (why.empty()) why = "nothing this round measured has a standard error to judge by";
   return why;
 }
-
 
 const char* ToString(StationStatus status) {
   switch (status) {

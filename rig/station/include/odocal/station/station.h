@@ -296,8 +296,10 @@ std::optional<double> EmaxSystSigma(const calibration::UmbmarkSummary& s, const 
 // estimate of round `pushed_from`: E_max,syst within `k` of this round's and
 // the pushed estimate's standard errors together (the push left an error of
 // about the latter's size, which this round measures with its own), and
-// every CVRA factor within `k` of 1 likewise. Says why when it holds,
-// nullopt when not (or when the round has no standard error to judge by).
+// every CVRA factor within `k` of 1 likewise. Says why when it holds (also
+// when nothing the round measured has a standard error: nothing to judge
+// by, said so), nullopt when not. A UMBMark estimate without a standard
+// error of E_max,syst does not hold.
 std::optional<std::string> WithinUncertainty(const StationIteration& now, const StationIteration& pushed_from,
                                              double k);
 

@@ -9,17 +9,12 @@
 
 #include <boost/math/distributions/chi_squared.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
 namespace {
-
-std::string Fixed(double v, int precision) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(precision) << v;
-  return os.str();
-}
 
 // A candidate the session lacks the input for cannot be formed: the lens
 // candidate without the camera's geometry over the tag plane, rolling_shutter

@@ -6,6 +6,8 @@
 #include <functional>
 #include <limits>
 
+#include "odocal/base/format.h"
+
 namespace odocal::calibration {
 namespace {
 
@@ -19,12 +21,6 @@ constexpr double kInPlaceRadiusM = 0.12;
 // A spin drives less than this at a steady heading (a square, a straight,
 // an out-and-back drive metres).
 constexpr double kSpinStraightM = 0.1;
-
-std::string Format(const char* fmt, double a, double b = 0.0) {
-  char buf[96];
-  std::snprintf(buf, sizeof(buf), fmt, a, b);
-  return buf;
-}
 
 RunSpec Recorded() {
   RunSpec spec;

@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
+#include "odocal/base/format.h"
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/internal/trajectory_fit_stages.h"
 #include "odocal/calibration/statistics.h"
@@ -202,12 +203,6 @@ struct BasePrior {
     return true;
   }
 };
-
-std::string Fixed(double v, int precision) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(precision) << v;
-  return os.str();
-}
 
 // The parameter blocks in the order of the cost blocks.
 std::array<const double*, 3> BlocksOf(const FitParameters& params, size_t run_index) {
@@ -907,10 +902,6 @@ std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
 }
 
 }  // namespace internal
-
-namespace {
-using internal::Fixed;
-}  // namespace
 
 std::string_view ToString(Effect effect) {
   switch (effect) {

@@ -11,18 +11,13 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <ceres/ceres.h>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/statistics.h"
 
 namespace odocal::calibration {
 namespace {
-
-std::string Fmt(double value, int precision = 3) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(precision) << value;
-  return os.str();
-}
 
 bool AllFinite(const std::vector<ReturnError>& runs) {
   for (const ReturnError& e : runs) {
@@ -65,7 +60,7 @@ std::optional<FirstOrderEstimate> FromAlphaBeta(double alpha, double beta, doubl
   const double half_track_over_r = track_m * std::sin(beta / 2.0) / side_m;
   if (std::abs(half_track_over_r) >= 1.0 || std::abs(beta) >= M_PI) {
     if (why) {
-      *why = std::string("beta from ") + axis + " = " + Fmt(beta * kRadToDeg) +
+      *why = std::string("beta from ") + axis + " = " + Fixed(beta * kRadToDeg, 3) +
              " deg per leg: the veer radius R is not larger than half the track, so Ed is "
              "meaningless (are the return errors in mm and the side and track right?)";
     }
@@ -73,7 +68,7 @@ std::optional<FirstOrderEstimate> FromAlphaBeta(double alpha, double beta, doubl
   }
   if (alpha >= M_PI / 2.0 || alpha <= -M_PI / 2.0) {
     if (why) {
-      *why = std::string("alpha from ") + axis + " = " + Fmt(alpha * kRadToDeg) +
+      *why = std::string("alpha from ") + axis + " = " + Fixed(alpha * kRadToDeg, 3) +
              " deg: the robot would not turn at all or turn twice; check the return errors";
     }
     return std::nullopt;
@@ -406,10 +401,10 @@ std::string UmbmarkSummary::BriefReport() const {
   std::ostringstream os;
   if (!ok()) return "UMBMark: " + message;
   os << "UMBMark, " << cw.n << " cw + " << ccw.n << " ccw runs: E_max,syst = "
-     << Fmt(emax_syst_m * 1e3, 2) << " mm; Ed = " << Fmt(coupled.Ed, 6);
-  if (coupled.sigma_Ed) os << " +/- " << Fmt(*coupled.sigma_Ed, 6);
-  os << ", Eb = " << Fmt(coupled.Eb, 6);
-  if (coupled.sigma_Eb) os << " +/- " << Fmt(*coupled.sigma_Eb, 6);
+     << Fixed(emax_syst_m * 1e3, 2) << " mm; Ed = " << Fixed(coupled.Ed, 6);
+  if (coupled.sigma_Ed) os << " +/- " << Fixed(*coupled.sigma_Ed, 6);
+  os << ", Eb = " << Fixed(coupled.Eb, 6);
+  if (coupled.sigma_Eb) os << " +/- " << Fixed(*coupled.sigma_Eb, 6);
   return os.str();
 }
 

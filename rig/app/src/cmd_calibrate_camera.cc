@@ -19,6 +19,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/media/image_file.h"
@@ -28,12 +29,6 @@ namespace odocal::app {
 namespace {
 
 constexpr const char* kCalibrateCamera = "calibrate-camera";
-
-std::string Fixed(double value, int precision) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(precision) << value;
-  return os.str();
-}
 
 struct ImageOutcome {
   std::string path;

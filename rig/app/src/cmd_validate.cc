@@ -15,6 +15,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/bland_altman.h"
 #include "odocal/config/files.h"
@@ -29,12 +30,6 @@
 namespace odocal::app {
 namespace {
 
-std::string Fmt(double v, int precision = 2) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", precision, v);
-  return buf;
-}
-
 nlohmann::json IntervalJson(const calibration::Interval& i) { return {i.lower, i.upper}; }
 
 std::string AxisSentence(const std::string& axis, const std::string& unit,
@@ -43,14 +38,14 @@ std::string AxisSentence(const std::string& axis, const std::string& unit,
   const int pct = static_cast<int>(std::lround(confidence * 100));
   os << axis << ": ";
   if (r.bias_ci.Contains(0.0)) {
-    os << "no significant bias (" << (r.bias >= 0 ? "+" : "") << Fmt(r.bias) << " " << unit
-       << ", " << pct << " % CI " << Fmt(r.bias_ci.lower) << " to " << Fmt(r.bias_ci.upper) << ")";
+    os << "no significant bias (" << (r.bias >= 0 ? "+" : "") << Fixed(r.bias, 2) << " " << unit
+       << ", " << pct << " % CI " << Fixed(r.bias_ci.lower, 2) << " to " << Fixed(r.bias_ci.upper, 2) << ")";
   } else {
-    os << "tape reads " << Fmt(std::abs(r.bias)) << " " << unit << (r.bias > 0 ? " high" : " low")
-       << " (" << pct << " % CI " << Fmt(r.bias_ci.lower) << " to " << Fmt(r.bias_ci.upper) << ")";
+    os << "tape reads " << Fixed(std::abs(r.bias), 2) << " " << unit << (r.bias > 0 ? " high" : " low")
+       << " (" << pct << " % CI " << Fixed(r.bias_ci.lower, 2) << " to " << Fixed(r.bias_ci.upper, 2) << ")";
   }
-  os << ", a single reading within ±" << Fmt(r.z * r.sd) << " " << unit << " of that ("
-     << pct << " % limits of agreement " << Fmt(r.lower_limit) << " to " << Fmt(r.upper_limit)
+  os << ", a single reading within ±" << Fixed(r.z * r.sd, 2) << " " << unit << " of that ("
+     << pct << " % limits of agreement " << Fixed(r.lower_limit, 2) << " to " << Fixed(r.upper_limit, 2)
      << " " << unit << ")";
   if (!r.outliers.empty()) os << "; " << r.outliers.size() << " outlier(s)";
   return os.str();
@@ -181,14 +176,14 @@ void RegisterValidateCommand(CLI::App& app) {
                std::to_string(pairs.size()) + " usable)");
 
     std::ostringstream verdict;
-    verdict << "A tape reading is within " << Fmt(validation.error_bound_mm, 1) << " mm of the camera ("
+    verdict << "A tape reading is within " << Fixed(validation.error_bound_mm, 1) << " mm of the camera ("
             << static_cast<int>(std::lround(args->confidence * 100))
             << " %, bias included): good for UMBMark when E_max,syst is above ~"
-            << Fmt(validation.usable_above_emax_mm, 0)
+            << Fixed(validation.usable_above_emax_mm, 0)
             << " mm, not for fine calibration below that (use the camera).";
     if (validation.few_readings())
       verdict << " With " << validation.position_n << " readings the limits themselves are uncertain: up to "
-              << Fmt(validation.limits_worst_case_mm, 1) << " mm at the far end of their confidence intervals"
+              << Fixed(validation.limits_worst_case_mm, 1) << " mm at the far end of their confidence intervals"
               << " (more readings narrow them).";
     report["verdict"] = {{"text", verdict.str()},
                          {"axes", sentences},

@@ -28,6 +28,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/live/live_server.h"
@@ -61,13 +62,6 @@ struct WatchArgs {
   double delay_s = 0.0;
   double hold_s = 0.0;
 };
-
-template <typename... A>
-std::string Fmt(const char* fmt, A... a) {
-  char buf[300];
-  std::snprintf(buf, sizeof(buf), fmt, a...);
-  return buf;
-}
 
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -276,10 +270,10 @@ void RunWatch(const WatchArgs& args) {
   }
   const bool failed = !ended.empty();
   const std::string end_text = failed ? source.Describe() + " stopped delivering frames: " + ended
-                               : source.is_file() ? Fmt("the video ended after %ld frames", frames)
-                                                  : Fmt("stopped after %ld frames (--seconds)", frames);
+                               : source.is_file() ? Format("the video ended after %ld frames", frames)
+                                                  : Format("stopped after %ld frames (--seconds)", frames);
   if (args.hold_s > 0.0) {
-    state.SetWarning("source_ended", end_text + "; the page stays for " + Fmt("%.0f s", args.hold_s));
+    state.SetWarning("source_ended", end_text + "; the page stays for " + Format("%.0f s", args.hold_s));
     std::fflush(stdout);
     const Clock::time_point hold_from = Clock::now();
     while (!g_watch_stop && Since(hold_from) < args.hold_s) std::this_thread::sleep_for(std::chrono::milliseconds(50));

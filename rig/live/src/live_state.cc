@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/vision/corner_refine.h"
 
 namespace odocal::live {
@@ -24,12 +25,6 @@ double MeanSide(const TagOutline& c) {
 // Rounded for the page: 0.1 of a unit is below anything it draws or prints
 // and keeps the trajectory's JSON small.
 double Round1(double v) { return std::round(v * 10.0) / 10.0; }
-
-std::string Fmt(const char* fmt, double a, double b = 0.0) {
-  char buf[300];
-  std::snprintf(buf, sizeof(buf), fmt, a, b);
-  return buf;
-}
 
 // OpenCV's pixel convention (centres at integers) through a scaling of the
 // image by `s`: pixel edges scale, centres move by half a pixel.
@@ -289,18 +284,18 @@ nlohmann::json LiveState::StateJson() const {
   auto warn = [&](const char* key, const std::string& text) { warnings.push_back({{"key", key}, {"text", text}}); };
   if (frame_ && frames_without_tag_ >= options_.lost_after_frames) {
     warn("tag_lost", tag_ever_seen_
-                         ? Fmt("tag lost: not in the last %.0f frames (out of view, covered, or too blurred)",
+                         ? Format("tag lost: not in the last %d frames (out of view, covered, or too blurred)",
                                frames_without_tag_)
-                         : Fmt("tag not found in %.0f frames: is it in view, lit, and the family and id given?",
+                         : Format("tag not found in %d frames: is it in view, lit, and the family and id given?",
                                frames_without_tag_));
   }
   if (seen && side_px_ && *side_px_ < options_.min_side_px) {
-    warn("too_small", Fmt("tag too small: %.0f px across, under %.0f px its corners cannot be refined (hang the "
+    warn("too_small", Format("tag too small: %.0f px across, under %.0f px its corners cannot be refined (hang the "
                           "camera lower or print the tag larger)",
                           *side_px_, options_.min_side_px));
   }
   if (seen && sharpness_ && sharpness_reference_ && *sharpness_ < options_.blur_ratio * *sharpness_reference_) {
-    warn("blur", Fmt("image blurred: the tag is %.0f %% as sharp as this session's sharp frames (motion blur: a "
+    warn("blur", Format("image blurred: the tag is %.0f %% as sharp as this session's sharp frames (motion blur: a "
                      "shorter exposure or a slower robot; or the focus)",
                      100.0 * *sharpness_ / *sharpness_reference_));
   }

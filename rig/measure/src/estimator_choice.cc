@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/statistics.h"
@@ -92,12 +93,6 @@ double JackknifeSigma(const std::vector<double>& left_out) {
   double sum = 0.0;
   for (double x : left_out) sum += (x - mean) * (x - mean);
   return std::sqrt(static_cast<double>(n - 1) / static_cast<double>(n) * sum);
-}
-
-std::string Fixed(double v, int digits) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.*f", digits, v);
-  return text;
 }
 
 }  // namespace

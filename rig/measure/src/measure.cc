@@ -10,6 +10,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
 #include "odocal/base/units.h"
 #include "odocal/measure/segment_runs.h"
@@ -206,12 +207,6 @@ std::vector<cv::Mat> FloorFrames(const SessionMeasurement& sm, const MeasureOpti
 std::string Percent(double fraction, int decimals) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * fraction);
-  return text;
-}
-
-std::string Fixed(double value, int decimals) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
   return text;
 }
 

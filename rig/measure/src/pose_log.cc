@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/statistics.h"
@@ -156,12 +157,6 @@ std::optional<double> EstimateClockOffset(const Series& pose_heading, const Seri
     }
   }
   return best_offset;
-}
-
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
 }
 
 // Total variation of a series, counted in steps beyond `step` (hysteresis):

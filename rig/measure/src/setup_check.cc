@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/vision/corner_refine.h"
@@ -17,12 +18,6 @@ namespace odocal::measure {
 namespace {
 
 using calibration::Pose2;
-
-std::string Fmt(const char* fmt, double a, double b = 0.0) {
-  char buf[640];
-  std::snprintf(buf, sizeof(buf), fmt, a, b);
-  return buf;
-}
 
 // The image border inset by `inset_px`, walked around in steps, met with the
 // plane at `height_m`: the floor the camera sees there.
@@ -115,7 +110,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     r.quality_flags = vision::QualityFlags(r.quality);
     for (const std::string& flag : r.quality_flags) r.warnings.push_back("image quality: " + flag);
     if (r.quality.side_px < 60.0)
-      r.warnings.push_back(Fmt("the tag is %.0f px across: below ~60 px the heading error grows (docs/vision.md, "
+      r.warnings.push_back(Format("the tag is %.0f px across: below ~60 px the heading error grows (docs/vision.md, "
                                "\"How many pixels the heading targets need\"); print it larger or hang the "
                                "camera lower",
                                r.quality.side_px));
@@ -246,7 +241,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     }
   }
   if (!r.squares_fit)
-    r.warnings.push_back(Fmt("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
+    r.warnings.push_back(Format("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
                              "camera's view: move the robot, shrink the square, or raise the camera",
                              L * 1e3));
 
@@ -285,7 +280,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     const double off = std::fmod(std::fmod(edge_deg, 90.0) + 90.0, 90.0);
     r.grid_angle_deg = std::min(off, 90.0 - off);
     if (r.grid_angle_deg < 5.0)
-      r.warnings.push_back(Fmt("the tag's edges run %.1f deg off the pixel rows: a lossy video codec (H.264 at CRF "
+      r.warnings.push_back(Format("the tag's edges run %.1f deg off the pixel rows: a lossy video codec (H.264 at CRF "
                                "23, a webcam's) turns such edges toward the rows, a heading error no still image "
                                "shows (up to 2x the predicted; docs/vision.md). Start the robot turned 15-45 deg to "
                                "the camera's rows, or record with less compression",

@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/report/json.h"
 #include "svg_plot.h"
@@ -65,12 +66,6 @@ json EffectsJson(const config::ReplaySet& set) {
     for (size_t k = 0; k < idx.size(); ++k) j[prefix + names[k]] = fx.values[idx[k]];
   }
   return j;
-}
-
-std::string Fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", digits, v);
-  return buf;
 }
 
 std::string Cell(const json& v, int digits) {

@@ -1,4 +1,5 @@
 #include "odocal/config/files.h"
+#include "odocal/base/format.h"
 #include "odocal/report/html_report.h"
 
 #include <algorithm>
@@ -21,12 +22,6 @@ constexpr const char* kCcw = "#d62728";
 std::optional<double> Get(const json& j, const std::string& key) {
   if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return std::nullopt;
   return j[key].get<double>();
-}
-
-std::string Fixed(double v, int precision) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", precision, v);
-  return buf;
 }
 
 std::string WithSigma(const std::optional<double>& v, const std::optional<double>& sigma,

@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 
 namespace odocal::report {
@@ -31,12 +32,6 @@ nlohmann::json FirstOrderJson(const calibration::FirstOrderEstimate& e) {
                  {"Ed", OrNull(e.sigma_Ed)},
                  {"Eb", OrNull(e.sigma_Eb)}}},
   };
-}
-
-std::string Fixed(double value, int precision) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(precision) << value;
-  return os.str();
 }
 
 std::string WithSigma(double value, const std::optional<double>& sigma, int precision,

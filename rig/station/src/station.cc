@@ -12,6 +12,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/seen_turning.h"
 #include "odocal/calibration/segment.h"
@@ -28,12 +29,6 @@ using robot_link::ToParamSet;
 using robot_link::ToWheelParams;
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
-
-std::string Format(const char* format, auto... args) {
-  char buffer[512];
-  std::snprintf(buffer, sizeof(buffer), format, args...);
-  return buffer;
-}
 
 StationStatus StatusOf(DriverFault fault) {
   switch (fault) {

@@ -884,4 +884,34 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   return result;
 }
 
+LensModelChoice CompareLensModels(const std::vector<BoardDetection>& views, const CameraCalibrationResult& plumb_bob,
+                                  const CameraCalibrationResult& fisheye) {
+  LensModelChoice c;
+  if (!fisheye.ok()) return c;
+  if (!plumb_bob.ok()) {
+    c.fisheye_rms_px = fisheye.rms_reprojection_error_px;
+    c.chosen = LensModel::kEquidistant;
+    return c;
+  }
+  // The fisheye fit may leave views out (no pose through its lens): the two
+  // are compared on the views both kept, each view weighted by its corners.
+  auto left_out = [](const CameraCalibrationResult& r, size_t i) {
+    return std::find(r.views_left_out.begin(), r.views_left_out.end(), static_cast<int>(i)) != r.views_left_out.end();
+  };
+  double pb = 0.0, fe = 0.0, n = 0.0;
+  for (size_t i = 0; i < views.size() && i < plumb_bob.per_view_rms_px.size() && i < fisheye.per_view_rms_px.size(); ++i) {
+    if (left_out(plumb_bob, i) || left_out(fisheye, i)) continue;
+    const double corners = static_cast<double>(views[i].image_points.size());
+    pb += corners * plumb_bob.per_view_rms_px[i] * plumb_bob.per_view_rms_px[i];
+    fe += corners * fisheye.per_view_rms_px[i] * fisheye.per_view_rms_px[i];
+    n += corners;
+    ++c.views;
+  }
+  if (n == 0.0) return c;
+  c.plumb_bob_rms_px = std::sqrt(pb / n);
+  c.fisheye_rms_px = std::sqrt(fe / n);
+  if (c.fisheye_rms_px < 0.95 * c.plumb_bob_rms_px) c.chosen = LensModel::kEquidistant;
+  return c;
+}
+
 }  // namespace odocal::vision

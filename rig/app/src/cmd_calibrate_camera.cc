@@ -3,7 +3,6 @@
 // Loads the images, finds the board in each (vision::DetectBoard), calibrates
 // (vision::CalibrateCamera) and writes the camera file (config/camera_file.h) with the
 // reprojection errors. Images without the board are named and skipped.
-#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -40,45 +39,6 @@ struct ImageOutcome {
 };
 
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
-
-// --model auto's choice: each model's RMS over the views both fitted.
-struct ModelChoice {
-  double plumb_bob_rms_px = NAN;
-  double fisheye_rms_px = NAN;
-  int views = 0;  // compared on
-  vision::LensModel chosen = vision::LensModel::kPlumbBob;
-};
-
-ModelChoice CompareLensModels(const std::vector<vision::BoardDetection>& views,
-                              const vision::CameraCalibrationResult& plumb_bob,
-                              const vision::CameraCalibrationResult& fisheye) {
-  ModelChoice c;
-  if (!fisheye.ok()) return c;
-  if (!plumb_bob.ok()) {
-    c.fisheye_rms_px = fisheye.rms_reprojection_error_px;
-    c.chosen = vision::LensModel::kEquidistant;
-    return c;
-  }
-  // The fisheye fit may leave views out (no pose through its lens): the two
-  // are compared on the views both kept, each view weighted by its corners.
-  auto left_out = [](const vision::CameraCalibrationResult& r, size_t i) {
-    return std::find(r.views_left_out.begin(), r.views_left_out.end(), static_cast<int>(i)) != r.views_left_out.end();
-  };
-  double pb = 0.0, fe = 0.0, n = 0.0;
-  for (size_t i = 0; i < views.size() && i < plumb_bob.per_view_rms_px.size() && i < fisheye.per_view_rms_px.size(); ++i) {
-    if (left_out(plumb_bob, i) || left_out(fisheye, i)) continue;
-    const double corners = static_cast<double>(views[i].image_points.size());
-    pb += corners * plumb_bob.per_view_rms_px[i] * plumb_bob.per_view_rms_px[i];
-    fe += corners * fisheye.per_view_rms_px[i] * fisheye.per_view_rms_px[i];
-    n += corners;
-    ++c.views;
-  }
-  if (n == 0.0) return c;
-  c.plumb_bob_rms_px = std::sqrt(pb / n);
-  c.fisheye_rms_px = std::sqrt(fe / n);
-  if (c.fisheye_rms_px < 0.95 * c.plumb_bob_rms_px) c.chosen = vision::LensModel::kEquidistant;
-  return c;
-}
 
 }  // namespace
 
@@ -190,16 +150,14 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
              " (no camera file written)");
   }
   vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
-  // --model auto: both models on the same views; the fisheye (equidistant,
-  // k1..k4) when it fits them better than plumb_bob (k1 k2 p1 p2 k3) with its
-  // one coefficient fewer, by 5 % (ties go to the usual model).
-  std::optional<ModelChoice> choice;
+  // --model auto: both models on the same views (vision::CompareLensModels).
+  std::optional<vision::LensModelChoice> choice;
   if (auto_model) {
     vision::CameraCalibrationOptions other = options;
     other.lens = vision::LensModel::kEquidistant;
     other.fix_k3 = false;
     vision::CameraCalibrationResult f = vision::CalibrateCamera(views, size, other);
-    choice = CompareLensModels(views, result, f);
+    choice = vision::CompareLensModels(views, result, f);
     if (choice->chosen == vision::LensModel::kEquidistant) {
       options = other;
       result = std::move(f);

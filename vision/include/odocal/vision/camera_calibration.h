@@ -29,6 +29,7 @@
 #define ODOCAL_VISION_CAMERA_CALIBRATION_H_
 
 #include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <utility>
@@ -237,6 +238,20 @@ struct CameraCalibrationResult {
 CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views,
                                         const cv::Size& image_size,
                                         const CameraCalibrationOptions& options = {});
+
+// calibrate-camera's --model auto: plumb_bob and the fisheye fitted to the
+// same views, compared by their RMS over the views both posed (each view
+// weighted by its corners). The fisheye is chosen when its RMS is under 95 %
+// of plumb_bob's: it has one coefficient fewer, so fitting better is not
+// over-fitting, and a tie goes to the usual model.
+struct LensModelChoice {
+  double plumb_bob_rms_px = NAN;
+  double fisheye_rms_px = NAN;
+  int views = 0;  // compared on
+  LensModel chosen = LensModel::kPlumbBob;
+};
+LensModelChoice CompareLensModels(const std::vector<BoardDetection>& views, const CameraCalibrationResult& plumb_bob,
+                                  const CameraCalibrationResult& fisheye);
 
 }  // namespace odocal::vision
 

@@ -54,38 +54,16 @@ inline Normal NormalAt(double z) {
           b0 * a[1] + b1 * b[1] + d0 * a[2] + d1 * b[2] + e0 * a[3] + e1 * b[3]};
 }
 
-template <typename T>
-T Phi(const T& z) {
-  using std::erf;
-  return 0.5 * (1.0 + erf(z * M_SQRT1_2));
-}
-
-template <typename T>
-T SmallPhi(const T& z) {
-  using std::exp;
-  return exp(-0.5 * z * z) * (0.5 * M_2_SQRTPI * M_SQRT1_2);
-}
-
 inline double Phi(double z) { return NormalAt(z).cdf; }
 inline double SmallPhi(double z) { return NormalAt(z).pdf; }
 
 // Second antiderivative of Phi.
-template <typename T>
-T H(const T& z) {
-  return 0.5 * ((z * z + 1.0) * Phi(z) + z * SmallPhi(z));
-}
-
-// First antiderivative of Phi.
-template <typename T>
-T G(const T& z) {
-  return z * Phi(z) + SmallPhi(z);
-}
-
 inline double H(double z) {
   const Normal n = NormalAt(z);
   return 0.5 * ((z * z + 1.0) * n.cdf + z * n.pdf);
 }
 
+// First antiderivative of Phi.
 inline double G(double z) {
   const Normal n = NormalAt(z);
   return z * n.cdf + n.pdf;
@@ -93,8 +71,8 @@ inline double G(double z) {
 
 // The same on Ceres' Jets, by their derivatives (Phi' = SmallPhi,
 // G' = Phi, H' = G): the CDF and density of the scalar part and one scaled
-// copy of the derivative part, where Jet arithmetic through the formulas
-// above takes an erf, two exps and a dozen Jet products.
+// copy of the derivative part (Jet arithmetic through the closed forms took
+// an erf, two exps and a dozen Jet products).
 template <int N>
 ceres::Jet<double, N> Phi(const ceres::Jet<double, N>& z) {
   const Normal n = NormalAt(z.a);

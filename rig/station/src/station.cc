@@ -65,21 +65,20 @@ const char* EffectAdvice(calibration::Effect effect) {
   return "";
 }
 
-// The largest deviation from 1 of a CVRA factor, in standard errors. With
-// `pushed_from` (the round whose estimate the robot now runs), each factor's
-// standard error includes that estimate's: the correction it pushed was off
-// by about that much, so a factor left that far from 1 is what the push
-// predicts, not an error a further push could remove.
-std::optional<double> CvraMaxZ(const measure::SessionEstimate& e, const measure::SessionEstimate* pushed_from) {
+// The largest deviation from 1 of a CVRA factor, in standard errors that
+// include those of `pushed_from` (the round whose estimate the robot now
+// runs): the correction it pushed was off by about that much, so a factor
+// left that far from 1 is what the push predicts, not an error a further
+// push could remove.
+std::optional<double> CvraMaxZ(const measure::SessionEstimate& e, const measure::SessionEstimate& pushed_from) {
   std::optional<double> max_z;
   for (auto f : {&measure::SessionEstimate::ratio, &measure::SessionEstimate::scale, &measure::SessionEstimate::track}) {
     const std::optional<measure::PooledCvra>& now = e.*f;
     if (!now || !now->standard_error) continue;
     // The camera's length scale is one error common to both rounds: counted once.
     double se = std::hypot(*now->standard_error, now->camera_scale_sigma);
-    if (pushed_from)
-      if (const std::optional<measure::PooledCvra>& before = (*pushed_from).*f; before && before->standard_error)
-        se = std::hypot(se, *before->standard_error);
+    if (const std::optional<measure::PooledCvra>& before = pushed_from.*f; before && before->standard_error)
+      se = std::hypot(se, *before->standard_error);
     if (se > 0.0) max_z = std::max(max_z.value_or(0.0), std::abs(now->mean - 1.0) / se);
   }
   return max_z;
@@ -525,7 +524,6 @@ std::optional<Station::Failure> Station::MeasureRound(
     return Failure{StationStatus::kEstimateFailed, "no estimate from the round's runs" + notes};
   }
   iteration->corrected = ToParamSet(measure::CorrectedParams(ToWheelParams(current_), e), current_.ticks_per_rev);
-  iteration->cvra_max_z = CvraMaxZ(e, nullptr);
   // Turn slip: the spins' track factors by rate.
   if (e.track) {
     std::vector<SpinTrack> spins;
@@ -947,7 +945,7 @@ std::optional<std::string> WithinUncertainty(const StationIteration& now, const 
                  s.emax_syst_m * 1e3, sigma > 0.0 ? s.emax_syst_m / sigma : 0.0, *now.emax_sigma_m * 1e3,
                  pushed_from.emax_sigma_m.value_or(0.0) * 1e3);
   }
-  if (const std::optional<double> z = CvraMaxZ(now.session_estimate, &pushed_from.session_estimate)) {
+  if (const std::optional<double> z = CvraMaxZ(now.session_estimate, pushed_from.session_estimate)) {
     if (*z > k) return std::nullopt;
     why += Format("%sCVRA factors within %.1f sigma of 1", why.empty() ? "" : "; ", *z);
   }

@@ -242,8 +242,6 @@ struct StationIteration {
   TurnSlipResult turn_slip;
   // The corrected set this round's estimate gives (from params_used).
   std::optional<robot_link::ParamSet> corrected;
-  // The largest deviation from 1 of a CVRA factor, in its standard errors.
-  std::optional<double> cvra_max_z;
   std::optional<robot_link::ParamSet> pushed;  // applied by the driver
   bool converged = false;
   std::string note;  // why nothing was pushed

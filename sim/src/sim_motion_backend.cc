@@ -95,6 +95,11 @@ double SimMotionBackend::RobotTime() const {
   return clock_s_;
 }
 
+SimMotionBackend::TimedPose SimMotionBackend::TrueTimedPose() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {clock_s_, robot_.true_pose()};
+}
+
 void SimMotionBackend::Idle(double dt_s) {
   std::lock_guard<std::mutex> lock(mutex_);
   clock_s_ += dt_s;

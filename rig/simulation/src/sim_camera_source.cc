@@ -1,6 +1,8 @@
 #include "odocal/simulation/sim_camera_source.h"
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 
 #include "odocal/simulation/camera_sim.h"
 
@@ -25,11 +27,28 @@ std::unique_ptr<SimCameraSource> SimCameraSource::Create(const config::CameraSce
 }
 
 std::optional<media::CameraFrame> SimCameraSource::Grab(std::string*) {
-  double t = backend_.RobotTime();
-  if (last_t_s_) t = std::max(t, *last_t_s_ + 1.0 / fps_);
-  last_t_s_ = t;
-  vision::RenderedFrame frame = renderer_->Render(backend_.TruePose());
-  return media::CameraFrame{std::move(frame.image), t};
+  // A camera samples the world at its frame rate, and the world's clock is
+  // the robot's: a frame is taken once that clock has moved a frame period
+  // past the last frame, and shows the pose at the time it is stamped with
+  // (both read together). The robot's host advances its clock in ticks of
+  // tick x time_scale and skips a backlog after a stall, so a caller asking
+  // faster than the clock moves waits here, as it would on a real camera.
+  using Clock = std::chrono::steady_clock;
+  sim::SimMotionBackend::TimedPose now = backend_.TrueTimedPose();
+  if (last_t_s_) {
+    const double due = *last_t_s_ + 1.0 / fps_ - 1e-9;
+    const Clock::time_point give_up = Clock::now() + kMaxWait;
+    while (now.t_s < due && Clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      now = backend_.TrueTimedPose();
+    }
+    // A host that stopped ticking (a test stepping the robot by hand): the
+    // frame takes the next period's stamp rather than repeat one.
+    now.t_s = std::max(now.t_s, *last_t_s_ + 1.0 / fps_);
+  }
+  last_t_s_ = now.t_s;
+  vision::RenderedFrame frame = renderer_->Render(now.pose);
+  return media::CameraFrame{std::move(frame.image), now.t_s};
 }
 
 }  // namespace odocal::simulation

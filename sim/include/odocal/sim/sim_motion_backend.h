@@ -29,6 +29,13 @@ class SimMotionBackend final : public robot_link::MotionBackend {
   // The robot's clock: every dt the host stepped or idled by, the clock its
   // telemetry is stamped with (the virtual camera stamps frames with it).
   double RobotTime() const;
+  // The true pose and the robot's clock read together (a frame shows the
+  // pose at the time it is stamped with).
+  struct TimedPose {
+    double t_s = 0.0;
+    calibration::Pose2 pose;
+  };
+  TimedPose TrueTimedPose() const;
   calibration::WheelParams BelievedParams() const;
 
  private:

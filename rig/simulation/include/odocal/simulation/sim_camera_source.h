@@ -3,6 +3,7 @@
 #ifndef ODOCAL_SIMULATION_SIM_CAMERA_SOURCE_H_
 #define ODOCAL_SIMULATION_SIM_CAMERA_SOURCE_H_
 
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,8 +17,10 @@
 namespace odocal::simulation {
 
 // The virtual camera: renders the simulated robot's true pose when asked, at
-// most at the camera's frame rate in robot time (the robot's clock stands
-// still between runs, so frames of a rest are spaced by 1/fps). Frames are
+// most at the camera's frame rate in robot time: a caller asking sooner waits
+// until the robot's clock has moved a frame period (at most kMaxWait of wall
+// time), and each frame is stamped with the robot time of the pose it shows.
+// Frames are
 // rendered without motion blur: the station averages rest frames only; the
 // frames taken while moving serve tracking and the camera-plane estimate.
 // `tag` is the stated tag: it is drawn as printed (camera.tag.print_scale),
@@ -31,6 +34,9 @@ class SimCameraSource final : public media::FrameSource {
   std::optional<media::CameraFrame> Grab(std::string* error) override;
   std::string Describe() const override { return "virtual camera"; }
   std::optional<double> NominalFps() const override { return fps_; }
+
+  // The longest a Grab waits for the robot's clock (wall time).
+  static constexpr std::chrono::milliseconds kMaxWait{500};
 
  private:
   SimCameraSource(std::unique_ptr<vision::Renderer> renderer, double fps,

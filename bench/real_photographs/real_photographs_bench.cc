@@ -3,28 +3,35 @@
 // the target's own layout, with each method's camera calibrated by itself
 // from the other frames.
 //
-//   real_photographs_bench DATA_DIR [--target FILE] [--model plumb_bob|fisheye]
-//                          [--refits N] [--seed S] [--variants 0]
+//   real_photographs_bench DATA_DIR [--target FILE] [--images DIR] [--peer DIR]
+//                          [--model plumb_bob|fisheye] [--refits N] [--seed S] [--variants 0]
 //
-// The lens model: --model, else the target file's cam0 dist_model (yac's
-// radtan / equi4; Kalibr's camchain distortion_model), else plumb_bob; a
-// fisheye is scored through its lens (the corners undistorted to the
-// normalised plane for solvePnP, projected back through the lens).
+// The lens model: --model, else a camera file's cam0 dist_model in DATA_DIR
+// (yac's radtan / equi4; Kalibr's camchain distortion_model), else chosen
+// as calibrate-camera's --model auto chooses (vision::CompareLensModels on
+// odocal's first-pass corners); a fisheye is scored through its lens (the
+// corners undistorted to the normalised plane for solvePnP, projected back
+// through the lens).
 //
-// DATA_DIR is laid out as Kalibr/yac data sets are: cam0/data/*.jpg|*.png,
+// DATA_DIR is laid out as Kalibr/yac/EuRoC data sets are: frames in
+// --images DIR, else cam0/data, mav0/cam0/data, cam0 or DATA_DIR itself
+// (8-bit or deeper, read as calibrate-camera reads them: media::ReadGreyImage),
 // a target file (Kalibr target.yaml or a yac camera file with calib_target:,
-// the first *.yaml in DATA_DIR unless --target), and optionally yac's
+// the first *.yaml in DATA_DIR that reads as an aprilgrid unless --target), and optionally yac's
 // detections, <frame>.csv (ts, rows, cols, size, spacing, kp_x, kp_y, ...,
 // tag_id, corner_index): in --peer DIR, else grid0/cam0/data/, else anywhere
 // under DATA_DIR.
 //
 // Methods:
-//   odocal          DetectBoard: the exact edge model, the edge shift
-//                   measured inside the tags (edge_shift.h), each edge line
-//                   fitted on through the corner squares' edges that
-//                   continue it; and (unless --variants 0) its variants: the
-//                   tags' own edges only, those with the shift left in, the
-//                   whole-tag fit, and refined through its own lens
+//   odocal          what calibrate-camera uses: DetectBoard (the exact edge
+//                   model, the edge shift measured inside the tags
+//                   (edge_shift.h), each edge line fitted on through the
+//                   corner squares' edges that continue it), then again
+//                   through the lens calibrated from those first-pass
+//                   corners (a printed straight edge is a curve in the
+//                   image); the first pass alone beside it; and (unless
+//                   --variants 0) variants: the tags' own edges only, those
+//                   with the shift left in, the whole-tag fit
 //   yac             the data set's own detections (X-corners, cornerSubPix)
 //   aruco           OpenCV's aruco, DICT_APRILTAG_36h11, markerBorderBits 2,
 //                   CORNER_REFINE_SUBPIX
@@ -61,7 +68,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "odocal/base/format.h"
 #include "odocal/config/calib_target.h"
+#include "odocal/media/image_file.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_shift.h"
@@ -340,21 +349,22 @@ double StdDev(const std::vector<double>& v) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--peer DIR] [--model plumb_bob|fisheye] [--refits N] [--seed S] "
+    std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--images DIR] [--peer DIR] [--model plumb_bob|fisheye] [--refits N] [--seed S] "
                  "[--variants 0]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
-  fs::path target, peer_dir;
+  fs::path target, peer_dir, image_dir;
   int refits = 10;
   unsigned seed = 1;
   bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
-  std::optional<vision::LensModel> model;  // --model; else the target file's cam0 dist_model, else plumb_bob
+  std::optional<vision::LensModel> model;  // --model; else a camera file's cam0 dist_model, else chosen
   vision::BoardDetectionOptions detect;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--target") target = argv[i + 1];
     else if (a == "--peer") peer_dir = argv[i + 1];
+    else if (a == "--images") image_dir = argv[i + 1];
     else if (a == "--refits") refits = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
     else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
@@ -370,20 +380,40 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (target.empty() && fs::is_directory(dir))
+  // The target: --target, else the first *.yaml in DATA_DIR (by name) that
+  // reads as one (a data set may hold a camchain or an IMU file beside it).
+  std::vector<fs::path> yamls;
+  if (fs::is_directory(dir))
     for (const auto& e : fs::directory_iterator(dir))
-      if (e.path().extension() == ".yaml") target = e.path();
-  const auto board_or = config::ReadCalibrationTarget(target.string());
-  if (!board_or) {
-    std::fprintf(stderr, "%s\n", board_or.message.c_str());
+      if (e.path().extension() == ".yaml" || e.path().extension() == ".yml") yamls.push_back(e.path());
+  std::sort(yamls.begin(), yamls.end());
+  std::optional<vision::CalibrationBoard> board_read;
+  std::string target_error = "no *.yaml target file in " + dir.string() + " (--target FILE)";
+  for (const fs::path& candidate : target.empty() ? yamls : std::vector<fs::path>{target}) {
+    const auto board_or = config::ReadCalibrationTarget(candidate.string());
+    if (board_or) {
+      board_read = *board_or;
+      target = candidate;
+      break;
+    }
+    target_error = board_or.message;
+  }
+  if (!board_read) {
+    std::fprintf(stderr, "%s\n", target_error.c_str());
     return 2;
   }
-  const vision::CalibrationBoard board = *board_or;
-  if (!model) model = LensOfTargetFile(target);
-  const vision::LensModel lens_model = model.value_or(vision::LensModel::kPlumbBob);
-  // The frames: cam0/data (Kalibr/yac), mav0/cam0/data (EuRoC), or DATA_DIR itself.
+  const vision::CalibrationBoard board = *board_read;
+  std::string lens_from = model ? "--model" : "";
+  for (const fs::path& f : yamls) {
+    if (model) break;
+    model = LensOfTargetFile(f);
+    if (model) lens_from = f.filename().string() + "'s cam0 model";
+  }
+  // The frames: --images, else cam0/data (Kalibr/yac), mav0/cam0/data (EuRoC), cam0, or DATA_DIR itself.
   std::vector<fs::path> images;
-  for (const fs::path& folder : {dir / "cam0" / "data", dir / "mav0" / "cam0" / "data", dir}) {
+  std::vector<fs::path> folders = {dir / "cam0" / "data", dir / "mav0" / "cam0" / "data", dir / "cam0", dir};
+  if (!image_dir.empty()) folders = {image_dir};
+  for (const fs::path& folder : folders) {
     if (!fs::is_directory(folder)) continue;
     for (const auto& e : fs::directory_iterator(folder)) {
       std::string ext = e.path().extension().string();
@@ -446,8 +476,14 @@ int main(int argc, char** argv) {
   };
   cv::Size size;
   std::vector<double> shifts;
+  std::vector<cv::Mat> greys;  // every frame, read once (30-100 small frames)
   for (const fs::path& p : images) {
-    const cv::Mat grey = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat grey = media::ReadGreyImage(p.string()).grey;
+    if (grey.empty()) {
+      std::fprintf(stderr, "%s: cannot be read as an image\n", p.c_str());
+      return 2;
+    }
+    greys.push_back(grey);
     size = grey.size();
     const vision::BoardDetection d = vision::DetectBoard(grey, board, detect);
     if (d.found) shifts.push_back(d.edge_shift_px);
@@ -459,18 +495,42 @@ int main(int argc, char** argv) {
     }
     aruco.frames.push_back(Aruco(grey, board));
   }
+  // The lens model, when neither --model nor a camera file names it: both
+  // fitted to odocal's first-pass corners, as calibrate-camera --model auto.
+  if (!model) {
+    const std::vector<bool> all(images.size(), true);
+    const auto p = Calibrate(odocal, board, size, all, vision::LensModel::kPlumbBob);
+    const auto f = Calibrate(odocal, board, size, all, vision::LensModel::kEquidistant);
+    std::vector<vision::BoardDetection> views;
+    for (const Corners& c : odocal.frames)
+      if (vision::BoardDetection d = AsDetection(c, board); d.found) views.push_back(std::move(d));
+    const vision::LensModelChoice choice = vision::CompareLensModels(views, p, f);
+    model = choice.chosen;
+    lens_from = Format("chosen as calibrate-camera --model auto: first-pass RMS plumb_bob %.4f, fisheye %.4f px",
+                       choice.plumb_bob_rms_px, choice.fisheye_rms_px);
+  }
+  const vision::LensModel lens_model = *model;
   // odocal again, its tags' edges refined through the lens it calibrated
   // from its own first-pass corners (a straight printed edge is a curve in
-  // the image): what `calibrate-camera` does on its second pass.
-  if (with_variants) {
-    Variant lensed{{"odocal, through its own lens", {}}, detect};
+  // the image): what `calibrate-camera` does on its second pass, and so
+  // odocal's corners. The first pass stays beside it.
+  Method first_pass = odocal;
+  first_pass.name = "odocal, first pass (edges straight)";
+  {
+    vision::BoardDetectionOptions through = detect;
     const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true), lens_model);
-    if (first.ok()) lensed.options.lens = first.intrinsics;
-    for (const fs::path& p : images)
-      lensed.method.frames.push_back(
-          corners_of(vision::DetectBoard(cv::imread(p.string(), cv::IMREAD_GRAYSCALE), board, lensed.options)));
-    variants.push_back(lensed);
+    if (first.ok()) {
+      through.lens = first.intrinsics;
+      for (size_t i = 0; i < images.size(); ++i) {
+        const vision::BoardDetection d = vision::DetectBoard(greys[i], board, through);
+        if (d.found) odocal.frames[i] = corners_of(d);  // else the first pass's, as calibrate-camera keeps it
+      }
+    } else {
+      std::fprintf(stderr, "odocal's first-pass calibration failed (%s): odocal's corners are the first pass's\n",
+                   first.message.c_str());
+    }
   }
+  variants.insert(variants.begin(), Variant{first_pass, detect});
   std::vector<Method> methods = {odocal};
   for (const Variant& v : variants) methods.push_back(v.method);
   const size_t first_peer = methods.size();
@@ -481,6 +541,7 @@ int main(int argc, char** argv) {
   std::printf("# Real photographs: %s (%zu frames, %dx%d), %dx%d %s, tag %.1f mm, spacing %.2f\n\n", dir.c_str(), F,
               size.width, size.height, board.cols, board.rows, board.tag_family.c_str(), board.square_m * 1e3,
               board.spacing);
+  std::printf("target: %s; lens: %s (%s)\n\n", target.c_str(), vision::LensModelName(lens_model), lens_from.c_str());
   std::sort(shifts.begin(), shifts.end());
   if (!shifts.empty())
     std::printf("odocal's edge shift per view: median %+.3f px, range %+.3f .. %+.3f px (negative: the black looks "

@@ -185,6 +185,7 @@ TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json doc = nlohmann::json::parse(r.out);
   EXPECT_EQ(doc["views_used"], 5);
+  EXPECT_TRUE(doc["view_choice"].is_null()) << "5 images, not more than --max-views: every view";
   ASSERT_EQ(doc["images"].size(), 5u);
   EXPECT_EQ(doc["images"][0]["path"], dir + "/cam0/data/view0.png");  // sorted by name
   EXPECT_TRUE(std::filesystem::exists(out));
@@ -267,6 +268,72 @@ TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) 
                                         " --board aprilgrid:6x6:88:0.3 --model plumb_bob --out " + dir + "/camera.yaml");
   EXPECT_THAT(text.out, ::testing::HasSubstr("this looks like a fisheye lens; calibrate again with --model fisheye"))
       << text.out;
+}
+
+// A calibration video: mostly one pose again. With more images than
+// --max-views, the aprilgrid is first only looked for, the views that differ
+// are chosen and only those refined and calibrated. Rendered: 7 frames of
+// one pose (fresh noise each), 4 other poses, one frame without the board.
+TEST(CliCalibrateCamera, FromMoreImagesThanMaxViewsTheViewsThatDifferAreChosen) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_views_");
+  vision::CalibrationBoard board;
+  board.type = vision::CalibrationBoard::Type::kAprilgrid;
+  board.cols = board.rows = 6;
+  board.square_m = 0.088;
+  board.spacing = 0.3;
+  const auto pattern = vision::AprilgridPattern(board);
+  ASSERT_TRUE(pattern);
+  std::vector<Eigen::Vector3d> points;
+  for (int id = 0; id < 36; ++id)
+    for (int k = 0; k < 4; ++k) points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  vision::FieldPoseSampling sampling;
+  sampling.count = 5;
+  sampling.seed = 9;
+  sampling.max_off_axis_deg = 20.0;
+  sampling.near_m = 0.7;
+  sampling.far_m = 1.0;
+  sampling.min_points_in_view = 144;
+  const auto poses = vision::SampleFieldBoardPoses(Truth(), points, sampling);
+  ASSERT_TRUE(poses);
+  // Frames 00-06: pose 0; frames 07-10: poses 1-4; frame 11: no board.
+  std::vector<int> pose_of = {0, 0, 0, 0, 0, 0, 0, 1, 2, 3, 4};
+  for (size_t i = 0; i < pose_of.size(); ++i) {
+    vision::BoardRenderOptions o;
+    o.seed = 300 + i;
+    o.supersample = 4;
+    const auto r = vision::RenderBoard(Truth(), *pattern, (*poses)[pose_of[i]], points, o);
+    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(cv::imwrite(dir + "/frame" + (i < 10 ? "0" : "") + std::to_string(i) + ".png", r.frame.image));
+  }
+  std::filesystem::copy_file(WriteBlank(dir), dir + "/frame11.png");
+  std::filesystem::remove(dir + "/no_board.png");
+
+  const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
+                                     " --board aprilgrid:6x6:88:0.3 --model plumb_bob --max-views 5 --json --out " +
+                                     dir + "/camera.yaml");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(doc["view_choice"].is_object()) << r.out;
+  EXPECT_EQ(doc["view_choice"]["images_with_the_board"], 11);
+  EXPECT_EQ(doc["view_choice"]["chosen"], 5);
+  EXPECT_EQ(doc["views_used"], 5);
+  ASSERT_EQ(doc["images"].size(), 12u);
+  int same_pose_used = 0;
+  for (size_t i = 0; i < 12; ++i) {
+    const nlohmann::json& image = doc["images"][i];
+    if (i >= 7 && i <= 10) {
+      EXPECT_TRUE(image["used"].get<bool>()) << "a pose seen once: " << image.dump();
+    } else if (i < 7 && image["used"].get<bool>()) {
+      ++same_pose_used;
+    } else if (i < 7) {
+      EXPECT_THAT(image["reason"].get<std::string>(), ::testing::HasSubstr("--max-views")) << image.dump();
+    }
+  }
+  EXPECT_EQ(same_pose_used, 1);
+  EXPECT_FALSE(doc["images"][11]["used"].get<bool>());
+  // Five views that differ: the focal length within a pixel.
+  EXPECT_NEAR(doc["fx"].get<double>(), Truth().fx, 1.0);  // 609.97
+  EXPECT_LT(doc["rms_reprojection_error_px"].get<double>(), 0.1);
 }
 
 }  // namespace

@@ -116,6 +116,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     std::array<cv::Matx22d, 4> cov;
   };
   std::map<int, FoundTag> tags;
+  const bool quick = options.aprilgrid_corners_only;
   std::map<int, int> ambiguous;  // ids seen more than once in one pass: how many times
   // Pixel centres at integers in both images: x = (X + 0.5) / up - 0.5.
   const auto to_image = [up](const cv::Point2d& c) { return cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5); };
@@ -135,7 +136,13 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
       std::array<cv::Point2d, 4> corners;
       for (int k = 0; k < 4; ++k) corners[k] = to_image(d.corners_px[k]);
       FoundTag f;
-      f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, corners, lens, refine, {0, 0}, &f.cov);
+      if (quick) {
+        f.refined.ok = true;
+        f.refined.corners_px = corners;
+        f.cov.fill(cv::Matx22d(0.25, 0.0, 0.0, 0.25));
+      } else {
+        f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, corners, lens, refine, {0, 0}, &f.cov);
+      }
       added += f.refined.ok ? 1 : 0;
       tags[d.id] = f;
     }
@@ -173,7 +180,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
     for (const auto& p : px) poly.emplace_back(cvRound(p.x), cvRound(p.y));
     cv::fillConvexPoly(painted, poly, cv::Scalar(255), cv::LINE_AA);
   };
-  for (int round = 0; round < options.aprilgrid_paint_rounds; ++round) {
+  for (int round = 0; round < (quick ? 0 : options.aprilgrid_paint_rounds); ++round) {
     std::vector<cv::Point2f> on_board, in_image;
     struct Local {
       int col, row;
@@ -233,7 +240,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
   // (aprilgrid_search.h): refined from there by the edge model and kept when
   // their own bits are there. Through a fisheye a large tag's edges are curves
   // no quad fits; repeated while it finds tags, each ring opening the next.
-  for (int round = 0; round < options.aprilgrid_predict_rounds; ++round) {
+  for (int round = 0; round < (quick ? 0 : options.aprilgrid_predict_rounds); ++round) {
     std::map<int, internal::TagCorners> measured;
     for (const auto& [id, f] : tags)
       if (f.refined.ok && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
@@ -349,7 +356,9 @@ BoardDetection DetectAprilgrid(const cv::Mat& gray, const CalibrationBoard& boar
   // (n / aprilgrid_edge_shift_tags)-th tag, one value per view (the view's
   // tags share the print and the optics), removed from every tag; the
   // whole-tag fit instead places each tag by its own pattern and shift.
-  if (options.aprilgrid_whole_tag_fit) {
+  if (quick) {
+    // libapriltag's corners as they are.
+  } else if (options.aprilgrid_whole_tag_fit) {
     std::vector<EdgeShiftResult> shifts;
     for (size_t t = 0; t < out.tag_ids.size(); ++t) {
       std::string why;

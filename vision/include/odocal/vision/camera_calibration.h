@@ -174,6 +174,11 @@ struct BoardDetectionOptions {
   // every black/white boundary, the tag's own shift removed) instead of its
   // four outer edges.
   bool aprilgrid_whole_tag_fit = false;
+  // Aprilgrid: a quick look, for choosing views (SelectViews): libapriltag's
+  // corners as found (its convention mapped to OpenCV's, not refined, each
+  // stated 0.5 px), no painted or predicted passes, no edge shift. Finds
+  // most tags in a tenth of the time; never for calibrating.
+  bool aprilgrid_corners_only = false;
   // (Each tag corrected by its own shift instead was tried on the real frames:
   // no better, 0.2405 vs 0.2391 px board residual.)
   // Aprilgrid: the lens the tags' edges are seen through, when known (a
@@ -193,6 +198,17 @@ struct BoardDetectionOptions {
 // the options are invalid.
 BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
                            const BoardDetectionOptions& options = {});
+
+// At most max_views of the found `views`, chosen for their spread of poses
+// (a calibration sequence of thousands of video frames is mostly the same
+// pose again; a few dozen views that differ fix the intrinsics as well).
+// Each view is described by where its homography puts the four corners of
+// the board's extent (over every view's object points), divided by the
+// image's diagonal: position, size, tilt and turn at once. The view with the
+// most corners first, then again and again the view farthest from every
+// view chosen (farthest-point sampling). Indices into `views`, ascending;
+// every found view when there are no more than max_views (or max_views <= 0).
+std::vector<size_t> SelectViews(const std::vector<BoardDetection>& views, cv::Size image_size, int max_views);
 
 struct CameraCalibrationOptions {
   int min_views = 3;     // fewer usable views: kInvalidArgument

@@ -496,6 +496,67 @@ TEST(KalibrTagRendered, WideFisheyeFindsTheCurvedTagsAndCalibratesFromEveryView)
   EXPECT_NEAR(c.intrinsics.cy, lens.cy, 0.15);
 }
 
+// A fisheye's vignetting: the rim's tags a few dozen grey levels apart where
+// the centre's are two hundred. Rendered views through the 190-degree lens,
+// darkened in linear light (gamma 2.2) by 0.6 cos^4 of the angle off the
+// axis, sensor noise added after (sigma 1.5): the tags found in the bright
+// views are found in the dark ones, their corners still unbiased.
+TEST(KalibrTagRendered, AVignettedFisheyeFindsItsDarkTags) {
+  const CalibrationBoard board = KalibrBoard();
+  const auto pattern = AprilgridPattern(board);
+  ASSERT_TRUE(pattern);
+  const std::vector<Eigen::Vector3d> truth_points = AprilgridTruthPoints(board);
+  const Intrinsics lens = testing::TumViLikeFisheye();
+  FieldPoseSampling sampling;
+  sampling.count = 4;
+  sampling.seed = 23;
+  sampling.max_off_axis_deg = 55.0;
+  sampling.near_m = 0.35;
+  sampling.far_m = 0.7;
+  sampling.min_points_in_view = 100;
+  const auto poses = SampleFieldBoardPoses(lens, truth_points, sampling);
+  ASSERT_TRUE(poses);
+  BoardDetectionOptions with_lens;
+  with_lens.lens = lens;
+  int bright_found = 0, dark_found = 0;
+  Stats dark;
+  cv::RNG rng(77);
+  for (size_t v = 0; v < poses->size(); ++v) {
+    BoardRenderOptions o;
+    o.seed = 900 + v;
+    o.supersample = 8;
+    const auto r = RenderBoard(lens, *pattern, (*poses)[v], truth_points, o);
+    ASSERT_TRUE(r.ok) << r.message;
+    cv::Mat darkened(r.frame.image.size(), CV_8U);
+    for (int y = 0; y < darkened.rows; ++y)
+      for (int x = 0; x < darkened.cols; ++x) {
+        const double theta = std::hypot((x - lens.cx) / lens.fx, (y - lens.cy) / lens.fy);
+        const double falloff = 0.6 * std::pow(std::cos(std::min(theta, 1.5)), 4.0);
+        const double linear = std::pow(r.frame.image.at<uint8_t>(y, x) / 255.0, 2.2) * falloff;
+        darkened.at<uint8_t>(y, x) =
+            cv::saturate_cast<uint8_t>(255.0 * std::pow(linear, 1.0 / 2.2) + rng.gaussian(1.5));
+      }
+    const BoardDetection bright = DetectBoard(r.frame.image, board, with_lens);
+    const BoardDetection d = DetectBoard(darkened, board, with_lens);
+    bright_found += bright.found ? static_cast<int>(bright.tag_ids.size()) : 0;
+    if (!d.found) continue;
+    dark_found += static_cast<int>(d.tag_ids.size());
+    for (size_t t = 0; t < d.tag_ids.size(); ++t)
+      for (int k = 0; k < 4; ++k)
+        dark.Add(cv::Point2d(d.image_points[4 * t + k]) - r.frame.points_px[4 * d.tag_ids[t] + k]);
+  }
+  dark.Finish();
+  std::printf("vignetted 190-degree fisheye, %zu views: %d tags found bright, %d dark; dark corners - truth rms %.4f "
+              "px, mean (%+.4f, %+.4f)\n",
+              poses->size(), bright_found, dark_found, dark.rms, dark.mean_x, dark.mean_y);
+  // Measured: 137 bright, 136 dark (114, rms 0.112 px, with the image searched as it is,
+  // aprilgrid_even_contrast_window 0); rms 0.063 px, mean (+0.003, -0.000).
+  EXPECT_GE(dark_found, 0.85 * bright_found);
+  EXPECT_LT(dark.rms, 0.1);
+  EXPECT_LT(std::abs(dark.mean_x), 0.02);
+  EXPECT_LT(std::abs(dark.mean_y), 0.02);
+}
+
 // Where the board says a tag is, a black square of the tag's size (its bits
 // inked over) is refined as well as a tag, but its cells do not read as the
 // tag's bitmap: not a tag.

@@ -110,6 +110,11 @@ struct BoardDetectionOptions {
   // helps nothing and costs much: a D435i frame scaled to 3840 x 2880 took
   // 82 s and 460 MB at 3 and found no tag; at 1, 36 tags.
   int aprilgrid_upsample = 0;
+  // Aprilgrid: the tags are looked for and refined in the image stretched
+  // between its local black and white over a window of this fraction of the
+  // longer side (a fisheye's vignetting, uneven light: camera_calibration.cc's
+  // EvenContrast); 0: in the image as it is.
+  double aprilgrid_even_contrast_window = 0.05;
   // Aprilgrid: a tag with a corner closer than this to the image's border is
   // refused (its edges' bands are cut by the border and the corner
   // extrapolated: 0.4 px off on a rendered 752 x 480 view, sigma 0.035).

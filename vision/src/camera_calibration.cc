@@ -747,7 +747,8 @@ namespace {
 // few focal lengths instead. `dropped`: the input indices of views with no
 // pose.
 std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>& objects,
-                                     const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size,
+                                     const std::vector<std::vector<cv::Point2f>>& images,
+                                     const std::vector<std::vector<double>>& weights, const cv::Size& size,
                                      double* rms, std::string* why, std::vector<int>* dropped) {
   // cv::fisheye wants 1xN two- and three-channel double arrays.
   std::vector<cv::Mat> obj, img;
@@ -805,7 +806,7 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
   std::optional<internal::EquidistantFit> best;
   std::string fit_error;
   for (const Intrinsics& start : starts) {
-    auto fit = internal::FitEquidistant(objects, images, start, &fit_error);
+    auto fit = internal::FitEquidistant(objects, images, weights, start, &fit_error);
     if (fit && (!best || fit->rms_px < best->rms_px)) best = std::move(fit);
   }
   if (!best) {
@@ -819,11 +820,12 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
 }
 
 void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
-                      const std::vector<std::vector<cv::Point2f>>& images, const cv::Size& size, int threads,
+                      const std::vector<std::vector<cv::Point2f>>& images,
+                      const std::vector<std::vector<double>>& weights, const cv::Size& size, int threads,
                       CameraCalibrationResult* result) {
   std::string why;
   double rms = 0.0;
-  const auto fitted = FisheyeFit(objects, images, size, &rms, &why, &result->views_left_out);
+  const auto fitted = FisheyeFit(objects, images, weights, size, &rms, &why, &result->views_left_out);
   if (!fitted) {
     result->status = StatusCode::kFailed;
     result->message = "calibration gave no valid camera: " + why;
@@ -861,14 +863,16 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
   ParallelFor(refits.size(), static_cast<unsigned>(threads), [&](size_t g) {
     std::vector<std::vector<cv::Point3f>> o;
     std::vector<std::vector<cv::Point2f>> p;
+    std::vector<std::vector<double>> w;
     for (int v = 0; v < n; ++v)
       if (v % groups != static_cast<int>(g)) {
         o.push_back(objects[v]);
         p.push_back(images[v]);
+        if (!weights.empty()) w.push_back(weights[v]);
       }
     double e = 0.0;
     if (o.size() < 3) return;
-    if (const auto refit = FisheyeFit(o, p, size, &e, nullptr, nullptr))
+    if (const auto refit = FisheyeFit(o, p, w, size, &e, nullptr, nullptr))
       refits[g] = std::array<double, 8>{refit->fx, refit->fy, refit->cx, refit->cy, refit->distortion[0],
                                         refit->distortion[1], refit->distortion[2], refit->distortion[3]};
   });
@@ -927,7 +931,27 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     return result;
   }
   if (options.lens == LensModel::kEquidistant) {
-    CalibrateFisheye(object_points, image_points, image_size, options.threads, &result);
+    // Each corner weighed by its stated sigma against the views' median
+    // (min(1, median / sigma): the usual corner 1, an uncertain one less,
+    // none more: the median stands for the model's own error), when every
+    // view states them (the aprilgrid's edge fits).
+    std::vector<std::vector<double>> weights;
+    const bool have_sigmas = std::all_of(views.begin(), views.end(), [](const BoardDetection& v) {
+      return v.point_sigma_px.size() == v.image_points.size();
+    });
+    if (options.weight_by_corner_sigma && have_sigmas) {
+      std::vector<double> all;
+      for (const BoardDetection& v : views) all.insert(all.end(), v.point_sigma_px.begin(), v.point_sigma_px.end());
+      const double median = calibration::Median(all);
+      if (median > 0.0) {
+        for (const BoardDetection& v : views) {
+          weights.emplace_back();
+          for (double sigma : v.point_sigma_px)
+            weights.back().push_back(sigma > median ? median / sigma : 1.0);
+        }
+      }
+    }
+    CalibrateFisheye(object_points, image_points, weights, image_size, options.threads, &result);
     return result;
   }
   int flags = 0;

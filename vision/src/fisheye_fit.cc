@@ -15,7 +15,8 @@ namespace {
 // beyond 90 degrees), theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8), and
 // the distorted normalised point is theta_d (X, Y) / rho (camera_model.h).
 struct EquidistantCorner {
-  EquidistantCorner(const cv::Point3f& board, const cv::Point2f& seen) : X(board), u(seen) {}
+  EquidistantCorner(const cv::Point3f& board, const cv::Point2f& seen, double weight = 1.0)
+      : X(board), u(seen), w(weight) {}
   template <typename T>
   bool operator()(const T* const lens, const T* const pose, T* residual) const {
     const T p[3] = {T(X.x), T(X.y), T(X.z)};
@@ -39,18 +40,20 @@ struct EquidistantCorner {
       mx = theta_d * c[0] / rho;
       my = theta_d * c[1] / rho;
     }
-    residual[0] = lens[0] * mx + lens[2] - T(u.x);
-    residual[1] = lens[1] * my + lens[3] - T(u.y);
+    residual[0] = T(w) * (lens[0] * mx + lens[2] - T(u.x));
+    residual[1] = T(w) * (lens[1] * my + lens[3] - T(u.y));
     return true;
   }
   cv::Point3f X;
   cv::Point2f u;
+  double w;
 };
 
 }  // namespace
 
 std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
                                              const std::vector<std::vector<cv::Point2f>>& images,
+                                             const std::vector<std::vector<double>>& weights,
                                              const Intrinsics& start, std::string* why) {
   double lens[8] = {start.fx, start.fy, start.cx, start.cy, start.distortion[0], start.distortion[1],
                     start.distortion[2], start.distortion[3]};
@@ -101,8 +104,9 @@ std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::P
       if (!posed[v]) continue;
       ++n_views;
       for (size_t i = 0; i < objects[v].size(); ++i) {
+        const double w = weights.empty() ? 1.0 : weights[v][i];
         problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
-                                     new EquidistantCorner(objects[v][i], images[v][i])),
+                                     new EquidistantCorner(objects[v][i], images[v][i], w)),
                                  nullptr, lens, poses[v].data());
         ++n_points;
       }
@@ -124,7 +128,17 @@ std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::P
       if (why) *why = "the fisheye adjustment failed: " + summary.message;
       return std::nullopt;
     }
-    out.rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
+    // The unweighted RMS, the figure every calibration reports.
+    double sq = 0.0;
+    for (size_t v = 0; v < objects.size(); ++v) {
+      if (!posed[v]) continue;
+      for (size_t i = 0; i < objects[v].size(); ++i) {
+        double r[2];
+        EquidistantCorner(objects[v][i], images[v][i])(lens, poses[v].data(), r);
+        sq += r[0] * r[0] + r[1] * r[1];
+      }
+    }
+    out.rms_px = std::sqrt(sq / static_cast<double>(n_points));
   }
   out.views_left_out.clear();
   for (size_t v = 0; v < objects.size(); ++v)

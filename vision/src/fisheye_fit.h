@@ -30,9 +30,12 @@ struct EquidistantFit {
 };
 
 // From `start` (an equidistant lens), over every view with a pose through it.
-// nullopt with `why` when fewer than 3 views have one or the solver fails.
+// `weights`: per view, per corner, the weight of its residual (empty: every
+// corner 1); rms_px is the unweighted RMS either way. nullopt with `why`
+// when fewer than 3 views have a pose or the solver fails.
 std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
                                              const std::vector<std::vector<cv::Point2f>>& images,
+                                             const std::vector<std::vector<double>>& weights,
                                              const Intrinsics& start, std::string* why);
 
 }  // namespace odocal::vision::internal

@@ -226,6 +226,11 @@ struct CameraCalibrationOptions {
   // sigmas from a delete-a-group jackknife over the views (OpenCV's fisheye
   // calibration gives none).
   LensModel lens = LensModel::kPlumbBob;
+  // Fisheye: each corner's residual weighed by min(1, the views' median
+  // corner sigma / its own) when the views state sigmas (aprilgrid): a small
+  // dark tag at the rim pulls less than its stated uncertainty allows.
+  // OpenCV's plumb_bob calibration takes no weights.
+  bool weight_by_corner_sigma = true;
   // The jackknife's refits on at most this many workers (0: one per core).
   int threads = 0;
 

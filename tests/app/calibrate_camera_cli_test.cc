@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -60,6 +61,24 @@ std::string Join(const std::vector<std::string>& paths) {
   for (const auto& p : paths) out += " " + p;
   return out;
 }
+
+// Kalibr's 6 x 6 aprilgrid (88 mm tags, spacing 0.3): its pattern and its
+// corners in the pattern's frame, tag by tag.
+struct KalibrGrid {
+  vision::CalibrationBoard board;
+  std::optional<vision::BoardPattern> pattern;
+  std::vector<Eigen::Vector3d> points;
+  KalibrGrid() {
+    board.type = vision::CalibrationBoard::Type::kAprilgrid;
+    board.cols = board.rows = 6;
+    board.square_m = 0.088;
+    board.spacing = 0.3;
+    pattern = vision::AprilgridPattern(board);
+    for (int id = 0; id < 36; ++id)
+      for (int k = 0; k < 4; ++k)
+        points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  }
+};
 
 TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
   const std::string dir = test_util::MakeTempDir("odocal_calcam_");
@@ -208,16 +227,10 @@ TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
 // aprilgrid through a 190-degree (TUM-VI-like) lens, 5 views.
 TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) {
   const std::string dir = test_util::MakeTempDir("odocal_calcam_fisheye_");
-  vision::CalibrationBoard board;
-  board.type = vision::CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
-  const auto pattern = vision::AprilgridPattern(board);
+  const KalibrGrid grid;
+  const auto& pattern = grid.pattern;
   ASSERT_TRUE(pattern);
-  std::vector<Eigen::Vector3d> points;
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k) points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  const std::vector<Eigen::Vector3d>& points = grid.points;
   Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
   lens.lens = vision::LensModel::kEquidistant;
   vision::FieldPoseSampling sampling;
@@ -276,16 +289,10 @@ TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) 
 // one pose (fresh noise each), 4 other poses, one frame without the board.
 TEST(CliCalibrateCamera, FromMoreImagesThanMaxViewsTheViewsThatDifferAreChosen) {
   const std::string dir = test_util::MakeTempDir("odocal_calcam_views_");
-  vision::CalibrationBoard board;
-  board.type = vision::CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
-  const auto pattern = vision::AprilgridPattern(board);
+  const KalibrGrid grid;
+  const auto& pattern = grid.pattern;
   ASSERT_TRUE(pattern);
-  std::vector<Eigen::Vector3d> points;
-  for (int id = 0; id < 36; ++id)
-    for (int k = 0; k < 4; ++k) points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));
+  const std::vector<Eigen::Vector3d>& points = grid.points;
   vision::FieldPoseSampling sampling;
   sampling.count = 5;
   sampling.seed = 9;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -36,15 +37,27 @@ config::Scenario SmallScenario() {
   return scenario ? *scenario : config::Scenario{};
 }
 
+// The small scenario's robot and its virtual camera.
+struct VirtualCamera {
+  config::Scenario scenario = SmallScenario();
+  std::unique_ptr<sim::SimMotionBackend> backend;
+  std::unique_ptr<simulation::SimCameraSource> camera;
+  std::string error;
+  VirtualCamera() {
+    if (!scenario.camera || !scenario.tag) return;
+    backend = std::make_unique<sim::SimMotionBackend>(scenario.robot);
+    camera = simulation::SimCameraSource::Create(*scenario.camera, *scenario.tag, *backend, &error);
+  }
+};
+
 // The robot's host ticks its clock by 10 ms of robot time every 2 ms of wall
 // time (5x real time), slower than the camera is asked for frames.
 TEST(SimCameraSource, FramesAreStampedWithTimesTheRobotsClockHadAFramePeriodApart) {
-  const config::Scenario scenario = SmallScenario();
-  ASSERT_TRUE(scenario.camera && scenario.tag);
-  sim::SimMotionBackend backend(scenario.robot);
+  VirtualCamera v;
+  ASSERT_TRUE(v.camera) << v.error;
+  sim::SimMotionBackend& backend = *v.backend;
+  auto& camera = v.camera;
   std::string error;
-  auto camera = simulation::SimCameraSource::Create(*scenario.camera, *scenario.tag, backend, &error);
-  ASSERT_TRUE(camera) << error;
   std::atomic<bool> stop{false};
   std::thread host([&] {
     while (!stop) {
@@ -71,12 +84,11 @@ TEST(SimCameraSource, FramesAreStampedWithTimesTheRobotsClockHadAFramePeriodApar
 // A host that does not tick (a test stepping the robot by hand): the camera
 // does not hang; its frames take the next period's stamps.
 TEST(SimCameraSource, AClockThatStandsStillDoesNotHangTheCamera) {
-  const config::Scenario scenario = SmallScenario();
-  ASSERT_TRUE(scenario.camera && scenario.tag);
-  sim::SimMotionBackend backend(scenario.robot);
+  VirtualCamera v;
+  ASSERT_TRUE(v.camera) << v.error;
+  sim::SimMotionBackend& backend = *v.backend;
+  auto& camera = v.camera;
   std::string error;
-  auto camera = simulation::SimCameraSource::Create(*scenario.camera, *scenario.tag, backend, &error);
-  ASSERT_TRUE(camera) << error;
   const auto first = camera->Grab(&error);
   ASSERT_TRUE(first) << error;
   const auto t0 = std::chrono::steady_clock::now();

@@ -99,8 +99,8 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
   // constant levels on either side leans with the light (a tag's own edges
   // and the longer lines through its corner squares then disagree by
   // 0.4-1.7 px, and the tag is refused). A rendered 190-degree lens darkened
-  // by 0.6 cos^4 off the axis: 114 of 137 tags, 0.110 px rms, as it is;
-  // 136, 0.063 px, evened (KalibrTagRendered.AVignettedFisheyeFindsItsDarkTags).
+  // by 0.6 cos^4 off the axis: 114 of 137 tags, 0.112 px rms, as it is;
+  // 135, 0.063 px, evened (KalibrTagRendered.AVignettedFisheyeFindsItsDarkTags).
   const cv::Mat gray =
       options.aprilgrid_even_contrast_window > 0.0
           ? EvenContrast(image, std::max(8, static_cast<int>(std::lround(options.aprilgrid_even_contrast_window *
@@ -208,7 +208,8 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
   // tag's side), not 255: under a lens's vignetting the paper at the rim is
   // grey, and a square of 255 beside it moves libapriltag's local threshold
   // above the paper, which then reads as black (a rendered 190-degree view
-  // darkened by cos^4 of the angle off axis: 3 tags of 14 with 255).
+  // darkened by cos^4 of the angle off axis, before the contrast was made
+  // even: 3 tags of 14 with 255, 14 with the paper's white).
   const double s = board.square_m, g = board.spacing * s, pitch = s + g, e = 0.04 * s;
   cv::Mat paper;  // the paper's white near each pixel of `big`, made on first use
   const auto paper_white = [&]() -> const cv::Mat& {

@@ -83,7 +83,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   // fits are most of the time: ~0.9 s a 640x480 aprilgrid frame); then, in
   // the images' order, the first readable one sets the size. More images
   // than --max-views (a video's frames): an aprilgrid is first only looked
-  // for (libapriltag's corners, a tenth of the time), the views are chosen
+  // for (libapriltag's corners, ~30 ms a frame), the views are chosen
   // for their spread of poses (vision::SelectViews), and only those refined.
   const std::vector<std::string> paths = ExpandDirectories(kCalibrateCamera, args.images, ImageExtensions());
   const bool choose = args.max_views > 0 && paths.size() > static_cast<size_t>(args.max_views);

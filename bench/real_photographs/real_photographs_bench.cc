@@ -5,6 +5,10 @@
 //
 //   real_photographs_bench DATA_DIR [--target FILE] [--images DIR] [--peer DIR]
 //                          [--model plumb_bob|fisheye] [--refits N] [--seed S] [--variants 0]
+//                          [--frames N]
+//
+// --frames (default 60; 0: all): a video's thousands of frames are cut to N
+// evenly spaced in name order (every measure calibrates once per frame).
 //
 // The lens model: --model, else a camera file's cam0 dist_model in DATA_DIR
 // (yac's radtan / equi4; Kalibr's camchain distortion_model), else chosen
@@ -350,12 +354,13 @@ double StdDev(const std::vector<double>& v) {
 int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--images DIR] [--peer DIR] [--model plumb_bob|fisheye] [--refits N] [--seed S] "
-                 "[--variants 0]\n", argv[0]);
+                 "[--variants 0] [--frames N]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
   fs::path target, peer_dir, image_dir;
   int refits = 10;
+  int max_frames = 60;  // --frames; 0: every frame
   unsigned seed = 1;
   bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
   std::optional<vision::LensModel> model;  // --model; else a camera file's cam0 dist_model, else chosen
@@ -366,6 +371,7 @@ int main(int argc, char** argv) {
     else if (a == "--peer") peer_dir = argv[i + 1];
     else if (a == "--images") image_dir = argv[i + 1];
     else if (a == "--refits") refits = std::stoi(argv[i + 1]);
+    else if (a == "--frames") max_frames = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
     else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
     else if (a == "--model") {
@@ -428,6 +434,15 @@ int main(int argc, char** argv) {
   if (images.empty()) {
     std::fprintf(stderr, "%s: no images in cam0/data, mav0/cam0/data or the directory itself\n", dir.c_str());
     return 2;
+  }
+  // A video's thousands of frames: every measure below calibrates once per
+  // frame (the other frames' intrinsics) and OpenCV's adjustment is dense in
+  // the views, so at most --frames of them, evenly spaced in name order.
+  const size_t all_frames = images.size();
+  if (max_frames > 0 && images.size() > static_cast<size_t>(max_frames)) {
+    std::vector<fs::path> spaced;
+    for (int i = 0; i < max_frames; ++i) spaced.push_back(images[i * all_frames / static_cast<size_t>(max_frames)]);
+    images = std::move(spaced);
   }
 
   Method odocal{"odocal", {}}, yac{"yac (data set)", {}}, aruco{"OpenCV aruco", {}};
@@ -542,6 +557,9 @@ int main(int argc, char** argv) {
               size.width, size.height, board.cols, board.rows, board.tag_family.c_str(), board.square_m * 1e3,
               board.spacing);
   std::printf("target: %s; lens: %s (%s)\n\n", target.c_str(), vision::LensModelName(lens_model), lens_from.c_str());
+  if (images.size() < all_frames)
+    std::printf("frames: %zu of the %zu, evenly spaced in name order (--frames; 0 for every frame)\n\n", images.size(),
+                all_frames);
   std::sort(shifts.begin(), shifts.end());
   if (!shifts.empty())
     std::printf("odocal's edge shift per view: median %+.3f px, range %+.3f .. %+.3f px (negative: the black looks "

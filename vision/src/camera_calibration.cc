@@ -808,7 +808,7 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
   std::string fit_error;
   for (const Intrinsics& start : starts) {
     auto fit = internal::FitEquidistant(objects, images, weights, start, &fit_error);
-    if (fit && (!best || fit->rms_px < best->rms_px)) best = std::move(fit);
+    if (fit && (!best || fit->weighted_rms_px < best->weighted_rms_px)) best = std::move(fit);
   }
   if (!best) {
     if (why)

@@ -139,6 +139,7 @@ std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::P
       }
     }
     out.rms_px = std::sqrt(sq / static_cast<double>(n_points));
+    out.weighted_rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
   }
   out.views_left_out.clear();
   for (size_t v = 0; v < objects.size(); ++v)

@@ -26,6 +26,7 @@ namespace odocal::vision::internal {
 struct EquidistantFit {
   Intrinsics intrinsics;
   double rms_px = 0.0;           // over all corners of the views used: sqrt(mean(dx^2 + dy^2))
+  double weighted_rms_px = 0.0;  // the same of the weighted residuals: what the fit minimised
   std::vector<int> views_left_out;  // input indices with no pose through the start lens
 };
 

@@ -165,6 +165,9 @@ TEST(CliCalibrateCamera, WritesRosFilesAndRejectsBadArguments) {
            {"--board chessboard:9by6:25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
            {"--board chessboard:9x6:-25", "--board: expected chessboard:COLSxROWS:SQUARE_MM"},
            {"--board chessboard:9x6:25 --format xml", "--format: expected opencv or ros, got 'xml'"},
+           // Refused by the command-line parser: exit 2 too, the bound readable.
+           {"--board chessboard:9x6:25 --max-views -1", "--max-views: Value -1 not in range 0 to 1000000"},
+           {"--board chessboard:9x6:25 --no-such-option", "--no-such-option"},
        }) {
     r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) + " " + args +
                    " --out " + dir + "/x.yaml");

@@ -23,6 +23,11 @@ namespace odocal::app {
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
+// A count option (threads, views) is checked with CLI::Range(0, kMaxCount):
+// a refusal then names a bound one can read (CLI11's NonNegativeNumber names
+// the largest double).
+inline constexpr int kMaxCount = 1000000;
+
 // Prints "odocal <command>: <message>" on stderr and ends the command with
 // `exit_code` (through CLI11, so main returns it).
 [[noreturn]] void Fail(const std::string& command, int exit_code, const std::string& message);

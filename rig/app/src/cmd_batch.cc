@@ -91,7 +91,7 @@ void RegisterBatchCommand(CLI::App& app) {
                   "Plane views in which the tag's edge shift (a tone curve, blur or ink that makes its black "
                   "look larger or smaller, hence the camera nearer or farther) is measured and then removed "
                   "from every view; 0: the tag's size as it looks (docs/vision.md)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxCount));
   cmd->callback([args]() {
     const std::string name = "batch";
     if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);

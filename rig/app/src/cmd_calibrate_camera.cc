@@ -378,11 +378,11 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
                   "(OpenCV's k1 k2 p1 p2 k3) or fisheye (equidistant, cv::fisheye's k1..k4)");
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxCount));
   cmd->add_option("--max-views", args->max_views,
                   "With more images than this (a video's frames), calibrate from this many views chosen for their "
                   "spread of poses (default: 60; 0: every view)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxCount));
   cmd->callback([args]() { RunCalibrateCamera(*args); });
 }
 

@@ -448,7 +448,7 @@ void RegisterDetectCommand(CLI::App& app) {
   cmd->add_option("--json", args->json_out, "Write everything as JSON to this file ('-': stdout)");
   cmd->add_option("--annotate", args->annotate_dir, "Write one annotated PNG per image into this directory");
   cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxCount));
   cmd->callback([args]() { RunDetect(*args); });
 }
 

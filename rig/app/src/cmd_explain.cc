@@ -176,7 +176,7 @@ void RegisterExplainCommand(CLI::App& app) {
   cmd->add_option("--threads", args->threads,
                   "Worker threads for the candidates' fits, the cross-validation and the jackknife (0: one per "
                   "core); the result is the same whatever the number")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Range(0, kMaxCount))
       ->capture_default_str();
   cmd->callback([args]() { RunExplain(*args); });
 }

@@ -1,6 +1,7 @@
 // odocal: calibration station for differential-drive robots.
 #include <CLI/CLI.hpp>
 
+#include "cli_util.h"
 #include "commands.h"
 
 int main(int argc, char** argv) {
@@ -24,6 +25,17 @@ int main(int argc, char** argv) {
   odocal::app::RegisterSetupCheckCommand(app);
   odocal::app::RegisterWatchCommand(app);
   odocal::app::RegisterDetectCommand(app);
-  CLI11_PARSE(app, argc, argv);
+  // A command line CLI11 refuses (an unknown option, a value out of range)
+  // is bad input: exit 2, as every command's own checks (cli_util.h); --help
+  // and --version exit 0.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    // A command's own exit (cli_util.h's Fail throws CLI::RuntimeError with
+    // its code) passes through as it is.
+    if (dynamic_cast<const CLI::RuntimeError*>(&e) != nullptr || code == 0) return code;
+    return odocal::app::kExitBadInput;
+  }
   return 0;
 }

@@ -130,7 +130,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         o.corners = static_cast<int>(d.image_points.size());
         views.push_back(std::move(d));
         view_image.push_back(outcomes.size());
-      } else if (look.aprilgrid_corners_only && d.message.rfind("aprilgrid", 0) == 0) {
+      } else if (look.aprilgrid_corners_only) {
         // Not seen by the quick look: so named, not as the full search's verdict.
         o.reason = "board not found by the quick look (--max-views): " + d.message;
       } else {

@@ -1,0 +1,183 @@
+// The PostgreSQL record store (libpq): one server shared by the stations of a line or the
+// machines of a batch. Each record is one INSERT ... ON CONFLICT DO NOTHING (atomic on its own);
+// migrations run in one transaction under an advisory lock, so shards opening a new database
+// at once apply them once.
+#include <libpq-fe.h>
+
+#include <memory>
+
+#include "backends.h"
+#include "schema.h"
+
+namespace odocal::records::internal {
+namespace {
+
+// Any fixed number: the lock that serialises odocal's migrations on a server.
+constexpr long long kMigrationLock = 0x0d0ca1;
+
+struct ResultDeleter {
+  void operator()(PGresult* r) const { PQclear(r); }
+};
+using PgResult = std::unique_ptr<PGresult, ResultDeleter>;
+
+// "postgresql://user:secret@host:5432/db?x=y" -> "postgresql host:5432/db" (no credentials).
+std::string Redacted(const std::string& url) {
+  std::string rest = url.substr(url.find("://") + 3);
+  if (const size_t at = rest.rfind('@'); at != std::string::npos) rest = rest.substr(at + 1);
+  if (const size_t q = rest.find('?'); q != std::string::npos) rest = rest.substr(0, q);
+  return "postgresql " + rest;
+}
+
+class PostgresStore final : public RecordStore {
+ public:
+  PostgresStore(PGconn* conn, std::string name) : conn_(conn), name_(std::move(name)) {}
+  ~PostgresStore() override { PQfinish(conn_); }
+  std::string Describe() const override { return name_; }
+  int SchemaVersion() const override { return version_; }
+
+  Status Open() {
+    PQsetNoticeProcessor(conn_, [](void*, const char*) {}, nullptr);  // "relation exists, skipping"
+    Result<int> version = ReadVersion();
+    if (!version) return Status::From(version);
+    if (*version > kSchemaVersion) return NewerSchema(*version);
+    if (*version < kSchemaVersion) {
+      if (Status s = Migrate(); !s) return s;
+    }
+    version_ = kSchemaVersion;
+    return Status::Ok();
+  }
+
+  Result<bool> Put(const Record& record) override {
+    const RecordRow row = RowOf(record);
+    std::vector<std::string> numbers;
+    std::vector<const char*> values;
+    for (const std::string* text : {&row.robot, &row.digest, &row.kind, &row.time_utc, &row.host, &row.odocal_version,
+                                    &row.folder, &row.verdict, &row.kept_utc, &row.document})
+      values.push_back(text->c_str());
+    numbers.reserve(6);
+    for (const std::optional<double>* v : {&row.ed, &row.eb, &row.emax_syst_before_mm, &row.emax_syst_after_mm,
+                                           &row.mean_wheel_diameter_mm, &row.track_mm}) {
+      if (*v) {
+        char buf[40];
+        std::snprintf(buf, sizeof(buf), "%.17g", **v);
+        numbers.emplace_back(buf);
+        values.push_back(numbers.back().c_str());
+      } else {
+        values.push_back(nullptr);
+      }
+    }
+    const std::string sql = std::string("INSERT INTO records (") + kInsertColumns +
+                            ") VALUES ($1,$2,$3,$4,$5,$6,$7,$8,$9,$10,$11,$12,$13,$14,$15,$16) "
+                            "ON CONFLICT (robot, digest) DO NOTHING";
+    PgResult r(PQexecParams(conn_, sql.c_str(), static_cast<int>(values.size()), nullptr, values.data(), nullptr,
+                            nullptr, 0));
+    if (PQresultStatus(r.get()) != PGRES_COMMAND_OK) return Result<bool>::From(Error(StatusCode::kIoError, "cannot insert the record"));
+    return Result<bool>::Ok(std::string(PQcmdTuples(r.get())) == "1");
+  }
+
+  Result<std::vector<Record>> ForRobot(const std::string& robot) override {
+    return Select("SELECT document FROM records WHERE robot = $1 ORDER BY time_utc, id", &robot);
+  }
+  Result<std::vector<Record>> All() override {
+    return Select("SELECT document FROM records ORDER BY robot, time_utc, id", nullptr);
+  }
+  Result<std::vector<std::string>> Robots() override {
+    using R = Result<std::vector<std::string>>;
+    PgResult r(PQexec(conn_, "SELECT DISTINCT robot FROM records ORDER BY robot"));
+    if (PQresultStatus(r.get()) != PGRES_TUPLES_OK) return R::From(Error(StatusCode::kIoError, "cannot list the robots"));
+    std::vector<std::string> out;
+    for (int i = 0; i < PQntuples(r.get()); ++i) out.emplace_back(PQgetvalue(r.get(), i, 0));
+    return R::Ok(std::move(out));
+  }
+
+ private:
+  Status Error(StatusCode code, const std::string& what) const {
+    std::string m = PQerrorMessage(conn_);
+    while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
+    return Status::Error(code, name_ + ": " + what + (m.empty() ? "" : " (" + m + ")"));
+  }
+  Status NewerSchema(int version) const {
+    return Status::Error(StatusCode::kVersionMismatch,
+                         name_ + ": record store schema version " + std::to_string(version) +
+                             " is newer than this odocal's (" + std::to_string(kSchemaVersion) + "): use a newer odocal");
+  }
+  Status Exec(const std::string& sql) {
+    PgResult r(PQexec(conn_, sql.c_str()));
+    const ExecStatusType st = PQresultStatus(r.get());
+    if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) return Error(StatusCode::kIoError, "'" + sql.substr(0, 40) + "...' failed");
+    return Status::Ok();
+  }
+  // -1: no odocal_schema table.
+  Result<int> ReadVersion() {
+    PgResult has(PQexec(conn_, "SELECT to_regclass('odocal_schema') IS NOT NULL"));
+    if (PQresultStatus(has.get()) != PGRES_TUPLES_OK)
+      return Result<int>::From(Error(StatusCode::kIoError, "cannot read the schema version"));
+    if (std::string(PQgetvalue(has.get(), 0, 0)) != "t") return Result<int>::Ok(-1);
+    PgResult r(PQexec(conn_, "SELECT coalesce(max(version), 0) FROM odocal_schema"));
+    if (PQresultStatus(r.get()) != PGRES_TUPLES_OK)
+      return Result<int>::From(Error(StatusCode::kIoError, "cannot read the schema version"));
+    return Result<int>::Ok(std::atoi(PQgetvalue(r.get(), 0, 0)));
+  }
+  Status Migrate() {
+    if (Status s = Exec("BEGIN"); !s) return s;
+    auto rollback = [this](Status s) {
+      Exec("ROLLBACK");
+      return s;
+    };
+    if (Status s = Exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLock) + ")"); !s) return rollback(s);
+    if (Status s = Exec("CREATE TABLE IF NOT EXISTS odocal_schema (version INTEGER NOT NULL, applied_utc TEXT NOT NULL)"); !s)
+      return rollback(s);
+    Result<int> version = ReadVersion();
+    if (!version) return rollback(Status::From(version));
+    if (*version > kSchemaVersion) return rollback(NewerSchema(*version));
+    for (int v = std::max(*version, 0) + 1; v <= kSchemaVersion; ++v) {
+      for (const std::string& sql : Migration(v, Dialect::kPostgres))
+        if (Status s = Exec(sql); !s) return rollback(s);
+      if (Status s = Exec("INSERT INTO odocal_schema (version, applied_utc) VALUES (" + std::to_string(v) + ", '" +
+                          NowUtc() + "')");
+          !s)
+        return rollback(s);
+    }
+    return Exec("COMMIT");
+  }
+  Result<std::vector<Record>> Select(const std::string& sql, const std::string* robot) {
+    using R = Result<std::vector<Record>>;
+    const char* values[1] = {robot ? robot->c_str() : nullptr};
+    PgResult r(PQexecParams(conn_, sql.c_str(), robot ? 1 : 0, nullptr, values, nullptr, nullptr, 0));
+    if (PQresultStatus(r.get()) != PGRES_TUPLES_OK) return R::From(Error(StatusCode::kIoError, "cannot read the records"));
+    std::vector<Record> out;
+    out.reserve(PQntuples(r.get()));
+    for (int i = 0; i < PQntuples(r.get()); ++i) {
+      Result<Record> rec = RecordFromJson(nlohmann::json::parse(PQgetvalue(r.get(), i, 0), nullptr, false));
+      if (!rec) return R::Error(StatusCode::kBadFile, name_ + ": a stored record is damaged: " + rec.message);
+      out.push_back(std::move(*rec));
+    }
+    return R::Ok(std::move(out));
+  }
+
+  PGconn* conn_;
+  std::string name_;
+  int version_ = 0;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<RecordStore>> OpenPostgresStore(const std::string& url) {
+  using R = Result<std::unique_ptr<RecordStore>>;
+  // connect_timeout unless the URL sets one: an unreachable server is an answer in seconds.
+  const char* keys[] = {"dbname", "connect_timeout", nullptr};
+  const char* values[] = {url.c_str(), "5", nullptr};
+  PGconn* conn = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
+  const std::string name = Redacted(url);
+  if (!conn || PQstatus(conn) != CONNECTION_OK) {
+    std::string m = conn ? PQerrorMessage(conn) : "out of memory";
+    while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
+    PQfinish(conn);
+    return R::Error(StatusCode::kOpenFailed, name + ": cannot connect (" + m + ")");
+  }
+  auto store = std::make_unique<PostgresStore>(conn, name);
+  if (Status s = store->Open(); !s) return R::From(s);
+  return R::Ok(std::move(store));
+}
+
+}  // namespace odocal::records::internal

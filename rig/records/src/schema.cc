@@ -1,0 +1,46 @@
+#include "schema.h"
+
+namespace odocal::records::internal {
+
+std::vector<std::string> Migration(int version, Dialect dialect) {
+  const std::string key =
+      dialect == Dialect::kSqlite ? "id INTEGER PRIMARY KEY AUTOINCREMENT" : "id BIGSERIAL PRIMARY KEY";
+  switch (version) {
+    case 1:
+      return {"CREATE TABLE records (" + key +
+                  ", robot TEXT NOT NULL, digest TEXT NOT NULL, kind TEXT NOT NULL, time_utc TEXT NOT NULL, "
+                  "host TEXT NOT NULL, odocal_version TEXT NOT NULL, folder TEXT NOT NULL, verdict TEXT NOT NULL, "
+                  "kept_utc TEXT NOT NULL, document TEXT NOT NULL, ed DOUBLE PRECISION, eb DOUBLE PRECISION, "
+                  "emax_syst_before_mm DOUBLE PRECISION, emax_syst_after_mm DOUBLE PRECISION, "
+                  "mean_wheel_diameter_mm DOUBLE PRECISION, track_mm DOUBLE PRECISION, "
+                  "UNIQUE (robot, digest))",
+              "CREATE INDEX records_by_robot_time ON records (robot, time_utc)"};
+    default:
+      return {};
+  }
+}
+
+RecordRow RowOf(const Record& r) {
+  RecordRow row;
+  row.robot = r.robot;
+  row.digest = r.digest;
+  row.kind = std::string(ToString(r.kind));
+  row.time_utc = r.time_utc;
+  row.host = r.host;
+  row.odocal_version = r.odocal_version;
+  row.folder = r.folder;
+  row.verdict = std::string(ToString(r.verdict));
+  row.kept_utc = NowUtc();
+  row.document = ToJson(r).dump();
+  if (r.ed) row.ed = r.ed->value;
+  if (r.eb) row.eb = r.eb->value;
+  if (r.emax_syst_before_mm) row.emax_syst_before_mm = r.emax_syst_before_mm->value;
+  if (r.emax_syst_after_mm) row.emax_syst_after_mm = r.emax_syst_after_mm->value;
+  if (r.after) {
+    row.mean_wheel_diameter_mm = r.after->MeanWheelDiameterMm().value;
+    row.track_mm = r.after->track_mm.value;
+  }
+  return row;
+}
+
+}  // namespace odocal::records::internal

@@ -1,0 +1,32 @@
+// The record store's schema, one migration per version, in the SQL both SQLite and PostgreSQL
+// read (the key column's type is the one difference). Version N's migration takes a store at
+// N - 1 to N; a store records its version in odocal_schema.
+#ifndef ODOCAL_RECORDS_SRC_SCHEMA_H_
+#define ODOCAL_RECORDS_SRC_SCHEMA_H_
+
+#include <string>
+#include <vector>
+
+#include "odocal/records/record.h"
+
+namespace odocal::records::internal {
+
+enum class Dialect { kSqlite, kPostgres };
+
+// The statements of migration `version` (1 .. kSchemaVersion).
+std::vector<std::string> Migration(int version, Dialect dialect);
+
+// The columns a record is stored in, besides its document: what fleet and history select on.
+struct RecordRow {
+  std::string robot, digest, kind, time_utc, host, odocal_version, folder, verdict, kept_utc, document;
+  std::optional<double> ed, eb, emax_syst_before_mm, emax_syst_after_mm, mean_wheel_diameter_mm, track_mm;
+};
+RecordRow RowOf(const Record& record);
+
+inline constexpr const char* kInsertColumns =
+    "robot, digest, kind, time_utc, host, odocal_version, folder, verdict, kept_utc, document, ed, eb, "
+    "emax_syst_before_mm, emax_syst_after_mm, mean_wheel_diameter_mm, track_mm";
+
+}  // namespace odocal::records::internal
+
+#endif  // ODOCAL_RECORDS_SRC_SCHEMA_H_

@@ -1,0 +1,204 @@
+// The SQLite record store: one file, WAL journal (several stations may write one file at the
+// same moment: each write is one IMMEDIATE transaction, a busy writer waits up to 30 s).
+#include "backends.h"
+
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+
+#include "schema.h"
+
+namespace odocal::records::internal {
+namespace {
+
+constexpr int kBusyTimeoutMs = 30000;
+
+struct StatementDeleter {
+  void operator()(sqlite3_stmt* s) const { sqlite3_finalize(s); }
+};
+using Statement = std::unique_ptr<sqlite3_stmt, StatementDeleter>;
+
+class SqliteStore final : public RecordStore {
+ public:
+  SqliteStore(sqlite3* db, std::string path) : db_(db), path_(std::move(path)) {}
+  ~SqliteStore() override { sqlite3_close_v2(db_); }
+
+  std::string Describe() const override { return "sqlite " + path_; }
+  int SchemaVersion() const override { return version_; }
+
+  // Reads the schema version and applies the migrations the file lacks.
+  Status Open() {
+    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    // Anything read first tells a file that is not a database ("file is not a database").
+    Result<int> tables = CountTables();
+    if (!tables) return Status::From(tables);
+    Result<int> version = ReadVersion();
+    if (!version) return Status::From(version);
+    if (*version < 0 && *tables > 0)
+      return Error(StatusCode::kBadFile, "holds tables but no odocal_schema: not an odocal record store");
+    if (*version > kSchemaVersion) return NewerSchema(*version);
+    if (*version < kSchemaVersion) {
+      if (Status s = Exec("PRAGMA journal_mode=WAL"); !s) return s;
+      if (Status s = Migrate(); !s) return s;
+    }
+    version_ = kSchemaVersion;
+    return Status::Ok();
+  }
+
+  Result<bool> Put(const Record& record) override {
+    const RecordRow row = RowOf(record);
+    if (Status s = Exec("BEGIN IMMEDIATE"); !s) return Result<bool>::From(s);
+    Statement st = Prepare(std::string("INSERT INTO records (") + kInsertColumns +
+                           ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?) ON CONFLICT (robot, digest) DO NOTHING");
+    if (!st) return Rollback<bool>("cannot prepare the insert");
+    int i = 1;
+    for (const std::string* text : {&row.robot, &row.digest, &row.kind, &row.time_utc, &row.host, &row.odocal_version,
+                                    &row.folder, &row.verdict, &row.kept_utc, &row.document})
+      sqlite3_bind_text(st.get(), i++, text->c_str(), static_cast<int>(text->size()), SQLITE_TRANSIENT);
+    for (const std::optional<double>* v : {&row.ed, &row.eb, &row.emax_syst_before_mm, &row.emax_syst_after_mm,
+                                           &row.mean_wheel_diameter_mm, &row.track_mm}) {
+      if (*v) sqlite3_bind_double(st.get(), i, **v);
+      else sqlite3_bind_null(st.get(), i);
+      ++i;
+    }
+    if (sqlite3_step(st.get()) != SQLITE_DONE) return Rollback<bool>("cannot insert the record");
+    const bool added = sqlite3_changes(db_) > 0;
+    st.reset();
+    if (Status s = Exec("COMMIT"); !s) return Rollback<bool>("cannot commit the record");
+    return Result<bool>::Ok(added);
+  }
+
+  Result<std::vector<Record>> ForRobot(const std::string& robot) override {
+    return Select("SELECT document FROM records WHERE robot = ? ORDER BY time_utc, id", &robot);
+  }
+  Result<std::vector<Record>> All() override {
+    return Select("SELECT document FROM records ORDER BY robot, time_utc, id", nullptr);
+  }
+  Result<std::vector<std::string>> Robots() override {
+    using R = Result<std::vector<std::string>>;
+    Statement st = Prepare("SELECT DISTINCT robot FROM records ORDER BY robot");
+    if (!st) return R::From(Error(StatusCode::kIoError, "cannot list the robots"));
+    std::vector<std::string> out;
+    int rc;
+    while ((rc = sqlite3_step(st.get())) == SQLITE_ROW)
+      out.emplace_back(reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0)));
+    if (rc != SQLITE_DONE) return R::From(Error(StatusCode::kIoError, "cannot list the robots"));
+    return R::Ok(std::move(out));
+  }
+
+ private:
+  Status Error(StatusCode code, const std::string& what) const {
+    return Status::Error(code, path_ + ": " + what + " (" + sqlite3_errmsg(db_) + ")");
+  }
+  Status NewerSchema(int version) const {
+    return Status::Error(StatusCode::kVersionMismatch,
+                         path_ + ": record store schema version " + std::to_string(version) + " is newer than this odocal's (" +
+                             std::to_string(kSchemaVersion) + "): use a newer odocal (odocal " +
+                             std::string(OdocalVersion()) + " reads versions up to " + std::to_string(kSchemaVersion) + ")");
+  }
+  template <typename T>
+  Result<T> Rollback(const std::string& what) {
+    const Status error = Error(StatusCode::kIoError, what);
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    return Result<T>::From(error);
+  }
+  Status Exec(const std::string& sql) {
+    char* message = nullptr;
+    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
+      const std::string m = message ? message : sqlite3_errmsg(db_);
+      sqlite3_free(message);
+      return Status::Error(StatusCode::kIoError, path_ + ": " + m);
+    }
+    return Status::Ok();
+  }
+  Statement Prepare(const std::string& sql) {
+    sqlite3_stmt* st = nullptr;
+    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK) return Statement();
+    return Statement(st);
+  }
+  Result<int> CountTables() {
+    Statement st = Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+    if (!st || sqlite3_step(st.get()) != SQLITE_ROW)
+      return Result<int>::From(Error(StatusCode::kBadFile, "cannot be read as an odocal record store"));
+    return Result<int>::Ok(sqlite3_column_int(st.get(), 0));
+  }
+  // -1: no odocal_schema table.
+  Result<int> ReadVersion() {
+    Statement has = Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'odocal_schema'");
+    if (!has || sqlite3_step(has.get()) != SQLITE_ROW)
+      return Result<int>::From(Error(StatusCode::kBadFile, "cannot read the schema version"));
+    if (sqlite3_column_int(has.get(), 0) == 0) return Result<int>::Ok(-1);
+    Statement st = Prepare("SELECT max(version) FROM odocal_schema");
+    if (!st || sqlite3_step(st.get()) != SQLITE_ROW)
+      return Result<int>::From(Error(StatusCode::kBadFile, "cannot read the schema version"));
+    return Result<int>::Ok(sqlite3_column_type(st.get(), 0) == SQLITE_NULL ? 0 : sqlite3_column_int(st.get(), 0));
+  }
+  Status Migrate() {
+    // Two stations opening a new file at once: the second waits here, then finds it done.
+    if (Status s = Exec("BEGIN IMMEDIATE"); !s) return s;
+    if (Status s = Exec("CREATE TABLE IF NOT EXISTS odocal_schema (version INTEGER NOT NULL, applied_utc TEXT NOT NULL)"); !s)
+      return Rollback<Empty>("cannot create odocal_schema");
+    Result<int> version = ReadVersion();
+    if (!version) return Rollback<Empty>("cannot read the schema version");
+    if (*version > kSchemaVersion) {
+      Exec("ROLLBACK");
+      return NewerSchema(*version);
+    }
+    for (int v = std::max(*version, 0) + 1; v <= kSchemaVersion; ++v) {
+      for (const std::string& sql : Migration(v, Dialect::kSqlite))
+        if (Status s = Exec(sql); !s) return Rollback<Empty>("migration to schema " + std::to_string(v) + " failed");
+      if (Status s = Exec("INSERT INTO odocal_schema (version, applied_utc) VALUES (" + std::to_string(v) + ", '" +
+                          NowUtc() + "')");
+          !s)
+        return Rollback<Empty>("cannot record schema version " + std::to_string(v));
+    }
+    return Exec("COMMIT");
+  }
+  Result<std::vector<Record>> Select(const std::string& sql, const std::string* robot) {
+    using R = Result<std::vector<Record>>;
+    Statement st = Prepare(sql);
+    if (!st) return R::From(Error(StatusCode::kIoError, "cannot read the records"));
+    if (robot) sqlite3_bind_text(st.get(), 1, robot->c_str(), static_cast<int>(robot->size()), SQLITE_TRANSIENT);
+    std::vector<Record> out;
+    int rc;
+    while ((rc = sqlite3_step(st.get())) == SQLITE_ROW) {
+      const char* text = reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0));
+      nlohmann::json j = nlohmann::json::parse(text ? text : "", nullptr, false);
+      Result<Record> r = RecordFromJson(j);
+      if (!r) return R::Error(StatusCode::kBadFile, path_ + ": a stored record is damaged: " + r.message);
+      out.push_back(std::move(*r));
+    }
+    if (rc != SQLITE_DONE) return R::From(Error(StatusCode::kIoError, "cannot read the records"));
+    return R::Ok(std::move(out));
+  }
+
+  sqlite3* db_;
+  std::string path_;
+  int version_ = 0;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<RecordStore>> OpenSqliteStore(const std::string& path) {
+  using R = Result<std::unique_ptr<RecordStore>>;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty() && !fs::exists(parent)) fs::create_directories(parent, ec);
+  if (ec) return R::Error(StatusCode::kOpenFailed, path + ": cannot create its directory: " + ec.message());
+  if (fs::is_directory(path)) return R::Error(StatusCode::kOpenFailed, path + ": is a directory, not a record store file");
+  sqlite3* db = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr);
+  if (rc != SQLITE_OK) {
+    const std::string m = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
+    sqlite3_close_v2(db);
+    return R::Error(StatusCode::kOpenFailed, path + ": cannot open the record store (" + m + ")");
+  }
+  auto store = std::make_unique<SqliteStore>(db, path);
+  if (Status s = store->Open(); !s) return R::From(s);
+  return R::Ok(std::move(store));
+}
+
+}  // namespace odocal::records::internal

@@ -48,6 +48,7 @@ class PostgresStore final : public RecordStore {
   }
 
   Result<bool> Put(const Record& record) override {
+    if (Status s = Storable(record); !s) return Result<bool>::From(s);
     const RecordRow row = RowOf(record);
     std::vector<std::string> numbers;
     std::vector<const char*> values;

@@ -43,4 +43,14 @@ RecordRow RowOf(const Record& r) {
   return row;
 }
 
+Status Storable(const Record& r) {
+  if (r.robot.empty())
+    return Status::Error(StatusCode::kInvalidArgument,
+                         "the robot is not named: give --robot ID (or robot.id in session.yaml; a robot on the link "
+                         "names itself)");
+  if (r.digest.empty()) return Status::Error(StatusCode::kInvalidArgument, "the record has no digest (its key)");
+  if (!ParseUtc(r.time_utc)) return Status::Error(StatusCode::kInvalidArgument, "time_utc `" + r.time_utc + "` is not ISO 8601");
+  return Status::Ok();
+}
+
 }  // namespace odocal::records::internal

@@ -22,6 +22,8 @@ struct RecordRow {
   std::optional<double> ed, eb, emax_syst_before_mm, emax_syst_after_mm, mean_wheel_diameter_mm, track_mm;
 };
 RecordRow RowOf(const Record& record);
+// A record is kept only with its key: a robot and a digest.
+Status Storable(const Record& record);
 
 inline constexpr const char* kInsertColumns =
     "robot, digest, kind, time_utc, host, odocal_version, folder, verdict, kept_utc, document, ed, eb, "

@@ -48,6 +48,7 @@ class SqliteStore final : public RecordStore {
   }
 
   Result<bool> Put(const Record& record) override {
+    if (Status s = Storable(record); !s) return Result<bool>::From(s);
     const RecordRow row = RowOf(record);
     if (Status s = Exec("BEGIN IMMEDIATE"); !s) return Result<bool>::From(s);
     Statement st = Prepare(std::string("INSERT INTO records (") + kInsertColumns +

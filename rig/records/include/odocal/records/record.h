@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "odocal/base/status.h"
+#include "odocal/base/utc_time.h"
 
 namespace odocal::records {
 
@@ -74,7 +75,7 @@ Result<Record> RecordFromJson(const nlohmann::json& j);
 
 // Where the run was, who it was: what the report itself does not say.
 struct RecordContext {
-  std::string robot;           // empty: the report's robot id (the link's serial), else an error
+  std::string robot;           // empty: the report's robot_id or robot_name (the link's); may stay empty
   std::string time_utc;        // empty: now
   std::string host;            // empty: this machine's host name
   std::string folder;          // the run folder
@@ -82,7 +83,8 @@ struct RecordContext {
 };
 
 // The record of a run from its report document: report.json (station, batch), check.json
-// (check) or explain.json (explain). The keys read are in docs/formats.md, "Records".
+// (check) or explain.json (explain). The keys read are in docs/formats.md, "Records". The
+// robot may be left unnamed (a store refuses such a record; `history import --robot` names it).
 Result<Record> RecordFromReport(RunKind kind, const nlohmann::json& report, const RecordContext& context);
 
 // record.json in `folder`, written atomically; the file `history import` reads.
@@ -91,11 +93,10 @@ Result<Record> ReadRecordFile(const std::string& folder_or_file);
 
 // odocal's version as it writes it into records.
 std::string_view OdocalVersion();
-// Now, as ISO 8601 UTC ("2026-11-27T18:40:00Z").
-std::string NowUtc();
-// "2026-11-27T18:40:00Z" (or with a +hh:mm offset, or a date alone) -> seconds since the epoch.
-std::optional<double> ParseUtc(std::string_view text);
-std::string FormatUtc(double seconds_since_epoch);
+// Time in records: ISO 8601 UTC (base/utc_time.h).
+using odocal::FormatUtc;
+using odocal::NowUtc;
+using odocal::ParseUtc;
 
 }  // namespace odocal::records
 

@@ -11,6 +11,8 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "fleet_batch.h"
+#include "record_util.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/trajectory_fit.h"
@@ -24,6 +26,7 @@
 #include "odocal/report/json.h"
 #include "odocal/report/measurement_json.h"
 #include "odocal/report/session_estimate_json.h"
+#include "odocal/records/digest.h"
 
 namespace odocal::app {
 namespace {
@@ -64,19 +67,182 @@ void PrintRuns(const std::vector<measure::SessionMeasurement>& measured) {
 
 }  // namespace
 
+namespace {
+
+struct BatchArgs {
+  std::vector<std::string> sessions;
+  std::string out;
+  int threads = 0;
+  report::ExportRequests exports;
+  std::string estimator = "auto";
+  int edge_shift_views = measure::MeasureOptions{}.edge_shift_views;
+  RecordArgs record;
+  std::string list;
+  std::string shard;
+  bool each = false;
+};
+
+// One calibration from `session_paths` (pooled: the same robot's sessions) into `out`. Fails
+// the command (Fail) on bad input or no result; returns 0, or kExitOutsideLimits when the
+// record fails the limits.
+int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths, const std::string& out,
+            const std::string& robot) {
+  const std::string name = "batch";
+  BatchArgs args_copy = a;
+  args_copy.out = out;
+  const BatchArgs* args = &args_copy;
+  const records::Limits limits = LimitsOrFail(name, a.record);
+  const std::vector<config::Session> sessions = LoadSessionsOrFail(name, session_paths);
+  if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
+  measure::MeasureOptions options;
+  options.threads = args->threads;
+  options.edge_shift_views = args->edge_shift_views;
+  const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
+  // A malformed pose log (or its telemetry) is the one way measuring fails.
+  if (!measured) Fail(name, kExitBadInput, measured.message);
+  if (auto e = config::EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
+
+  nlohmann::json report = {{"command", "batch"},
+                           {"sessions", nlohmann::json::array()},
+                           {"runs", nlohmann::json::array()},
+                           {"trajectories", nlohmann::json::array()}};
+  for (const measure::SessionMeasurement& sm : *measured) {
+    report["sessions"].push_back(
+        {{"session", sm.session.path},
+         {"camera_plane", report::PlaneJson(sm)},
+         {"camera_scale", report::CameraScaleJson(sm)},
+         {"flags", sm.flags}});
+    if (!sm.segments.empty()) {
+      nlohmann::json found = nlohmann::json::array();
+      for (const measure::SegmentAssignment& a : sm.segments)
+        found.push_back({{"run", a.run}, {"source", a.source}, {"start_s", a.begin_s}, {"end_s", a.end_s},
+                         {"found", a.found}, {"procedure_seen", a.procedure_seen}});
+      report["sessions"].back()["segmented_runs"] = found;
+    }
+    for (const measure::RunMeasurement& rm : sm.runs) {
+      nlohmann::json j = report::RunJson(rm);
+      j["session"] = sm.session.path;
+      report["runs"].push_back(j);
+      report["trajectories"].push_back(report::TrajectoryJson(rm));
+    }
+  }
+  const measure::SessionEstimate estimates = measure::EstimateSession(*measured);
+  if (estimates.umbmark) report["umbmark"] = report::SessionUmbmarkJson(estimates);
+  if (const nlohmann::json cvra = report::CvraJson(estimates); !cvra.empty()) report["cvra"] = cvra;
+  const calibration::WheelParams& nominal = sessions.front().nominal;
+  std::optional<calibration::WheelParams> corrected;
+  if (estimates.any()) {
+    corrected = measure::CorrectedParams(nominal, estimates);
+    report["corrected"] = report::WheelParamsJson(*corrected);
+    report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
+  }
+  std::vector<std::string> notes = estimates.notes;
+  std::vector<calibration::RunLeftOut> left_out;  // the jackknife's refits, auto's folds
+  const std::optional<calibration::TrajectoryFitResult> fit =
+      measure::FitSessionTrajectories(*measured, &notes, &left_out);
+  if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
+  // auto: the candidate that predicts held-out runs best (estimator_choice.h).
+  std::string estimator = args->estimator;
+  std::optional<measure::EstimatorChoice> choice;
+  if (estimator == "auto") {
+    measure::EstimatorChoiceOptions choice_options;
+    choice_options.threads = args->threads;
+    choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options, &left_out);
+    estimator = measure::ToString(choice->chosen);
+    report["estimator_choice"] = report::EstimatorChoiceJson("auto", *choice);
+  }
+  // Without a fit that determines Ed, Es and Eb there is nothing to export:
+  // the report (the runs, UMBMark, the notes saying why) is still written,
+  // and the command fails after it.
+  const bool trajectory_missing =
+      estimator == "trajectory" && (!fit || !report["trajectory_fit"].contains("corrected"));
+  if (trajectory_missing) {
+    corrected.reset();
+    report.erase("corrected");
+    report.erase("ros2");
+  } else if (estimator == "trajectory") {
+    corrected = calibration::ApplyWheelScales(nominal, fit->scales);
+    report["corrected"] = report::WheelParamsJson(*corrected);
+    report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
+  }
+  if (corrected) report["corrected_from"] = estimator;
+  report["notes"] = notes;
+  const int usable = measure::CountUsableRuns(*measured);
+  report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
+  report["nominal"] = report::WheelParamsJson(nominal);
+  RunIdentity run;
+  run.kind = records::RunKind::kBatch;
+  run.folder = args->out;
+  run.robot = robot.empty() ? sessions.front().robot_id : robot;
+  run.time_utc = sessions.front().recorded_utc;
+  run.odometer_km = sessions.front().odometer_km;
+  std::vector<std::string> inputs;
+  for (const config::Session& session : sessions)
+    for (const std::string& f : config::SessionFiles(session)) inputs.push_back(f);
+  const Result<std::string> digest = records::DigestFiles("batch", inputs);
+  if (!digest) Fail(name, kExitBadInput, digest.message);
+  run.digest = *digest;
+  if (!run.robot.empty()) report["robot_id"] = run.robot;
+  if (auto e = config::WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
+    Fail(name, kExitFailure, *e);
+  if (auto e = report::WriteReportHtml(report, "odocal batch", args->out + "/report.html"))
+    Fail(name, kExitFailure, *e);
+  if (!trajectory_missing)
+    if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+  // A run that measured nothing is not a calibration: no record.
+  const records::Record record =
+      usable > 0 && !trajectory_missing ? KeepRecord(name, report, run, a.record, limits) : records::Record{};
+
+  for (const measure::SessionMeasurement& sm : *measured)
+    for (const measure::SegmentAssignment& a : sm.segments)
+      std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
+                  a.found.c_str());
+  PrintRuns(*measured);
+  for (const measure::SessionMeasurement& sm : *measured)
+    if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
+  if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
+  if (fit) std::printf("\n%s", fit->BriefReport().c_str());
+  if (choice) {
+    std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice->why.c_str());
+    if (choice->cross_validated) {
+      std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
+                  "(RMS over the path [mm])");
+      for (const measure::CandidateScore& c : choice->candidates)
+        std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
+                    c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
+                    c.estimator == choice->chosen ? "  <- chosen" : "");
+      std::printf("  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
+                  "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
+                  choice->paired_difference_m * 1e3, choice->paired_sigma_m * 1e3, choice->candidates[1].scale,
+                  choice->candidates[1].scale_sigma, choice->candidates[0].scale, choice->scale.z(),
+                  measure::ToString(choice->basis));
+    }
+    for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
+  }
+  for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
+  std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
+  if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
+  if (trajectory_missing)
+    Fail(name, kExitFailure,
+         "--estimator trajectory: nothing exported: " +
+             (fit ? "these runs do not determine " +
+                        std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
+                        " (a plan with straights and turns both ways does)"
+                  : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
+             "; " + args->out + "/report.json has the runs and the notes");
+  if (const std::string line = VerdictLine(record, limits); !line.empty()) std::printf("%s\n", line.c_str());
+  return record.verdict == records::Verdict::kFail ? kExitOutsideLimits : 0;
+}
+
+}  // namespace
+
 void RegisterBatchCommand(CLI::App& app) {
-  struct Args {
-    std::vector<std::string> sessions;
-    std::string out;
-    int threads = 0;
-    report::ExportRequests exports;
-    std::string estimator = "auto";
-    int edge_shift_views = measure::MeasureOptions{}.edge_shift_views;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<BatchArgs>();
   CLI::App* cmd = app.add_subcommand(
       "batch", "Measure every run of recorded sessions from their videos; write DIR/report.json");
-  cmd->add_option("sessions", args->sessions, "Session files (session.yaml)")->required();
+  cmd->add_option("sessions", args->sessions,
+                  "Session files (session.yaml), pooled into one calibration; with --each, --list, --shard or a "
+                  "directory: one calibration per session");
   cmd->add_option("--out", args->out, "Output directory (created)")->required();
   cmd->add_option("--threads", args->threads, "Worker threads (default: one per core)");
   AddExportOption(cmd, &args->exports);
@@ -92,129 +258,26 @@ void RegisterBatchCommand(CLI::App& app) {
                   "look larger or smaller, hence the camera nearer or farther) is measured and then removed "
                   "from every view; 0: the tag's size as it looks (docs/vision.md)")
       ->check(CLI::Range(0, kMaxCount));
+  cmd->add_flag("--each", args->each, "One calibration (folder, record) per session instead of one for all");
+  cmd->add_option("--list", args->list,
+                  "A file of sessions, one a line (relative to the file), each optionally followed by robot=ID; "
+                  "one calibration per session");
+  cmd->add_option("--shard", args->shard,
+                  "I/N: only the sessions k with k mod N = I (I from 0), for N machines sharing a record store");
+  AddRecordOptions(cmd, &args->record, /*with_limits=*/true);
   cmd->callback([args]() {
     const std::string name = "batch";
-    if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
-    const std::vector<config::Session> sessions = LoadSessionsOrFail(name, args->sessions);
-    measure::MeasureOptions options;
-    options.threads = args->threads;
-    options.edge_shift_views = args->edge_shift_views;
-    const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
-    // A malformed pose log (or its telemetry) is the one way measuring fails.
-    if (!measured) Fail(name, kExitBadInput, measured.message);
-    if (auto e = config::EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
-
-    nlohmann::json report = {{"command", "batch"},
-                             {"sessions", nlohmann::json::array()},
-                             {"runs", nlohmann::json::array()},
-                             {"trajectories", nlohmann::json::array()}};
-    for (const measure::SessionMeasurement& sm : *measured) {
-      report["sessions"].push_back(
-          {{"session", sm.session.path},
-           {"camera_plane", report::PlaneJson(sm)},
-           {"camera_scale", report::CameraScaleJson(sm)},
-           {"flags", sm.flags}});
-      if (!sm.segments.empty()) {
-        nlohmann::json found = nlohmann::json::array();
-        for (const measure::SegmentAssignment& a : sm.segments)
-          found.push_back({{"run", a.run}, {"source", a.source}, {"start_s", a.begin_s}, {"end_s", a.end_s},
-                           {"found", a.found}, {"procedure_seen", a.procedure_seen}});
-        report["sessions"].back()["segmented_runs"] = found;
-      }
-      for (const measure::RunMeasurement& rm : sm.runs) {
-        nlohmann::json j = report::RunJson(rm);
-        j["session"] = sm.session.path;
-        report["runs"].push_back(j);
-        report["trajectories"].push_back(report::TrajectoryJson(rm));
-      }
+    const std::optional<FleetBatch> fleet = FleetBatchOrFail(name, args->sessions, args->list, args->shard, args->each);
+    if (!fleet) {
+      if (args->sessions.empty()) Fail(name, kExitBadInput, "give session files, a directory of sessions or --list FILE");
+      const int code = BatchOnce(*args, args->sessions, args->out, args->record.robot);
+      if (code != 0) throw CLI::RuntimeError(code);
+      return;
     }
-    const measure::SessionEstimate estimates = measure::EstimateSession(*measured);
-    if (estimates.umbmark) report["umbmark"] = report::SessionUmbmarkJson(estimates);
-    if (const nlohmann::json cvra = report::CvraJson(estimates); !cvra.empty()) report["cvra"] = cvra;
-    const calibration::WheelParams& nominal = sessions.front().nominal;
-    std::optional<calibration::WheelParams> corrected;
-    if (estimates.any()) {
-      corrected = measure::CorrectedParams(nominal, estimates);
-      report["corrected"] = report::WheelParamsJson(*corrected);
-      report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
-    }
-    std::vector<std::string> notes = estimates.notes;
-    std::vector<calibration::RunLeftOut> left_out;  // the jackknife's refits, auto's folds
-    const std::optional<calibration::TrajectoryFitResult> fit =
-        measure::FitSessionTrajectories(*measured, &notes, &left_out);
-    if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
-    // auto: the candidate that predicts held-out runs best (estimator_choice.h).
-    std::string estimator = args->estimator;
-    std::optional<measure::EstimatorChoice> choice;
-    if (estimator == "auto") {
-      measure::EstimatorChoiceOptions choice_options;
-      choice_options.threads = args->threads;
-      choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options, &left_out);
-      estimator = measure::ToString(choice->chosen);
-      report["estimator_choice"] = report::EstimatorChoiceJson("auto", *choice);
-    }
-    // Without a fit that determines Ed, Es and Eb there is nothing to export:
-    // the report (the runs, UMBMark, the notes saying why) is still written,
-    // and the command fails after it.
-    const bool trajectory_missing =
-        estimator == "trajectory" && (!fit || !report["trajectory_fit"].contains("corrected"));
-    if (trajectory_missing) {
-      corrected.reset();
-      report.erase("corrected");
-      report.erase("ros2");
-    } else if (estimator == "trajectory") {
-      corrected = calibration::ApplyWheelScales(nominal, fit->scales);
-      report["corrected"] = report::WheelParamsJson(*corrected);
-      report["ros2"] = report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, *corrected));
-    }
-    if (corrected) report["corrected_from"] = estimator;
-    report["notes"] = notes;
-    const int usable = measure::CountUsableRuns(*measured);
-    report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
-    if (auto e = config::WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
-      Fail(name, kExitFailure, *e);
-    if (auto e = report::WriteReportHtml(report, "odocal batch", args->out + "/report.html"))
-      Fail(name, kExitFailure, *e);
-    if (!trajectory_missing)
-      if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
-
-    for (const measure::SessionMeasurement& sm : *measured)
-      for (const measure::SegmentAssignment& a : sm.segments)
-        std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
-                    a.found.c_str());
-    PrintRuns(*measured);
-    for (const measure::SessionMeasurement& sm : *measured)
-      if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
-    if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
-    if (fit) std::printf("\n%s", fit->BriefReport().c_str());
-    if (choice) {
-      std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice->why.c_str());
-      if (choice->cross_validated) {
-        std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
-                    "(RMS over the path [mm])");
-        for (const measure::CandidateScore& c : choice->candidates)
-          std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
-                      c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
-                      c.estimator == choice->chosen ? "  <- chosen" : "");
-        std::printf("  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
-                    "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
-                    choice->paired_difference_m * 1e3, choice->paired_sigma_m * 1e3, choice->candidates[1].scale,
-                    choice->candidates[1].scale_sigma, choice->candidates[0].scale, choice->scale.z(),
-                    measure::ToString(choice->basis));
-      }
-      for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
-    }
-    for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
-    std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
-    if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
-    if (trajectory_missing)
-      Fail(name, kExitFailure,
-           "--estimator trajectory: nothing exported: " +
-               (fit ? "these runs do not determine " +
-                          std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
-                          " (a plan with straights and turns both ways does)"
-                    : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
-               "; " + args->out + "/report.json has the runs and the notes");
+    const int code = RunFleetBatch(name, *fleet, args->out, [&](const FleetSession& s, const std::string& out) {
+      return BatchOnce(*args, {s.path}, out, args->record.robot.empty() ? s.robot : args->record.robot);
+    });
+    if (code != 0) throw CLI::RuntimeError(code);
   });
 }
 

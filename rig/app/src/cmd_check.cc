@@ -15,6 +15,8 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "record_util.h"
+#include "odocal/records/digest.h"
 #include "odocal/config/files.h"
 #include "odocal/config/param_files.h"
 #include "odocal/config/session.h"
@@ -28,6 +30,7 @@ struct CheckArgs {
   std::string session;
   std::vector<std::string> params;
   std::string out;
+  RecordArgs record;
 };
 
 void RunCheck(const CheckArgs& args) {
@@ -69,6 +72,20 @@ void RunCheck(const CheckArgs& args) {
   if (auto e = config::WriteFileAtomically(args.out + "/report.html", report::CheckHtml(j)))
     Fail("check", kExitFailure, *e);
   std::printf("wrote %s/check.json and report.html\n", args.out.c_str());
+  if (result.Replayed() > 0) {
+    RunIdentity run;
+    run.kind = records::RunKind::kCheck;
+    run.folder = args.out;
+    run.robot = session->robot_id;
+    run.time_utc = session->recorded_utc;
+    run.odometer_km = session->odometer_km;
+    std::vector<std::string> inputs = config::SessionFiles(*session);
+    for (const config::ParamSpec& spec : specs) inputs.push_back(spec.path);
+    const Result<std::string> digest = records::DigestFiles("check", inputs);
+    if (!digest) Fail("check", kExitBadInput, digest.message);
+    run.digest = *digest;
+    KeepRecord("check", j, run, args.record, {});
+  }
   if (result.Replayed() == 0)
     Fail("check", kExitFailure,
          "no run could be replayed (" +
@@ -91,6 +108,7 @@ void RegisterCheckCommand(CLI::App& app) {
       ->allow_extra_args(false);
   cmd->add_option("--out", args->out, "Output directory (created): check.json, report.html")
       ->required();
+  AddRecordOptions(cmd, &args->record, /*with_limits=*/false);
   cmd->callback([args]() { RunCheck(*args); });
 }
 

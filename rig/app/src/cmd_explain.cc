@@ -19,6 +19,8 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "record_util.h"
+#include "odocal/records/digest.h"
 #include "odocal/calibration/explain.h"
 #include "odocal/config/files.h"
 #include "odocal/config/session.h"
@@ -86,7 +88,35 @@ struct ExplainArgs {
   std::string camera_centre_mm = "1000,0";
   double camera_height_mm = 2500.0;
   int threads = 0;
+  RecordArgs record;
 };
+
+// Who, when and what content: a session file's (config::SessionFiles), or a simulate folder's
+// files with the stand-in camera's settings (another seed is another measurement).
+RunIdentity ExplainIdentity(const ExplainArgs& args) {
+  RunIdentity run;
+  run.kind = records::RunKind::kExplain;
+  run.folder = args.out;
+  std::vector<std::string> files;
+  std::string label = "explain";
+  if (std::filesystem::is_directory(args.session)) {
+    for (const auto& e : std::filesystem::directory_iterator(args.session))
+      if (e.is_regular_file()) files.push_back(e.path().string());
+    std::sort(files.begin(), files.end());
+    label += " stand-in " + std::to_string(args.sigma_mm) + " " + std::to_string(args.sigma_deg) + " " +
+             std::to_string(args.fps) + " " + std::to_string(args.seed) + " " + std::to_string(args.home_radius_mm) +
+             " " + args.camera_centre_mm + " " + std::to_string(args.camera_height_mm);
+  } else if (const Result<config::Session> session = config::LoadSession(args.session)) {
+    files = config::SessionFiles(*session);
+    run.robot = session->robot_id;
+    run.time_utc = session->recorded_utc;
+    run.odometer_km = session->odometer_km;
+  }
+  const Result<std::string> digest = records::DigestFiles(label, files);
+  if (!digest) Fail("explain", kExitBadInput, digest.message);
+  run.digest = *digest;
+  return run;
+}
 
 void RunExplain(const ExplainArgs& args) {
   simulation::StandInCameraOptions camera;
@@ -149,6 +179,7 @@ void RunExplain(const ExplainArgs& args) {
   if (auto e = config::WriteFileAtomically(args.out + "/explain.html", report::ExplainHtml(*session, result)))
     Fail("explain", kExitFailure, *e);
   std::printf("wrote %s/explain.json and explain.html\n", args.out.c_str());
+  KeepRecord("explain", j, ExplainIdentity(args), args.record, {});
 }
 
 void RegisterExplainCommand(CLI::App& app) {
@@ -178,6 +209,7 @@ void RegisterExplainCommand(CLI::App& app) {
                   "core); the result is the same whatever the number")
       ->check(CLI::Range(0, kMaxCount))
       ->capture_default_str();
+  AddRecordOptions(cmd, &args->record, /*with_limits=*/false);
   cmd->callback([args]() { RunExplain(*args); });
 }
 

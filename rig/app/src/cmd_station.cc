@@ -39,6 +39,8 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "record_util.h"
+#include "odocal/records/digest.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
 #include "odocal/config/scenario.h"
@@ -85,7 +87,8 @@ void Progress(const std::string& line) { std::cerr << "station: " << line << std
 
 // Runs the loop, writes the report, prints the outcome; exits non-zero on failure.
 void Finish(station::StationSetup& setup, const station::StationOptions& options, const std::string& out,
-            nlohmann::json extra, const report::ExportRequests& exports, const std::string& live_bind, int live_port) {
+            nlohmann::json extra, const report::ExportRequests& exports, const std::string& live_bind, int live_port,
+            const RecordArgs& record_args, const records::Limits& limits) {
   setup.run_log_dir = out + "/runs";
   // The live view (rig/live): the page shows what the station sees while it runs.
   std::unique_ptr<live::LiveState> live_state;
@@ -147,6 +150,19 @@ void Finish(station::StationSetup& setup, const station::StationOptions& options
     std::printf("corrected set (not applied): %s/corrected.firmware.yaml, %s/corrected.ros2.yaml\n", out.c_str(),
                 out.c_str());
   std::printf("report: %s/report.json and report.html\n", out.c_str());
+  // The record: the robot's name on the link (or --robot), keyed by what this station measured.
+  RunIdentity run;
+  run.kind = records::RunKind::kStation;
+  run.folder = out;
+  nlohmann::json measured = report;
+  for (const char* volatile_key : {"wall_s", "live"}) measured.erase(volatile_key);
+  run.digest = records::DigestText("station " + measured.dump());
+  const records::Record record = KeepRecord("station", report, run, record_args, limits);
+  if (const std::string line = VerdictLine(record, limits); !line.empty()) {
+    std::printf("%s\n", line.c_str());
+    if (record.verdict == records::Verdict::kFail)
+      Fail("station", kExitOutsideLimits, "calibrated, but outside the line's limits (" + line.substr(13) + ")");
+  }
 }
 
 // The command and operator drivers' options from the templates and the set.
@@ -201,6 +217,7 @@ struct StationArgs {
   std::string plan = "scenario";
   int live_port = -1;  // -1: no live view
   std::string live_bind = "127.0.0.1";
+  RecordArgs record;
 };
 
 void RunStation(const StationArgs& args) {
@@ -208,6 +225,7 @@ void RunStation(const StationArgs& args) {
   const std::string name = "station";
   if (args.scenario.empty() == args.config.empty())
     Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
+  records::Limits limits = LimitsOrFail(name, args.record);
   std::signal(SIGINT, OnStationSignal);
   std::signal(SIGTERM, OnStationSignal);
   station::StationOptions options;
@@ -297,12 +315,13 @@ void RunStation(const StationArgs& args) {
     nlohmann::json truth = {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}};
     if (s->robot.effects.turn_slip) truth["turn_slip_at_1rad_s"] = s->robot.effects.turn_slip->fraction_at_1rad_s;
     Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports, args.live_bind,
-           args.live_port);
+           args.live_port, args.record, limits);
     return;
   }
 
   const auto c = config::LoadStationConfig(args.config);
   if (!c) Fail(name, kExitBadInput, c.message);
+  limits = LimitsOrFail(name, args.record, c->limits);
   if (!args.max_rounds_given) options.max_rounds = c->max_rounds;
   options.rest_flush_frames = c->flush_frames;
   options.settle_s = c->settle_s;
@@ -346,7 +365,8 @@ void RunStation(const StationArgs& args) {
   setup.tag = c->tag;
   setup.tag_size_sigma_mm = c->tag_size_sigma_mm;
   setup.floor_reference = c->floor_reference;
-  Finish(setup, options, args.out, {{"config", args.config}}, args.exports, args.live_bind, args.live_port);
+  Finish(setup, options, args.out, {{"config", args.config}}, args.exports, args.live_bind, args.live_port, args.record,
+         limits);
 }
 
 void RegisterStationCommand(CLI::App& app) {
@@ -390,8 +410,9 @@ void RegisterStationCommand(CLI::App& app) {
       "Exit codes: 0 calibrated (or measured, when the driver cannot apply), 2 bad input, 3 robot link (not "
       "answering, line cut), 4 tag not found or camera lost, 5 run not completed (refused, failed, a command "
       "that exits non-zero or times out, no motion seen, the wrong run driven), 7 push or apply refused, "
-      "1 estimate failed, 130 interrupted.");
+      "6 calibrated but outside the limits (--limits, station.yaml's limits:), 1 estimate failed, 130 interrupted.");
   AddExportOption(cmd, &args->exports);
+  AddRecordOptions(cmd, &args->record, /*with_limits=*/true);
   cmd->callback([args, rounds]() {
     args->max_rounds_given = rounds->count() > 0;
     RunStation(*args);

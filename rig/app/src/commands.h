@@ -25,6 +25,8 @@ void RegisterCheckCommand(CLI::App& app);
 void RegisterSetupCheckCommand(CLI::App& app);
 void RegisterWatchCommand(CLI::App& app);
 void RegisterDetectCommand(CLI::App& app);
+void RegisterHistoryCommand(CLI::App& app);
+void RegisterFleetCommand(CLI::App& app);
 
 }  // namespace odocal::app
 

@@ -3,11 +3,12 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/records/record.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"odocal: odometry calibration for differential-drive robots"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "odocal 0.1.0");
+  app.set_version_flag("--version", "odocal " + std::string(odocal::records::OdocalVersion()));
   odocal::app::RegisterSimulateCommand(app);
   odocal::app::RegisterUmbmarkCommand(app);
   odocal::app::RegisterCvraCommand(app);
@@ -25,6 +26,8 @@ int main(int argc, char** argv) {
   odocal::app::RegisterSetupCheckCommand(app);
   odocal::app::RegisterWatchCommand(app);
   odocal::app::RegisterDetectCommand(app);
+  odocal::app::RegisterHistoryCommand(app);
+  odocal::app::RegisterFleetCommand(app);
   // A command line CLI11 refuses (an unknown option, a value out of range)
   // is bad input: exit 2, as every command's own checks (cli_util.h); --help
   // and --version exit 0.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -6,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "file_result.h"
+#include "odocal/base/utc_time.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
 #include "odocal/config/scenario.h"
@@ -133,7 +135,11 @@ std::optional<std::string> WriteSession(const Session& session, const std::strin
       << YAML::Value << n.left_wheel_diameter_m * 1e3 << YAML::Key << "right_wheel_diameter_mm"
       << YAML::Value << n.right_wheel_diameter_m * 1e3 << YAML::Key << "track_mm" << YAML::Value
       << n.track_m * 1e3 << YAML::Key << "ticks_per_rev" << YAML::Value << n.ticks_per_rev
-      << YAML::EndMap << YAML::EndMap;
+      << YAML::EndMap;
+  if (!session.robot_id.empty()) out << YAML::Key << "id" << YAML::Value << session.robot_id;
+  if (session.odometer_km) out << YAML::Key << "odometer_km" << YAML::Value << *session.odometer_km;
+  out << YAML::EndMap;
+  if (!session.recorded_utc.empty()) out << YAML::Key << "recorded_utc" << YAML::Value << session.recorded_utc;
   out << YAML::Key << "runs" << YAML::Value << YAML::BeginSeq;
   for (const SessionRun& run : session.runs) EmitRun(out, run, dir);
   out << YAML::EndSeq << YAML::EndMap;
@@ -159,7 +165,8 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
   if (!root || root.IsNull()) return fail(path + ": empty session file");
   const fs::path dir = fs::absolute(path).parent_path();
   try {
-    CheckKeys(root, "", {"camera_file", "camera_mount_guess", "tag", "floor_reference", "tracker", "robot", "runs"});
+    CheckKeys(root, "",
+              {"camera_file", "camera_mount_guess", "tag", "floor_reference", "tracker", "robot", "runs", "recorded_utc"});
     Session s;
     s.path = path;
     // The camera keys are needed only by video runs: with pose logs alone a
@@ -208,9 +215,19 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
       s.tracker.yaw_deg = OptionalNumber(k, "tracker", "yaw_deg", 0.0);
     }
     if (!root["robot"]) Fail(root, "robot", "missing (required)");
-    CheckKeys(root["robot"], "robot", {"nominal"});
+    CheckKeys(root["robot"], "robot", {"nominal", "id", "odometer_km"});
     if (!root["robot"]["nominal"]) Fail(root["robot"], "robot.nominal", "missing (required)");
     s.nominal = ParseWheels(root["robot"]["nominal"], "robot.nominal", true, 0);
+    if (const YAML::Node id = root["robot"]["id"]) s.robot_id = String(id, "robot.id");
+    if (const YAML::Node km = root["robot"]["odometer_km"]) {
+      s.odometer_km = Number(km, "robot.odometer_km");
+      if (*s.odometer_km < 0) Fail(km, "robot.odometer_km", "must be >= 0");
+    }
+    if (const YAML::Node when = root["recorded_utc"]) {
+      s.recorded_utc = String(when, "recorded_utc");
+      if (!ParseUtc(s.recorded_utc))
+        Fail(when, "recorded_utc", "`" + s.recorded_utc + "` is not ISO 8601 (2026-11-27T14:05:00Z, or a date)");
+    }
     const YAML::Node runs = root["runs"];
     if (!runs) Fail(root, "runs", "missing (required)");
     if (!runs.IsSequence() || runs.size() == 0)
@@ -265,6 +282,17 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
 
 Result<Session> LoadSession(const std::string& path) {
   return ReadFileAs<Session>(path, [&](std::string* error) { return LoadSessionOrError(path, error); });
+}
+
+std::vector<std::string> SessionFiles(const Session& session) {
+  std::vector<std::string> files = {session.path};
+  auto add = [&files](const std::string& f) {
+    if (!f.empty() && std::find(files.begin(), files.end(), f) == files.end()) files.push_back(f);
+  };
+  add(session.camera_file);
+  for (const SessionRun& run : session.runs)
+    for (const std::string* f : {&run.video, &run.poses, &run.timestamps, &run.telemetry}) add(*f);
+  return files;
 }
 
 }  // namespace odocal::config

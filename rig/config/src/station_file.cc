@@ -30,7 +30,7 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
   const fs::path dir = fs::absolute(path).parent_path();
   try {
     ExpectMap(root, "");
-    CheckKeys(root, "", {"robot", "camera", "tag", "floor_reference", "plan", "max_rounds"});
+    CheckKeys(root, "", {"robot", "camera", "tag", "floor_reference", "plan", "max_rounds", "limits"});
     StationConfig c;
     for (const char* key : {"robot", "camera", "tag"})
       if (!root[key]) yaml_util::Fail(root, key, "missing (required)");
@@ -102,6 +102,15 @@ std::optional<StationConfig> LoadStationConfigOrError(const std::string& path, s
     }
     if (const YAML::Node floor = root["floor_reference"])
       c.floor_reference = ParseFloorReference(floor, "floor_reference");
+    if (const YAML::Node limits = root["limits"]) {
+      ExpectMap(limits, "limits");
+      std::string text;
+      for (const auto& kv : limits)
+        text += (text.empty() ? "" : ",") + kv.first.as<std::string>() + "=" + String(kv.second, "limits." + kv.first.as<std::string>());
+      const Result<records::Limits> parsed = records::ParseLimits(text);
+      if (!parsed) yaml_util::Fail(limits, "limits", parsed.message);
+      c.limits = *parsed;
+    }
     if (const YAML::Node plan = root["plan"]) {
       if (plan.IsScalar()) {
         if (String(plan, "plan") != "default")

@@ -78,8 +78,18 @@ struct Session {
   std::optional<vision::FloorReference> floor_reference;
   TrackerMount tracker;
   calibration::WheelParams nominal;
+  // Who and when, for the record store (docs/formats.md, "Records"): `robot.id` (a serial
+  // number), `robot.odometer_km` (the distance the robot had driven), `recorded_utc` (when the
+  // runs were driven, ISO 8601; empty: when they are processed).
+  std::string robot_id;
+  std::optional<double> odometer_km;
+  std::string recorded_utc;
   std::vector<SessionRun> runs;
 };
+
+// Every file the session reads: the session file, its camera file and each run's video, pose
+// log, timestamps and telemetry (each once, in that order): the session's content.
+std::vector<std::string> SessionFiles(const Session& session);
 
 // Reads a session file; kNotFound or kBadFile with one line naming the file and
 // the key otherwise.

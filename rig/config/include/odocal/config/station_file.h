@@ -13,6 +13,7 @@
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/vision/camera_model.h"
+#include "odocal/records/limits.h"
 #include "odocal/vision/floor_reference.h"
 #include "odocal/vision/tag.h"
 
@@ -50,6 +51,9 @@ struct StationConfig {
   bool default_plan = false;
   std::optional<double> slow_turn_rate_deg_s, fast_turn_rate_deg_s;
   int max_rounds = 3;
+  // `limits:` {emax_syst_after_mm, emax_syst_before_mm, ed, eb, recalibrate_days}: the line's
+  // acceptance limits (records/limits.h; ed and eb fractions or percentages "0.5%").
+  records::Limits limits;
 };
 
 // kNotFound or kBadFile with one line naming the file and the key otherwise.

@@ -165,8 +165,10 @@ class PostgresStore final : public RecordStore {
 Result<std::unique_ptr<RecordStore>> OpenPostgresStore(const std::string& url) {
   using R = Result<std::unique_ptr<RecordStore>>;
   // connect_timeout unless the URL sets one: an unreachable server is an answer in seconds.
-  const char* keys[] = {"dbname", "connect_timeout", nullptr};
-  const char* values[] = {url.c_str(), "5", nullptr};
+  // libpq takes the last value of a repeated key, the URL's expanded where dbname stands: the
+  // default goes first, or it would override the URL's.
+  const char* keys[] = {"connect_timeout", "dbname", nullptr};
+  const char* values[] = {"5", url.c_str(), nullptr};
   PGconn* conn = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
   const std::string name = Redacted(url);
   if (!conn || PQstatus(conn) != CONNECTION_OK) {

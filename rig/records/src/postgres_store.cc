@@ -21,11 +21,35 @@ struct ResultDeleter {
 using PgResult = std::unique_ptr<PGresult, ResultDeleter>;
 
 // "postgresql://user:secret@host:5432/db?x=y" -> "postgresql host:5432/db" (no credentials).
+// The query goes first: a '@' in it (application_name=a@b) is not the credentials' end.
 std::string Redacted(const std::string& url) {
   std::string rest = url.substr(url.find("://") + 3);
-  if (const size_t at = rest.rfind('@'); at != std::string::npos) rest = rest.substr(at + 1);
   if (const size_t q = rest.find('?'); q != std::string::npos) rest = rest.substr(0, q);
+  if (const size_t at = rest.rfind('@', rest.find('/')); at != std::string::npos) rest = rest.substr(at + 1);
   return "postgresql " + rest;
+}
+
+// libpq's message about a URL it cannot parse quotes the URL, password and all ("... in URI:
+// \"postgresql://u:secret@[::1/x\""): the URL becomes its redacted name, and any password left
+// (the user info's, a password= parameter's) stars.
+std::string Scrubbed(std::string message, const std::string& url) {
+  auto replace_all = [&message](const std::string& what, const std::string& with) {
+    if (what.empty()) return;
+    for (size_t at = message.find(what); at != std::string::npos; at = message.find(what, at + with.size()))
+      message.replace(at, what.size(), with);
+  };
+  replace_all(url, Redacted(url));
+  const std::string rest = url.substr(url.find("://") + 3);
+  const std::string authority = rest.substr(0, rest.find_first_of("/?"));
+  if (const size_t at = authority.rfind('@'); at != std::string::npos)
+    if (const size_t colon = authority.find(':'); colon < at) replace_all(authority.substr(colon + 1, at - colon - 1), "***");
+  if (const size_t q = url.find('?'); q != std::string::npos) {
+    if (const size_t p = url.find("password=", q); p != std::string::npos) {
+      const size_t begin = p + 9, end = url.find('&', begin);
+      replace_all(url.substr(begin, end == std::string::npos ? std::string::npos : end - begin), "***");
+    }
+  }
+  return message;
 }
 
 class PostgresStore final : public RecordStore {
@@ -172,7 +196,7 @@ Result<std::unique_ptr<RecordStore>> OpenPostgresStore(const std::string& url) {
   PGconn* conn = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
   const std::string name = Redacted(url);
   if (!conn || PQstatus(conn) != CONNECTION_OK) {
-    std::string m = conn ? PQerrorMessage(conn) : "out of memory";
+    std::string m = conn ? Scrubbed(PQerrorMessage(conn), url) : "out of memory";
     while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
     PQfinish(conn);
     return R::Error(StatusCode::kOpenFailed, name + ": cannot connect (" + m + ")");

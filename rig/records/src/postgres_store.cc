@@ -52,6 +52,8 @@ std::string Scrubbed(std::string message, const std::string& url) {
   return message;
 }
 
+// Text is ordered COLLATE "C" (by bytes, as SQLite does): a database's own collation (en_US:
+// "r-0001" before "R-0002") would order robots, and fleet tables, by the server's locale.
 class PostgresStore final : public RecordStore {
  public:
   PostgresStore(PGconn* conn, std::string name) : conn_(conn), name_(std::move(name)) {}
@@ -100,14 +102,14 @@ class PostgresStore final : public RecordStore {
   }
 
   Result<std::vector<Record>> ForRobot(const std::string& robot) override {
-    return Select("SELECT document FROM records WHERE robot = $1 ORDER BY time_utc, id", &robot);
+    return Select("SELECT document FROM records WHERE robot = $1 ORDER BY time_utc COLLATE \"C\", id", &robot);
   }
   Result<std::vector<Record>> All() override {
-    return Select("SELECT document FROM records ORDER BY robot, time_utc, id", nullptr);
+    return Select("SELECT document FROM records ORDER BY robot COLLATE \"C\", time_utc COLLATE \"C\", id", nullptr);
   }
   Result<std::vector<std::string>> Robots() override {
     using R = Result<std::vector<std::string>>;
-    PgResult r(PQexec(conn_, "SELECT DISTINCT robot FROM records ORDER BY robot"));
+    PgResult r(PQexec(conn_, "SELECT DISTINCT robot COLLATE \"C\" FROM records ORDER BY 1"));
     if (PQresultStatus(r.get()) != PGRES_TUPLES_OK) return R::From(Error(StatusCode::kIoError, "cannot list the robots"));
     std::vector<std::string> out;
     for (int i = 0; i < PQntuples(r.get()); ++i) out.emplace_back(PQgetvalue(r.get(), i, 0));

@@ -118,10 +118,18 @@ class SqliteStore final : public RecordStore {
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK) return Statement();
     return Statement(st);
   }
+  // A file that is no database is a bad file; one SQLite cannot read for another reason is not
+  // (a WAL store in a read-only directory cannot make its -shm file: "readonly database").
   Result<int> CountTables() {
     Statement st = Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'");
-    if (!st || sqlite3_step(st.get()) != SQLITE_ROW)
-      return Result<int>::From(Error(StatusCode::kBadFile, "cannot be read as an odocal record store"));
+    if (!st || sqlite3_step(st.get()) != SQLITE_ROW) {
+      const int code = sqlite3_errcode(db_) & 0xff;
+      if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT)
+        return Result<int>::From(Error(StatusCode::kBadFile, "cannot be read as an odocal record store"));
+      return Result<int>::From(Error(StatusCode::kOpenFailed,
+                                     code == SQLITE_READONLY ? "cannot read the record store: SQLite must write its -shm file beside it"
+                                                             : "cannot read the record store"));
+    }
     return Result<int>::Ok(sqlite3_column_int(st.get(), 0));
   }
   // -1: no odocal_schema table.

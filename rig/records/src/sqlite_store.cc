@@ -5,8 +5,10 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <memory>
+#include <thread>
 
 #include "schema.h"
 
@@ -40,7 +42,7 @@ class SqliteStore final : public RecordStore {
       return Error(StatusCode::kBadFile, "holds tables but no odocal_schema: not an odocal record store");
     if (*version > kSchemaVersion) return NewerSchema(*version);
     if (*version < kSchemaVersion) {
-      if (Status s = Exec("PRAGMA journal_mode=WAL"); !s) return s;
+      if (Status s = UseWal(); !s) return s;
       if (Status s = Migrate(); !s) return s;
     }
     version_ = kSchemaVersion;
@@ -112,6 +114,17 @@ class SqliteStore final : public RecordStore {
       return Status::Error(StatusCode::kIoError, path_ + ": " + m);
     }
     return Status::Ok();
+  }
+  // Switching to WAL takes the file's exclusive lock from within a read, so SQLite answers
+  // SQLITE_BUSY at once, without the busy handler, while another connection reads (two
+  // stations opening a new file together): retried here for as long as the busy timeout.
+  Status UseWal() {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kBusyTimeoutMs);
+    for (int attempt = 1;; ++attempt) {
+      Status s = Exec("PRAGMA journal_mode=WAL");
+      if (s || (sqlite3_errcode(db_) & 0xff) != SQLITE_BUSY || std::chrono::steady_clock::now() > deadline) return s;
+      std::this_thread::sleep_for(std::chrono::milliseconds(std::min(attempt, 20)));
+    }
   }
   Statement Prepare(const std::string& sql) {
     sqlite3_stmt* st = nullptr;

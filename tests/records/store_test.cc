@@ -186,12 +186,16 @@ class Children {
       if (c.pid > 0) kill(c.pid, SIGKILL), waitpid(c.pid, nullptr, 0);
     CloseGo();
   }
-  // The child's index. It leaves by _exit: nothing of the test's (GoogleTest, the server
+  // The child's index (-1: no fork). It leaves by _exit: nothing of the test's (GoogleTest, the server
   // harness) runs in it.
   int Fork(const std::function<json()>& work) {
     int report[2];
     if (pipe(report) != 0) return -1;
     const pid_t pid = fork();
+    if (pid < 0) {
+      close(report[0]), close(report[1]);
+      return -1;
+    }
     if (pid == 0) {
       close(report[0]);
       close(go_[1]);
@@ -213,9 +217,8 @@ class Children {
   }
   // Every child starts (closing the write end wakes every reader).
   void Go() { CloseGo(); }
-  pid_t pid(int i) const { return children_[i].pid; }
-  // The child's report ({} when it reported nothing, e.g. killed) and how it ended.
-  json Wait(int i, int* wait_status = nullptr) {
+  // The child's report ({} when it reported nothing: it died).
+  json Wait(int i) {
     Child& c = children_[i];
     std::string text;
     char buf[4096];
@@ -226,10 +229,8 @@ class Children {
       text.append(buf, static_cast<size_t>(n));
     }
     close(c.report_fd);
-    int status = 0;
-    waitpid(c.pid, &status, 0);
+    waitpid(c.pid, nullptr, 0);
     c.pid = -1;
-    if (wait_status) *wait_status = status;
     return text.empty() ? json::object() : json::parse(text, nullptr, false);
   }
 
@@ -557,8 +558,9 @@ TEST(SqliteStore, NewerSchemaIsRefusedNamingBothVersions) {
 // Root writes to any file whatever its mode, and CI runs as root: the writer runs in a child
 // that drops to `nobody` (when root) so that chmod means what it says for it. Two cases: the
 // file read-only in a directory the writer may write (it opens; Put is refused), and both
-// read-only (it may already fail to open: SQLite's WAL wants a -shm file beside it). Either
-// way: an error, never a record half-kept, and the store reads whole afterwards.
+// read-only (it does not open: SQLite must make a -shm file beside a WAL store to read it).
+// Either way an error naming the file, no record half-kept, and the store reads whole after.
+// Not covered: a read-only mount (EROFS), which needs mount privileges a test should not use.
 TEST(SqliteStore, ReadOnlyFileRefusesToWriteAndKeepsWhatItHad) {
   TempDir dir;
   const passwd* nobody = geteuid() == 0 ? getpwnam("nobody") : nullptr;
@@ -580,11 +582,11 @@ TEST(SqliteStore, ReadOnlyFileRefusesToWriteAndKeepsWhatItHad) {
     ASSERT_EQ(chmod(folder.c_str(), directory_writable ? 0755 : 0555), 0);
 
     Children children;
-    children.Fork([&] {
+    ASSERT_EQ(children.Fork([&] {
       if (nobody && (setgroups(0, nullptr) != 0 || setgid(gid) != 0 || setuid(uid) != 0))
         return json{{"errors", {"cannot drop to nobody"}}, {"setup", true}};
       return PutAll(path, Records("R-0500", 3, 6));
-    });
+    }), 0);
     children.Go();
     const json report = children.Wait(0);
     ASSERT_FALSE(report.contains("setup")) << report;
@@ -615,8 +617,8 @@ TEST(SqliteStore, TwoProcessesWritingOneFileAtOnceKeepEachRecordOnce) {
   // 200 each, 100 of them the same records (the same run processed on both).
   const std::vector<Record> first = Records("R-0600", 0, 200), second = Records("R-0600", 100, 300);
   Children children;
-  children.Fork([&] { return PutAll(path, first); });
-  children.Fork([&] { return PutAll(path, second); });
+  ASSERT_EQ(children.Fork([&] { return PutAll(path, first); }), 0);
+  ASSERT_EQ(children.Fork([&] { return PutAll(path, second); }), 1);
   children.Go();
   const json a = children.Wait(0), b = children.Wait(1);
   EXPECT_EQ(a["errors"], json::array()) << a;
@@ -689,7 +691,7 @@ TEST_F(PostgresStoreTest, FourShardsOpeningANewDatabaseAtOnceMigrateItOnce) {
     expected.insert(expected.end(), own.begin(), own.end());
     std::vector<Record> mine = Records("R-shared", 0, 20);
     mine.insert(mine.begin() + 10, own.begin(), own.end());  // shared ones first and last
-    children.Fork([url, mine] { return PutAll(url, mine); });
+    ASSERT_EQ(children.Fork([url, mine] { return PutAll(url, mine); }), shard);
   }
   children.Go();
   int added = 0, kept = 0;

@@ -16,12 +16,14 @@ packages=(
   libopencv-dev libapriltag-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libboost-dev
   libcpp-httplib-dev  # the live view's HTTP server (rig/live)
+  libsqlite3-dev libpq-dev libssl-dev  # the record store (rig/records): SQLite, PostgreSQL's client, SHA-256
   ffmpeg  # H.264 at a chosen quality: OpenCV 4.6 pins x264 at CRF 23 (docs/vision.md)
 )
 if [[ $mode == all ]]; then
   packages+=(
     libgtest-dev libgmock-dev libbenchmark-dev
     chromium  # headless, for the live view's screenshot test (tests/live)
+    postgresql  # a server store_test starts of its own (tests/records/postgres_server.h)
     # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)
     gcc-avr binutils-avr avr-libc simavr libsimavr-dev libsimavrparts1 arduino-core-avr
     gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm

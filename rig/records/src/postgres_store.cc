@@ -21,13 +21,39 @@ struct ResultDeleter {
 using PgResult = std::unique_ptr<PGresult, ResultDeleter>;
 
 // "postgresql://user:secret@host:5432/db?x=y" -> "postgresql host:5432/db" (no credentials).
+// The query goes first: a '@' in it (application_name=a@b) is not the credentials' end.
 std::string Redacted(const std::string& url) {
   std::string rest = url.substr(url.find("://") + 3);
-  if (const size_t at = rest.rfind('@'); at != std::string::npos) rest = rest.substr(at + 1);
   if (const size_t q = rest.find('?'); q != std::string::npos) rest = rest.substr(0, q);
+  if (const size_t at = rest.rfind('@', rest.find('/')); at != std::string::npos) rest = rest.substr(at + 1);
   return "postgresql " + rest;
 }
 
+// libpq's message about a URL it cannot parse quotes the URL, password and all ("... in URI:
+// \"postgresql://u:secret@[::1/x\""): the URL becomes its redacted name, and any password left
+// (the user info's, a password= parameter's) stars.
+std::string Scrubbed(std::string message, const std::string& url) {
+  auto replace_all = [&message](const std::string& what, const std::string& with) {
+    if (what.empty()) return;
+    for (size_t at = message.find(what); at != std::string::npos; at = message.find(what, at + with.size()))
+      message.replace(at, what.size(), with);
+  };
+  replace_all(url, Redacted(url));
+  const std::string rest = url.substr(url.find("://") + 3);
+  const std::string authority = rest.substr(0, rest.find_first_of("/?"));
+  if (const size_t at = authority.rfind('@'); at != std::string::npos)
+    if (const size_t colon = authority.find(':'); colon < at) replace_all(authority.substr(colon + 1, at - colon - 1), "***");
+  if (const size_t q = url.find('?'); q != std::string::npos) {
+    if (const size_t p = url.find("password=", q); p != std::string::npos) {
+      const size_t begin = p + 9, end = url.find('&', begin);
+      replace_all(url.substr(begin, end == std::string::npos ? std::string::npos : end - begin), "***");
+    }
+  }
+  return message;
+}
+
+// Text is ordered COLLATE "C" (by bytes, as SQLite does): a database's own collation (en_US:
+// "r-0001" before "R-0002") would order robots, and fleet tables, by the server's locale.
 class PostgresStore final : public RecordStore {
  public:
   PostgresStore(PGconn* conn, std::string name) : conn_(conn), name_(std::move(name)) {}
@@ -77,14 +103,14 @@ class PostgresStore final : public RecordStore {
   }
 
   Result<std::vector<Record>> ForRobot(const std::string& robot) override {
-    return Select("SELECT document FROM records WHERE robot = $1 ORDER BY time_utc, id", &robot);
+    return Select("SELECT document FROM records WHERE robot = $1 ORDER BY time_utc COLLATE \"C\", id", &robot);
   }
   Result<std::vector<Record>> All() override {
-    return Select("SELECT document FROM records ORDER BY robot, time_utc, id", nullptr);
+    return Select("SELECT document FROM records ORDER BY robot COLLATE \"C\", time_utc COLLATE \"C\", id", nullptr);
   }
   Result<std::vector<std::string>> Robots() override {
     using R = Result<std::vector<std::string>>;
-    PgResult r(PQexec(conn_, "SELECT DISTINCT robot FROM records ORDER BY robot"));
+    PgResult r(PQexec(conn_, "SELECT DISTINCT robot COLLATE \"C\" FROM records ORDER BY 1"));
     if (PQresultStatus(r.get()) != PGRES_TUPLES_OK) return R::From(Error(StatusCode::kIoError, "cannot list the robots"));
     std::vector<std::string> out;
     for (int i = 0; i < PQntuples(r.get()); ++i) out.emplace_back(PQgetvalue(r.get(), i, 0));
@@ -166,12 +192,14 @@ class PostgresStore final : public RecordStore {
 Result<std::unique_ptr<RecordStore>> OpenPostgresStore(const std::string& url) {
   using R = Result<std::unique_ptr<RecordStore>>;
   // connect_timeout unless the URL sets one: an unreachable server is an answer in seconds.
-  const char* keys[] = {"dbname", "connect_timeout", nullptr};
-  const char* values[] = {url.c_str(), "5", nullptr};
+  // libpq takes the last value of a repeated key, the URL's expanded where dbname stands: the
+  // default goes first, or it would override the URL's.
+  const char* keys[] = {"connect_timeout", "dbname", nullptr};
+  const char* values[] = {"5", url.c_str(), nullptr};
   PGconn* conn = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
   const std::string name = Redacted(url);
   if (!conn || PQstatus(conn) != CONNECTION_OK) {
-    std::string m = conn ? PQerrorMessage(conn) : "out of memory";
+    std::string m = conn ? Scrubbed(PQerrorMessage(conn), url) : "out of memory";
     while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
     PQfinish(conn);
     return R::Error(StatusCode::kOpenFailed, name + ": cannot connect (" + m + ")");

@@ -5,8 +5,10 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <memory>
+#include <thread>
 
 #include "schema.h"
 
@@ -40,7 +42,7 @@ class SqliteStore final : public RecordStore {
       return Error(StatusCode::kBadFile, "holds tables but no odocal_schema: not an odocal record store");
     if (*version > kSchemaVersion) return NewerSchema(*version);
     if (*version < kSchemaVersion) {
-      if (Status s = Exec("PRAGMA journal_mode=WAL"); !s) return s;
+      if (Status s = UseWal(); !s) return s;
       if (Status s = Migrate(); !s) return s;
     }
     version_ = kSchemaVersion;
@@ -114,15 +116,34 @@ class SqliteStore final : public RecordStore {
     }
     return Status::Ok();
   }
+  // Switching to WAL takes the file's exclusive lock from within a read, so SQLite answers
+  // SQLITE_BUSY at once, without the busy handler, while another connection reads (two
+  // stations opening a new file together): retried here for as long as the busy timeout.
+  Status UseWal() {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kBusyTimeoutMs);
+    for (int attempt = 1;; ++attempt) {
+      Status s = Exec("PRAGMA journal_mode=WAL");
+      if (s || (sqlite3_errcode(db_) & 0xff) != SQLITE_BUSY || std::chrono::steady_clock::now() > deadline) return s;
+      std::this_thread::sleep_for(std::chrono::milliseconds(std::min(attempt, 20)));
+    }
+  }
   Statement Prepare(const std::string& sql) {
     sqlite3_stmt* st = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr) != SQLITE_OK) return Statement();
     return Statement(st);
   }
+  // A file that is no database is a bad file; one SQLite cannot read for another reason is not
+  // (a WAL store in a read-only directory cannot make its -shm file: "readonly database").
   Result<int> CountTables() {
     Statement st = Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'");
-    if (!st || sqlite3_step(st.get()) != SQLITE_ROW)
-      return Result<int>::From(Error(StatusCode::kBadFile, "cannot be read as an odocal record store"));
+    if (!st || sqlite3_step(st.get()) != SQLITE_ROW) {
+      const int code = sqlite3_errcode(db_) & 0xff;
+      if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT)
+        return Result<int>::From(Error(StatusCode::kBadFile, "cannot be read as an odocal record store"));
+      return Result<int>::From(Error(StatusCode::kOpenFailed,
+                                     code == SQLITE_READONLY ? "cannot read the record store: SQLite must write its -shm file beside it"
+                                                             : "cannot read the record store"));
+    }
     return Result<int>::Ok(sqlite3_column_int(st.get(), 0));
   }
   // -1: no odocal_schema table.

@@ -131,7 +131,11 @@ class PostgresStore final : public RecordStore {
   Status Exec(const std::string& sql) {
     PgResult r(PQexec(conn_, sql.c_str()));
     const ExecStatusType st = PQresultStatus(r.get());
-    if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) return Error(StatusCode::kIoError, "'" + sql.substr(0, 40) + "...' failed");
+    if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) {
+      std::string what(sql, 0, std::min<size_t>(sql.size(), 40));  // (appending to a literal trips GCC 12's -Wrestrict)
+      what.append("... failed");
+      return Error(StatusCode::kIoError, what);
+    }
     return Status::Ok();
   }
   // -1: no odocal_schema table.

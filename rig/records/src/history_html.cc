@@ -67,7 +67,13 @@ std::vector<double> Ticks(double lo, double hi, int count) {
       step = m * mag;
       break;
     }
-  for (double t = std::ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) ticks.push_back(std::fabs(t) < step * 1e-9 ? 0.0 : t);
+  // Counted in whole steps: adding a step too small for the values' magnitude would never end.
+  const double first = std::ceil(lo / step);
+  for (int k = 0; k <= 2 * count + 2; ++k) {
+    const double t = (first + k) * step;
+    if (t > hi + step * 1e-9) break;
+    ticks.push_back(std::fabs(t) < step * 1e-9 ? 0.0 : t);
+  }
   return ticks;
 }
 
@@ -84,7 +90,8 @@ Frame MakeFrame(double xlo, double xhi, double ylo, double yhi) {
     xlo -= 1.0;
     xhi += 1.0;
   }
-  if (!(yhi > ylo)) {
+  // All values equal (a chart whose sigma is 0) or equal but for rounding: a band around them.
+  if (!(yhi - ylo > 1e-9 * std::max(1.0, std::fabs(ylo)))) {
     const double pad = std::max(1e-6, std::fabs(ylo) * 1e-3);
     ylo -= pad;
     yhi += pad;
@@ -150,7 +157,9 @@ std::string TimePlot(const std::string& title, const std::string& unit, const st
   std::string s = "<figure><figcaption>" + Escape(title) + "</figcaption>" + SvgOpen(title) + YAxis(f, unit) + TimeAxis(f);
   for (const auto& [t, label] : marks) {
     s += Line(f.X(t), Frame::kTop, f.X(t), Frame::kH - Frame::kBottom, label.rfind("step", 0) == 0 ? "step" : "limit");
-    s += Format("<text class=\"mark\" x=\"%.1f\" y=\"%.1f\">%s</text>", f.X(t) + 3, Frame::kTop + 10, Escape(label).c_str());
+    const bool right_half = f.X(t) > Frame::kW / 2;  // the label on the side with room
+    s += Format("<text class=\"mark\" x=\"%.1f\" y=\"%.1f\" text-anchor=\"%s\">%s</text>", f.X(t) + (right_half ? -3 : 3),
+                Frame::kTop + 10, right_half ? "end" : "start", Escape(label).c_str());
   }
   if (slope_per_week && segment.size() >= 2) {
     const bool weighted = std::all_of(segment.begin(), segment.end(), [](const TimePoint& p) { return p.sigma && *p.sigma > 0; });
@@ -163,9 +172,9 @@ std::string TimePlot(const std::string& title, const std::string& unit, const st
     }
     const double tm = st / sw, ym = sy / sw;
     auto at = [&](double t) { return ym + *slope_per_week * (t - tm) / kSecondsPerWeek; };
-    const double ta = segment.front().t, tb = std::max(segment.back().t, xhi);
-    s += Format("<path class=\"trend\" d=\"M%.1f %.1fL%.1f %.1f\"/>", f.X(ta), f.Y(at(ta)), f.X(tb),
-                f.Y(std::clamp(at(tb), f.y0, f.y1)));
+    // Over the calibrations it was fitted to: drawn further it would leave the plot's range.
+    const double ta = segment.front().t, tb = segment.back().t;
+    s += Format("<path class=\"trend\" d=\"M%.1f %.1fL%.1f %.1f\"/>", f.X(ta), f.Y(at(ta)), f.X(tb), f.Y(at(tb)));
   }
   for (const TimePoint& p : points) {
     if (p.sigma) s += Line(f.X(p.t), f.Y(p.y - *p.sigma), f.X(p.t), f.Y(p.y + *p.sigma), "bar");
@@ -193,6 +202,7 @@ svg text{font:12px system-ui,sans-serif;fill:#333}
 .mean{stroke:#2a5db0;stroke-width:1.5}.cl{stroke:#b00020;stroke-dasharray:6 4}.run{stroke:#aac;fill:none}
 circle.flag{fill:#d00020}text.flag{fill:#d00020;font-weight:600}
 dl{display:grid;grid-template-columns:max-content 1fr;gap:2px 14px}dt{color:#555}dd{margin:0}
+@media (max-width:600px){svg text{font-size:20px}body{font-size:14px}}
 </style>)";
 
 std::string Page(const std::string& title, const std::string& body) {
@@ -345,7 +355,7 @@ std::string FleetHtml(const FleetSummary& fleet) {
     std::string path;
     for (size_t i = 0; i < values.size(); ++i) path += Format("%s%.1f %.1f", i ? "L" : "M", f.X(i), f.Y(values[i]));
     b << "<path class=\"run\" d=\"" << path << "\"/>";
-    const size_t label_every = std::max<size_t>(1, values.size() / 12);
+    const size_t label_every = (values.size() + 7) / 8;  // robot names need room
     for (size_t i = 0; i < values.size(); ++i) {
       const std::string robot = c["robots"][i].get<std::string>();
       const auto it = flagged.find(static_cast<int>(i));

@@ -520,10 +520,13 @@ TEST(Fleet, ControlChartFlagsAnOutlyingBuild) {
   for (int i = 0; i < 10; ++i) {
     Record r = Calibration("robot" + std::to_string(i), kStart + i * 86400.0, 72.0, 0.01, 300.0, 0.3);
     r.ed = Estimate{ed[i], 0.0005};
+    r.eb = Estimate{0.999, 0.001};  // every build alike: a chart with sigma 0 must still draw
     all.push_back(r);
   }
   const FleetSummary fleet = SummariseFleet(all, Options());
-  ASSERT_EQ(fleet.charts.size(), 1u);
+  ASSERT_EQ(fleet.charts.size(), 2u);
+  EXPECT_NEAR(fleet.charts[1].sigma, 0.0, 1e-12);
+  EXPECT_TRUE(fleet.charts[1].flags.empty());
   EXPECT_EQ(fleet.judged, 0);
   EXPECT_TRUE(FleetJson(fleet)["pass_rate"].is_null());
   ASSERT_FALSE(fleet.charts[0].flags.empty());

@@ -11,12 +11,15 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <regex>
 #include <sstream>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "../records/postgres_server.h"
+#include "odocal/base/utc_time.h"
 #include "odocal/test_util/test_util.h"
 
 namespace odocal {
@@ -71,7 +74,7 @@ void MakeSession(const std::string& dir, const SessionSpec& s) {
     scenario << "seed: " << s.seed << "\nrobot:\n  nominal: " << WheelsYaml(s.nominal, true)
              << "\n  true: " << WheelsYaml(s.truth, false)
              << "\n  speed_mm_s: 400\n  turn_rate_deg_s: 90\n  noise: {wheel_mm_per_sqrt_m: 0.05}\n"
-             << kPlanYaml;
+             << std::regex_replace(kPlanYaml, std::regex("name: [a-z_0-9]+, "), "");  // a scenario's runs have no names
   }
   const CommandResult sim = RunCommand(Odocal("simulate --scenario " + dir + "/scenario.yaml --out " + dir + "/sim"));
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
@@ -220,6 +223,143 @@ TEST_F(RecordsCli, TheLinesLimitsGivePassOrFailWithExitSix) {
   EXPECT_EQ(typo.exit_code, 2);
   EXPECT_THAT(typo.err, HasSubstr("edd"));
   EXPECT_FALSE(fs::exists(dir_ + "/limits/typo")) << "bad input writes nothing";
+}
+
+
+// Four shards of one list writing into one PostgreSQL at once, one of them killed while it works
+// and run again: every session kept exactly once (the key is robot and content, the write one
+// statement).
+TEST_F(RecordsCli, FourShardsIntoOnePostgresKeepEverySessionOnceAKilledShardRerunLosesAndDoublesNothing) {
+  auto server = records_test::PostgresServer::Start();
+  ASSERT_TRUE(server.ok()) << server.message;
+  const Result<std::string> url = (*server)->CreateDatabase("line");
+  ASSERT_TRUE(url.ok()) << url.message;
+  const std::string dir = dir_ + "/shards";
+  fs::create_directories(dir);
+  {
+    // Eight units: the same recorded session under eight serial numbers (distinct keys).
+    std::ofstream list(dir + "/sessions.txt");
+    list << "# unit sessions\n";
+    for (int k = 0; k < 8; ++k) list << "../s1/session.yaml robot=U-" << k << "\n";
+  }
+  auto shard = [&](int i) {
+    return Odocal("batch --list " + dir + "/sessions.txt --shard " + std::to_string(i) + "/4 --out " + dir +
+                  "/out --db " + *url + " --threads 1");
+  };
+  // Shard 3 is killed a moment after it starts; the other three run to the end beside it.
+  const CommandResult all = RunCommand("(" + shard(0) + " > " + dir + "/0.log 2>&1 & " + shard(1) + " > " + dir +
+                                       "/1.log 2>&1 & " + shard(2) + " > " + dir + "/2.log 2>&1 & " + shard(3) +
+                                       " > " + dir + "/3.log 2>&1 & k=$!; sleep 1.5; kill -9 $k; wait)");
+  ASSERT_EQ(all.exit_code, 0) << all.err;
+  for (int i = 0; i < 3; ++i) {
+    const nlohmann::json summary = ReadJson(dir + "/out/shard-" + std::to_string(i) + "-of-4.json");
+    ASSERT_EQ(summary["sessions"].size(), 2u);
+    for (const nlohmann::json& s : summary["sessions"]) EXPECT_EQ(s["exit_code"], 0) << s.dump();
+  }
+  const CommandResult rerun = RunCommand(shard(3));
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.out << rerun.err;
+  const CommandResult again = RunCommand(shard(3));
+  EXPECT_THAT(again.out, HasSubstr("already kept"));
+  const CommandResult fleet = RunCommand(Odocal("fleet --json --db " + *url));
+  ASSERT_EQ(fleet.exit_code, 0) << fleet.err;
+  const nlohmann::json f = nlohmann::json::parse(fleet.out);
+  ASSERT_EQ(f["robots"].size(), 8u);
+  EXPECT_EQ(f["records"], 8);
+  for (int k = 0; k < 8; ++k) EXPECT_EQ(f["robots"][k]["robot"], "U-" + std::to_string(k));
+}
+
+// A simulated year of a fleet: three robots re-calibrated every 30 days through batch --list
+// (two shards at once into one SQLite file), each month driven with the set the last calibration
+// exported, while their wheels wear (mm a week, left / right):
+//   R-A  -0.030 / -0.026          (nearly even)
+//   R-B  -0.070 / -0.050          (uneven: its E_max,syst grows fastest between calibrations)
+//   R-C  -0.030 / -0.030, and in month 6 a repair that moves the track by +3 mm
+// history must read each wear rate within its sigma of the simulated one, name R-C's repair as a
+// step and only that, and fleet must put R-B first to cross the E_max,syst limit.
+TEST(FleetYear, HistoryReadsTheWearTheRepairAndWhoCrossesTheLimitFirst) {
+  const std::string dir = test_util::MakeTempDir("odocal_fleet_year");
+  const std::string db = dir + "/fleet.sqlite";
+  struct Robot {
+    std::string id;
+    double wear_left, wear_right;  // mm a week
+    Wheels built;
+    Wheels nominal;
+  };
+  std::vector<Robot> robots = {{"R-A", -0.030, -0.026, {72.00, 72.04, 301.0}, {}},
+                               {"R-B", -0.070, -0.050, {71.98, 72.00, 299.5}, {}},
+                               {"R-C", -0.030, -0.030, {72.02, 72.00, 300.5}, {}}};
+  const double start = *ParseUtc("2026-01-05T08:00:00Z");
+  const int months = 12, repair_month = 6;
+  for (int m = 0; m < months; ++m) {
+    const double weeks = 30.0 * m / 7.0;
+    const std::string month = dir + "/m" + std::to_string(m);
+    std::ofstream list(month + ".txt");
+    for (size_t r = 0; r < robots.size(); ++r) {
+      Robot& robot = robots[r];
+      SessionSpec s;
+      s.robot = robot.id;
+      s.nominal = robot.nominal;
+      s.truth = {robot.built.left_mm + robot.wear_left * weeks, robot.built.right_mm + robot.wear_right * weeks,
+                 robot.built.track_mm + (robot.id == "R-C" && m >= repair_month ? 3.0 : 0.0)};
+      s.recorded_utc = FormatUtc(start + 30.0 * 86400.0 * m);
+      s.odometer_km = 40.0 * m;
+      s.seed = 100 * m + static_cast<int>(r) + 1;
+      MakeSession(month + "/" + robot.id, s);
+      ASSERT_FALSE(::testing::Test::HasFatalFailure());
+      list << "m" << m << "/" << robot.id << "/session.yaml\n";
+    }
+    list.close();
+    auto shard = [&](int i) {
+      return Odocal("batch --list " + month + ".txt --shard " + std::to_string(i) + "/2 --out " + month +
+                    "/out --db " + db + " --threads 1");
+    };
+    const CommandResult both = RunCommand("(" + shard(0) + " > " + month + ".0.log 2>&1 & a=$!; " + shard(1) + " > " +
+                                          month + ".1.log 2>&1; b=$?; wait $a; exit $(( $? | b )))");
+    ASSERT_EQ(both.exit_code, 0) << test_util::Slurp(month + ".0.log") << test_util::Slurp(month + ".1.log");
+    // The robot is updated: next month it drives with what this month exported.
+    for (Robot& robot : robots) {
+      const nlohmann::json c = ReadJson(month + "/out/" + robot.id + "/report.json")["corrected"];
+      robot.nominal = {c["left_wheel_diameter_mm"], c["right_wheel_diameter_mm"], c["track_mm"]};
+    }
+  }
+  const std::string now = "2027-01-01";
+  const std::string limits = " --limits emax_syst_after_mm=4,recalibrate_days=30 --now " + now;
+  for (const Robot& robot : robots) {
+    SCOPED_TRACE(robot.id);
+    const CommandResult h = RunCommand(Odocal("history " + robot.id + " --json --db " + db + limits));
+    ASSERT_EQ(h.exit_code, 0) << h.err;
+    const nlohmann::json a = nlohmann::json::parse(h.out)["analysis"];
+    ASSERT_EQ(nlohmann::json::parse(h.out)["records"].size(), static_cast<size_t>(months));
+    ASSERT_TRUE(a["wear_mm_per_week"].is_object()) << a.dump();
+    const double wear = a["wear_mm_per_week"]["value"], sigma = a["wear_mm_per_week"]["sigma"];
+    const double truth = 0.5 * (robot.wear_left + robot.wear_right);
+    EXPECT_LT(sigma, 0.01) << "a year of monthly calibrations tells the wear to a hundredth of a mm a week";
+    EXPECT_NEAR(wear, truth, 2.0 * sigma) << "wear " << wear << " +/- " << sigma;
+    if (robot.id == "R-C") {
+      ASSERT_EQ(a["steps"].size(), 1u) << a["steps"].dump();
+      EXPECT_EQ(a["steps"][0]["index"], repair_month);
+      EXPECT_EQ(a["steps"][0]["parameter"], "track_mm");
+      EXPECT_NEAR(a["steps"][0]["change"].get<double>(), 3.0, 0.5);
+    } else {
+      EXPECT_EQ(a["steps"].size(), 0u) << a["steps"].dump();
+    }
+  }
+  const CommandResult fleet = RunCommand(Odocal("fleet --json --db " + db + limits + " --out " + dir + "/fleet"));
+  ASSERT_EQ(fleet.exit_code, 0) << fleet.err;
+  const nlohmann::json f = nlohmann::json::parse(fleet.out);
+  ASSERT_EQ(f["robots"].size(), 3u);
+  std::string first;
+  std::string first_date = "9999";
+  for (const nlohmann::json& r : f["robots"]) {
+    const nlohmann::json crossing = r["last"].is_null() ? nlohmann::json() : r.value("limit_crossing_utc", nlohmann::json());
+    if (crossing.is_string() && crossing.get<std::string>() < first_date) {
+      first_date = crossing;
+      first = r["robot"];
+    }
+  }
+  EXPECT_EQ(first, "R-B") << f.dump(1);
+  EXPECT_TRUE(fs::exists(dir + "/fleet/report.html"));
+  fs::remove_all(dir);
 }
 
 }  // namespace

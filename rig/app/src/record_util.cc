@@ -64,7 +64,7 @@ records::Record KeepRecord(const std::string& command, const nlohmann::json& rep
   if (args.no_record) return record;
   const std::string db = args.db.empty() ? records::DefaultDatabase() : args.db;
   const std::string later = "add it later: odocal history import " + run.folder +
-                            (args.db.empty() ? std::string() : " --db " + args.db) +
+                            (args.db.empty() ? std::string() : " --db " + records::WithoutPassword(args.db)) +
                             (record.robot.empty() ? std::string(" --robot ID") : std::string());
   Result<bool> added = Result<bool>::Error(StatusCode::kFailed, "");
   Result<std::unique_ptr<records::RecordStore>> store = records::OpenStore(db);

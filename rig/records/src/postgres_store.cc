@@ -31,7 +31,7 @@ std::string Redacted(const std::string& url) {
 
 // libpq's message about a URL it cannot parse quotes the URL, password and all ("... in URI:
 // \"postgresql://u:secret@[::1/x\""): the URL becomes its redacted name, and any password left
-// (the user info's, a password= parameter's) stars.
+// stars (store.h's PasswordsIn).
 std::string Scrubbed(std::string message, const std::string& url) {
   auto replace_all = [&message](const std::string& what, const std::string& with) {
     if (what.empty()) return;
@@ -39,16 +39,7 @@ std::string Scrubbed(std::string message, const std::string& url) {
       message.replace(at, what.size(), with);
   };
   replace_all(url, Redacted(url));
-  const std::string rest = url.substr(url.find("://") + 3);
-  const std::string authority = rest.substr(0, rest.find_first_of("/?"));
-  if (const size_t at = authority.rfind('@'); at != std::string::npos)
-    if (const size_t colon = authority.find(':'); colon < at) replace_all(authority.substr(colon + 1, at - colon - 1), "***");
-  if (const size_t q = url.find('?'); q != std::string::npos) {
-    if (const size_t p = url.find("password=", q); p != std::string::npos) {
-      const size_t begin = p + 9, end = url.find('&', begin);
-      replace_all(url.substr(begin, end == std::string::npos ? std::string::npos : end - begin), "***");
-    }
-  }
+  for (const std::string& secret : PasswordsIn(url)) replace_all(secret, "***");
   return message;
 }
 

@@ -17,6 +17,30 @@ Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db) {
   return internal::OpenSqliteStore(db);
 }
 
+std::vector<std::string> PasswordsIn(const std::string& db) {
+  std::vector<std::string> secrets;
+  const size_t scheme = db.find("://");
+  if (scheme == std::string::npos) return secrets;
+  const std::string rest = db.substr(scheme + 3);
+  const std::string authority = rest.substr(0, rest.find_first_of("/?"));
+  if (const size_t at = authority.rfind('@'); at != std::string::npos)
+    if (const size_t colon = authority.find(':'); colon < at && at > colon + 1)
+      secrets.push_back(authority.substr(colon + 1, at - colon - 1));
+  if (const size_t q = db.find('?'); q != std::string::npos)
+    for (size_t p = db.find("password=", q); p != std::string::npos; p = db.find("password=", p + 9)) {
+      const size_t begin = p + 9, end = db.find('&', begin);
+      if (end != begin) secrets.push_back(db.substr(begin, end == std::string::npos ? std::string::npos : end - begin));
+    }
+  return secrets;
+}
+
+std::string WithoutPassword(const std::string& db) {
+  std::string out = db;
+  for (const std::string& secret : PasswordsIn(db))
+    for (size_t at = out.find(secret); at != std::string::npos; at = out.find(secret, at + 3)) out.replace(at, secret.size(), "***");
+  return out;
+}
+
 std::string DefaultDatabase() {
   if (const char* env = std::getenv("ODOCAL_DB"); env && *env) return env;
   if (const char* xdg = std::getenv("XDG_DATA_HOME"); xdg && *xdg) return std::string(xdg) + "/odocal/records.sqlite";

@@ -43,6 +43,11 @@ class RecordStore {
 // record store (a corrupt file is never read as an empty one), a newer schema.
 Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db);
 
+// The passwords a postgresql:// URL carries (the user info's, a password= parameter's); none
+// for a path. WithoutPassword: `db` with each replaced by ***, for messages.
+std::vector<std::string> PasswordsIn(const std::string& db);
+std::string WithoutPassword(const std::string& db);
+
 // $ODOCAL_DB when set, else $XDG_DATA_HOME/odocal/records.sqlite, else
 // ~/.local/share/odocal/records.sqlite.
 std::string DefaultDatabase();

@@ -124,7 +124,8 @@ TEST(History, ARepairIsOneStepAtItsRecordAndWearIsNotAStep) {
     EXPECT_EQ(a.steps[0].parameter, "track_mm");
     EXPECT_NEAR(a.steps[0].change, 3.0, 5.0 * 0.3);
     EXPECT_GT(a.steps[0].z, 4.0);
-    EXPECT_EQ(a.segment_start, 26);
+    EXPECT_EQ(a.track_segment_start, 26);
+    EXPECT_EQ(a.segment_start, 0) << "a track repair leaves the wheels' wear trend whole";
     // The trend restarts at the repair: 27 weeks of wear still measured.
     ASSERT_TRUE(a.wear_mm_per_week && a.wear_mm_per_week->sigma);
     EXPECT_NEAR(a.wear_mm_per_week->value, -0.05, 5.0 * *a.wear_mm_per_week->sigma);

@@ -30,7 +30,7 @@ RecordContext Context() {
   return c;
 }
 
-TEST(RecordFromReport, ABatchTakesTheChosenEstimatorsEdAndEbAndPropagatesTheirSigmas) {
+TEST(RecordFromReport, ABatchTakesTheChosenEstimatorsEdAndEbAndPropagatesTheirSigmasClaimingNoScaleItDidNotMeasure) {
   const json report = {{"nominal", Wheels(72.0, 72.0, 300.0)},
                        {"corrected", Wheels(71.9, 72.1, 301.5)},
                        {"corrected_from", "umbmark"},
@@ -48,13 +48,23 @@ TEST(RecordFromReport, ABatchTakesTheChosenEstimatorsEdAndEbAndPropagatesTheirSi
   EXPECT_NEAR(*r->eb->sigma, 1e-3, 1e-15);
   EXPECT_NEAR(r->emax_syst_before_mm->value, 12.5, 1e-12);
   EXPECT_FALSE(r->emax_syst_after_mm) << "batch does not drive the robot again";
-  // D_L = 2 s / (Ed + 1): dD_L / D_L = dEd / (Ed + 1); the track: dB / B = dEb / Eb.
-  EXPECT_NEAR(*r->after->left_wheel_diameter_mm.sigma, 71.9 * 2e-4 / 2.0028, 1e-9);
-  EXPECT_NEAR(*r->after->right_wheel_diameter_mm.sigma, 72.1 * 2e-4 / 2.0028, 1e-9);
+  // The track: dB / B = dEb / Eb. The diameters: UMBMark kept the believed scale, whose sigma no
+  // one stated: none is claimed.
   EXPECT_NEAR(*r->after->track_mm.sigma, 301.5 * 1e-3 / 1.005, 1e-9);
-  const Estimate mean = r->after->MeanWheelDiameterMm();
+  EXPECT_FALSE(r->after->left_wheel_diameter_mm.sigma);
+  EXPECT_FALSE(r->after->MeanWheelDiameterMm().sigma);
+
+  // With CVRA's scale from straights (its sigma stated): D_L = 2 s / (Ed + 1), so
+  // dD_L / D_L = dEd / (Ed + 1) with the scale's relative sigma beside it.
+  json with_scale = report;
+  with_scale["cvra"]["scale"] = {{"scale", 0.9995}, {"sigma_total", 3e-4}};
+  const Result<Record> s = RecordFromReport(RunKind::kBatch, with_scale, Context());
+  const double rel = std::hypot(2e-4 / 2.0028, 3e-4);
+  EXPECT_NEAR(*s->after->left_wheel_diameter_mm.sigma, 71.9 * rel, 1e-9);
+  EXPECT_NEAR(*s->after->right_wheel_diameter_mm.sigma, 72.1 * rel, 1e-9);
+  const Estimate mean = s->after->MeanWheelDiameterMm();
   EXPECT_NEAR(mean.value, 72.0, 1e-12);
-  EXPECT_NEAR(*mean.sigma, 0.5 * std::hypot(71.9, 72.1) * 2e-4 / 2.0028, 1e-9);
+  EXPECT_NEAR(*mean.sigma, 0.5 * std::hypot(71.9, 72.1) * rel, 1e-9);
 }
 
 TEST(RecordFromReport, ATrajectoryExportAddsTheDistanceScalesSigmaToBothWheels) {

@@ -1,6 +1,7 @@
 #include "odocal/records/history.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -42,7 +43,13 @@ struct LineFit {
   double SlopeSigma() const { return std::sqrt(scale / sxx); }
 };
 
-std::optional<LineFit> FitLine(const std::vector<Point>& points) {
+std::optional<LineFit> FitLine(const std::vector<Point>& given) {
+  // Points without a sigma beside three or more with one (a UMBMark calibration that kept the
+  // believed scale among trajectory fits): the weighted line of those with one. Unit weights for
+  // all would let the unknown points set the scatter, and drop every known sigma.
+  std::vector<Point> known;
+  std::copy_if(given.begin(), given.end(), std::back_inserter(known), [](const Point& p) { return p.sigma && *p.sigma > 0.0; });
+  const std::vector<Point>& points = known.size() >= 3 ? known : given;
   LineFit f;
   f.n = static_cast<int>(points.size());
   if (f.n < 2) return std::nullopt;
@@ -130,6 +137,59 @@ std::vector<Point> Points(const std::vector<Calibration>& cals, size_t from, siz
   return out;
 }
 
+// The value at calibration i from the slope the parameter's segments before i share (each at its
+// own level: the weighted line with one intercept per segment), taken from the level of the
+// segment i is in. Needs the current segment to have a point and the whole to leave a residual.
+std::optional<Prediction> PredictFromSegments(const std::vector<Calibration>& cals, const std::vector<size_t>& starts,
+                                              size_t i, const Parameter& p) {
+  struct Group {
+    std::vector<Point> points;
+    double sum_w = 0.0, xm = 0.0, ym = 0.0;
+  };
+  std::vector<Group> groups;
+  for (size_t s = 0; s < starts.size(); ++s)
+    groups.push_back({Points(cals, starts[s], s + 1 < starts.size() ? starts[s + 1] : i, p), 0.0, 0.0, 0.0});
+  size_t total = 0;
+  bool weighted = true;
+  for (const Group& g : groups)
+    for (const Point& q : g.points) {
+      ++total;
+      weighted = weighted && q.sigma && *q.sigma > 0.0;
+    }
+  const int dof = static_cast<int>(total) - static_cast<int>(groups.size()) - 1;
+  if (groups.back().points.empty() || dof < (weighted ? 1 : 2)) return std::nullopt;
+  auto w = [&](const Point& q) { return weighted ? 1.0 / (*q.sigma * *q.sigma) : 1.0; };
+  double sxx = 0.0, sxy = 0.0;
+  for (Group& g : groups) {
+    for (const Point& q : g.points) {
+      g.sum_w += w(q);
+      g.xm += w(q) * q.x;
+      g.ym += w(q) * q.y;
+    }
+    if (g.sum_w <= 0.0) continue;
+    g.xm /= g.sum_w;
+    g.ym /= g.sum_w;
+    for (const Point& q : g.points) {
+      sxx += w(q) * (q.x - g.xm) * (q.x - g.xm);
+      sxy += w(q) * (q.x - g.xm) * (q.y - g.ym);
+    }
+  }
+  if (!(sxx > 0.0)) return std::nullopt;
+  const double slope = sxy / sxx;
+  double chi2 = 0.0, ssr = 0.0;
+  for (const Group& g : groups)
+    for (const Point& q : g.points) {
+      const double r = q.y - g.ym - slope * (q.x - g.xm);
+      chi2 += w(q) * r * r;
+      ssr += r * r;
+    }
+  const double scale = weighted ? std::max(1.0, chi2 / dof) : chi2 / dof;
+  const Group& g = groups.back();
+  const double x = cals[i].weeks;
+  return Prediction{g.ym + slope * (x - g.xm),
+                    scale * (1.0 / g.sum_w + (x - g.xm) * (x - g.xm) / sxx) + ssr / dof};
+}
+
 double TimeOf(const Record& r) {
   return ParseUtc(r.time_utc).value_or(-std::numeric_limits<double>::infinity());
 }
@@ -204,31 +264,33 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
   for (Calibration& c : cals) c.weeks = (c.time_s - cals.front().time_s) / kSecondsPerWeek;
   const size_t n = cals.size();
 
-  // Steps: each calibration against the trend of its segment. A segment too short for a trend
-  // (its first two after a step, or the very first ones) is tested backwards instead: the
-  // calibration before against the trend of the next few, since the previous value alone would
-  // call a robot that wears four of its sigmas a week a repair every week.
-  size_t segment = 0;
+  // Steps, parameter by parameter (a track repair leaves the wheels' wear trend whole): each
+  // calibration against the trend of its segment. A segment with no trend of its own yet (its
+  // first calibrations after a step) is predicted by the slope the earlier segments share, from
+  // its own level; with no earlier segment either (the very first calibrations) it is tested
+  // backwards, the calibration before against the trend of the next few. The previous value alone
+  // is the last resort: it would call a robot that wears four of its sigmas between calibrations
+  // a repair every time.
   constexpr size_t kMinTrend = 3, kBackwardWindow = 8;
+  std::vector<std::vector<size_t>> starts(std::size(kParameters), std::vector<size_t>{0});
   for (size_t i = 1; i < n; ++i) {
-    bool stepped = false;
-    for (const Parameter& p : kParameters) {
+    for (size_t q = 0; q < std::size(kParameters); ++q) {
+      const Parameter& p = kParameters[q];
+      const size_t segment = starts[q].back();
       const Estimate& now = cals[i].*(p.field);
       const Estimate& before = cals[i - 1].*(p.field);
       std::optional<Prediction> pred;
-      double observed = 0.0, observed_sigma = 0.0, change = 0.0;
-      if (i - segment >= kMinTrend) {
-        pred = PredictFromTrend(Points(cals, segment, i, p), cals[i].weeks);
-        observed = now.value;
-        observed_sigma = now.sigma.value_or(0.0);
-        if (pred) change = now.value - pred->value;
-      } else if (n - i >= kMinTrend) {
+      double observed = now.value, observed_sigma = now.sigma.value_or(0.0), change = 0.0;
+      if (i - segment >= kMinTrend) pred = PredictFromTrend(Points(cals, segment, i, p), cals[i].weeks);
+      if (!pred) pred = PredictFromSegments(cals, starts[q], i, p);
+      if (pred) change = now.value - pred->value;
+      if (!pred && n - i >= kMinTrend) {
         pred = PredictFromTrend(Points(cals, i, std::min(n, i + kBackwardWindow), p), cals[i - 1].weeks);
         observed = before.value;
         observed_sigma = before.sigma.value_or(0.0);
         if (pred) change = pred->value - before.value;
       }
-      if (!pred && before.sigma) {  // nothing to fit on either side: the previous value
+      if (!pred && before.sigma) {
         pred = Prediction{before.value, *before.sigma * *before.sigma};
         observed = now.value;
         observed_sigma = now.sigma.value_or(0.0);
@@ -240,17 +302,19 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
       const double z = std::fabs(observed - pred->value) / std::sqrt(variance);
       if (z > options.step_z) {
         a.steps.push_back(Step{cals[i].record, a.records[cals[i].record].time_utc, p.name, change, z});
-        stepped = true;
+        starts[q].push_back(i);
       }
     }
-    if (stepped) segment = i;
   }
+  const size_t segment = starts[1].back();        // the wheels' (what wear is fitted over)
+  const size_t track_segment = starts[0].back();
   a.segment_start = cals[segment].record;
+  a.track_segment_start = cals[track_segment].record;
 
-  // Trends over the segment since the last step.
+  // Trends over each parameter's segment since its last step.
   std::vector<Point> diameter = Points(cals, segment, n, kParameters[1]);
   a.wear_mm_per_week = SlopeEstimate(diameter);
-  a.track_mm_per_week = SlopeEstimate(Points(cals, segment, n, kParameters[0]));
+  a.track_mm_per_week = SlopeEstimate(Points(cals, track_segment, n, kParameters[0]));
   std::vector<Point> by_distance;
   for (size_t k = segment; k < n; ++k)
     if (cals[k].distance_km) by_distance.push_back({*cals[k].distance_km / 1000.0, cals[k].diameter.value, cals[k].diameter.sigma});
@@ -314,8 +378,11 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
   // the newest already says it: no warning twice).
   const bool newest_stepped =
       std::any_of(a.steps.begin(), a.steps.end(), [&](const Step& s) { return s.index == last.record; });
-  if (n >= 2 && !newest_stepped && n - 1 - segment >= kMinTrend) {
-    for (const Parameter& p : kParameters) {
+  for (size_t q = 0; q < std::size(kParameters) && n >= 2 && !newest_stepped; ++q) {
+    const Parameter& p = kParameters[q];
+    const size_t segment = starts[q].back();
+    if (n - 1 - segment < kMinTrend) continue;
+    {
       const Estimate& now = last.*(p.field);
       const auto pred = PredictFromTrend(Points(cals, segment, n - 1, p), last.weeks);
       if (!pred) continue;
@@ -343,6 +410,7 @@ json HistoryJson(const HistoryAnalysis& a) {
           {"records", records},
           {"analysis",
            {{"segment_start", a.segment_start},
+            {"track_segment_start", a.track_segment_start},
             {"wear_mm_per_week", EstimateJson(a.wear_mm_per_week)},
             {"wear_mm_per_1000km", EstimateJson(a.wear_mm_per_1000km)},
             {"track_mm_per_week", EstimateJson(a.track_mm_per_week)},
@@ -444,6 +512,11 @@ FleetSummary SummariseFleet(const std::vector<Record>& all, const HistoryOptions
     robot.due_utc = a.due_utc;
     robot.due = a.due;
     robot.warnings = a.warnings;
+    robot.limit_crossing_utc = a.limit_crossing_utc;
+    robot.steps = static_cast<int>(a.steps.size());
+    // ISO 8601 UTC strings order as their times do.
+    if (a.limit_crossing_utc && (!fleet.first_to_cross || *a.limit_crossing_utc < fleet.first_to_cross->second))
+      fleet.first_to_cross = std::make_pair(name, *a.limit_crossing_utc);
     if (robot.last.verdict != Verdict::kNone) {
       ++fleet.judged;
       if (robot.last.verdict == Verdict::kPass) ++fleet.passed;
@@ -495,6 +568,8 @@ json FleetJson(const FleetSummary& fleet) {
                       {"verdict", ToString(r.last.verdict)},
                       {"due", r.due},
                       {"due_utc", OrNull(r.due_utc)},
+                      {"limit_crossing_utc", OrNull(r.limit_crossing_utc)},
+                      {"steps", r.steps},
                       {"wear_mm_per_week", EstimateJson(r.wear_mm_per_week)},
                       {"warnings", r.warnings}});
   json causes = json::array();
@@ -513,6 +588,9 @@ json FleetJson(const FleetSummary& fleet) {
                       {"flags", flags}});
   }
   return {{"robots", robots},
+          {"first_to_cross", fleet.first_to_cross ? json{{"robot", fleet.first_to_cross->first},
+                                                         {"limit_crossing_utc", fleet.first_to_cross->second}}
+                                                  : json(nullptr)},
           {"records", fleet.records},
           {"pass_rate", fleet.judged > 0 ? json(static_cast<double>(fleet.passed) / fleet.judged) : json(nullptr)},
           {"judged", fleet.judged},
@@ -533,6 +611,9 @@ std::string FleetTable(const FleetSummary& fleet) {
     for (const std::string& w : r.warnings) out << "    warning: " << w << "\n";
   }
   out << "\n";
+  if (fleet.first_to_cross)
+    out << "first to reach the E_max,syst limit: " << fleet.first_to_cross->first << " on "
+        << fleet.first_to_cross->second << "\n";
   if (fleet.judged > 0)
     out << Format("passed %d of %d judged (%.1f %%)\n", fleet.passed, fleet.judged, 100.0 * fleet.passed / fleet.judged);
   else

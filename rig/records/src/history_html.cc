@@ -219,7 +219,7 @@ std::string HistoryHtml(const HistoryAnalysis& analysis) {
   const json doc = HistoryJson(analysis);
   const json& an = doc["analysis"];
   const json& records = doc["records"];
-  const int segment_start = an.value("segment_start", 0);
+  const int segment_start = an.value("segment_start", 0), track_segment_start = an.value("track_segment_start", 0);
   std::set<int> step_rows;
   for (const json& s : an["steps"]) step_rows.insert(s.value("index", -1));
 
@@ -236,10 +236,8 @@ std::string HistoryHtml(const HistoryAnalysis& analysis) {
     TimePoint k{*t, Num(after["track_mm"]["value"]).value_or(0), Num(after["track_mm"]["sigma"])};
     diameter.push_back(d);
     track.push_back(k);
-    if (static_cast<int>(i) >= segment_start) {
-      diameter_seg.push_back(d);
-      track_seg.push_back(k);
-    }
+    if (static_cast<int>(i) >= segment_start) diameter_seg.push_back(d);
+    if (static_cast<int>(i) >= track_segment_start) track_seg.push_back(k);
   }
   std::vector<std::pair<double, std::string>> marks;
   for (const json& s : an["steps"])

@@ -116,6 +116,7 @@ void FromBatch(const json& report, Record* r) {
   const json umbmark = report.value("umbmark", json());
   if (umbmark.is_object()) r->emax_syst_before_mm = EstimateFrom(umbmark, "emax_syst_mm", "sigma_emax_syst_mm");
   std::optional<double> scale_sigma;
+  bool umbmark_scale_unknown = false;
   if (from == "trajectory" && report.contains("trajectory_fit")) {
     const json& fit = report["trajectory_fit"];
     r->ed = EstimateFrom(fit.value("Ed", json()), "value", "sigma");
@@ -125,8 +126,19 @@ void FromBatch(const json& report, Record* r) {
   } else if (umbmark.is_object() && umbmark.contains("estimate")) {
     r->ed = EstimateFrom(umbmark["estimate"], "Ed", "sigma_Ed");
     r->eb = EstimateFrom(umbmark["estimate"], "Eb", "sigma_Eb");
+    // UMBMark keeps the believed distance scale, or takes CVRA's from straights: the diameters
+    // are known only as well as that scale. No stated sigma for it (one straight, none): none
+    // for the diameters either, rather than Ed's alone, which would claim the scale exact.
+    const json scale = report.contains("cvra") ? report["cvra"].value("scale", json()) : json();
+    const std::optional<double> total = Number(scale, "sigma_total");
+    if (total && *total > 0.0) scale_sigma = *total;
+    else umbmark_scale_unknown = true;
   }
   if (r->after) AddSigmas(&*r->after, r->ed, r->eb, scale_sigma);
+  if (r->after && umbmark_scale_unknown) {
+    r->after->left_wheel_diameter_mm.sigma.reset();
+    r->after->right_wheel_diameter_mm.sigma.reset();
+  }
   r->status = r->after ? "calibrated (" + (from.empty() ? std::string("umbmark") : from) + ")" : "measured, nothing exported";
   r->findings = Strings(report.value("findings", json::array()));
 }

@@ -34,7 +34,8 @@ struct Step {
 struct HistoryAnalysis {
   std::string robot;
   std::vector<Record> records;  // oldest first (calibrations: records with a calibrated set)
-  int segment_start = 0;        // the first record after the last step: the trend is fitted from here
+  int segment_start = 0;        // the first record after the wheels' last step: wear is fitted from here
+  int track_segment_start = 0;  // the same for the track
   // The mean wheel diameter's trend (negative: shrinking), per week and per 1000 km (the latter
   // when the records carry the odometer).
   std::optional<Estimate> wear_mm_per_week;
@@ -66,6 +67,8 @@ struct FleetRobot {
   std::optional<Estimate> wear_mm_per_week;
   std::optional<std::string> due_utc;
   bool due = false;
+  std::optional<std::string> limit_crossing_utc;  // when E_max,syst is predicted to reach its limit
+  int steps = 0;                                  // steps (repairs) in its history
   std::vector<std::string> warnings;
 };
 
@@ -93,6 +96,8 @@ struct FleetSummary {
   int judged = 0, passed = 0;                       // robots whose last record has a verdict
   std::vector<std::pair<std::string, int>> causes;  // failed limits by kind, most common first
   std::vector<ControlChart> charts;
+  // The robot predicted to reach its E_max,syst limit first, and when (none without a limit).
+  std::optional<std::pair<std::string, std::string>> first_to_cross;
 };
 
 // `all` grouped by robot, each oldest first (RecordStore::All's order).

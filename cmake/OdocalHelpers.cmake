@@ -13,7 +13,8 @@ function(odocal_test name)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE odocal::test_util GTest::gmock_main ${ARG_LIBS})
-  set(env "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+  # Records the tests' runs make go to the build tree's store, never the user's.
+  set(env "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR};ODOCAL_DB=${CMAKE_BINARY_DIR}/Testing/records.sqlite")
   if(ARG_SERIAL)
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
       PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)

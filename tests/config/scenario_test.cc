@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <algorithm>
 #include <fstream>
 #include <tuple>
 
@@ -289,6 +290,32 @@ TEST(Session, BadFloorReferenceKeysAreNamed) {
     const std::string error = test_util::ErrorOf(config::LoadSession(dir + "/bad.yaml"));
     EXPECT_THAT(error, ::testing::HasSubstr(expected)) << from << " -> " << to;
   }
+}
+
+TEST(Session, WhoAndWhenRoundTripAndABadTimeIsNamed) {
+  const std::string dir = test_util::MakeTempDir("odocal_session_who_");
+  config::Session session = FloorSession(dir);
+  session.robot_id = "R-0042";
+  session.odometer_km = 812.5;
+  session.recorded_utc = "2026-03-02T09:00:00Z";
+  ASSERT_FALSE(config::WriteSession(session, dir + "/session.yaml"));
+  const auto loaded = config::LoadSession(dir + "/session.yaml");
+  ASSERT_TRUE(loaded) << loaded.message;
+  EXPECT_EQ(loaded->robot_id, "R-0042");
+  ASSERT_TRUE(loaded->odometer_km);
+  EXPECT_NEAR(*loaded->odometer_km, 812.5, 1e-12);
+  EXPECT_EQ(loaded->recorded_utc, "2026-03-02T09:00:00Z");
+  // Its content, for the record's digest: the session file and the run's video, once each.
+  const std::vector<std::string> files = config::SessionFiles(*loaded);
+  EXPECT_EQ(files.front(), dir + "/session.yaml");
+  EXPECT_EQ(std::count(files.begin(), files.end(), dir + "/run01.mp4"), 1);
+
+  std::string text = test_util::Slurp(dir + "/session.yaml");
+  text.replace(text.find("2026-03-02T09:00:00Z"), 20, "last tuesday");
+  std::ofstream(dir + "/bad.yaml") << text;
+  const std::string error = test_util::ErrorOf(config::LoadSession(dir + "/bad.yaml"));
+  EXPECT_THAT(error, ::testing::HasSubstr("recorded_utc"));
+  EXPECT_THAT(error, ::testing::HasSubstr("last tuesday"));
 }
 
 }  // namespace

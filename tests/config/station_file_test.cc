@@ -81,5 +81,23 @@ TEST(StationFile, ABadFloorReferenceIsNamed) {
   }
 }
 
+TEST(StationFile, TheLinesLimitsLoadAndABadOneIsNamed) {
+  const std::string dir = test_util::MakeTempDir("odocal_station_limits_");
+  std::ofstream(dir + "/station.yaml") << kStation << "limits: {emax_syst_after_mm: 2, ed: 0.5%, eb: 0.02}\n";
+  const auto c = config::LoadStationConfig(dir + "/station.yaml");
+  ASSERT_TRUE(c) << c.message;
+  ASSERT_TRUE(c->limits.emax_syst_after_mm && c->limits.ed_tolerance && c->limits.eb_tolerance);
+  EXPECT_NEAR(*c->limits.emax_syst_after_mm, 2.0, 1e-12);
+  EXPECT_NEAR(*c->limits.ed_tolerance, 0.005, 1e-12);
+  EXPECT_NEAR(*c->limits.eb_tolerance, 0.02, 1e-12);
+  EXPECT_FALSE(c->limits.emax_syst_before_mm);
+
+  std::ofstream(dir + "/bad.yaml") << kStation << "limits: {emax_syst_after: 2}\n";
+  const auto bad = config::LoadStationConfig(dir + "/bad.yaml");
+  ASSERT_FALSE(bad);
+  EXPECT_THAT(bad.message, ::testing::HasSubstr("bad.yaml"));
+  EXPECT_THAT(bad.message, ::testing::HasSubstr("emax_syst_after"));
+}
+
 }  // namespace
 }  // namespace odocal

@@ -19,7 +19,8 @@ done < "$here/commands.txt"
 # trajectories, HTML) keep only the SHA-256 of their normalised text, in NAME/digests.txt.
 for d in "$work"/*/; do
   name=$(basename "$d"); rm -rf "${here:?}/$name"; mkdir -p "$here/$name"
-  (cd "$d" && find . -type f \( -name '*.json' -o -name '*.yaml' -o -name '*.csv' -o -name '*.txt' -o -name '*.html' \) | sort |
+  # record.json is when and where a run was (time, host, folder): its numbers are report.json's.
+  (cd "$d" && find . -type f \( -name '*.json' -o -name '*.yaml' -o -name '*.csv' -o -name '*.txt' -o -name '*.html' \) ! -name record.json | sort |
      while IFS= read -r f; do
        f=${f#./}
        text=$(sed -e "s#${d%/}#@OUT#g" -e "s#$src#@SRC#g" "$f"; echo x)

@@ -105,6 +105,9 @@ TEST(RecordFromReport, AStationsAfterIsTheLastRoundDrivenWithTheKeptSet) {
   EXPECT_NEAR(r->emax_syst_before_mm->value, 40.0, 1e-12);
   EXPECT_NEAR(*r->emax_syst_after_mm->sigma, 0.4, 1e-12);
   EXPECT_THAT(r->findings, ::testing::ElementsAre("turn slip at fast turns"));
+  // Squares alone: the distance scale was not measured, so no sigma is claimed for the diameters.
+  EXPECT_NEAR(*r->after->track_mm.sigma, 301.0 * 2e-4 / 1.004, 1e-9);
+  EXPECT_FALSE(r->after->left_wheel_diameter_mm.sigma);
 }
 
 TEST(RecordFromReport, ExplainsFinalParametersAndItsEffectsAreTheRecord) {

@@ -60,6 +60,22 @@ void AddSigmas(WheelSet* w, const std::optional<Estimate>& ed, const std::option
   if (eb && eb->sigma && eb->value > 0) w->track_mm.sigma = w->track_mm.value * *eb->sigma / eb->value;
 }
 
+// The relative sigma of the distance scale UMBMark's correction used: CVRA's from straights
+// (`cvra.scale.sigma_total` of the report or the station's round), when one was stated.
+std::optional<double> UmbmarkScaleSigma(const json& holder) {
+  const json scale = holder.is_object() && holder.contains("cvra") && holder["cvra"].is_object()
+                         ? holder["cvra"].value("scale", json())
+                         : json();
+  const std::optional<double> total = Number(scale, "sigma_total");
+  if (total && *total > 0.0) return total;
+  return std::nullopt;
+}
+
+void ClearDiameterSigmas(WheelSet* w) {
+  w->left_wheel_diameter_mm.sigma.reset();
+  w->right_wheel_diameter_mm.sigma.reset();
+}
+
 std::optional<Estimate> EstimateFrom(const json& j, const char* value_key, const char* sigma_key) {
   const auto v = Number(j, value_key);
   if (!v) return std::nullopt;
@@ -106,7 +122,13 @@ void FromStation(const json& report, Record* r) {
   const json& last = iterations.back();
   if (iterations.size() > 1 && r->after && PlainWheelSet(last.value("params_used", json())))
     r->emax_syst_after_mm = EstimateFrom(last, "emax_syst_mm", "emax_syst_sigma_mm");
-  if (r->after) AddSigmas(&*r->after, r->ed, r->eb, std::nullopt);
+  // The station estimates as batch's UMBMark does: the diameters only as well as CVRA's scale
+  // from straights, when the plan drove them (the first round's cvra.scale).
+  const std::optional<double> scale_sigma = UmbmarkScaleSigma(first);
+  if (r->after) {
+    AddSigmas(&*r->after, r->ed, r->eb, scale_sigma);
+    if (!scale_sigma) ClearDiameterSigmas(&*r->after);
+  }
 }
 
 void FromBatch(const json& report, Record* r) {
@@ -129,16 +151,11 @@ void FromBatch(const json& report, Record* r) {
     // UMBMark keeps the believed distance scale, or takes CVRA's from straights: the diameters
     // are known only as well as that scale. No stated sigma for it (one straight, none): none
     // for the diameters either, rather than Ed's alone, which would claim the scale exact.
-    const json scale = report.contains("cvra") ? report["cvra"].value("scale", json()) : json();
-    const std::optional<double> total = Number(scale, "sigma_total");
-    if (total && *total > 0.0) scale_sigma = *total;
-    else umbmark_scale_unknown = true;
+    scale_sigma = UmbmarkScaleSigma(report);
+    umbmark_scale_unknown = !scale_sigma;
   }
   if (r->after) AddSigmas(&*r->after, r->ed, r->eb, scale_sigma);
-  if (r->after && umbmark_scale_unknown) {
-    r->after->left_wheel_diameter_mm.sigma.reset();
-    r->after->right_wheel_diameter_mm.sigma.reset();
-  }
+  if (r->after && umbmark_scale_unknown) ClearDiameterSigmas(&*r->after);
   r->status = r->after ? "calibrated (" + (from.empty() ? std::string("umbmark") : from) + ")" : "measured, nothing exported";
   r->findings = Strings(report.value("findings", json::array()));
 }

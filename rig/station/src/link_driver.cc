@@ -26,6 +26,7 @@ class LinkDriver final : public RobotDriver {
     log("connecting to the robot on " + transport_.Describe());
     const auto hello = client_.Hello();
     if (!hello) return Lost("handshake: " + hello.message, hello.status);
+    info_ = *hello.value;
     std::ostringstream os;
     os << *hello.value;
     log(os.str());
@@ -110,6 +111,7 @@ class LinkDriver final : public RobotDriver {
   }
 
   bool Reachable() const override { return line_ok_; }
+  std::optional<robot_link::RobotInfo> Info() const override { return info_; }
   std::vector<DriverTelemetry> TakeTelemetry(std::string*) override { return std::move(telemetry_); }
 
  private:
@@ -122,6 +124,7 @@ class LinkDriver final : public RobotDriver {
   robot_link::Transport& transport_;
   std::vector<DriverTelemetry> telemetry_;
   robot_link::Client client_;
+  std::optional<robot_link::RobotInfo> info_;
   uint16_t run_id_ = 0;
   bool running_ = false;
   bool line_ok_ = true;

@@ -756,6 +756,7 @@ StationResult Station::Run() {
     return finish(Failure{StatusOf(e->fault), e->message});
   current_ = initial_;
   result.params_initial = initial_;
+  result.robot = driver_->Info();
   {
     std::ostringstream ps;
     ps << "robot parameters: " << initial_;

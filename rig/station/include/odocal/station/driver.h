@@ -111,6 +111,9 @@ class RobotDriver {
   virtual std::optional<robot_link::ParamSet> ReadBack() { return std::nullopt; }
   // False once the driver can no longer reach the robot at all.
   virtual bool Reachable() const { return true; }
+  // What the robot said of itself when connected (the link's handshake: its name, its serial):
+  // the name its records are kept under. Drivers that cannot ask: nothing.
+  virtual std::optional<robot_link::RobotInfo> Info() const { return std::nullopt; }
   // The last run's telemetry (moved out), where the driver has any: the
   // link's, at 50 Hz while a run lasts; the command's {telemetry} CSV
   // (docs/formats.md), when it wrote one. `note` says why a file was not used.

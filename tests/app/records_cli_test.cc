@@ -17,6 +17,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "../records/postgres_server.h"
 #include "odocal/base/utc_time.h"
@@ -111,6 +113,36 @@ void MakeSession(const std::string& dir, const SessionSpec& s) {
     session << line << ", poses: " << name << ".poses.csv, telemetry: sim/" << run["telemetry"].get<std::string>()
             << "}\n";
   }
+}
+
+
+// A report page in headless Chromium at `width` px: it draws (a screenshot with ink on it, SVG
+// charts in the DOM) and nothing is wider than the window (the page measured inside an iframe of
+// that width, as a phone would show it).
+void ExpectReadableInChromium(const std::string& page, const std::string& dir, int width) {
+  ASSERT_EQ(RunCommand("command -v chromium").exit_code, 0) << "chromium is missing: bash scripts/install-deps.sh installs it";
+  const std::string chromium = "chromium --headless=new --no-sandbox --disable-gpu --disable-dev-shm-usage "
+                               "--hide-scrollbars --allow-file-access-from-files --user-data-dir=" + dir +
+                               "/chromium --virtual-time-budget=3000 ";
+  const std::string probe = dir + "/probe_" + std::to_string(width) + ".html";
+  std::ofstream(probe) << "<html><body style='margin:0'><iframe id='f' src='file://" << page << "' style='width:" << width
+                       << "px;height:900px;border:0'></iframe><script>f.onload=()=>{const d=f.contentDocument;"
+                          "document.body.setAttribute('data-scroll',d.documentElement.scrollWidth);"
+                          "document.body.setAttribute('data-svgs',d.querySelectorAll('svg').length);};</script></body></html>";
+  const CommandResult dom = RunCommand(chromium + "--dump-dom file://" + probe);
+  ASSERT_EQ(dom.exit_code, 0) << dom.err;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(dom.out, m, std::regex(R"re(data-scroll="(\d+)")re"))) << dom.out.substr(0, 800);
+  EXPECT_LE(std::stoi(m[1]), width) << "the page scrolls sideways at " << width << " px";
+  ASSERT_TRUE(std::regex_search(dom.out, m, std::regex(R"re(data-svgs="(\d+)")re")));
+  EXPECT_GE(std::stoi(m[1]), 2) << "its charts";
+  const std::string png = dir + "/shot_" + std::to_string(width) + ".png";
+  const CommandResult shot =
+      RunCommand(chromium + "--window-size=" + std::to_string(width) + ",900 --screenshot=" + png + " file://" + page);
+  ASSERT_EQ(shot.exit_code, 0) << shot.err;
+  const cv::Mat image = cv::imread(png, cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(image.cols, width);
+  EXPECT_GT(cv::countNonZero(image < 128), image.total() / 200) << "ink on the page: text and charts";
 }
 
 class RecordsCli : public ::testing::Test {
@@ -354,7 +386,15 @@ TEST(FleetYear, HistoryReadsTheWearTheRepairAndWhoCrossesTheLimitFirst) {
   ASSERT_EQ(f["robots"].size(), 3u);
   ASSERT_TRUE(f["first_to_cross"].is_object()) << f.dump(1);
   EXPECT_EQ(f["first_to_cross"]["robot"], "R-B") << f.dump(1);
-  EXPECT_TRUE(fs::exists(dir + "/fleet/report.html"));
+  ASSERT_TRUE(fs::exists(dir + "/fleet/report.html"));
+  const CommandResult hist = RunCommand(Odocal("history R-C --db " + db + limits + " --out " + dir + "/history"));
+  ASSERT_EQ(hist.exit_code, 0) << hist.err;
+  EXPECT_THAT(hist.out, HasSubstr("track_mm"));
+  for (const std::string page : {dir + "/fleet/report.html", dir + "/history/report.html"}) {
+    SCOPED_TRACE(page);
+    ExpectReadableInChromium(page, dir, 1280);
+    ExpectReadableInChromium(page, dir, 390);
+  }
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);  // kept to look at when it fails
 }
 

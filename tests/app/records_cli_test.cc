@@ -193,6 +193,28 @@ TEST_F(RecordsCli, ABatchKeepsOneRecordPerRobotAndSessionHoweverOftenItRuns) {
   EXPECT_THAT(renamed.out, HasSubstr("kept for robot R-0009"));
 }
 
+TEST_F(RecordsCli, ExplainAndCheckKeepTheirOwnRecordsOfTheSameSession) {
+  const std::string db = dir_ + "/kinds/records.sqlite";
+  const CommandResult explain = RunCommand(Odocal("explain " + dir_ + "/s1/session.yaml --out " + dir_ + "/kinds/e --db " + db));
+  ASSERT_EQ(explain.exit_code, 0) << explain.err;
+  EXPECT_THAT(explain.out, HasSubstr("record: kept for robot R-0001"));
+  const CommandResult check = RunCommand(Odocal("check " + dir_ + "/s1/session.yaml --params " + dir_ +
+                                                "/kinds/e/explain.json --out " + dir_ + "/kinds/c --db " + db));
+  ASSERT_EQ(check.exit_code, 0) << check.err;
+  const nlohmann::json h = nlohmann::json::parse(RunCommand(Odocal("history R-0001 --json --db " + db)).out);
+  ASSERT_EQ(h["records"].size(), 2u) << "one session, two commands: two records";
+  EXPECT_EQ(h["records"][0]["kind"], "explain");
+  EXPECT_EQ(h["records"][1]["kind"], "check");
+  // explain's calibrated set is the simulated robot's: D = (71.95 + 72.08) / 2, b = 302.
+  const nlohmann::json& after = h["records"][0]["params_after"];
+  EXPECT_NEAR(0.5 * (after["left_wheel_diameter_mm"]["value"].get<double>() +
+                     after["right_wheel_diameter_mm"]["value"].get<double>()),
+              72.015, 0.02);
+  EXPECT_NEAR(after["track_mm"]["value"].get<double>(), 302.0, 0.1);
+  EXPECT_EQ(h["records"][1]["params_after"]["track_mm"]["value"], after["track_mm"]["value"])
+      << "check's record is the set it checked";
+}
+
 TEST_F(RecordsCli, AnUnreachableStoreCostsTheRunNothingAndTheFolderCanBeImportedLater) {
   const std::string out = dir_ + "/unreachable/run";
   const CommandResult r = RunCommand(Odocal("batch " + dir_ + "/s1/session.yaml --out " + out +

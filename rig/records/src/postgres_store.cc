@@ -170,8 +170,8 @@ class PostgresStore final : public RecordStore {
     std::vector<Record> out;
     out.reserve(PQntuples(r.get()));
     for (int i = 0; i < PQntuples(r.get()); ++i) {
-      Result<Record> rec = RecordFromJson(nlohmann::json::parse(PQgetvalue(r.get(), i, 0), nullptr, false));
-      if (!rec) return R::Error(StatusCode::kBadFile, name_ + ": a stored record is damaged: " + rec.message);
+      Result<Record> rec = RecordFromDocument(PQgetvalue(r.get(), i, 0), name_);
+      if (!rec) return R::From(rec);
       out.push_back(std::move(*rec));
     }
     return R::Ok(std::move(out));

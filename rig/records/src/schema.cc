@@ -53,4 +53,10 @@ Status Storable(const Record& r) {
   return Status::Ok();
 }
 
+Result<Record> RecordFromDocument(const char* document, const std::string& store) {
+  Result<Record> r = RecordFromJson(nlohmann::json::parse(document ? document : "", nullptr, false));
+  if (!r) return Result<Record>::Error(StatusCode::kBadFile, store + ": a stored record is damaged: " + r.message);
+  return r;
+}
+
 }  // namespace odocal::records::internal

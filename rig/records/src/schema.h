@@ -24,6 +24,8 @@ struct RecordRow {
 RecordRow RowOf(const Record& record);
 // A record is kept only with its key: a robot and a digest.
 Status Storable(const Record& record);
+// A stored document read back; a damaged one is an error naming the store (`store`), never skipped.
+Result<Record> RecordFromDocument(const char* document, const std::string& store);
 
 inline constexpr const char* kInsertColumns =
     "robot, digest, kind, time_utc, host, odocal_version, folder, verdict, kept_utc, document, ed, eb, "

@@ -187,9 +187,8 @@ class SqliteStore final : public RecordStore {
     int rc;
     while ((rc = sqlite3_step(st.get())) == SQLITE_ROW) {
       const char* text = reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0));
-      nlohmann::json j = nlohmann::json::parse(text ? text : "", nullptr, false);
-      Result<Record> r = RecordFromJson(j);
-      if (!r) return R::Error(StatusCode::kBadFile, path_ + ": a stored record is damaged: " + r.message);
+      Result<Record> r = RecordFromDocument(text, path_);
+      if (!r) return R::From(r);
       out.push_back(std::move(*r));
     }
     if (rc != SQLITE_DONE) return R::From(Error(StatusCode::kIoError, "cannot read the records"));

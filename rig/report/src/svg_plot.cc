@@ -5,22 +5,11 @@
 #include <cstdio>
 #include <sstream>
 
+#include "odocal/base/format.h"
+
 namespace odocal::report::svg {
 
-std::string Escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      case '\'': out += "&#39;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
+std::string Escape(const std::string& text) { return HtmlEscape(text); }
 
 std::vector<double> NiceTicks(double lo, double hi, int count) {
   std::vector<double> ticks;

@@ -1,6 +1,6 @@
 // Text for people: printf-style formatting into a std::string (of any
-// length), and a number with a fixed count of decimals. The one place every
-// module formats numbers for messages and reports.
+// length), a number with a fixed count of decimals, text escaped for HTML. The
+// one place every module formats numbers for messages and reports.
 #ifndef ODOCAL_BASE_FORMAT_H_
 #define ODOCAL_BASE_FORMAT_H_
 
@@ -15,6 +15,9 @@ std::string Format(const char* format, ...) __attribute__((format(printf, 1, 2))
 
 // `value` with `decimals` digits after the point ("%.*f": 1.50, -0.003, nan).
 std::string Fixed(double value, int decimals);
+
+// Text made safe inside HTML or SVG, element or attribute: & < > " ' as entities.
+std::string HtmlEscape(const std::string& text);
 
 }  // namespace odocal
 

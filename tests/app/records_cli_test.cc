@@ -300,7 +300,7 @@ TEST_F(RecordsCli, FourShardsIntoOnePostgresKeepEverySessionOnceAKilledShardReru
   }
   auto shard = [&](int i) {
     return Odocal("batch --list " + dir + "/sessions.txt --shard " + std::to_string(i) + "/4 --out " + dir +
-                  "/out --db " + *url + " --threads 1");
+                  "/out --db " + *url + " --threads 1 --export firmware fw.yaml");
   };
   // Shard 3 is killed a moment after it starts; the other three run to the end beside it.
   const CommandResult all = RunCommand("(" + shard(0) + " > " + dir + "/0.log 2>&1 & " + shard(1) + " > " + dir +
@@ -322,6 +322,10 @@ TEST_F(RecordsCli, FourShardsIntoOnePostgresKeepEverySessionOnceAKilledShardReru
   ASSERT_EQ(f["robots"].size(), 8u);
   EXPECT_EQ(f["records"], 8);
   for (int k = 0; k < 8; ++k) EXPECT_EQ(f["robots"][k]["robot"], "U-" + std::to_string(k));
+  // One folder a session (the same file eight times: s1, s1-2, ...), each with its own export.
+  EXPECT_TRUE(fs::exists(dir + "/out/s1/fw.yaml"));
+  EXPECT_TRUE(fs::exists(dir + "/out/s1-8/fw.yaml"));
+  EXPECT_TRUE(fs::exists(dir + "/out/s1-8/record.json"));
 }
 
 // A simulated year of a fleet: three robots re-calibrated every six weeks through batch --list

@@ -267,6 +267,9 @@ void RegisterBatchCommand(CLI::App& app) {
   AddRecordOptions(cmd, &args->record, /*with_limits=*/true);
   cmd->callback([args]() {
     const std::string name = "batch";
+    // Bad input is refused before any session is measured.
+    if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
+    LimitsOrFail(name, args->record);
     const std::optional<FleetBatch> fleet = FleetBatchOrFail(name, args->sessions, args->list, args->shard, args->each);
     if (!fleet) {
       if (args->sessions.empty()) Fail(name, kExitBadInput, "give session files, a directory of sessions or --list FILE");
@@ -275,7 +278,11 @@ void RegisterBatchCommand(CLI::App& app) {
       return;
     }
     const int code = RunFleetBatch(name, *fleet, args->out, [&](const FleetSession& s, const std::string& out) {
-      return BatchOnce(*args, {s.path}, out, args->record.robot.empty() ? s.robot : args->record.robot);
+      // Each session's exports go into its own folder, under the names given.
+      BatchArgs one = *args;
+      for (size_t k = 1; k < one.exports.raw.size(); k += 2)
+        one.exports.raw[k] = out + "/" + std::filesystem::path(one.exports.raw[k]).filename().string();
+      return BatchOnce(one, {s.path}, out, args->record.robot.empty() ? s.robot : args->record.robot);
     });
     if (code != 0) throw CLI::RuntimeError(code);
   });

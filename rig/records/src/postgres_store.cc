@@ -142,23 +142,15 @@ class PostgresStore final : public RecordStore {
   }
   Status Migrate() {
     if (Status s = Exec("BEGIN"); !s) return s;
-    auto rollback = [this](Status s) {
+    // Shards opening a new database at once: one migrates, the others wait here and find it done.
+    Status migrated = Exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLock) + ")");
+    if (migrated)
+      migrated = ApplyMigrations(
+          Dialect::kPostgres, [this](const std::string& sql) { return Exec(sql); }, [this] { return ReadVersion(); },
+          [this](int version) { return NewerSchema(version); });
+    if (!migrated) {
       Exec("ROLLBACK");
-      return s;
-    };
-    if (Status s = Exec("SELECT pg_advisory_xact_lock(" + std::to_string(kMigrationLock) + ")"); !s) return rollback(s);
-    if (Status s = Exec("CREATE TABLE IF NOT EXISTS odocal_schema (version INTEGER NOT NULL, applied_utc TEXT NOT NULL)"); !s)
-      return rollback(s);
-    Result<int> version = ReadVersion();
-    if (!version) return rollback(Status::From(version));
-    if (*version > kSchemaVersion) return rollback(NewerSchema(*version));
-    for (int v = std::max(*version, 0) + 1; v <= kSchemaVersion; ++v) {
-      for (const std::string& sql : Migration(v, Dialect::kPostgres))
-        if (Status s = Exec(sql); !s) return rollback(s);
-      if (Status s = Exec("INSERT INTO odocal_schema (version, applied_utc) VALUES (" + std::to_string(v) + ", '" +
-                          NowUtc() + "')");
-          !s)
-        return rollback(s);
+      return migrated;
     }
     return Exec("COMMIT");
   }

@@ -1,5 +1,9 @@
 #include "schema.h"
 
+#include <algorithm>
+
+#include "odocal/records/store.h"
+
 namespace odocal::records::internal {
 
 std::vector<std::string> Migration(int version, Dialect dialect) {
@@ -18,6 +22,25 @@ std::vector<std::string> Migration(int version, Dialect dialect) {
     default:
       return {};
   }
+}
+
+Status ApplyMigrations(Dialect dialect, const std::function<Status(const std::string&)>& exec,
+                       const std::function<Result<int>()>& read_version, const std::function<Status(int)>& newer) {
+  if (Status s = exec("CREATE TABLE IF NOT EXISTS odocal_schema (version INTEGER NOT NULL, applied_utc TEXT NOT NULL)"); !s)
+    return s;
+  // Read inside the transaction: a store another process migrated meanwhile is found done.
+  const Result<int> version = read_version();
+  if (!version) return Status::From(version);
+  if (*version > kSchemaVersion) return newer(*version);
+  for (int v = std::max(*version, 0) + 1; v <= kSchemaVersion; ++v) {
+    for (const std::string& sql : Migration(v, dialect))
+      if (Status s = exec(sql); !s) return s;
+    if (Status s = exec("INSERT INTO odocal_schema (version, applied_utc) VALUES (" + std::to_string(v) + ", '" +
+                        NowUtc() + "')");
+        !s)
+      return s;
+  }
+  return Status::Ok();
 }
 
 RecordRow RowOf(const Record& r) {

@@ -4,6 +4,7 @@
 #ifndef ODOCAL_RECORDS_SRC_SCHEMA_H_
 #define ODOCAL_RECORDS_SRC_SCHEMA_H_
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,12 @@ enum class Dialect { kSqlite, kPostgres };
 
 // The statements of migration `version` (1 .. kSchemaVersion).
 std::vector<std::string> Migration(int version, Dialect dialect);
+
+// Inside a write transaction the caller opened (and rolls back on an error): creates
+// odocal_schema when missing, reads its version (`read_version`), refuses a newer one (`newer`'s
+// error) and applies each later migration with `exec`, recording it. Both stores migrate so.
+Status ApplyMigrations(Dialect dialect, const std::function<Status(const std::string&)>& exec,
+                       const std::function<Result<int>()>& read_version, const std::function<Status(int)>& newer);
 
 // The columns a record is stored in, besides its document: what fleet and history select on.
 struct RecordRow {

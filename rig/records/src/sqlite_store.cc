@@ -160,21 +160,12 @@ class SqliteStore final : public RecordStore {
   Status Migrate() {
     // Two stations opening a new file at once: the second waits here, then finds it done.
     if (Status s = Exec("BEGIN IMMEDIATE"); !s) return s;
-    if (Status s = Exec("CREATE TABLE IF NOT EXISTS odocal_schema (version INTEGER NOT NULL, applied_utc TEXT NOT NULL)"); !s)
-      return Rollback<Empty>("cannot create odocal_schema");
-    Result<int> version = ReadVersion();
-    if (!version) return Rollback<Empty>("cannot read the schema version");
-    if (*version > kSchemaVersion) {
+    const Status migrated = ApplyMigrations(
+        Dialect::kSqlite, [this](const std::string& sql) { return Exec(sql); }, [this] { return ReadVersion(); },
+        [this](int version) { return NewerSchema(version); });
+    if (!migrated) {
       Exec("ROLLBACK");
-      return NewerSchema(*version);
-    }
-    for (int v = std::max(*version, 0) + 1; v <= kSchemaVersion; ++v) {
-      for (const std::string& sql : Migration(v, Dialect::kSqlite))
-        if (Status s = Exec(sql); !s) return Rollback<Empty>("migration to schema " + std::to_string(v) + " failed");
-      if (Status s = Exec("INSERT INTO odocal_schema (version, applied_utc) VALUES (" + std::to_string(v) + ", '" +
-                          NowUtc() + "')");
-          !s)
-        return Rollback<Empty>("cannot record schema version " + std::to_string(v));
+      return migrated;
     }
     return Exec("COMMIT");
   }

@@ -246,6 +246,11 @@ TEST_F(RecordsCli, ABrokenStoreIsAnErrorNeverAnEmptyHistoryAndAnUnknownRobotName
   EXPECT_THAT(h.err, HasSubstr("not a database"));
   const CommandResult f = RunCommand(Odocal("fleet --db " + bad));
   EXPECT_NE(f.exit_code, 0);
+  // A mistyped --db is not an empty fleet, and reading creates nothing.
+  const CommandResult typo = RunCommand(Odocal("fleet --db " + dir_ + "/broken/typo/records.sqlite"));
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_THAT(typo.err, HasSubstr("typo/records.sqlite: no record store there"));
+  EXPECT_FALSE(fs::exists(dir_ + "/broken/typo"));
 
   const std::string db = dir_ + "/broken/good.sqlite";
   ASSERT_EQ(RunCommand(Odocal("batch " + dir_ + "/s1/session.yaml --out " + dir_ + "/broken/run --db " + db)).exit_code,

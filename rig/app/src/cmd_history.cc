@@ -37,9 +37,11 @@ void AddViewOptions(CLI::App* cmd, ViewArgs* args) {
   cmd->add_flag("--json", args->json, "Print the JSON document instead of the table");
 }
 
-std::unique_ptr<records::RecordStore> OpenOrFail(const std::string& command, const std::string& db_option) {
+// `create`: import keeps records (a new store is made); history and fleet only read.
+std::unique_ptr<records::RecordStore> OpenOrFail(const std::string& command, const std::string& db_option,
+                                                 bool create) {
   const std::string db = db_option.empty() ? records::DefaultDatabase() : db_option;
-  Result<std::unique_ptr<records::RecordStore>> store = records::OpenStore(db);
+  Result<std::unique_ptr<records::RecordStore>> store = records::OpenStore(db, create);
   if (!store) Fail(command, store.status == StatusCode::kOpenFailed ? kExitFailure : kExitBadInput, store.message);
   return std::move(*store.value);
 }
@@ -76,7 +78,7 @@ void Emit(const std::string& command, const ViewArgs& args, const nlohmann::json
 void RunHistory(const std::string& robot, const ViewArgs& args) {
   const std::string name = "history";
   const records::HistoryOptions options = OptionsOrFail(name, args);
-  std::unique_ptr<records::RecordStore> store = OpenOrFail(name, args.db);
+  std::unique_ptr<records::RecordStore> store = OpenOrFail(name, args.db, /*create=*/false);
   Result<std::vector<records::Record>> list = store->ForRobot(robot);
   if (!list) Fail(name, kExitFailure, list.message);
   if (list->empty()) {
@@ -103,7 +105,7 @@ void RunImport(const std::vector<std::string>& folders, const std::string& db_op
     if (!robot.empty()) r->robot = robot;
     found.push_back(*r);
   }
-  std::unique_ptr<records::RecordStore> store = OpenOrFail(name, db_option);
+  std::unique_ptr<records::RecordStore> store = OpenOrFail(name, db_option, /*create=*/true);
   int added = 0;
   for (const records::Record& r : found) {
     Result<bool> put = store->Put(r);
@@ -147,7 +149,7 @@ void RegisterFleetCommand(CLI::App& app) {
   cmd->callback([args]() {
     const std::string name = "fleet";
     const records::HistoryOptions options = OptionsOrFail(name, *args);
-    std::unique_ptr<records::RecordStore> store = OpenOrFail(name, args->db);
+    std::unique_ptr<records::RecordStore> store = OpenOrFail(name, args->db, /*create=*/false);
     Result<std::vector<records::Record>> all = store->All();
     if (!all) Fail(name, kExitFailure, all.message);
     const records::FleetSummary fleet = records::SummariseFleet(*all, options);

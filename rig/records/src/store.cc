@@ -2,18 +2,23 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 
 #include "backends.h"
 
 namespace odocal::records {
 
-Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db) {
+Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db, bool create) {
   if (db.empty())
     return Result<std::unique_ptr<RecordStore>>::Error(StatusCode::kInvalidArgument, "--db: empty (a file path or a postgresql:// URL)");
   if (db.rfind("postgresql://", 0) == 0 || db.rfind("postgres://", 0) == 0) return internal::OpenPostgresStore(db);
   if (db.find("://") != std::string::npos)
     return Result<std::unique_ptr<RecordStore>>::Error(
         StatusCode::kInvalidArgument, "--db " + db + ": unknown scheme (a file path for SQLite, or postgresql://...)");
+  if (!create && !std::filesystem::exists(db))
+    return Result<std::unique_ptr<RecordStore>>::Error(
+        StatusCode::kNotFound, db + ": no record store there (station, batch, check and explain create it; --db or "
+                                    "$ODOCAL_DB names another)");
   return internal::OpenSqliteStore(db);
 }
 

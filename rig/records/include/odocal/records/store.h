@@ -41,7 +41,9 @@ class RecordStore {
 // `db` is a file path (SQLite; created with its directory when missing) or a
 // postgresql:// (or postgres://) URL. Errors name the database: unreachable, not an odocal
 // record store (a corrupt file is never read as an empty one), a newer schema.
-Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db);
+// `create` false (history, fleet: they only read): a SQLite file that is not there is an error
+// naming it (a mistyped --db is not an empty fleet), and nothing is created.
+Result<std::unique_ptr<RecordStore>> OpenStore(const std::string& db, bool create = true);
 
 // The passwords a postgresql:// URL carries (the user info's, a password= parameter's); none
 // for a path. WithoutPassword: `db` with each replaced by ***, for messages.

@@ -333,6 +333,37 @@ TEST_F(RecordsCli, FourShardsIntoOnePostgresKeepEverySessionOnceAKilledShardReru
   EXPECT_TRUE(fs::exists(dir + "/out/s1-8/record.json"));
 }
 
+// Two stations of a line recording into one SQLite file (WAL) at the same moment: the virtual
+// robot calibrated twice side by side under two serial numbers; both records kept, each once.
+TEST(StationRecords, TwoStationsIntoOneSqliteFileAtOnceKeepBothRecords) {
+  const std::string dir = test_util::MakeTempDir("odocal_two_stations");
+  const std::string db = dir + "/line.sqlite";
+  auto station = [&](const std::string& unit) {
+    return Odocal("station --scenario " + test_util::SourceDir() + "/sample_data/scenarios/station.yaml --out " + dir +
+                  "/" + unit + " --robot " + unit + " --db " + db + " --limits emax_syst_after_mm=5");
+  };
+  const CommandResult both = RunCommand("(" + station("S-1") + " > " + dir + "/1.log 2>&1 & a=$!; " + station("S-2") +
+                                        " > " + dir + "/2.log 2>&1; b=$?; wait $a; exit $(( $? | b )))");
+  ASSERT_EQ(both.exit_code, 0) << test_util::Slurp(dir + "/1.log") << test_util::Slurp(dir + "/2.log");
+  for (const char* unit : {"S-1", "S-2"}) {
+    const std::string log = test_util::Slurp(dir + (std::string(unit) == "S-1" ? "/1.log" : "/2.log"));
+    EXPECT_THAT(log, HasSubstr(std::string("record: kept for robot ") + unit));
+    EXPECT_THAT(log, HasSubstr("limits: PASS"));
+  }
+  const CommandResult fleet = RunCommand(Odocal("fleet --json --db " + db));
+  ASSERT_EQ(fleet.exit_code, 0) << fleet.err;
+  const nlohmann::json f = nlohmann::json::parse(fleet.out);
+  ASSERT_EQ(f["robots"].size(), 2u);
+  EXPECT_EQ(f["records"], 2);
+  EXPECT_EQ(f["passed"], 2);
+  for (const nlohmann::json& r : f["robots"]) {
+    EXPECT_EQ(r["last"]["kind"], "station");
+    EXPECT_LT(r["last"]["emax_syst_after_mm"]["value"].get<double>(), 5.0);
+    EXPECT_GT(r["last"]["emax_syst_before_mm"]["value"].get<double>(), 50.0) << "the virtual robot comes miscalibrated";
+  }
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
+}
+
 // A simulated year of a fleet: three robots re-calibrated every six weeks through batch --list
 // (two shards at once into one SQLite file), each round driven with the set the last calibration
 // exported, while their wheels wear (mm a week, left / right):

@@ -85,22 +85,19 @@ struct BatchArgs {
 // One calibration from `session_paths` (pooled: the same robot's sessions) into `out`. Fails
 // the command (Fail) on bad input or no result; returns 0, or kExitOutsideLimits when the
 // record fails the limits.
-int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths, const std::string& out,
-            const std::string& robot) {
+int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_paths, const std::string& out,
+              const std::string& robot) {
   const std::string name = "batch";
-  BatchArgs args_copy = a;
-  args_copy.out = out;
-  const BatchArgs* args = &args_copy;
-  const records::Limits limits = LimitsOrFail(name, a.record);
+  const records::Limits limits = LimitsOrFail(name, args.record);
   const std::vector<config::Session> sessions = LoadSessionsOrFail(name, session_paths);
-  if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
+  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
   measure::MeasureOptions options;
-  options.threads = args->threads;
-  options.edge_shift_views = args->edge_shift_views;
+  options.threads = args.threads;
+  options.edge_shift_views = args.edge_shift_views;
   const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
   // A malformed pose log (or its telemetry) is the one way measuring fails.
   if (!measured) Fail(name, kExitBadInput, measured.message);
-  if (auto e = config::EnsureDirectory(args->out)) Fail(name, kExitFailure, *e);
+  if (auto e = config::EnsureDirectory(out)) Fail(name, kExitFailure, *e);
 
   nlohmann::json report = {{"command", "batch"},
                            {"sessions", nlohmann::json::array()},
@@ -142,11 +139,11 @@ int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths,
       measure::FitSessionTrajectories(*measured, &notes, &left_out);
   if (fit) report["trajectory_fit"] = report::TrajectoryFitJson(nominal, *fit);
   // auto: the candidate that predicts held-out runs best (estimator_choice.h).
-  std::string estimator = args->estimator;
+  std::string estimator = args.estimator;
   std::optional<measure::EstimatorChoice> choice;
   if (estimator == "auto") {
     measure::EstimatorChoiceOptions choice_options;
-    choice_options.threads = args->threads;
+    choice_options.threads = args.threads;
     choice = measure::ChooseEstimator(*measured, fit ? &*fit : nullptr, choice_options, &left_out);
     estimator = measure::ToString(choice->chosen);
     report["estimator_choice"] = report::EstimatorChoiceJson("auto", *choice);
@@ -172,7 +169,7 @@ int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths,
   report["nominal"] = report::WheelParamsJson(nominal);
   RunIdentity run;
   run.kind = records::RunKind::kBatch;
-  run.folder = args->out;
+  run.folder = out;
   run.robot = robot.empty() ? sessions.front().robot_id : robot;
   run.time_utc = sessions.front().recorded_utc;
   run.odometer_km = sessions.front().odometer_km;
@@ -183,15 +180,15 @@ int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths,
   if (!digest) Fail(name, kExitBadInput, digest.message);
   run.digest = *digest;
   if (!run.robot.empty()) report["robot_id"] = run.robot;
-  if (auto e = config::WriteFileAtomically(args->out + "/report.json", report.dump(2) + "\n"))
+  if (auto e = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n"))
     Fail(name, kExitFailure, *e);
-  if (auto e = report::WriteReportHtml(report, "odocal batch", args->out + "/report.html"))
+  if (auto e = report::WriteReportHtml(report, "odocal batch", out + "/report.html"))
     Fail(name, kExitFailure, *e);
   if (!trajectory_missing)
-    if (auto e = report::WriteExports(args->exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+    if (auto e = report::WriteExports(args.exports, nominal, corrected)) Fail(name, kExitFailure, *e);
   // A run that measured nothing is not a calibration: no record.
   const records::Record record =
-      usable > 0 && !trajectory_missing ? KeepRecord(name, report, run, a.record, limits) : records::Record{};
+      usable > 0 && !trajectory_missing ? KeepRecord(name, report, run, args.record, limits) : records::Record{};
 
   for (const measure::SessionMeasurement& sm : *measured)
     for (const measure::SegmentAssignment& a : sm.segments)
@@ -220,7 +217,7 @@ int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths,
     for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
   }
   for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
-  std::printf("report: %s/report.json, %s/report.html\n", args->out.c_str(), args->out.c_str());
+  std::printf("report: %s/report.json, %s/report.html\n", out.c_str(), out.c_str());
   if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
   if (trajectory_missing)
     Fail(name, kExitFailure,
@@ -229,7 +226,7 @@ int BatchOnce(const BatchArgs& a, const std::vector<std::string>& session_paths,
                         std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
                         " (a plan with straights and turns both ways does)"
                   : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
-             "; " + args->out + "/report.json has the runs and the notes");
+             "; " + out + "/report.json has the runs and the notes");
   if (const std::string line = VerdictLine(record, limits); !line.empty()) std::printf("%s\n", line.c_str());
   return record.verdict == records::Verdict::kFail ? kExitOutsideLimits : 0;
 }

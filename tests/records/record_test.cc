@@ -67,6 +67,23 @@ TEST(RecordFromReport, ABatchTakesTheChosenEstimatorsEdAndEbAndPropagatesTheirSi
   EXPECT_NEAR(*mean.sigma, 0.5 * std::hypot(71.9, 72.1) * rel, 1e-9);
 }
 
+TEST(RecordFromReport, ATrajectoryFitsSigmaIsTheRunsDisagreementWhenThatIsLarger) {
+  // OptiOdom's squares (report.json notes "trust sigma_between_runs"): Ed's runs disagree 7x.
+  const json report = {{"nominal", Wheels(72.0, 72.0, 300.0)},
+                       {"corrected", Wheels(71.8, 72.0, 300.0)},
+                       {"corrected_from", "trajectory"},
+                       {"trajectory_fit",
+                        {{"Ed", {{"value", 0.9989}, {"sigma", 2.3e-5}, {"sigma_between_runs", 1.67e-4}}},
+                         {"Es", {{"value", 0.9962}, {"sigma", 2.7e-5}, {"sigma_between_runs", 0.0}}},
+                         {"Eb", {{"value", 1.0035}, {"sigma", 5.4e-5}, {"sigma_between_runs", 3.7e-4}}}}}};
+  const Result<Record> r = RecordFromReport(RunKind::kBatch, report, Context());
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_NEAR(*r->ed->sigma, 1.67e-4, 1e-12);
+  EXPECT_NEAR(*r->eb->sigma, 3.7e-4, 1e-12);
+  const double rel = std::hypot(1.67e-4 / 1.9989, 2.7e-5 / 0.9962);  // Es: the model's (the runs agree)
+  EXPECT_NEAR(*r->after->left_wheel_diameter_mm.sigma, 71.8 * rel, 1e-9);
+}
+
 TEST(RecordFromReport, ATrajectoryExportAddsTheDistanceScalesSigmaToBothWheels) {
   const json report = {{"nominal", Wheels(72.0, 72.0, 300.0)},
                        {"corrected", Wheels(71.8, 72.0, 300.0)},

@@ -82,10 +82,15 @@ std::optional<Estimate> EstimateFrom(const json& j, const char* value_key, const
   return Estimate{*v, Number(j, sigma_key)};
 }
 
-// explain.json / trajectory_fit parameters: {"Ed": {"value", "sigma"}, ...}.
+// A trajectory fit's parameter ({"value", "sigma", "sigma_between_runs"}: trajectory_fit's, explain's
+// final.parameters'): the larger of the model's sigma and the runs' disagreement. On a real robot
+// the runs disagree several times more than the model says, and the report says to trust that.
 std::optional<Estimate> FitParameter(const json& params, const char* name) {
   if (!params.is_object() || !params.contains(name)) return std::nullopt;
-  return EstimateFrom(params[name], "value", "sigma");
+  std::optional<Estimate> e = EstimateFrom(params[name], "value", "sigma");
+  if (const auto between = Number(params[name], "sigma_between_runs"); e && between && *between > e->sigma.value_or(0.0))
+    e->sigma = *between;
+  return e;
 }
 
 std::vector<std::string> Strings(const json& j) {
@@ -141,10 +146,9 @@ void FromBatch(const json& report, Record* r) {
   bool umbmark_scale_unknown = false;
   if (from == "trajectory" && report.contains("trajectory_fit")) {
     const json& fit = report["trajectory_fit"];
-    r->ed = EstimateFrom(fit.value("Ed", json()), "value", "sigma");
-    r->eb = EstimateFrom(fit.value("Eb", json()), "value", "sigma");
-    if (const auto es = EstimateFrom(fit.value("Es", json()), "value", "sigma"); es && es->sigma && es->value > 0)
-      scale_sigma = *es->sigma / es->value;
+    r->ed = FitParameter(fit, "Ed");
+    r->eb = FitParameter(fit, "Eb");
+    if (const auto es = FitParameter(fit, "Es"); es && es->sigma && es->value > 0) scale_sigma = *es->sigma / es->value;
   } else if (umbmark.is_object() && umbmark.contains("estimate")) {
     r->ed = EstimateFrom(umbmark["estimate"], "Ed", "sigma_Ed");
     r->eb = EstimateFrom(umbmark["estimate"], "Eb", "sigma_Eb");

@@ -114,11 +114,8 @@ class PostgresStore final : public RecordStore {
     while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
     return Status::Error(code, name_ + ": " + what + (m.empty() ? "" : " (" + m + ")"));
   }
-  Status NewerSchema(int version) const {
-    return Status::Error(StatusCode::kVersionMismatch,
-                         name_ + ": record store schema version " + std::to_string(version) +
-                             " is newer than this odocal's (" + std::to_string(kSchemaVersion) + "): use a newer odocal");
-  }
+  Status NewerSchema(int version) const { return NewerSchemaError(name_, version); }
+
   Status Exec(const std::string& sql) {
     PgResult r(PQexec(conn_, sql.c_str()));
     const ExecStatusType st = PQresultStatus(r.get());

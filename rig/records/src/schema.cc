@@ -76,6 +76,13 @@ Status Storable(const Record& r) {
   return Status::Ok();
 }
 
+Status NewerSchemaError(const std::string& store, int version) {
+  return Status::Error(StatusCode::kVersionMismatch,
+                       store + ": record store schema version " + std::to_string(version) + " is newer than this odocal's (" +
+                           std::to_string(kSchemaVersion) + "): use a newer odocal (odocal " + std::string(OdocalVersion()) +
+                           " reads versions up to " + std::to_string(kSchemaVersion) + ")");
+}
+
 Result<Record> RecordFromDocument(const char* document, const std::string& store) {
   Result<Record> r = RecordFromJson(nlohmann::json::parse(document ? document : "", nullptr, false));
   if (!r) return Result<Record>::Error(StatusCode::kBadFile, store + ": a stored record is damaged: " + r.message);

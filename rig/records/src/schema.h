@@ -31,6 +31,9 @@ struct RecordRow {
 RecordRow RowOf(const Record& record);
 // A record is kept only with its key: a robot and a digest.
 Status Storable(const Record& record);
+// The error for a store whose schema `version` is newer than this odocal's, naming `store`,
+// both versions and this odocal's release (both stores word it so).
+Status NewerSchemaError(const std::string& store, int version);
 // A stored document read back; a damaged one is an error naming the store (`store`), never skipped.
 Result<Record> RecordFromDocument(const char* document, const std::string& store);
 

@@ -95,12 +95,8 @@ class SqliteStore final : public RecordStore {
   Status Error(StatusCode code, const std::string& what) const {
     return Status::Error(code, path_ + ": " + what + " (" + sqlite3_errmsg(db_) + ")");
   }
-  Status NewerSchema(int version) const {
-    return Status::Error(StatusCode::kVersionMismatch,
-                         path_ + ": record store schema version " + std::to_string(version) + " is newer than this odocal's (" +
-                             std::to_string(kSchemaVersion) + "): use a newer odocal (odocal " +
-                             std::string(OdocalVersion()) + " reads versions up to " + std::to_string(kSchemaVersion) + ")");
-  }
+  Status NewerSchema(int version) const { return NewerSchemaError(path_, version); }
+
   template <typename T>
   Result<T> Rollback(const std::string& what) {
     const Status error = Error(StatusCode::kIoError, what);

@@ -1016,4 +1016,40 @@ LensModelChoice CompareLensModels(const std::vector<BoardDetection>& views, cons
   return c;
 }
 
+LensFromViews CalibrateLensFromViews(std::vector<BoardDetection> views, const cv::Size& image_size,
+                                     const CalibrationBoard& board, CameraCalibrationOptions options,
+                                     bool choose_model, const std::function<cv::Mat(size_t)>& image) {
+  LensFromViews out;
+  if (choose_model) options.lens = LensModel::kPlumbBob;
+  out.result = CalibrateCamera(views, image_size, options);
+  if (choose_model) {
+    CameraCalibrationOptions other = options;
+    other.lens = LensModel::kEquidistant;
+    other.fix_k3 = false;
+    CameraCalibrationResult fisheye = CalibrateCamera(views, image_size, other);
+    out.choice = CompareLensModels(views, out.result, fisheye);
+    if (out.choice->chosen == LensModel::kEquidistant) {
+      options = other;
+      out.result = std::move(fisheye);
+    }
+  }
+  if (out.result.ok() && board.type == CalibrationBoard::Type::kAprilgrid) {
+    BoardDetectionOptions through;
+    through.lens = out.result.intrinsics;
+    std::vector<BoardDetection> again = views;
+    ParallelFor(views.size(), static_cast<unsigned>(options.threads), [&](size_t i) {
+      BoardDetection d = DetectBoard(image(i), board, through);
+      if (d.found) again[i] = std::move(d);
+    });
+    CameraCalibrationResult second = CalibrateCamera(again, image_size, options);
+    if (second.ok()) {
+      out.first_pass_rms_px = out.result.rms_reprojection_error_px;
+      out.result = std::move(second);
+      views = std::move(again);
+    }
+  }
+  out.views = std::move(views);
+  return out;
+}
+
 }  // namespace odocal::vision

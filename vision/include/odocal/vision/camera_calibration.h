@@ -30,6 +30,7 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -279,6 +280,25 @@ struct LensModelChoice {
 };
 LensModelChoice CompareLensModels(const std::vector<BoardDetection>& views, const CameraCalibrationResult& plumb_bob,
                                   const CameraCalibrationResult& fisheye);
+
+// calibrate-camera's steps once the boards are found, for every command that
+// needs a lens from images of a board (calibrate-camera, detect without a
+// calibration). With `choose_model`, plumb_bob and the fisheye are both fitted
+// and CompareLensModels picks (options.lens is then ignored); otherwise
+// options.lens is fitted. An aprilgrid's corners come from its tags' edges,
+// which the lens bends (through a fisheye by 0.15 px rms at a tag's corners,
+// docs/vision.md): each view is then found again through that lens
+// (`image(i)` returns view i's image) and the camera calibrated again; a view
+// whose second pass finds no board keeps its first.
+struct LensFromViews {
+  CameraCalibrationResult result;          // the second pass's when it ran and succeeded
+  std::optional<LensModelChoice> choice;   // with choose_model
+  double first_pass_rms_px = NAN;          // when the second pass replaced the first
+  std::vector<BoardDetection> views;       // as calibrated (the second pass's where it found the board)
+};
+LensFromViews CalibrateLensFromViews(std::vector<BoardDetection> views, const cv::Size& image_size,
+                                     const CalibrationBoard& board, CameraCalibrationOptions options,
+                                     bool choose_model, const std::function<cv::Mat(size_t)>& image);
 
 }  // namespace odocal::vision
 

@@ -118,6 +118,42 @@ vision::CameraMount ParseMountOption(const std::string& command, const std::stri
   return {v[0], v[1], v[2], v[3], v[4], v[5]};
 }
 
+namespace {
+
+// The files directly in `dir` whose extension (any case) is one of `extensions`, sorted.
+std::vector<std::string> FilesWithExtensions(const std::string& dir, const std::vector<std::string>& extensions,
+                                             std::error_code* ec) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> found;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, *ec)) {
+    if (!e.is_regular_file(*ec)) continue;
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (std::find(extensions.begin(), extensions.end(), ext) != extensions.end()) found.push_back(e.path().string());
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+// The folders below `dir` (at most `depth` levels down) holding such files, sorted.
+std::vector<std::string> FoldersWithExtensions(const std::string& dir, const std::vector<std::string>& extensions,
+                                               int depth) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::skip_permission_denied, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (!it->is_directory(ec)) continue;
+    if (it.depth() >= depth) it.disable_recursion_pending();
+    std::error_code list_ec;
+    if (!FilesWithExtensions(it->path().string(), extensions, &list_ec).empty()) out.push_back(it->path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace
+
 std::vector<std::string> ExpandDirectories(const std::string& command, const std::vector<std::string>& inputs,
                                            const std::vector<std::string>& extensions) {
   namespace fs = std::filesystem;
@@ -128,20 +164,25 @@ std::vector<std::string> ExpandDirectories(const std::string& command, const std
       out.push_back(input);
       continue;
     }
-    std::vector<std::string> found;
-    for (const fs::directory_entry& e : fs::directory_iterator(input, ec)) {
-      if (!e.is_regular_file(ec)) continue;
-      std::string ext = e.path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-      if (std::find(extensions.begin(), extensions.end(), ext) != extensions.end()) found.push_back(e.path().string());
-    }
+    std::vector<std::string> found = FilesWithExtensions(input, extensions, &ec);
     if (ec) Fail(command, kExitBadInput, input + ": cannot list the directory (" + ec.message() + ")");
     if (found.empty()) {
+      // A data set's top folder (Kalibr's, EuRoC's, TUM-VI's: cam0/data,
+      // mav0/cam0/data): the one folder below it that holds such files
+      // stands for it; several are listed for the user to name one.
+      const std::vector<std::string> below = FoldersWithExtensions(input, extensions, 3);
       std::string list;
       for (const std::string& x : extensions) list += (list.empty() ? "" : " ") + x;
-      Fail(command, kExitBadInput, input + ": a directory with no " + list + " files");
+      if (below.empty()) Fail(command, kExitBadInput, input + ": a directory with no " + list + " files");
+      if (below.size() > 1) {
+        std::string names;
+        for (const std::string& b : below) names += (names.empty() ? "" : ", ") + b;
+        Fail(command, kExitBadInput, input + ": no " + list + " files in it, but in " + std::to_string(below.size()) +
+                                         " folders below it (" + names + "): name one");
+      }
+      std::cerr << "odocal " << command << ": " << input << ": reading the files in " << below.front() << "\n";
+      found = FilesWithExtensions(below.front(), extensions, &ec);
     }
-    std::sort(found.begin(), found.end());
     out.insert(out.end(), found.begin(), found.end());
   }
   return out;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 
 #include <gmock/gmock.h>
@@ -211,6 +212,21 @@ TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
   ASSERT_EQ(doc["images"].size(), 5u);
   EXPECT_EQ(doc["images"][0]["path"], dir + "/cam0/data/view0.png");  // sorted by name
   EXPECT_TRUE(std::filesystem::exists(out));
+  // The data set's top folder stands for the one folder below it with images;
+  // with two such folders, both are named and the user picks one.
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir + " --board chessboard:9x6:25 --out " + dir +
+                 "/top.yaml --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr(dir + ": reading the files in " + dir + "/cam0/data")) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["views_used"], 5);
+  std::filesystem::create_directories(dir + "/mav0/cam1/data");
+  WriteViews(dir + "/mav0/cam1/data", 1, 9);
+  r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir + " --board chessboard:9x6:25 --out " + dir +
+                 "/two.yaml");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("in 2 folders below it (" + dir + "/cam0/data, " + dir +
+                                          "/mav0/cam1/data): name one")) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/two.yaml"));
 
   std::filesystem::create_directories(dir + "/empty");
   r = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir + "/empty --board chessboard:9x6:25 --out " +
@@ -228,31 +244,48 @@ TEST(CliCalibrateCamera, ADirectoryStandsForItsImagesAndTheOutDirectoryIsMade) {
 // fisheye; named --model plumb_bob, the fit leaves pixels of error and the
 // command says what the same views give as a fisheye. Rendered: Kalibr's
 // aprilgrid through a 190-degree (TUM-VI-like) lens, 5 views.
-TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) {
-  const std::string dir = test_util::MakeTempDir("odocal_calcam_fisheye_");
-  const KalibrGrid grid;
-  const auto& pattern = grid.pattern;
-  ASSERT_TRUE(pattern);
-  const std::vector<Eigen::Vector3d>& points = grid.points;
-  Intrinsics lens{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
-  lens.lens = vision::LensModel::kEquidistant;
-  vision::FieldPoseSampling sampling;
-  sampling.count = 5;
-  sampling.seed = 5;
-  sampling.max_off_axis_deg = 50.0;
-  sampling.near_m = 0.4;
-  sampling.far_m = 0.7;
-  sampling.min_points_in_view = 144;
-  const auto poses = vision::SampleFieldBoardPoses(lens, points, sampling);
-  ASSERT_TRUE(poses);
-  for (size_t i = 0; i < poses->size(); ++i) {
-    vision::BoardRenderOptions o;
-    o.seed = 70 + i;
-    o.supersample = 8;
-    const auto r = vision::RenderBoard(lens, *pattern, (*poses)[i], points, o);
-    ASSERT_TRUE(r.ok) << r.message;
-    ASSERT_TRUE(cv::imwrite(dir + "/view" + std::to_string(i) + ".png", r.frame.image));
+// Five views of a Kalibr grid through a TUM-VI-like 190-degree fisheye,
+// rendered once for the tests below (with each corner's true pixel).
+class FisheyeViews : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = test_util::MakeTempDir("odocal_calcam_fisheye_");
+    lens_ = Intrinsics{512, 512, 190.98, 190.97, 254.93, 256.90, {0.00348, 0.000715, -0.00205, 0.000203, 0.0}};
+    lens_.lens = vision::LensModel::kEquidistant;
+    const KalibrGrid grid;
+    ASSERT_TRUE(grid.pattern);
+    vision::FieldPoseSampling sampling;
+    sampling.count = 5;
+    sampling.seed = 5;
+    sampling.max_off_axis_deg = 50.0;
+    sampling.near_m = 0.4;
+    sampling.far_m = 0.7;
+    sampling.min_points_in_view = 144;
+    const auto poses = vision::SampleFieldBoardPoses(lens_, grid.points, sampling);
+    ASSERT_TRUE(poses);
+    truth_.clear();
+    for (size_t i = 0; i < poses->size(); ++i) {
+      vision::BoardRenderOptions o;
+      o.seed = 70 + i;
+      o.supersample = 8;
+      const auto r = vision::RenderBoard(lens_, *grid.pattern, (*poses)[i], grid.points, o);
+      ASSERT_TRUE(r.ok) << r.message;
+      const std::string path = dir_ + "/view" + std::to_string(i) + ".png";
+      ASSERT_TRUE(cv::imwrite(path, r.frame.image));
+      truth_[path] = r.frame.points_px;
+    }
   }
+  static std::string dir_;
+  static Intrinsics lens_;
+  static std::map<std::string, std::vector<cv::Point2d>> truth_;  // image -> corner 4 id + k
+};
+std::string FisheyeViews::dir_;
+Intrinsics FisheyeViews::lens_;
+std::map<std::string, std::vector<cv::Point2d>> FisheyeViews::truth_;
+
+TEST_F(FisheyeViews, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) {
+  const std::string& dir = dir_;
+  const Intrinsics& lens = lens_;
   const CommandResult chosen = RunCommand(test_util::OdocalBinary() + " calibrate-camera " + dir +
                                           " --board aprilgrid:6x6:88:0.3 --json --out " + dir + "/auto.yaml");
   ASSERT_EQ(chosen.exit_code, 0) << chosen.err;
@@ -284,6 +317,107 @@ TEST(CliCalibrateCamera, AFisheyeIsChosenByDefaultAndNamedWhenFittedAsPlumbBob) 
                                         " --board aprilgrid:6x6:88:0.3 --model plumb_bob --out " + dir + "/camera.yaml");
   EXPECT_THAT(text.out, ::testing::HasSubstr("this looks like a fisheye lens; calibrate again with --model fisheye"))
       << text.out;
+}
+
+// --max-views' quick look (libapriltag's corners alone) misses a board the
+// full search finds: a far view of the grid at the fisheye's rim, where the
+// quick look reads 3 tags and the full search 18. With fewer views seen than
+// asked for, the images it saw nothing in are probed with the full search,
+// and searched fully when a probe finds the board.
+TEST_F(FisheyeViews, AViewTheQuickLookMissesIsFoundByTheFullSearch) {
+  const KalibrGrid grid;
+  vision::FieldPoseSampling sampling;  // rendered_lenses_bench's TUM-VI-like views
+  sampling.count = 12;
+  sampling.seed = 7;
+  sampling.max_off_axis_deg = 60.0;
+  sampling.near_m = 0.35;
+  sampling.far_m = 0.9;
+  const auto poses = vision::SampleFieldBoardPoses(lens_, grid.points, sampling);
+  ASSERT_TRUE(poses);
+  vision::BoardRenderOptions o;
+  o.seed = 7000;
+  o.supersample = 8;
+  const auto r = vision::RenderBoard(lens_, *grid.pattern, (*poses)[2], grid.points, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_quick_");
+  std::string images;
+  for (int i = 0; i < 5; ++i) images += " " + dir_ + "/view" + std::to_string(i) + ".png";
+  for (const std::string name : {"/rim_a.png", "/rim_b.png"}) {
+    ASSERT_TRUE(cv::imwrite(dir + name, r.frame.image));
+    images += " " + dir + name;
+  }
+  // The quick look alone would not see it (checked here, so that the test
+  // keeps testing the fallback).
+  vision::BoardDetectionOptions quick;
+  quick.aprilgrid_corners_only = true;
+  ASSERT_FALSE(vision::DetectBoard(r.frame.image, grid.board, quick).found);
+  ASSERT_TRUE(vision::DetectBoard(r.frame.image, grid.board).found);
+
+  const CommandResult c = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + images +
+                                     " --board aprilgrid:6x6:88:0.3 --max-views 6 --json --out " + dir + "/cam.yaml");
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_THAT(c.err, ::testing::HasSubstr("the quick look (--max-views) missed the board")) << c.err;
+  const nlohmann::json doc = nlohmann::json::parse(c.out);
+  EXPECT_EQ(doc["view_choice"]["images_with_the_board"], 7) << doc["view_choice"].dump();
+  EXPECT_EQ(doc["views_used"], 6);
+  for (const auto& image : doc["images"])
+    EXPECT_THAT(image.value("reason", ""), ::testing::Not(::testing::HasSubstr("quick look"))) << image.dump();
+}
+
+// detect --board without --calibration: a fisheye bends a tag's edges, so
+// they are refined through a lens calibrated from the images themselves (as
+// calibrate-camera's two passes do); --straight-edges refines them as lines.
+TEST_F(FisheyeViews, DetectWithoutACalibrationRefinesTheBoardThroughALensFromTheImages) {
+  const auto detect = [&](const std::string& extra) {
+    const CommandResult r = RunCommand(test_util::OdocalBinary() + " detect " + dir_ +
+                                       " --board aprilgrid:6x6:88:0.3 --json -" + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  };
+  struct Score {
+    int tags = 0;
+    double rms_px = 0.0;
+  };
+  const auto score = [&](const nlohmann::json& doc) {
+    Score s;
+    double sum = 0.0;
+    int n = 0;
+    for (const auto& image : doc["images"]) {
+      const auto& truth = truth_.at(image["file"].get<std::string>());
+      for (const auto& t : image["tags"]) {
+        if (!t["on_board"].get<bool>()) continue;
+        ++s.tags;
+        for (int k = 0; k < 4; ++k) {
+          const cv::Point2d& p = truth[4 * t["id"].get<int>() + k];
+          sum += std::pow(t["corners_px"][k][0].get<double>() - p.x, 2) + std::pow(t["corners_px"][k][1].get<double>() - p.y, 2);
+          n += 2;
+        }
+      }
+    }
+    s.rms_px = std::sqrt(sum / std::max(n, 1));
+    return s;
+  };
+  const nlohmann::json through = detect("");
+  const nlohmann::json straight = detect(" --straight-edges");
+  ASSERT_EQ(through["lens"]["source"], "images") << through["lens"].dump();
+  EXPECT_EQ(through["lens"]["distortion_model"], "equidistant");
+  EXPECT_NEAR(through["lens"]["fx"].get<double>(), lens_.fx, 1.0);
+  EXPECT_EQ(straight["lens"]["source"], "none");
+  // No poses from a lens the user did not give.
+  for (const auto& image : through["images"]) EXPECT_FALSE(image["board"].contains("pose_in_camera"));
+  const Score a = score(through), b = score(straight);
+  std::printf("[figure] fisheye detect without a calibration: through the images' lens %d tags, %.4f px rms; "
+              "straight edges %d tags, %.4f px rms\n", a.tags, a.rms_px, b.tags, b.rms_px);
+  EXPECT_GE(a.tags, b.tags);
+  EXPECT_LT(a.rms_px, 0.06);
+  EXPECT_LT(a.rms_px, b.rms_px);
+  // One image cannot calibrate a lens: its edges are straight, and it says why.
+  const CommandResult one = RunCommand(test_util::OdocalBinary() + " detect " + dir_ +
+                                       "/view0.png --board aprilgrid:6x6:88:0.3 --json -");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const nlohmann::json lone = nlohmann::json::parse(one.out);
+  EXPECT_EQ(lone["lens"]["source"], "none");
+  EXPECT_THAT(lone["lens"]["why"].get<std::string>(), ::testing::HasSubstr("a lens needs 3"));
 }
 
 // A calibration video: mostly one pose again. With more images than

@@ -3,6 +3,7 @@
 // Loads the images, finds the board in each (vision::DetectBoard), calibrates
 // (vision::CalibrateCamera) and writes the camera file (config/camera_file.h) with the
 // reprojection errors. Images without the board are named and skipped.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -40,6 +41,50 @@ struct ImageOutcome {
 };
 
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+// One image as first searched.
+struct Searched {
+  cv::Size size;
+  std::string unreadable;  // why, when the image could not be read
+  vision::BoardDetection detection;
+  bool full = false;  // the full search's detection, not the quick look's
+};
+
+// The quick look (libapriltag's corners alone, without the full search's
+// painted and predicted passes) can miss a board the full search finds:
+// small tags whose corner squares still touch them, a lens or light the data
+// sets we have do not show. When it saw fewer views than max_views, up to
+// kProbes of the images it saw no board in are searched fully, evenly spaced;
+// if any of them shows the board, every such image is.
+void SearchWhatTheQuickLookMissed(const std::vector<std::string>& paths, const vision::CalibrationBoard& board,
+                                  int max_views, int threads, std::vector<Searched>* searched) {
+  constexpr size_t kProbes = 8;
+  std::vector<size_t> unseen;
+  int seen = 0;
+  for (size_t i = 0; i < searched->size(); ++i) {
+    const Searched& s = (*searched)[i];
+    if (!s.unreadable.empty()) continue;
+    if (s.detection.found) ++seen;
+    else unseen.push_back(i);
+  }
+  if (seen >= max_views || unseen.empty()) return;
+  const auto search = [&](size_t i) {
+    Searched& s = (*searched)[i];
+    s.detection = vision::DetectBoard(media::ReadGreyImage(paths[i]).grey, board);
+    s.full = true;
+  };
+  std::vector<size_t> probes;
+  const size_t n = std::min(kProbes, unseen.size());
+  for (size_t k = 0; k < n; ++k) probes.push_back(unseen[k * unseen.size() / n]);
+  ParallelFor(probes.size(), static_cast<unsigned>(threads), [&](size_t k) { search(probes[k]); });
+  const bool missed = std::any_of(probes.begin(), probes.end(), [&](size_t i) { return (*searched)[i].detection.found; });
+  if (!missed) return;
+  std::cerr << "odocal " << kCalibrateCamera << ": the quick look (--max-views) missed the board in images the full "
+            << "search finds it in: searching all " << unseen.size() << " of them fully\n";
+  ParallelFor(unseen.size(), static_cast<unsigned>(threads), [&](size_t k) {
+    if (!(*searched)[unseen[k]].full) search(unseen[k]);
+  });
+}
 
 }  // namespace
 
@@ -89,11 +134,6 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   const bool choose = args.max_views > 0 && paths.size() > static_cast<size_t>(args.max_views);
   vision::BoardDetectionOptions look;
   look.aprilgrid_corners_only = choose && board.type == vision::CalibrationBoard::Type::kAprilgrid;
-  struct Searched {
-    cv::Size size;
-    std::string unreadable;  // why, when the image could not be read
-    vision::BoardDetection detection;
-  };
   std::vector<Searched> searched(paths.size());
   ParallelFor(paths.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
     const std::string& path = paths[i];
@@ -107,7 +147,9 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     }
     searched[i].size = image.size();
     searched[i].detection = vision::DetectBoard(image, board, look);
+    searched[i].full = !look.aprilgrid_corners_only;
   });
+  if (look.aprilgrid_corners_only) SearchWhatTheQuickLookMissed(paths, board, args.max_views, args.threads, &searched);
   std::vector<ImageOutcome> outcomes;
   std::vector<vision::BoardDetection> views;
   std::vector<size_t> view_image;  // views[i] came from outcomes[view_image[i]]
@@ -130,7 +172,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
         o.corners = static_cast<int>(d.image_points.size());
         views.push_back(std::move(d));
         view_image.push_back(outcomes.size());
-      } else if (look.aprilgrid_corners_only) {
+      } else if (!s.full) {
         // Not seen by the quick look: so named, not as the full search's verdict.
         o.reason = "board not found by the quick look (--max-views): " + d.message;
       } else {
@@ -165,6 +207,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     }
     if (look.aprilgrid_corners_only) {
       ParallelFor(kept_views.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
+        if (searched[kept_image[i]].full) return;  // found by the full search already
         kept_views[i] = vision::DetectBoard(media::ReadGreyImage(outcomes[kept_image[i]].path).grey, board);
       });
     }
@@ -202,43 +245,21 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
              " images show the board; need at least " + std::to_string(options.min_views) +
              " (no camera file written)");
   }
-  vision::CameraCalibrationResult result = vision::CalibrateCamera(views, size, options);
-  // --model auto: both models on the same views (vision::CompareLensModels).
-  std::optional<vision::LensModelChoice> choice;
-  if (auto_model) {
-    vision::CameraCalibrationOptions other = options;
-    other.lens = vision::LensModel::kEquidistant;
-    other.fix_k3 = false;
-    vision::CameraCalibrationResult f = vision::CalibrateCamera(views, size, other);
-    choice = vision::CompareLensModels(views, result, f);
-    if (choice->chosen == vision::LensModel::kEquidistant) {
-      options = other;
-      result = std::move(f);
-    }
+  // The lens (--model auto: both models, vision::CompareLensModels), then an
+  // aprilgrid's tags refined again through it (vision::CalibrateLensFromViews).
+  vision::LensFromViews lens_fit = vision::CalibrateLensFromViews(
+      views, size, board, options, auto_model,
+      [&](size_t i) { return media::ReadGreyImage(outcomes[view_image[i]].path).grey; });
+  if (lens_fit.choice && lens_fit.choice->chosen == vision::LensModel::kEquidistant) {
+    options.lens = vision::LensModel::kEquidistant;
+    options.fix_k3 = false;
   }
+  vision::CameraCalibrationResult result = std::move(lens_fit.result);
+  const std::optional<vision::LensModelChoice> choice = lens_fit.choice;
+  const double first_pass_rms_px = lens_fit.first_pass_rms_px;
   if (!result.ok()) Fail(kCalibrateCamera, kExitFailure, result.message + " (no camera file written)");
-  // An aprilgrid's corners come from its tags' edges, which the lens bends
-  // (through a fisheye by 0.15 px rms at a tag's corners, docs/vision.md):
-  // a second pass refines them through the first pass's lens and calibrates
-  // again. A view whose second pass finds no board keeps its first.
-  double first_pass_rms_px = NAN;
-  if (board.type == vision::CalibrationBoard::Type::kAprilgrid) {
-    vision::BoardDetectionOptions through;
-    through.lens = result.intrinsics;
-    std::vector<vision::BoardDetection> again = views;
-    ParallelFor(views.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
-      ImageOutcome& o = outcomes[view_image[i]];
-      vision::BoardDetection d = vision::DetectBoard(media::ReadGreyImage(o.path).grey, board, through);
-      if (!d.found) return;
-      o.corners = static_cast<int>(d.image_points.size());
-      again[i] = std::move(d);
-    });
-    vision::CameraCalibrationResult second = vision::CalibrateCamera(again, size, options);
-    if (second.ok()) {
-      first_pass_rms_px = result.rms_reprojection_error_px;
-      result = std::move(second);
-    }
-  }
+  for (size_t i = 0; i < views.size(); ++i)
+    outcomes[view_image[i]].corners = static_cast<int>(lens_fit.views[i].image_points.size());
   // A plumb_bob fit that leaves pixels: is it a fisheye? The same views
   // through the equidistant model; suggested when it halves the error (a
   // 190-degree lens fitted as plumb_bob: 2.39 px, as a fisheye 0.034 px).

@@ -48,7 +48,8 @@ struct DetectArgs {
   std::string calibration;
   std::string json_out;
   std::string annotate_dir;
-  int threads = 0;  // 0: one per core
+  bool straight_edges = false;  // --board without --calibration: no lens from the images
+  int threads = 0;              // 0: one per core
 };
 
 // One image (a file, or one frame of a video) and what was found in it.
@@ -108,6 +109,68 @@ void DrawQuad(cv::Mat* bgr, const std::array<cv::Point2d, 4>& c, const cv::Scala
   cv::polylines(*bgr, pts, true, colour, thickness, cv::LINE_AA, 4);
 }
 
+// What one image's searches found.
+struct Found {
+  vision::TagSurvey survey;
+  vision::BoardDetection board;
+};
+
+// --board without --calibration: the lens calibrated from the images' first-
+// pass boards as calibrate-camera calibrates it (at most kMaxLensViews views
+// chosen for their spread, the model chosen as --model auto chooses), so
+// that a fisheye's curved edges are refined as curves. Videos' frames are
+// not used. Sets *lens when it succeeds, with the boards of the views it was
+// calibrated on already found through it (their indices in *through_lens);
+// returns what detect.json's "lens" says.
+json LensFromTheImages(const std::vector<std::string>& inputs, std::vector<Found>* found,
+                       const vision::CalibrationBoard& board, int threads, std::optional<vision::Intrinsics>* lens,
+                       std::vector<bool>* through_lens) {
+  constexpr int kMaxLensViews = 60;
+  std::vector<vision::BoardDetection> views;
+  std::vector<size_t> view_input;
+  cv::Size size;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    if (IsVideo(inputs[i]) || !(*found)[i].board.found) continue;
+    views.push_back((*found)[i].board);
+    view_input.push_back(i);
+  }
+  vision::CameraCalibrationOptions options;
+  json out = {{"source", "none"}, {"edges", "straight"}};
+  if (static_cast<int>(views.size()) < options.min_views) {
+    out["why"] = std::to_string(views.size()) + " image(s) show the board; a lens needs " +
+                 std::to_string(options.min_views) + " (name one with --calibration)";
+    return out;
+  }
+  size = media::ReadGreyImage(inputs[view_input.front()]).grey.size();
+  const std::vector<size_t> chosen = vision::SelectViews(views, size, kMaxLensViews);
+  std::vector<vision::BoardDetection> chosen_views;
+  for (size_t c : chosen) chosen_views.push_back(views[c]);
+  options.threads = threads;
+  const vision::LensFromViews fit = vision::CalibrateLensFromViews(
+      chosen_views, size, board, options, /*choose_model=*/true,
+      [&](size_t v) { return media::ReadGreyImage(inputs[view_input[chosen[v]]]).grey; });
+  if (!fit.result.ok()) {
+    out["why"] = "no lens from the images: " + fit.result.message;
+    return out;
+  }
+  *lens = fit.result.intrinsics;
+  through_lens->assign(inputs.size(), false);
+  if (std::isfinite(fit.first_pass_rms_px)) {
+    for (size_t v = 0; v < chosen.size(); ++v) {
+      (*found)[view_input[chosen[v]]].board = fit.views[v];
+      (*through_lens)[view_input[chosen[v]]] = true;
+    }
+  }
+  const vision::Intrinsics& k = fit.result.intrinsics;
+  return {{"source", "images"},
+          {"edges", "through the lens"},
+          {"distortion_model", vision::LensModelName(k.lens)},
+          {"views", fit.result.views},
+          {"rms_px", fit.result.rms_reprojection_error_px},
+          {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
+          {"distortion", std::vector<double>(k.distortion.begin(), k.distortion.end())}};
+}
+
 }  // namespace
 
 void RunDetect(const DetectArgs& args) {
@@ -164,6 +227,11 @@ void RunDetect(const DetectArgs& args) {
   // 3. Detection.
   std::optional<vision::CameraModel> camera;
   if (intrinsics) camera.emplace(*intrinsics, vision::CameraMount{});
+  // The lens the board's edges are refined through: --calibration's, else
+  // (a board, 3 or more images showing it) one calibrated from the images
+  // as calibrate-camera does; it bends a tag's edges (a fisheye's most) but
+  // gives no poses, which need a calibration the user stands behind.
+  std::optional<vision::Intrinsics> refine_lens = intrinsics;
   vision::TagSurveyOptions survey_options;
   survey_options.family = family;
   json images = json::array();
@@ -172,10 +240,6 @@ void RunDetect(const DetectArgs& args) {
   int frame_count = 0;
   // The searches (most of the time: the edge models' fits) on their own
   // workers; what they found is reported in the inputs' order.
-  struct Found {
-    vision::TagSurvey survey;
-    vision::BoardDetection board;
-  };
   const auto find = [&](const cv::Mat& grey) {
     Found found;
     found.survey = SurveyTags(grey, camera ? &*camera : nullptr, survey_options);
@@ -185,7 +249,7 @@ void RunDetect(const DetectArgs& args) {
       // edges through the lens when a calibration is given), the survey's
       // for the rest; quads inside a board tag are not refusals.
       vision::BoardDetectionOptions board_options;
-      if (intrinsics) board_options.lens = *intrinsics;
+      if (refine_lens) board_options.lens = *refine_lens;
       found.board = vision::DetectBoard(grey, *board, board_options);
     }
     return found;
@@ -358,6 +422,22 @@ void RunDetect(const DetectArgs& args) {
   ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
     if (!IsVideo(inputs[i])) found_in_image[i] = find(media::ReadGreyImage(inputs[i]).grey);
   });
+  json lens = args.calibration.empty() ? json{{"source", "none"}, {"edges", "straight"}}
+                                       : json{{"source", "calibration"}, {"file", args.calibration}};
+  if (board && !intrinsics && !args.straight_edges) {
+    std::vector<bool> done;
+    lens = LensFromTheImages(inputs, &found_in_image, *board, args.threads, &refine_lens, &done);
+    if (refine_lens) {
+      // The other images' boards through the lens too (the tags off the board
+      // are the survey's, which no lens changes).
+      vision::BoardDetectionOptions through;
+      through.lens = *refine_lens;
+      ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
+        if (IsVideo(inputs[i]) || done[i] || !found_in_image[i].survey.ok) return;
+        found_in_image[i].board = vision::DetectBoard(media::ReadGreyImage(inputs[i]).grey, *board, through);
+      });
+    }
+  }
   for (size_t n = 0; n < inputs.size(); ++n) {
     const std::string& path = inputs[n];
     if (IsVideo(path)) {
@@ -389,6 +469,7 @@ void RunDetect(const DetectArgs& args) {
     doc["board"] = {{"type", "aprilgrid"}, {"cols", board->cols}, {"rows", board->rows},
                     {"tag_mm", board->square_m * 1e3}, {"spacing", board->spacing}, {"first_id", board->first_id}};
   doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
+  doc["lens"] = lens;
   if (!args.annotate_dir.empty()) {
     if (const auto error = config::EnsureDirectory(args.annotate_dir))
       Fail(kDetect, kExitFailure, "--annotate: " + *error);
@@ -447,6 +528,9 @@ void RegisterDetectCommand(CLI::App& app) {
   cmd->add_option("--calibration", args->calibration, "Camera file (calibrate-camera's): poses and covariances");
   cmd->add_option("--json", args->json_out, "Write everything as JSON to this file ('-': stdout)");
   cmd->add_option("--annotate", args->annotate_dir, "Write one annotated PNG per image into this directory");
+  cmd->add_flag("--straight-edges", args->straight_edges,
+               "With --board and no --calibration: refine the edges as straight lines instead of through a\n"
+               "lens calibrated from the images (faster; right only for a lens that bends little)");
   cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
       ->check(CLI::Range(0, kMaxCount));
   cmd->callback([args]() { RunDetect(*args); });

@@ -1,3 +1,4 @@
+#include "odocal/base/units.h"
 #include "odocal/vision/board_render.h"
 
 #include <cmath>
@@ -240,19 +241,18 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleBoardPoses(
   const auto [lo, hi] = BoundingBox(points_board);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const double extent_m = (hi - lo).head<2>().norm();
-  constexpr double kDeg = M_PI / 180.0;
   std::mt19937_64 rng(sampling.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   auto uniform = [&](double a, double b) { return a + (b - a) * unit(rng); };
   auto tilt = [&]() {
-    const double t = uniform(sampling.min_tilt_deg, sampling.max_tilt_deg) * kDeg;
+    const double t = uniform(sampling.min_tilt_deg, sampling.max_tilt_deg) * kDegToRad;
     return unit(rng) < 0.5 ? -t : t;
   };
   std::vector<Eigen::Isometry3d> poses;
   for (int attempt = 0; attempt < 1000 * sampling.count && static_cast<int>(poses.size()) < sampling.count;
        ++attempt) {
     const Eigen::Matrix3d R =
-        (Eigen::AngleAxisd(uniform(-sampling.max_turn_deg, sampling.max_turn_deg) * kDeg, Eigen::Vector3d::UnitZ()) *
+        (Eigen::AngleAxisd(uniform(-sampling.max_turn_deg, sampling.max_turn_deg) * kDegToRad, Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(tilt(), Eigen::Vector3d::UnitY()) *
          Eigen::AngleAxisd(tilt(), Eigen::Vector3d::UnitX()))
             .toRotationMatrix();
@@ -283,7 +283,6 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleFieldBoardPoses(
   const CameraModel camera(intrinsics, CameraMount{});
   const auto [lo, hi] = BoundingBox(points_board);
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
-  constexpr double kDeg = M_PI / 180.0;
   std::mt19937_64 rng(sampling.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::vector<Eigen::Isometry3d> poses;
@@ -292,12 +291,12 @@ std::optional<std::vector<Eigen::Isometry3d>> SampleFieldBoardPoses(
     // Uniform over the ring of directions min..max off the axis (area ~ off^2).
     const double lo2 = sampling.min_off_axis_deg * sampling.min_off_axis_deg;
     const double hi2 = sampling.max_off_axis_deg * sampling.max_off_axis_deg;
-    const double off = kDeg * std::sqrt(lo2 + (hi2 - lo2) * unit(rng));
+    const double off = kDegToRad * std::sqrt(lo2 + (hi2 - lo2) * unit(rng));
     const double azimuth = 2.0 * M_PI * unit(rng);
     const double distance = sampling.near_m + (sampling.far_m - sampling.near_m) * unit(rng);
     const Eigen::Vector3d ray(std::sin(off) * std::cos(azimuth), std::sin(off) * std::sin(azimuth), std::cos(off));
     // The board's z axis (away from the camera seeing its face) along the ray, then tilted and turned.
-    const double tilt = sampling.max_tilt_deg * kDeg;
+    const double tilt = sampling.max_tilt_deg * kDegToRad;
     const Eigen::Matrix3d R =
         Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), ray).toRotationMatrix() *
         (Eigen::AngleAxisd((2.0 * unit(rng) - 1.0) * tilt, Eigen::Vector3d::UnitX()) *

@@ -1,3 +1,4 @@
+#include "odocal/base/units.h"
 #include "odocal/vision/camera_calibration.h"
 
 #include <algorithm>
@@ -798,7 +799,7 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
     // An ideal equidistant lens (r = f theta) centred in the image, with the
     // image's half width at 60, 80 or 100 degrees off the axis.
     for (const double half_angle_deg : {60.0, 80.0, 100.0}) {
-      const double f = 0.5 * size.width / (half_angle_deg * M_PI / 180.0);
+      const double f = 0.5 * size.width / (half_angle_deg * kDegToRad);
       Intrinsics guess{size.width, size.height, f, f, 0.5 * (size.width - 1), 0.5 * (size.height - 1), {0, 0, 0, 0, 0}};
       guess.lens = LensModel::kEquidistant;
       starts.push_back(guess);

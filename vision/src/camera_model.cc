@@ -137,7 +137,7 @@ Eigen::Isometry3d CameraMount::T_world_camera() const {
       RWorldDown();
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.linear() = r;
-  t.translation() = Eigen::Vector3d(x_mm, y_mm, height_mm) * 1e-3;
+  t.translation() = Eigen::Vector3d(x_mm, y_mm, height_mm) * kMmToM;
   return t;
 }
 
@@ -148,9 +148,9 @@ CameraMount CameraMount::FromTransform(const Eigen::Isometry3d& T_world_camera) 
   m.yaw_deg = std::atan2(r(1, 0), r(0, 0)) / kDegToRad;
   m.pitch_deg = std::asin(std::clamp(-r(2, 0), -1.0, 1.0)) / kDegToRad;
   m.roll_deg = std::atan2(r(2, 1), r(2, 2)) / kDegToRad;
-  m.x_mm = T_world_camera.translation().x() * 1e3;
-  m.y_mm = T_world_camera.translation().y() * 1e3;
-  m.height_mm = T_world_camera.translation().z() * 1e3;
+  m.x_mm = T_world_camera.translation().x() * kMToMm;
+  m.y_mm = T_world_camera.translation().y() * kMToMm;
+  m.height_mm = T_world_camera.translation().z() * kMToMm;
   return m;
 }
 

@@ -1,3 +1,4 @@
+#include "odocal/base/units.h"
 #include "odocal/vision/floor_reference.h"
 
 #include <algorithm>
@@ -184,7 +185,7 @@ FloorScaleResult EstimateFloorScale(const CameraModel& camera,
   auto seen = [&](const CameraModel& cam, const cv::Point2d& a, const cv::Point2d& b) -> std::optional<double> {
     const auto pa = OnFloor(cam, a), pb = OnFloor(cam, b);
     if (!pa || !pb) return std::nullopt;
-    return (*pa - *pb).norm() * 1e3;
+    return (*pa - *pb).norm() * kMToMm;
   };
   struct Used {
     FloorScaleResult::Pair pair;

@@ -117,14 +117,14 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
   const Eigen::Vector2d t = pc - rot * mc;
   double sq = 0.0;
   for (int k = 0; k < 4; ++k) sq += (rot * model[k] + t - plane[k]).squaredNorm();
-  result.rms_fit_mm = std::sqrt(sq / 4.0) * 1e3;
+  result.rms_fit_mm = std::sqrt(sq / 4.0) * kMToMm;
   // The similarity fit: the same rotation, the least-squares scale.
   double model_sq = 0.0;
   for (int k = 0; k < 4; ++k) model_sq += (model[k] - mc).squaredNorm();
   const double scale = std::hypot(sdot, scross) / model_sq;
   for (int k = 0; k < 4; ++k) {
     const Eigen::Vector2d residual = plane[k] - (pc + scale * (rot * (model[k] - mc)));
-    result.closure_mm[k] = rot.inverse() * residual * 1e3;
+    result.closure_mm[k] = rot.inverse() * residual * kMToMm;
   }
   result.T_world_tag = Pose2::FromXYHeading(t.x(), t.y(), theta);
   result.T_world_robot = result.T_world_tag * tag.T_robot_tag().inverse();
@@ -268,10 +268,10 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   CameraMount start = nominal_mount;
   start.roll_deg = camera[0] * kRadToDeg;
   start.pitch_deg = camera[1] * kRadToDeg;
-  start.height_mm = (camera[2] + tag.height_m()) * 1e3;
+  start.height_mm = (camera[2] + tag.height_m()) * kMToMm;
   const CameraModel start_model(intrinsics, start);
 
-  const Eigen::Vector3d gauge(nominal_mount.x_mm * 1e-3, nominal_mount.y_mm * 1e-3,
+  const Eigen::Vector3d gauge(nominal_mount.x_mm * kMmToM, nominal_mount.y_mm * kMmToM,
                               nominal_mount.yaw_deg / kRadToDeg);
   std::vector<std::array<double, 3>> views;
   std::vector<size_t> view_index;
@@ -345,7 +345,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   }
   result.mount.roll_deg = camera[0] * kRadToDeg;
   result.mount.pitch_deg = camera[1] * kRadToDeg;
-  result.mount.height_mm = (camera[2] + tag.height_m()) * 1e3;
+  result.mount.height_mm = (camera[2] + tag.height_m()) * kMToMm;
   result.views_used = static_cast<int>(views.size());
   const int n_res = 8 * result.views_used;
   result.rms_reprojection_px = std::sqrt(2.0 * summary.final_cost / n_res);
@@ -366,7 +366,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     const double s2 = 2.0 * summary.final_cost / dof;
     result.sigma_roll_deg = std::sqrt(cov[0] * s2) * kRadToDeg;
     result.sigma_pitch_deg = std::sqrt(cov[4] * s2) * kRadToDeg;
-    result.sigma_height_mm = std::sqrt(cov[8] * s2) * 1e3;
+    result.sigma_height_mm = std::sqrt(cov[8] * s2) * kMToMm;
     if (fit_readout) {
       double t_cov = 0.0;
       covariance.GetCovarianceBlock(readout_s, readout_s, &t_cov);

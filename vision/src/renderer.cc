@@ -1,3 +1,4 @@
+#include "odocal/base/units.h"
 #include "odocal/vision/renderer.h"
 
 #include <algorithm>
@@ -98,9 +99,9 @@ bool PaintFloorTag(const CameraModel& camera, const cv::Mat& corner_rays,
   }
   internal::ImageU8Ptr im(apriltag_to_image(family.get(), placement.id));
   const int n = im->width;
-  const double cell_m = placement.size_mm * 1e-3 / family->width_at_border;
+  const double cell_m = placement.size_mm * kMmToM / family->width_at_border;
   const double half_grid_m = 0.5 * n * cell_m;
-  const double paper_half_m = half_grid_m + placement.paper_margin_mm * 1e-3;
+  const double paper_half_m = half_grid_m + placement.paper_margin_mm * kMmToM;
   // Image box of the paper.
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
   for (int sx = -1; sx <= 1; sx += 2) {
@@ -204,7 +205,7 @@ struct Renderer::Impl {
       }
       return kPlate;
     }
-    if (q_robot.squaredNorm() <= std::pow(options.body_radius_mm * 1e-3, 2)) return kBody;
+    if (q_robot.squaredNorm() <= std::pow(options.body_radius_mm * kMmToM, 2)) return kBody;
     return kFloor;
   }
 
@@ -268,7 +269,7 @@ struct Renderer::Impl {
   double BowLift(const Eigen::Vector2d& t) const {
     if (std::abs(t.x()) > plate_half_m || std::abs(t.y()) > plate_half_m) return 0.0;
     const double u = t.x() / plate_half_m;
-    return options.tag_bow_mm * 1e-3 * (1.0 - u * u);
+    return options.tag_bow_mm * kMmToM * (1.0 - u * u);
   }
 
   // Adds weight * (the scene at pose T_world_robot) over `roi` to acc, which
@@ -315,7 +316,7 @@ struct Renderer::Impl {
   // Image bounding box of body and plate at a pose (empty if not in front).
   cv::Rect2d GeometryBox(const Pose2& T_world_robot) const {
     std::vector<Eigen::Vector3d> pts;
-    const double r = options.body_radius_mm * 1e-3;
+    const double r = options.body_radius_mm * kMmToM;
     for (int k = 0; k < 72; ++k) {
       const double a = 2.0 * M_PI * k / 72.0;
       // Circumscribed polygon so the sampled outline never cuts the disc.
@@ -372,7 +373,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   }
   impl->width_at_border = family->width_at_border;
   impl->cell_m = tag.size_m() / family->width_at_border;
-  impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * 1e-3;
+  impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * kMmToM;
   impl->tag_T_robot = tag.T_robot_tag().inverse();
 
   // Normalised coordinates of every pixel corner (u - 0.5, v - 0.5), once.
@@ -448,9 +449,9 @@ RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& traje
   const Pose2 a = trajectory(t_mid_s - 0.5 * e), b = trajectory(t_mid_s + 0.5 * e);
   const double rim_m = std::hypot(b.x() - a.x(), b.y() - a.y()) +
                        std::abs(calibration::WrapAngle(b.heading() - a.heading())) *
-                           impl_->options.body_radius_mm * 1e-3;
+                           impl_->options.body_radius_mm * kMmToM;
   const double px_per_m = impl_->camera.intrinsics().fx /
-                          std::max(0.1, impl_->camera.mount().height_mm * 1e-3 - impl_->tag.height_m());
+                          std::max(0.1, impl_->camera.mount().height_mm * kMmToM - impl_->tag.height_m());
   motion_px = std::max(motion_px, rim_m * px_per_m);
   const int n = std::clamp(static_cast<int>(std::ceil(motion_px / impl_->options.motion_step_px)) + 1,
                            1, impl_->options.max_motion_substeps);
@@ -475,7 +476,7 @@ RenderedFrame Renderer::RenderExposure(const std::function<Pose2(double)>& traje
   const Pose2 ra = trajectory(t_mid_s - 0.5 * rs), rb = trajectory(t_mid_s + 0.5 * rs);
   readout_px = std::max(readout_px, (std::hypot(rb.x() - ra.x(), rb.y() - ra.y()) +
                                      std::abs(calibration::WrapAngle(rb.heading() - ra.heading())) *
-                                         impl_->options.body_radius_mm * 1e-3) *
+                                         impl_->options.body_radius_mm * kMmToM) *
                                         px_per_m);
   const int bands = std::clamp(
       static_cast<int>(std::ceil(readout_px / impl_->options.motion_step_px)) + 1, 1, 256);

@@ -1,3 +1,4 @@
+#include "odocal/base/units.h"
 #include "odocal/vision/tag.h"
 
 #include <cmath>
@@ -28,8 +29,8 @@ bool TagSpec::IsValid(std::string* why) const {
 }
 
 calibration::Pose2 TagSpec::T_robot_tag() const {
-  return calibration::Pose2::FromXYHeading(offset_x_mm * 1e-3, offset_y_mm * 1e-3,
-                                           yaw_deg * M_PI / 180.0);
+  return calibration::Pose2::FromXYHeading(offset_x_mm * kMmToM, offset_y_mm * kMmToM,
+                                           yaw_deg * kDegToRad);
 }
 
 std::array<Eigen::Vector2d, 4> TagCornersInTag(double size_m) {

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::vision {
@@ -32,8 +33,8 @@ struct TagSpec {
   double yaw_deg = 0.0;      // tag x relative to robot x
 
   bool IsValid(std::string* why) const;
-  double size_m() const { return size_mm * 1e-3; }
-  double height_m() const { return height_mm * 1e-3; }
+  double size_m() const { return size_mm * kMmToM; }
+  double height_m() const { return height_mm * kMmToM; }
   calibration::Pose2 T_robot_tag() const;
 };
 

@@ -93,6 +93,10 @@ bool TrackerOptions::IsValid(std::string* why) const {
     if (why) *why = "tracker ROI margins must be >= 0";
     return false;
   }
+  if (!(small_tag_px >= 0.0) || full_resolution_every < 0) {
+    if (why) *why = "tracker small_tag_px and full_resolution_every must be >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -145,7 +149,8 @@ TagDetectorResult TagDetector::Create(const DetectorOptions& options) {
 
 const DetectorOptions& TagDetector::options() const { return impl_->options; }
 
-DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Rect>& roi) {
+DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Rect>& roi,
+                                 std::optional<float> quad_decimate) {
   DetectResult result;
   if (grey.empty() || grey.type() != CV_8UC1) {
     result.status = DetectStatus::kBadInput;
@@ -158,7 +163,8 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
     // from the window's first pixel, so an origin of another parity sees a
     // different decimated image, and window and full-frame detections would
     // differ by a few hundredths of a pixel.
-    const int step = std::max(1, static_cast<int>(std::lround(impl_->options.quad_decimate)));
+    const float decimate = quad_decimate.value_or(impl_->options.quad_decimate);
+    const int step = std::max(1, static_cast<int>(std::lround(decimate)));
     cv::Rect snapped = *roi;
     const int dx = ((snapped.x % step) + step) % step, dy = ((snapped.y % step) + step) % step;
     snapped.x -= dx;
@@ -177,7 +183,11 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
   const cv::Mat view = grey(window);
   image_u8_t im{view.cols, view.rows, static_cast<int32_t>(view.step[0]),
                 const_cast<uint8_t*>(view.ptr<uint8_t>(0))};
+  // The detector is this object's alone (one per tracked video): its
+  // decimation may be set for one call and put back.
+  impl_->detector->quad_decimate = quad_decimate.value_or(impl_->options.quad_decimate);
   internal::DetectionsPtr detections(apriltag_detector_detect(impl_->detector.get(), &im));
+  impl_->detector->quad_decimate = impl_->options.quad_decimate;
   const double dx = window.x + kApriltagToOpenCvPx;
   const double dy = window.y + kApriltagToOpenCvPx;
   const std::optional<bool> two_bit = ExpectsTwoBitBorder(impl_->options.family);
@@ -215,9 +225,10 @@ DetectResult TagDetector::Detect(const cv::Mat& grey, const std::optional<cv::Re
   return result;
 }
 
-FindResult TagDetector::Find(const cv::Mat& grey, int id, const std::optional<cv::Rect>& roi) {
+FindResult TagDetector::Find(const cv::Mat& grey, int id, const std::optional<cv::Rect>& roi,
+                             std::optional<float> quad_decimate) {
   FindResult result;
-  DetectResult all = Detect(grey, roi);
+  DetectResult all = Detect(grey, roi, quad_decimate);
   result.status = all.status;
   result.message = all.message;
   if (all.status != DetectStatus::kOk) return result;
@@ -254,6 +265,7 @@ TagTracker::TagTracker(TagDetector* detector, int id, const TrackerOptions& opti
 void TagTracker::Reset() {
   last_.reset();
   before_last_.reset();
+  last_small_ = false;
 }
 
 std::optional<cv::Rect> TagTracker::PredictRoi(cv::Size image_size) const {
@@ -286,20 +298,38 @@ TrackResult TagTracker::Track(const cv::Mat& grey) {
     result.find.message = "empty frame";
     return result;
   }
+  const std::optional<float> full_resolution = 1.0f;
+  bool at_full_resolution = false;
   if (const auto roi = PredictRoi(grey.size())) {
     result.used_roi = true;
     result.roi = *roi;
-    result.find = detector_->Find(grey, id_, roi);
+    at_full_resolution = last_small_;
+    result.find = detector_->Find(grey, id_, roi, last_small_ ? full_resolution : std::nullopt);
   }
   if (!result.used_roi || result.find.status != DetectStatus::kOk) {
-    // Acquire or reacquire on the whole frame.
+    // Acquire or reacquire on the whole frame; now and then at full
+    // resolution when the decimated search misses (a small tag).
     result.used_roi = false;
     result.roi = cv::Rect(0, 0, grey.cols, grey.rows);
+    at_full_resolution = false;
     result.find = detector_->Find(grey, id_);
+    if (result.find.status == DetectStatus::kNotFound && options_.full_resolution_every > 0 &&
+        detector_->options().quad_decimate > 1.0f && whole_frame_misses_++ % options_.full_resolution_every == 0) {
+      at_full_resolution = true;
+      result.find = detector_->Find(grey, id_, std::nullopt, full_resolution);
+    }
   }
   if (result.find.status == DetectStatus::kOk) {
     before_last_ = last_;
     last_ = result.find.detection->corners_px;
+    const auto& c = *last_;
+    double shorter = 1e18;
+    for (int k = 0; k < 4; ++k) shorter = std::min(shorter, cv::norm(c[k] - c[(k + 1) % 4]));
+    // With some hysteresis: the decimated and the full-resolution searches
+    // place a small tag's corners a few tenths of a pixel apart, and a tag
+    // near the threshold must not alternate between them from frame to frame.
+    last_small_ = shorter < options_.small_tag_px * (at_full_resolution ? 1.5 : 1.0);
+    whole_frame_misses_ = 0;
   } else {
     Reset();
   }

@@ -33,9 +33,12 @@ struct CornerRefineOptions {
   // Half-width of the normal profile (px); capped at 0.45 cell so the
   // profile stays on the black border and the white quiet zone.
   double max_half_width_px = 3.0;
-  // Refinement needs cells at least this wide (px); smaller tags are returned
-  // unchanged with ok = false.
-  double min_cell_px = 3.0;
+  // Refinement needs cells at least this wide (px, the mean over the four
+  // sides); smaller tags are returned unchanged with ok = false. 2 px: a
+  // tag at a fisheye's rim is squeezed to 2-3 px a cell across the view's
+  // radius, and refused at 3 its rests were never measured
+  // (FisheyeLens.ASmallTagAtTheRimIsFoundAtFullResolutionAndMeasured).
+  double min_cell_px = 2.0;
   // RefineTagCornersByEdgeModel on an aprilgrid: each edge's line continues
   // beyond both corners along a corner square's edge, black and white
   // swapped, for this fraction of the edge's length (Kalibr's spacing, 0.3);

@@ -105,10 +105,13 @@ class TagDetector {
   TagDetector& operator=(const TagDetector&) = delete;
 
   // All tags of the family in `grey` (CV_8UC1), or inside `roi` of it; the
-  // corners come back in full-image coordinates either way.
-  DetectResult Detect(const cv::Mat& grey, const std::optional<cv::Rect>& roi = std::nullopt);
+  // corners come back in full-image coordinates either way. `quad_decimate`,
+  // when given, replaces the options' for this call only.
+  DetectResult Detect(const cv::Mat& grey, const std::optional<cv::Rect>& roi = std::nullopt,
+                      std::optional<float> quad_decimate = std::nullopt);
   // Exactly tag `id`: kWrongId / kDuplicateId say why not.
-  FindResult Find(const cv::Mat& grey, int id, const std::optional<cv::Rect>& roi = std::nullopt);
+  FindResult Find(const cv::Mat& grey, int id, const std::optional<cv::Rect>& roi = std::nullopt,
+                  std::optional<float> quad_decimate = std::nullopt);
 
   const DetectorOptions& options() const;
 
@@ -124,6 +127,15 @@ struct TrackerOptions {
   double roi_margin_sides = 1.0;
   // ... and by at least this many pixels.
   int roi_min_margin_px = 16;
+  // Small tags are looked for at full resolution (quad_decimate 1): a tag
+  // whose shorter side was under `small_tag_px` in the last frame, and, while
+  // the tag is lost, every `full_resolution_every`-th whole-frame search that
+  // the decimated one missed. At decimate 2 a tag's cells under ~2 px fall
+  // apart in libapriltag's quad finder: a 100 mm tag 1.5 m off the axis of a
+  // fisheye 1.05 m above it is 14 x 27 px, found in the full image and not in
+  // the decimated one (TagTracker.FindsASmallTagAtAFisheyesRim).
+  double small_tag_px = 32.0;
+  int full_resolution_every = 4;  // 0: never
 
   bool IsValid(std::string* why) const;
 };
@@ -150,6 +162,8 @@ class TagTracker {
   int id_;
   TrackerOptions options_;
   std::optional<std::array<cv::Point2d, 4>> last_, before_last_;
+  bool last_small_ = false;    // the last detection's shorter side under small_tag_px
+  int whole_frame_misses_ = 0;  // whole-frame searches that missed since the last detection
 };
 
 }  // namespace odocal::vision

@@ -197,13 +197,13 @@ TEST(LiveState, TagLostAfterNFramesWithoutIt) {
 }
 
 TEST(LiveState, TooSmallBelowTheSizeTheRefinementNeeds) {
-  EXPECT_DOUBLE_EQ(LiveOptions{}.min_side_px, 24.0);  // 3 px cells x 8 cells
+  EXPECT_DOUBLE_EQ(LiveOptions{}.min_side_px, 16.0);  // 2 px cells x 8 cells
   LiveState state;
-  const Drawn small = DrawTag({320, 240}, 160, 120, 20);
+  const Drawn small = DrawTag({320, 240}, 160, 120, 14);
   state.OnFrame(small.grey, 0.0, small.corners, std::nullopt);
   const json j = state.StateJson();
   ASSERT_THAT(WarningKeys(j), ::testing::ElementsAre("too_small"));
-  EXPECT_THAT(j["warnings"][0]["text"].get<std::string>(), HasSubstr("20 px"));
+  EXPECT_THAT(j["warnings"][0]["text"].get<std::string>(), HasSubstr("14 px"));
   const Drawn fine = DrawTag({320, 240}, 160, 120, 40);
   state.OnFrame(fine.grey, 0.1, fine.corners, std::nullopt);
   EXPECT_THAT(WarningKeys(state.StateJson()), ::testing::IsEmpty());

@@ -18,7 +18,7 @@
 //              (or has not been seen yet);
 //   too_small  the tag's mean side is below `min_side_px`: by default the
 //              size under which vision's edge refinement refuses a tag
-//              (CornerRefineOptions: min_cell_px x width_at_border = 24 px),
+//              (CornerRefineOptions: min_cell_px x width_at_border = 16 px),
 //              so the pose falls back to libapriltag's corners;
 //   blur       the tag's sharpness is below `blur_ratio` x the reference.
 //              Sharpness = variance of the Laplacian (3x3) over the tag's

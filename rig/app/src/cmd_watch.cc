@@ -33,6 +33,7 @@
 #include "odocal/config/camera_file.h"
 #include "odocal/live/live_server.h"
 #include "odocal/live/live_state.h"
+#include "odocal/measure/measure.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/media/video.h"
 #include "odocal/vision/planar_pose.h"
@@ -220,16 +221,9 @@ void RunWatch(const WatchArgs& args) {
     if (obs.corners_px) {
       ++found;
       if (!camera) {
-        if (mount_guess) {
-          mount = *mount_guess;
-          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
-        } else {
-          // A level camera at the height the tag's apparent size implies.
-          const double f = 0.5 * (intrinsics.fx + intrinsics.fy);
-          mount = vision::CameraMount{};
-          mount.height_mm = tag.height_mm + f * tag.size_mm / MeanSidePx(*obs.corners_px);
-          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
-        }
+        mount = mount_guess ? *mount_guess
+                            : measure::LevelMountFromTagSize(intrinsics, tag, MeanSidePx(*obs.corners_px));
+        state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
         camera.emplace(intrinsics, mount);
       }
       if (!plane_done) {
@@ -239,9 +233,10 @@ void RunWatch(const WatchArgs& args) {
           std::vector<vision::TagCorners> views;
           const int step = std::max(1, static_cast<int>(plane_candidates.size()) / kMaxPlaneViews);
           for (size_t k = 0; k < plane_candidates.size(); k += step) views.push_back(plane_candidates[k]);
-          const vision::CameraPlaneResult plane = vision::EstimateCameraOverTagPlane(intrinsics, tag, views, mount);
-          if (plane.ok) {
-            mount = plane.mount;
+          const measure::CameraPlaneOrGuess fit = measure::EstimateCameraPlaneOrGuess(intrinsics, tag, views, mount);
+          const vision::CameraPlaneResult& plane = fit.plane;
+          if (fit.estimated()) {
+            mount = fit.mount;
             camera.emplace(intrinsics, mount);
             // The path so far, measured again on the fitted plane.
             std::vector<cv::Point2d> path;

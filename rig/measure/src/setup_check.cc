@@ -10,6 +10,7 @@
 #include "odocal/base/format.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/calibration/umbmark.h"
+#include "odocal/measure/measure.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/planar_pose.h"
@@ -138,10 +139,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   if (options.mount_guess) {
     r.mount = *options.mount_guess;
   } else {
-    const double f = 0.5 * (options.intrinsics.fx + options.intrinsics.fy);
-    vision::CameraMount level;
-    level.height_mm = options.tag.height_mm + f * options.tag.size_mm / print_side_px;
-    r.mount = level;
+    r.mount = LevelMountFromTagSize(options.intrinsics, options.tag, print_side_px);
     r.mount_from_tag_size = true;
   }
   // The tilt: a still tag's own perspective tells it (the bundle adjustment
@@ -152,15 +150,12 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     const int step = std::max<int>(1, static_cast<int>(corners.size()) / 20);
     std::vector<vision::TagCorners> views;
     for (size_t k = 0; k < corners.size(); k += step) views.push_back(corners[k]);
-    const vision::CameraPlaneResult plane =
-        vision::EstimateCameraOverTagPlane(options.intrinsics, options.tag, views, r.mount);
-    if (plane.ok) {
-      r.mount = plane.mount;
-      r.plane_from_tag = true;
-    } else {
-      r.warnings.push_back("the camera's tilt could not be estimated from the still tag (" + plane.message +
+    const CameraPlaneOrGuess fit = EstimateCameraPlaneOrGuess(options.intrinsics, options.tag, views, r.mount);
+    r.mount = fit.mount;
+    r.plane_from_tag = fit.estimated();
+    if (!fit.estimated())
+      r.warnings.push_back("the camera's tilt could not be estimated from the still tag (" + fit.plane.message +
                            "): the noise below may be overstated");
-    }
   }
   camera = vision::CameraModel(options.intrinsics, r.mount);
 

@@ -466,20 +466,16 @@ std::optional<Station::Failure> Station::MeasureRound(
         measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
     if (shift.ok)
       for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
-    vision::CameraMount mount = setup_.mount_guess;
-    if (static_cast<int>(views.size()) >= options_.plane.min_views) {
-      plane_ = vision::EstimateCameraOverTagPlane(setup_.intrinsics, setup_.tag, views,
-                                                  setup_.mount_guess, options_.plane);
-      if (plane_.ok) {
-        mount = plane_.mount;
-        plane_estimated_ = true;
-        Log(Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
-                   "(rms %.3f px)",
-                   plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm,
-                   plane_.rms_reprojection_px));
-      }
-    }
-    if (!plane_estimated_)
+    const measure::CameraPlaneOrGuess fit =
+        measure::EstimateCameraPlaneOrGuess(setup_.intrinsics, setup_.tag, views, setup_.mount_guess, options_.plane);
+    vision::CameraMount mount = fit.mount;
+    plane_ = fit.plane;
+    plane_estimated_ = fit.estimated();
+    if (plane_estimated_)
+      Log(Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
+                 "(rms %.3f px)",
+                 plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm, plane_.rms_reprojection_px));
+    else
       Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
     EstimateScale(&mount, shift.ok ? &shift : nullptr);
     camera_.emplace(setup_.intrinsics, mount);

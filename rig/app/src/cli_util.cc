@@ -230,4 +230,15 @@ void AddExportOption(CLI::App* cmd, report::ExportRequests* requests) {
       ->allow_extra_args(false);
 }
 
+void AddCameraTagOptions(CLI::App* cmd, const std::string& camera_option, CameraTagArgs* args) {
+  cmd->add_option(camera_option, args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
+      ->required();
+  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
+      ->required();
+  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
+  cmd->add_option("--mount-guess", args->mount,
+                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
+                  "from the tag's apparent size (the tilt is then fitted to the tag)");
+}
+
 }  // namespace odocal::app

@@ -32,11 +32,7 @@
 namespace odocal::app {
 namespace {
 
-struct SetupCheckArgs {
-  std::string camera;
-  std::string calibration;
-  std::string tag;
-  std::string mount;
+struct SetupCheckArgs : CameraTagArgs {
   double seconds = 3.0;
   double square_mm = 1000.0;
   int runs = 3;
@@ -245,14 +241,7 @@ void RegisterSetupCheckCommand(CLI::App& app) {
       "Before a session: from a few seconds of the camera with the robot still, is the tag found, how large,\n"
       "how noisy at rest, does the planned square fit in view, and how well will the return errors, Ed and Eb\n"
       "be measured. Writes DIR/setup_check.json and an annotated DIR/setup_check.png");
-  cmd->add_option("--camera", args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
-      ->required();
-  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
-      ->required();
-  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
-  cmd->add_option("--mount-guess", args->mount,
-                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
-                  "from the tag's apparent size");
+  AddCameraTagOptions(cmd, "--camera", args.get());
   cmd->add_option("--seconds", args->seconds, "How much of the camera to look at")->default_val(3.0);
   cmd->add_option("--square-mm", args->square_mm, "The planned UMBMark squares' side")->default_val(1000.0);
   cmd->add_option("--runs", args->runs, "Squares per direction in the plan")->default_val(3);

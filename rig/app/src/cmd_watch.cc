@@ -51,11 +51,7 @@ constexpr int kMaxPlaneViews = 15;
 std::atomic<bool> g_watch_stop{false};
 void OnWatchSignal(int) { g_watch_stop = true; }
 
-struct WatchArgs {
-  std::string camera;
-  std::string calibration;
-  std::string tag;
-  std::string mount;
+struct WatchArgs : CameraTagArgs {
   std::string bind = "127.0.0.1";
   int port = 8080;
   double seconds = 0.0;
@@ -286,14 +282,7 @@ void RegisterWatchCommand(CLI::App& app) {
       "The live view without a robot: a camera or a video watched frame by frame, the tag's outline, pose\n"
       "and trajectory served as a web page (bound to 127.0.0.1 unless --bind says otherwise; keys of\n"
       "/state.json in docs/formats.md). Prints \"live view: URL\"; Ctrl-C stops");
-  cmd->add_option("camera", args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
-      ->required();
-  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
-      ->required();
-  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
-  cmd->add_option("--mount-guess", args->mount,
-                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
-                  "from the tag's apparent size (the tilt is then fitted to the tag)");
+  AddCameraTagOptions(cmd, "camera", args.get());
   cmd->add_option("--bind", args->bind, "Address to serve on; 0.0.0.0 for a phone on the same network")
       ->default_val("127.0.0.1");
   cmd->add_option("--port", args->port, "Port to serve on; 0 for any free one (the URL printed says which)")

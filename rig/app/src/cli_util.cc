@@ -16,6 +16,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/config/calib_target.h"
 
 namespace odocal::app {
@@ -179,7 +180,7 @@ vision::CalibrationBoard ParseBoardOption(const std::string& command, const std:
         Fail(command, kExitBadInput, usage + " (FIRST_ID must be a whole number >= 0)");
       board.first_id = std::stoi(parts[4]);
     }
-    board.square_m = square_mm * 1e-3;
+    board.square_m = square_mm * kMmToM;
     std::string why;
     if (!board.IsValid(&why)) Fail(command, kExitBadInput, option + " " + text + ": " + why);
     return board;
@@ -195,8 +196,8 @@ vision::CalibrationBoard ParseBoardOption(const std::string& command, const std:
   }
   if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm))
     Fail(command, kExitBadInput, usage);
-  board.square_m = square_mm * 1e-3;
-  board.marker_m = marker_mm * 1e-3;
+  board.square_m = square_mm * kMmToM;
+  board.marker_m = marker_mm * kMmToM;
   if (board.type == vision::CalibrationBoard::Type::kCharuco && !vision::CharucoAvailable())
     Fail(command, kExitBadInput,
          option + " charuco: ChArUco boards are not available in this build (OpenCV without the "

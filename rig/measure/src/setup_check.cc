@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/base/format.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/measure/measure.h"
@@ -221,7 +222,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   // The squares from where the robot stands: the tag's centre at every
   // corner, with the heading it arrives and leaves with, must stay in view.
   const Pose2 start = Pose2::FromXYHeading(mean.x(), mean.y(), mean.z());
-  const Pose2 T_robot_tag = Pose2::FromXYHeading(options.tag.offset_x_mm * 1e-3, options.tag.offset_y_mm * 1e-3, 0.0);
+  const Pose2 T_robot_tag = Pose2::FromXYHeading(options.tag.offset_x_mm * kMmToM, options.tag.offset_y_mm * kMmToM, 0.0);
   const double L = options.square_side_m;
   r.squares_fit = true;
   for (int d = 0; d < 2; ++d) {
@@ -238,7 +239,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   if (!r.squares_fit)
     r.warnings.push_back(Format("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
                              "camera's view: move the robot, shrink the square, or raise the camera",
-                             L * 1e3));
+                             L * kMToMm));
 
   // Ed and Eb: UMBMark's coupled fit on return errors drawn with the
   // predicted sigmas, as often as the plan repeats the squares.
@@ -271,7 +272,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   // The edges' angle to the pixel grid, from the last frame's corners.
   {
     const vision::TagCorners& c = corners[posed.back()];
-    const double edge_deg = std::atan2(c[1].y - c[0].y, c[1].x - c[0].x) * 180.0 / M_PI;
+    const double edge_deg = RadToDeg(std::atan2(c[1].y - c[0].y, c[1].x - c[0].x));
     const double off = std::fmod(std::fmod(edge_deg, 90.0) + 90.0, 90.0);
     r.grid_angle_deg = std::min(off, 90.0 - off);
     if (r.grid_angle_deg < 5.0)

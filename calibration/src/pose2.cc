@@ -3,6 +3,7 @@
 #include <cmath>
 #include <ostream>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
 
 namespace odocal::calibration {
@@ -34,8 +35,8 @@ Eigen::Vector2d Pose2::operator*(const Eigen::Vector2d& p) const {
 }
 
 std::ostream& operator<<(std::ostream& os, const Pose2& pose) {
-  return os << "Pose2(x=" << pose.x() * 1e3 << " mm, y=" << pose.y() * 1e3
-            << " mm, heading=" << pose.heading() * 180.0 / M_PI << " deg)";
+  return os << "Pose2(x=" << pose.x() * kMToMm << " mm, y=" << pose.y() * kMToMm
+            << " mm, heading=" << RadToDeg(pose.heading()) << " deg)";
 }
 
 Pose2 ArcStep(const Pose2& start, double left_m, double right_m, double track_m) {

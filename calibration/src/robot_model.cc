@@ -4,6 +4,8 @@
 #include <ostream>
 #include <sstream>
 
+#include "odocal/base/units.h"
+
 namespace odocal::calibration {
 
 double WheelParams::LeftMetresPerTick() const {
@@ -30,8 +32,8 @@ bool WheelParams::IsValid(std::string* why) const {
 }
 
 std::ostream& operator<<(std::ostream& os, const WheelParams& p) {
-  return os << "WheelParams(D_L=" << p.left_wheel_diameter_m * 1e3
-            << " mm, D_R=" << p.right_wheel_diameter_m * 1e3 << " mm, b=" << p.track_m * 1e3
+  return os << "WheelParams(D_L=" << p.left_wheel_diameter_m * kMToMm
+            << " mm, D_R=" << p.right_wheel_diameter_m * kMToMm << " mm, b=" << p.track_m * kMToMm
             << " mm, ticks/rev=" << p.ticks_per_rev << ")";
 }
 

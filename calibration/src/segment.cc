@@ -7,13 +7,14 @@
 #include <limits>
 
 #include "odocal/base/format.h"
+#include "odocal/base/units.h"
 
 namespace odocal::calibration {
 namespace {
 
 constexpr double kTwoPi = 2.0 * M_PI;
 // Heading is read in steps of this much, so that frame noise does not add up.
-constexpr double kHeadingStepRad = 5.0 * M_PI / 180.0;
+constexpr double kHeadingStepRad = DegToRad(5.0);
 // A heading step is "in place" when the centre moved less than this per
 // radian: a turning radius under 120 mm (an in-place turn seen by a tag off
 // the axle, not a circle or a square's corner driven as an arc).
@@ -43,7 +44,7 @@ RunSpec Infer(const MotionSegment& s) {
   // axis: the distance driven is the displacement, forward when the point
   // moved ahead of where it looked (within 90 deg).
   const Pose2 net = s.start_rest.mean.inverse() * s.end_rest.mean;
-  if (std::abs(s.turned_rad) < 30.0 * M_PI / 180.0 && s.returned_m > 0.8 * excursion_m)
+  if (std::abs(s.turned_rad) < DegToRad(30.0) && s.returned_m > 0.8 * excursion_m)
     return RunSpec::Straight(net.x() < 0.0 ? -s.returned_m : s.returned_m);
   const bool closed = s.returned_m < 0.25 * excursion_m;
   if (closed && whole_turns && turns == 1 && s.in_place_fraction > 0.5)
@@ -157,16 +158,16 @@ std::string Describe(const RunSpec& spec) {
   dir += ToString(spec.direction);
   switch (spec.procedure) {
     case Procedure::kUmbmark:
-      return text + dir + Format(", side %.0f mm", spec.side_m * 1e3);
+      return text + dir + Format(", side %.0f mm", spec.side_m * kMToMm);
     case Procedure::kStraight:
-      return text + Format(" %.0f mm", spec.distance_m * 1e3);
+      return text + Format(" %.0f mm", spec.distance_m * kMToMm);
     case Procedure::kSpin:
       return text + dir + ", " + std::to_string(spec.turns) + (spec.turns == 1 ? " turn" : " turns");
     case Procedure::kOutAndBack:
-      return text + dir + Format(" %.0f mm", spec.distance_m * 1e3) + ", " + std::to_string(spec.repeats) +
+      return text + dir + Format(" %.0f mm", spec.distance_m * kMToMm) + ", " + std::to_string(spec.repeats) +
              (spec.repeats == 1 ? " repeat" : " repeats");
     case Procedure::kCircle:
-      return text + dir + Format(", radius %.0f mm", spec.radius_m * 1e3) + ", " + std::to_string(spec.turns) +
+      return text + dir + Format(", radius %.0f mm", spec.radius_m * kMToMm) + ", " + std::to_string(spec.turns) +
              (spec.turns == 1 ? " turn" : " turns");
     case Procedure::kRecorded:
       return "a motion that is none of the procedures";
@@ -210,7 +211,7 @@ std::optional<std::string> SegmentContradicts(const RunSpec& planned, const Moti
   // As the station's heading check: a square's heading error after a
   // badly calibrated run is a few degrees; a wrong direction or number of
   // turns is a quarter turn or more.
-  constexpr double kHeadingToleranceRad = 60.0 * M_PI / 180.0;
+  constexpr double kHeadingToleranceRad = DegToRad(60.0);
   // The tracked point may sit this far off the axle (the tag's offset).
   constexpr double kOffsetM = 0.15;
   const std::vector<Primitive> plan = PlanPrimitives(planned);
@@ -219,11 +220,11 @@ std::optional<std::string> SegmentContradicts(const RunSpec& planned, const Moti
   const double planned_displacement_m = std::hypot(end.x(), end.y());
   const double reach_m = PlannedExcursion(plan);
   if (std::abs(segment.returned_m - planned_displacement_m) > size_tolerance * reach_m + kOffsetM)
-    return Format("the robot ended %.0f mm from where it started, the plan %.0f mm", segment.returned_m * 1e3,
-                  planned_displacement_m * 1e3);
+    return Format("the robot ended %.0f mm from where it started, the plan %.0f mm", segment.returned_m * kMToMm,
+                  planned_displacement_m * kMToMm);
   if (segment.excursion_m > (1.0 + size_tolerance) * reach_m + kOffsetM)
     return Format("the camera saw the robot %.0f mm from the start, the plan goes no farther than %.0f mm",
-                  segment.excursion_m * 1e3, reach_m * 1e3);
+                  segment.excursion_m * kMToMm, reach_m * kMToMm);
   return std::nullopt;
 }
 

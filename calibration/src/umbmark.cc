@@ -219,14 +219,14 @@ void PropagateRunSpread(const UmbmarkInput& input, bool use_heading, ceres::Prob
 
 ReturnError ReturnError::FromMmDeg(double x_mm, double y_mm, std::optional<double> heading_deg) {
   ReturnError e;
-  e.x_m = x_mm * 1e-3;
-  e.y_m = y_mm * 1e-3;
+  e.x_m = x_mm * kMmToM;
+  e.y_m = y_mm * kMmToM;
   if (heading_deg) e.heading_rad = *heading_deg / kRadToDeg;
   return e;
 }
 
 std::ostream& operator<<(std::ostream& os, const ReturnError& e) {
-  os << "ReturnError(x=" << e.x_m * 1e3 << " mm, y=" << e.y_m * 1e3 << " mm";
+  os << "ReturnError(x=" << e.x_m * kMToMm << " mm, y=" << e.y_m * kMToMm << " mm";
   if (e.heading_rad) os << ", heading=" << *e.heading_rad * kRadToDeg << " deg";
   return os << ")";
 }
@@ -401,7 +401,7 @@ std::string UmbmarkSummary::BriefReport() const {
   std::ostringstream os;
   if (!ok()) return "UMBMark: " + message;
   os << "UMBMark, " << cw.n << " cw + " << ccw.n << " ccw runs: E_max,syst = "
-     << Fixed(emax_syst_m * 1e3, 2) << " mm; Ed = " << Fixed(coupled.Ed, 6);
+     << Fixed(emax_syst_m * kMToMm, 2) << " mm; Ed = " << Fixed(coupled.Ed, 6);
   if (coupled.sigma_Ed) os << " +/- " << Fixed(*coupled.sigma_Ed, 6);
   os << ", Eb = " << Fixed(coupled.Eb, 6);
   if (coupled.sigma_Eb) os << " +/- " << Fixed(*coupled.sigma_Eb, 6);

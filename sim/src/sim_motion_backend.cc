@@ -1,5 +1,7 @@
 #include "odocal/sim/sim_motion_backend.h"
 
+#include "odocal/base/units.h"
+
 namespace odocal::sim {
 
 calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
@@ -7,18 +9,18 @@ calibration::RunSpec RunSpecFromCommand(const robot_link::RunCommand& command) {
   spec.procedure = command.procedure;
   spec.direction = command.direction;
   switch (command.procedure) {
-    case calibration::Procedure::kUmbmark: spec.side_m = command.amount_mm * 1e-3; break;
-    case calibration::Procedure::kStraight: spec.distance_m = command.amount_mm * 1e-3; break;
+    case calibration::Procedure::kUmbmark: spec.side_m = command.amount_mm * kMmToM; break;
+    case calibration::Procedure::kStraight: spec.distance_m = command.amount_mm * kMmToM; break;
     case calibration::Procedure::kSpin: spec.turns = static_cast<int>(command.count); break;
     case calibration::Procedure::kOutAndBack:
-      spec.distance_m = command.amount_mm * 1e-3;
+      spec.distance_m = command.amount_mm * kMmToM;
       spec.repeats = static_cast<int>(command.count);
       break;
     case calibration::Procedure::kRecorded: break;  // nothing to drive: an empty plan
     case calibration::Procedure::kCircle: break;    // not on the wire (client refuses it)
   }
-  if (command.speed_mm_s > 0.0) spec.speed_m_s = command.speed_mm_s * 1e-3;
-  if (command.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = command.turn_rate_deg_s * M_PI / 180.0;
+  if (command.speed_mm_s > 0.0) spec.speed_m_s = command.speed_mm_s * kMmToM;
+  if (command.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = DegToRad(command.turn_rate_deg_s);
   return spec;
 }
 
@@ -53,8 +55,8 @@ robot_link::StepResult SimMotionBackend::Step(double dt_s) {
   const TelemetrySample t = robot_.Telemetry();
   out.sample.left_ticks = static_cast<int32_t>(t.left_ticks - start_left_);
   out.sample.right_ticks = static_cast<int32_t>(t.right_ticks - start_right_);
-  out.sample.x_mm = t.odometry.x() * 1e3;
-  out.sample.y_mm = t.odometry.y() * 1e3;
+  out.sample.x_mm = t.odometry.x() * kMToMm;
+  out.sample.y_mm = t.odometry.y() * kMToMm;
   out.sample.heading_rad = t.odometry.heading();
   if (stopped_) {
     out.finished = true;
@@ -77,9 +79,9 @@ void SimMotionBackend::Stop() {
 
 void SimMotionBackend::SetParams(const robot_link::ParamSet& params) {
   calibration::WheelParams p;
-  p.left_wheel_diameter_m = params.left_wheel_diameter_mm * 1e-3;
-  p.right_wheel_diameter_m = params.right_wheel_diameter_mm * 1e-3;
-  p.track_m = params.track_mm * 1e-3;
+  p.left_wheel_diameter_m = params.left_wheel_diameter_mm * kMmToM;
+  p.right_wheel_diameter_m = params.right_wheel_diameter_mm * kMmToM;
+  p.track_m = params.track_mm * kMmToM;
   p.ticks_per_rev = params.ticks_per_rev;
   std::lock_guard<std::mutex> lock(mutex_);
   robot_.SetBelievedParams(p);

@@ -123,9 +123,12 @@ TEST(CliUmbmark, RepeatedRunsPrintUncertaintyAndTheTableReadsWell) {
 }
 
 struct BadArgs {
+  std::string name;  // the test's name
   std::string args;
   std::string expected;
 };
+
+void PrintTo(const BadArgs& c, std::ostream* os) { *os << "umbmark " << c.args; }
 
 class CliUmbmarkErrors : public ::testing::TestWithParam<BadArgs> {};
 
@@ -139,17 +142,17 @@ TEST_P(CliUmbmarkErrors, OneClearLineAndNonZeroExit) {
 INSTANTIATE_TEST_SUITE_P(
     BadInput, CliUmbmarkErrors,
     ::testing::Values(
-        BadArgs{"--side-mm 0 --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
-        BadArgs{"--side-mm -5 --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
-        BadArgs{"--side-mm 2000 --track-mm 0 --cw 1,2 --ccw 1,2", "track-mm"},
-        BadArgs{"--side-mm nan --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --cw nan,2 --ccw 1,2", "--cw #1"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --cw 1,2 --cw 3,4 --ccw 1,2", "cw/ccw"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --ccw 1,2", "--cw"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --cw 1 --ccw 1,2", "--cw #1"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --cw 1,2,3,4 --ccw 1,2", "--cw #1"},
-        BadArgs{"--side-mm 2000 --track-mm 300 --cw=-40000,0 --ccw 40000,0", "beta"}),
-    [](const ::testing::TestParamInfo<BadArgs>& info) { return "case" + std::to_string(info.index); });
+        BadArgs{"ZeroSide", "--side-mm 0 --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
+        BadArgs{"NegativeSide", "--side-mm -5 --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
+        BadArgs{"ZeroTrack", "--side-mm 2000 --track-mm 0 --cw 1,2 --ccw 1,2", "track-mm"},
+        BadArgs{"SideNotANumber", "--side-mm nan --track-mm 300 --cw 1,2 --ccw 1,2", "side-mm"},
+        BadArgs{"CwNotANumber", "--side-mm 2000 --track-mm 300 --cw nan,2 --ccw 1,2", "--cw #1"},
+        BadArgs{"UnequalCwAndCcw", "--side-mm 2000 --track-mm 300 --cw 1,2 --cw 3,4 --ccw 1,2", "cw/ccw"},
+        BadArgs{"NoCw", "--side-mm 2000 --track-mm 300 --ccw 1,2", "--cw"},
+        BadArgs{"CwWithOneValue", "--side-mm 2000 --track-mm 300 --cw 1 --ccw 1,2", "--cw #1"},
+        BadArgs{"CwWithFourValues", "--side-mm 2000 --track-mm 300 --cw 1,2,3,4 --ccw 1,2", "--cw #1"},
+        BadArgs{"ErrorsTooLargeForTheModel", "--side-mm 2000 --track-mm 300 --cw=-40000,0 --ccw 40000,0", "beta"}),
+    [](const ::testing::TestParamInfo<BadArgs>& info) { return info.param.name; });
 
 TEST(CliCvra, ThreeProceduresPrintTheirFactorsWithQuality) {
   CommandResult r = RunCommand(Odocal(

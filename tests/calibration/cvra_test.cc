@@ -12,6 +12,11 @@
 #include "odocal/test_util/robots.h"
 
 namespace odocal::calibration {
+
+// GoogleTest prints a reference by its name (found by argument-dependent
+// lookup: here, not in the unnamed namespace).
+void PrintTo(Reference reference, std::ostream* os) { *os << ToString(reference); }
+
 namespace {
 
 // Total believed travel of each wheel over a run, from the telemetry ticks.
@@ -163,8 +168,10 @@ TEST_P(CvraTrack, SpinConvergesInOneStep) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(BothReferences, CvraTrack,
-                         ::testing::Values(Reference::kWall, Reference::kCamera));
+INSTANTIATE_TEST_SUITE_P(BothReferences, CvraTrack, ::testing::Values(Reference::kWall, Reference::kCamera),
+                         [](const ::testing::TestParamInfo<Reference>& info) {
+                           return std::string(ToString(info.param));
+                         });
 
 TEST(CvraAll, ThreeProceduresThenUmbmarkShowsACalibratedRobot) {
   // Ratio, scale and track measured with the old parameters, applied at once.

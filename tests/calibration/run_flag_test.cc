@@ -47,6 +47,8 @@ const KindCase kCases[] = {
     {RunFlagKind::kDefaultFrameSigma, "default_frame_sigma", false, false},
 };
 
+void PrintTo(const KindCase& c, std::ostream* os) { *os << c.name; }
+
 class RunFlagKindTest : public testing::TestWithParam<KindCase> {};
 
 TEST_P(RunFlagKindTest, NameIsTheStableOne) {

@@ -58,10 +58,13 @@ TEST(Scenario, LoadsTheIssuesKeys) {
 }
 
 struct BadCase {
+  std::string name;  // the test's name
   std::string from;  // text replaced in the issue's scenario
   std::string to;
   std::string expected;  // must appear in the error
 };
+
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
 
 class ScenarioErrors : public ::testing::TestWithParam<BadCase> {};
 
@@ -82,30 +85,30 @@ TEST_P(ScenarioErrors, NameTheField) {
 INSTANTIATE_TEST_SUITE_P(
     Malformed, ScenarioErrors,
     ::testing::Values(
-        BadCase{"procedure: straight", "procedure: spiral", "runs[2].procedure: unknown procedure 'spiral'"},
-        BadCase{"track_mm: 300.0", "track_mm: -300.0", "robot.nominal.track_mm: must be positive"},
-        BadCase{"track_mm: 300.0", "track_mm: abc", "robot.nominal.track_mm: expected a number"},
-        BadCase{"track_mm: 300.0, ", "", "robot.nominal.track_mm: missing"},
-        BadCase{"seed: 7", "sede: 7", "sede: unknown key"},
-        BadCase{"speed_mm_s: 250", "sped_mm_s: 250", "robot.sped_mm_s: unknown key"},
-        BadCase{"direction: cw, side_mm", "direction: left, side_mm", "runs[0].direction: expected cw or ccw"},
-        BadCase{"side_mm: 2000}\n  - {procedure: umbmark, direction: ccw", "side_mm: 0}\n  - {procedure: umbmark, direction: ccw", "runs[0].side_mm: must be positive"},
-        BadCase{"turns: 3", "turns: 2.5", "runs[3].turns: expected a whole number"},
-        BadCase{"{procedure: straight, distance_mm: 1500}", "{procedure: straight, distance_mm: 1500, side_mm: 3}", "runs[2].side_mm: does not apply to procedure straight"},
-        BadCase{"effects: []", "effects: [{name: warp_drive}]", "effects[0].name: unknown effect 'warp_drive'"},
-        BadCase{"effects: []", "effects: [{name: turn_slip, fraction: 0.1}]", "effects[0].fraction: unknown key"},
-        BadCase{"effects: []", "effects: [{name: camera_latency}]", "effects[0].ms: missing"},
-        BadCase{"effects: []", "effects: [{name: rolling_shutter}]", "effects[0].ms: missing"},
-        BadCase{"effects: []", "effects: [{name: rolling_shutter, ms: -5}]", "effects[0].ms: must be in [0, 1000]"},
-        BadCase{"  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
-                "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
-                "  - {procedure: straight, distance_mm: 1500}\n"
-                "  - {procedure: spin, turns: 3, direction: cw}\n"
-                "  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}\n",
-                "  []\n", "runs: expected a non-empty list"},
-        BadCase{"ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive number"},
-        BadCase{"left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
-    [](const ::testing::TestParamInfo<BadCase>& info) { return "case" + std::to_string(info.index); });
+        BadCase{"UnknownProcedure", "procedure: straight", "procedure: spiral", "runs[2].procedure: unknown procedure 'spiral'"},
+        BadCase{"NegativeTrack", "track_mm: 300.0", "track_mm: -300.0", "robot.nominal.track_mm: must be positive"},
+        BadCase{"TrackNotANumber", "track_mm: 300.0", "track_mm: abc", "robot.nominal.track_mm: expected a number"},
+        BadCase{"MissingTrack", "track_mm: 300.0, ", "", "robot.nominal.track_mm: missing"},
+        BadCase{"UnknownTopLevelKey", "seed: 7", "sede: 7", "sede: unknown key"},
+        BadCase{"UnknownRobotKey", "speed_mm_s: 250", "sped_mm_s: 250", "robot.sped_mm_s: unknown key"},
+        BadCase{"UnknownDirection", "direction: cw, side_mm", "direction: left, side_mm", "runs[0].direction: expected cw or ccw"},
+        BadCase{"ZeroSide", "side_mm: 2000}\n  - {procedure: umbmark, direction: ccw", "side_mm: 0}\n  - {procedure: umbmark, direction: ccw", "runs[0].side_mm: must be positive"},
+        BadCase{"FractionalTurns", "turns: 3", "turns: 2.5", "runs[3].turns: expected a whole number"},
+        BadCase{"SideOnAStraight", "{procedure: straight, distance_mm: 1500}", "{procedure: straight, distance_mm: 1500, side_mm: 3}", "runs[2].side_mm: does not apply to procedure straight"},
+        BadCase{"UnknownEffect", "effects: []", "effects: [{name: warp_drive}]", "effects[0].name: unknown effect 'warp_drive'"},
+        BadCase{"UnknownEffectKey", "effects: []", "effects: [{name: turn_slip, fraction: 0.1}]", "effects[0].fraction: unknown key"},
+        BadCase{"LatencyWithoutMs", "effects: []", "effects: [{name: camera_latency}]", "effects[0].ms: missing"},
+        BadCase{"RollingShutterWithoutMs", "effects: []", "effects: [{name: rolling_shutter}]", "effects[0].ms: missing"},
+        BadCase{"NegativeRollingShutter", "effects: []", "effects: [{name: rolling_shutter, ms: -5}]", "effects[0].ms: must be in [0, 1000]"},
+        BadCase{"EmptyRuns", "  - {procedure: umbmark, direction: cw, side_mm: 2000}\n"
+                             "  - {procedure: umbmark, direction: ccw, side_mm: 2000}\n"
+                             "  - {procedure: straight, distance_mm: 1500}\n"
+                             "  - {procedure: spin, turns: 3, direction: cw}\n"
+                             "  - {procedure: out_and_back, distance_mm: 1000, repeats: 2, reference: wall}\n",
+                             "  []\n", "runs: expected a non-empty list"},
+        BadCase{"ZeroTicksPerRev", "ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive number"},
+        BadCase{"InvalidYaml", "left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
+    [](const ::testing::TestParamInfo<BadCase>& info) { return info.param.name; });
 
 TEST(Scenario, LoadsEveryEffect) {
   std::string text = kIssueScenario;

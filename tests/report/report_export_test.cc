@@ -53,6 +53,21 @@ TEST(ReportHtml, DrawsWhatTheJsonHas) {
   EXPECT_THAT(html, ::testing::HasSubstr("<polyline"));
 }
 
+// A station's round that pushed nothing ("pushed": null) says so instead of
+// an empty "Pushed:" table; one that pushed lists what.
+TEST(ReportHtml, AnIterationThatPushedNothingSaysSo) {
+  const nlohmann::json umbmark = {{"return_errors", {{"cw", {{{"x_mm", -1.0}, {"y_mm", 2.0}}}}}},
+                                  {"emax_syst_mm", 2.2}};
+  const nlohmann::json report = {
+      {"iterations",
+       {{{"emax_syst_mm", 12.0}, {"umbmark", umbmark}, {"pushed", {{"track_mm", 301.5}}}},
+        {{"emax_syst_mm", 0.2}, {"umbmark", umbmark}, {"pushed", nullptr}}}}};
+  const std::string html = report::ReportHtml(report, "test");
+  EXPECT_THAT(html, ::testing::HasSubstr("<p>Pushed:</p><table class='kv'><tr><th>track_mm</th><td>301.5"));
+  EXPECT_THAT(html, ::testing::HasSubstr("<p>Nothing pushed.</p>"));
+  EXPECT_THAT(html, ::testing::Not(::testing::HasSubstr("<p>Pushed:</p><table class='kv'></table>")));
+}
+
 TEST(ReportHtml, BatchOnTheSampleSessionWithExports) {
   const std::string dir = test_util::MakeTempDir("odocal_report_batch_");
   const auto r = RunCommand(Odocal("batch " + test_util::SourceDir() +

@@ -16,6 +16,17 @@
 #include "odocal/vision/renderer.h"
 #include "vision_fixtures.h"
 
+namespace odocal::media {
+
+// GoogleTest prints a writer backend by its name (found by argument-dependent
+// lookup in the enum's namespace).
+const char* BackendName(Mp4WriterOptions::Backend backend) {
+  return backend == Mp4WriterOptions::Backend::kOpenCv ? "OpenCv" : "FfmpegCli";
+}
+void PrintTo(Mp4WriterOptions::Backend backend, std::ostream* os) { *os << BackendName(backend); }
+
+}  // namespace odocal::media
+
 namespace odocal::vision {
 namespace {
 
@@ -224,7 +235,10 @@ TEST_P(Video, H264RoundTripWithTimestamps) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, Video,
                          ::testing::Values(media::Mp4WriterOptions::Backend::kOpenCv,
-                                           media::Mp4WriterOptions::Backend::kFfmpegCli));
+                                           media::Mp4WriterOptions::Backend::kFfmpegCli),
+                         [](const ::testing::TestParamInfo<media::Mp4WriterOptions::Backend>& info) {
+                           return std::string(media::BackendName(info.param));
+                         });
 
 // Two ffmpeg writers open at once, closed one after the other: the second
 // child must not hold the first one's socket (before close-on-exec it did,

@@ -16,6 +16,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/config/calib_target.h"
 
 namespace odocal::app {
@@ -220,7 +221,7 @@ vision::CalibrationBoard ParseBoardOption(const std::string& command, const std:
         Fail(command, kExitBadInput, usage + " (FIRST_ID must be a whole number >= 0)");
       board.first_id = std::stoi(parts[4]);
     }
-    board.square_m = square_mm * 1e-3;
+    board.square_m = square_mm * kMmToM;
     std::string why;
     if (!board.IsValid(&why)) Fail(command, kExitBadInput, option + " " + text + ": " + why);
     return board;
@@ -236,8 +237,8 @@ vision::CalibrationBoard ParseBoardOption(const std::string& command, const std:
   }
   if (!CountPair(parts[1], &board.cols, &board.rows) || !PositiveNumber(parts[2], &square_mm))
     Fail(command, kExitBadInput, usage);
-  board.square_m = square_mm * 1e-3;
-  board.marker_m = marker_mm * 1e-3;
+  board.square_m = square_mm * kMmToM;
+  board.marker_m = marker_mm * kMmToM;
   if (board.type == vision::CalibrationBoard::Type::kCharuco && !vision::CharucoAvailable())
     Fail(command, kExitBadInput,
          option + " charuco: ChArUco boards are not available in this build (OpenCV without the "
@@ -269,6 +270,17 @@ void AddExportOption(CLI::App* cmd, report::ExportRequests* requests) {
                   "multipliers) or --export firmware FILE (the robot link's names); repeatable")
       ->type_size(2)
       ->allow_extra_args(false);
+}
+
+void AddCameraTagOptions(CLI::App* cmd, const std::string& camera_option, CameraTagArgs* args) {
+  cmd->add_option(camera_option, args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
+      ->required();
+  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
+      ->required();
+  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
+  cmd->add_option("--mount-guess", args->mount,
+                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
+                  "from the tag's apparent size (the tilt is then fitted to the tag)");
 }
 
 }  // namespace odocal::app

@@ -64,6 +64,21 @@ vision::CalibrationBoard ParseBoardOption(const std::string& command, const std:
 vision::CameraMount ParseMountOption(const std::string& command, const std::string& option,
                                      const std::string& text);
 
+// What a command that watches the robot's tag through one camera is told
+// (setup-check, watch): the camera (a device, a stream URL or a video file),
+// its calibration, the tag (`--tag`, ParseTagOption) and, when given, where
+// the camera hangs (`--mount-guess`, ParseMountOption; empty: not given).
+struct CameraTagArgs {
+  std::string camera;
+  std::string calibration;
+  std::string tag;
+  std::string mount;
+};
+// Adds them to `cmd`: the camera as `camera_option` ("--camera", or a
+// positional name such as "camera"), --calibration, --tag and --mount-guess;
+// all but the last required.
+void AddCameraTagOptions(CLI::App* cmd, const std::string& camera_option, CameraTagArgs* args);
+
 // A progress bar on stderr when it is a terminal, nothing otherwise.
 std::function<void(long, long)> TerminalProgressBar(const std::string& label);
 

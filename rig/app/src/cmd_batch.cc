@@ -55,8 +55,8 @@ void PrintRuns(const std::vector<measure::SessionMeasurement>& measured) {
         continue;
       }
       char x[40], y[40], t[40];
-      std::snprintf(x, sizeof(x), "%.3f +/- %.3f", r->pose.x() * 1e3, r->sigma_x_m() * 1e3);
-      std::snprintf(y, sizeof(y), "%.3f +/- %.3f", r->pose.y() * 1e3, r->sigma_y_m() * 1e3);
+      std::snprintf(x, sizeof(x), "%.3f +/- %.3f", r->pose.x() * kMToMm, r->sigma_x_m() * kMToMm);
+      std::snprintf(y, sizeof(y), "%.3f +/- %.3f", r->pose.y() * kMToMm, r->sigma_y_m() * kMToMm);
       std::snprintf(t, sizeof(t), "%.4f +/- %.4f", r->pose.heading() * kRadToDeg,
                     r->sigma_heading_rad() * kRadToDeg);
       std::printf("  %-22s %22s %22s %20s  %s\n", rm.measured.name.c_str(), x, y, t,
@@ -206,11 +206,11 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
                   "(RMS over the path [mm])");
       for (const measure::CandidateScore& c : choice->candidates)
         std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
-                    c.mean_m * 1e3, c.sigma_m * 1e3, c.max_m * 1e3, c.rms_mean_m * 1e3, c.rms_sigma_m * 1e3,
+                    c.mean_m * kMToMm, c.sigma_m * kMToMm, c.max_m * kMToMm, c.rms_mean_m * kMToMm, c.rms_sigma_m * kMToMm,
                     c.estimator == choice->chosen ? "  <- chosen" : "");
       std::printf("  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
                   "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
-                  choice->paired_difference_m * 1e3, choice->paired_sigma_m * 1e3, choice->candidates[1].scale,
+                  choice->paired_difference_m * kMToMm, choice->paired_sigma_m * kMToMm, choice->candidates[1].scale,
                   choice->candidates[1].scale_sigma, choice->candidates[0].scale, choice->scale.z(),
                   measure::ToString(choice->basis));
     }

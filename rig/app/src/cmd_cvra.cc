@@ -77,7 +77,7 @@ void RunCvraRatio(const CvraRatioArgs& args) {
   PositiveOrFail(name, "--track-mm", args.track_mm);
   std::vector<calibration::CvraResult> results;
   for (double h : args.heading_deg) {
-    const double d = args.distance_mm * 1e-3, b = args.track_mm * 1e-3;
+    const double d = args.distance_mm * kMmToM, b = args.track_mm * kMmToM;
     results.push_back(ref == calibration::Reference::kWall
                           ? calibration::WheelRatioFromWall(d, h * kDegToRad, b)
                           : calibration::WheelRatioFromCamera(d, h * kDegToRad, b));
@@ -123,15 +123,15 @@ void RunCvraScale(const CvraScaleArgs& args) {
   if (args.real_mm.empty() == args.ends.empty())
     Fail(name, kExitBadInput, "give either --real-mm or --end for each run (not both, not neither)");
   std::vector<calibration::CvraResult> results;
-  const double asked = args.asked_mm * 1e-3;
+  const double asked = args.asked_mm * kMmToM;
   for (double real : args.real_mm)
-    results.push_back(calibration::ScaleFromStraight(asked, real * 1e-3, 0.0, 0.0));
+    results.push_back(calibration::ScaleFromStraight(asked, real * kMmToM, 0.0, 0.0));
   for (size_t i = 0; i < args.ends.size(); ++i) {
     const auto v = ParseNumberList(args.ends[i]);
     if (!v || v->size() != 3)
       Fail(name, kExitBadInput, "--end #" + std::to_string(i + 1) + ": '" + args.ends[i] +
                                     "' is not X,Y,THETA (mm, mm, degrees)");
-    results.push_back(calibration::ScaleFromStraight(asked, (*v)[0] * 1e-3, (*v)[1] * 1e-3,
+    results.push_back(calibration::ScaleFromStraight(asked, (*v)[0] * kMmToM, (*v)[1] * kMmToM,
                                                      (*v)[2] * kDegToRad));
   }
   nlohmann::json doc = Combine(name, "scale", results);

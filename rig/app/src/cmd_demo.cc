@@ -14,6 +14,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/config/files.h"
@@ -85,11 +86,11 @@ void RunDemo(const DemoArgs& args) {
       {"measurement", "simulator truth (ideal measurement)"},
       {"truth", {{"Ed", before.truth.Ed}, {"Eb", before.truth.Eb}, {"Es", before.truth.Es}}},
       {"iterations",
-       {{{"emax_syst_mm", estimate.emax_syst_m * 1e3},
+       {{{"emax_syst_mm", estimate.emax_syst_m * kMToMm},
          {"umbmark", report::UmbmarkJson(*input_before, estimate)},
          {"estimate", {{"Ed", estimate.coupled.Ed}, {"Eb", estimate.coupled.Eb}}},
          {"pushed", report::WheelParamsJson(corrected)}},
-        {{"emax_syst_mm", verify.emax_syst_m * 1e3},
+        {{"emax_syst_mm", verify.emax_syst_m * kMToMm},
          {"umbmark", report::UmbmarkJson(*input_after, verify)},
          {"estimate", {{"Ed", verify.coupled.Ed}, {"Eb", verify.coupled.Eb}}}}}},
       {"robot_params_final", report::WheelParamsJson(corrected)},
@@ -103,7 +104,7 @@ void RunDemo(const DemoArgs& args) {
   if (auto e = report::WriteExports(args.exports, nominal, corrected)) Fail(name, kExitFailure, *e);
 
   std::printf("odocal demo: %zu UMBMark squares of %.0f mm on a virtual robot\n",
-              input_before->cw.size() + input_before->ccw.size(), input_before->side_m * 1e3);
+              input_before->cw.size() + input_before->ccw.size(), input_before->side_m * kMToMm);
   std::printf("  (return errors from the simulator's truth: an ideal measurement)\n\n");
   // UMBMark sees the turn gain b_true / (b_nominal Es): the Eb it can
   // measure when the distance scale is not calibrated (docs/calibration.md).
@@ -115,14 +116,14 @@ void RunDemo(const DemoArgs& args) {
   std::printf("\n  (Eb %.6f, Es %.6f: UMBMark measures the turn gain Eb / Es)\n", before.truth.Eb,
               before.truth.Es);
   std::printf("\n  parameters   nominal -> corrected (true)\n");
-  std::printf("  D_L [mm]     %.4f -> %.4f (%.4f)\n", nominal.left_wheel_diameter_m * 1e3,
-              corrected.left_wheel_diameter_m * 1e3, scenario->robot.truth.left_wheel_diameter_m * 1e3);
-  std::printf("  D_R [mm]     %.4f -> %.4f (%.4f)\n", nominal.right_wheel_diameter_m * 1e3,
-              corrected.right_wheel_diameter_m * 1e3, scenario->robot.truth.right_wheel_diameter_m * 1e3);
-  std::printf("  track [mm]   %.3f -> %.3f (%.3f)\n\n", nominal.track_m * 1e3,
-              corrected.track_m * 1e3, scenario->robot.truth.track_m * 1e3);
+  std::printf("  D_L [mm]     %.4f -> %.4f (%.4f)\n", nominal.left_wheel_diameter_m * kMToMm,
+              corrected.left_wheel_diameter_m * kMToMm, scenario->robot.truth.left_wheel_diameter_m * kMToMm);
+  std::printf("  D_R [mm]     %.4f -> %.4f (%.4f)\n", nominal.right_wheel_diameter_m * kMToMm,
+              corrected.right_wheel_diameter_m * kMToMm, scenario->robot.truth.right_wheel_diameter_m * kMToMm);
+  std::printf("  track [mm]   %.3f -> %.3f (%.3f)\n\n", nominal.track_m * kMToMm,
+              corrected.track_m * kMToMm, scenario->robot.truth.track_m * kMToMm);
   std::printf("  E_max,syst   %.2f mm before, %.2f mm after: %.0fx smaller\n",
-              estimate.emax_syst_m * 1e3, verify.emax_syst_m * 1e3, improvement);
+              estimate.emax_syst_m * kMToMm, verify.emax_syst_m * kMToMm, improvement);
   std::printf("\nreport: %s/report.json, %s/report.html\n", args.out.c_str(), args.out.c_str());
 }
 

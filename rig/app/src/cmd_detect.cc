@@ -87,7 +87,7 @@ json PoseJson(const vision::ObjectPose& pose) {
   return {{"translation_m", {t.x(), t.y(), t.z()}},
           {"rotation_vector_rad", {rvec.x(), rvec.y(), rvec.z()}},
           {"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
-          {"sigma_translation_mm", {1e3 * sd(3), 1e3 * sd(4), 1e3 * sd(5)}},
+          {"sigma_translation_mm", {kMToMm * sd(3), kMToMm * sd(4), kMToMm * sd(5)}},
           {"sigma_rotation_deg", {kRadToDeg * sd(0), kRadToDeg * sd(1), kRadToDeg * sd(2)}},
           {"covariance", cov},
           {"rms_residual_px", pose.rms_residual_px},
@@ -467,7 +467,7 @@ void RunDetect(const DetectArgs& args) {
   if (tag) doc["tag"] = {{"family", tag->family}, {"id", tag->id}, {"size_mm", tag->size_mm}};
   if (board)
     doc["board"] = {{"type", "aprilgrid"}, {"cols", board->cols}, {"rows", board->rows},
-                    {"tag_mm", board->square_m * 1e3}, {"spacing", board->spacing}, {"first_id", board->first_id}};
+                    {"tag_mm", board->square_m * kMToMm}, {"spacing", board->spacing}, {"first_id", board->first_id}};
   doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
   doc["lens"] = lens;
   if (!args.annotate_dir.empty()) {

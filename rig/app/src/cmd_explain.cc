@@ -20,6 +20,7 @@
 #include "cli_util.h"
 #include "commands.h"
 #include "record_util.h"
+#include "odocal/base/units.h"
 #include "odocal/records/digest.h"
 #include "odocal/calibration/explain.h"
 #include "odocal/config/files.h"
@@ -120,16 +121,16 @@ RunIdentity ExplainIdentity(const ExplainArgs& args) {
 
 void RunExplain(const ExplainArgs& args) {
   simulation::StandInCameraOptions camera;
-  camera.sigma_position_m = args.sigma_mm * 1e-3;
-  camera.sigma_heading_rad = args.sigma_deg * M_PI / 180.0;
+  camera.sigma_position_m = args.sigma_mm * kMmToM;
+  camera.sigma_heading_rad = DegToRad(args.sigma_deg);
   camera.fps = args.fps;
   camera.seed = args.seed;
-  if (args.home_radius_mm != 0.0) camera.home_radius_m = args.home_radius_mm * 1e-3;
+  if (args.home_radius_mm != 0.0) camera.home_radius_m = args.home_radius_mm * kMmToM;
   const auto centre = ParseNumberList(args.camera_centre_mm);
   if (!centre || centre->size() != 2)
     Fail("explain", kExitBadInput, "--camera-centre-mm: expected X,Y in millimetres");
   camera.camera = calibration::FloorCamera::Overhead(
-      Eigen::Vector2d((*centre)[0] * 1e-3, (*centre)[1] * 1e-3), args.camera_height_mm * 1e-3);
+      Eigen::Vector2d((*centre)[0] * kMmToM, (*centre)[1] * kMmToM), args.camera_height_mm * kMmToM);
   std::string error;
   if (!camera.IsValid(&error)) Fail("explain", kExitBadInput, error);
   std::optional<calibration::MeasuredSession> session;

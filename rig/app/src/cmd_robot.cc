@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/serial_transport.h"
@@ -156,13 +157,13 @@ calibration::RunSpec RunSpecOrFail(const RunFlags& f) {
   const calibration::Direction d = f.direction == "cw" ? calibration::Direction::kCw : calibration::Direction::kCcw;
   calibration::RunSpec spec;
   switch (*p) {
-    case Procedure::kUmbmark: spec = calibration::RunSpec::Umbmark(d, f.side_mm * 1e-3); break;
-    case Procedure::kStraight: spec = calibration::RunSpec::Straight(f.distance_mm * 1e-3); break;
+    case Procedure::kUmbmark: spec = calibration::RunSpec::Umbmark(d, f.side_mm * kMmToM); break;
+    case Procedure::kStraight: spec = calibration::RunSpec::Straight(f.distance_mm * kMmToM); break;
     case Procedure::kSpin: spec = calibration::RunSpec::Spin(f.turns, d); break;
-    default: spec = calibration::RunSpec::OutAndBack(f.distance_mm * 1e-3, f.repeats, d); break;
+    default: spec = calibration::RunSpec::OutAndBack(f.distance_mm * kMmToM, f.repeats, d); break;
   }
-  if (f.speed_mm_s > 0.0) spec.speed_m_s = f.speed_mm_s * 1e-3;
-  if (f.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = f.turn_rate_deg_s * M_PI / 180.0;
+  if (f.speed_mm_s > 0.0) spec.speed_m_s = f.speed_mm_s * kMmToM;
+  if (f.turn_rate_deg_s > 0.0) spec.turn_rate_rad_s = DegToRad(f.turn_rate_deg_s);
   std::string why;
   if (!spec.IsValid(&why)) FailRobot(kExitOther, "run: " + why + " (--side-mm, --distance-mm, --turns, --repeats)");
   return spec;
@@ -189,7 +190,7 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
     s.client->SetTelemetryCallback([&csv](const rl::TelemetrySample& t) {
       char line[160];
       std::snprintf(line, sizeof(line), "%.3f,%d,%d,%.4f,%.4f,%.6f,%d\n", t.t_ms * 1e-3, t.left_ticks,
-                    t.right_ticks, t.x_mm, t.y_mm, t.heading_rad * 180.0 / M_PI,
+                    t.right_ticks, t.x_mm, t.y_mm, RadToDeg(t.heading_rad),
                     t.state == rl::RunState::kRunning ? 1 : 0);
       csv << line;
     });

@@ -32,11 +32,7 @@
 namespace odocal::app {
 namespace {
 
-struct SetupCheckArgs {
-  std::string camera;
-  std::string calibration;
-  std::string tag;
-  std::string mount;
+struct SetupCheckArgs : CameraTagArgs {
   double seconds = 3.0;
   double square_mm = 1000.0;
   int runs = 3;
@@ -110,9 +106,9 @@ void WritePng(const measure::SetupCheckResult& r, const measure::SetupCheckOptio
   std::vector<std::string> lines;
   char buf[200];
   std::snprintf(buf, sizeof(buf), "tag %.0f px; return error sigma %.3f mm, %.4f deg", r.quality.side_px,
-                r.return_sigma_position_m * 1e3, r.return_sigma_heading_rad * kRadToDeg);
+                r.return_sigma_position_m * kMToMm, r.return_sigma_heading_rad * kRadToDeg);
   lines.push_back(buf);
-  std::snprintf(buf, sizeof(buf), "%.0f mm squares %s; Ed +-%.1e, Eb +-%.1e", o.square_side_m * 1e3,
+  std::snprintf(buf, sizeof(buf), "%.0f mm squares %s; Ed +-%.1e, Eb +-%.1e", o.square_side_m * kMToMm,
                 r.squares_fit ? "fit" : "DO NOT FIT", r.sigma_Ed, r.sigma_Eb);
   lines.push_back(buf);
   for (const std::string& w : r.warnings) lines.push_back("! " + w.substr(0, 90));
@@ -129,7 +125,7 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                       const SetupCheckArgs& args) {
   auto polygon = [](const std::vector<Eigen::Vector2d>& ps) {
     nlohmann::json a = nlohmann::json::array();
-    for (const auto& p : ps) a.push_back({p.x() * 1e3, p.y() * 1e3});
+    for (const auto& p : ps) a.push_back({p.x() * kMToMm, p.y() * kMToMm});
     return a;
   };
   nlohmann::json j = {
@@ -159,22 +155,22 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                        {"sigma_px", r.edge_shift.sigma_px},
                        {"views", r.edge_shift.views},
                        {"scale_error_removed", r.edge_shift.RelativeScaleError()}};
-  j["noise"] = {{"frame_position_mm", r.frame_sigma_position_m * 1e3},
+  j["noise"] = {{"frame_position_mm", r.frame_sigma_position_m * kMToMm},
                 {"frame_heading_deg", r.frame_sigma_heading_rad * kRadToDeg},
-                {"shared_position_mm", r.shared_sigma_position_m * 1e3},
+                {"shared_position_mm", r.shared_sigma_position_m * kMToMm},
                 {"shared_heading_deg", r.shared_sigma_heading_rad * kRadToDeg}};
   j["predicted"] = {{"rest_s", o.rest_s},
-                    {"rest_position_mm", r.rest_sigma_position_m * 1e3},
+                    {"rest_position_mm", r.rest_sigma_position_m * kMToMm},
                     {"rest_heading_deg", r.rest_sigma_heading_rad * kRadToDeg},
-                    {"return_error_position_mm", r.return_sigma_position_m * 1e3},
+                    {"return_error_position_mm", r.return_sigma_position_m * kMToMm},
                     {"return_error_heading_deg", r.return_sigma_heading_rad * kRadToDeg},
                     {"runs_per_direction", o.runs_per_direction},
-                    {"square_side_mm", o.square_side_m * 1e3},
+                    {"square_side_mm", o.square_side_m * kMToMm},
                     {"sigma_Ed", r.sigma_Ed},
                     {"sigma_Eb", r.sigma_Eb}};
   j["floor"] = {{"view_polygon_mm", polygon(r.view_polygon)},
-                {"view_width_mm", r.view_width_m * 1e3},
-                {"view_depth_mm", r.view_depth_m * 1e3},
+                {"view_width_mm", r.view_width_m * kMToMm},
+                {"view_depth_mm", r.view_depth_m * kMToMm},
                 {"square_cw_mm", polygon(r.squares[0])},
                 {"square_ccw_mm", polygon(r.squares[1])},
                 {"squares_fit", r.squares_fit}};
@@ -191,9 +187,9 @@ void RunSetupCheck(const SetupCheckArgs& args) {
   if (!(args.seconds > 0.0)) Fail(kSetupCheck, kExitBadInput, "--seconds must be positive");
   if (!(args.square_mm > 0.0)) Fail(kSetupCheck, kExitBadInput, "--square-mm must be positive");
   if (args.runs < 1) Fail(kSetupCheck, kExitBadInput, "--runs must be at least 1");
-  o.square_side_m = args.square_mm * 1e-3;
+  o.square_side_m = args.square_mm * kMmToM;
   o.runs_per_direction = args.runs;
-  o.track_m = args.track_mm * 1e-3;
+  o.track_m = args.track_mm * kMmToM;
   o.rest_s = args.rest_s;
   const std::vector<measure::SetupFrame> frames = Grab(args.camera, args.seconds);
   if (auto e = config::EnsureDirectory(args.out)) Fail(kSetupCheck, kExitFailure, *e);
@@ -220,13 +216,13 @@ void RunSetupCheck(const SetupCheckArgs& args) {
                 std::abs(r.edge_shift.shift_px), r.edge_shift.sigma_px,
                 r.edge_shift.shift_px >= 0.0 ? "outside" : "inside", 100.0 * std::abs(r.edge_shift.RelativeScaleError()));
   std::printf("noise at rest: %.3f mm, %.4f deg per frame; %.3f mm, %.4f deg shared by every frame\n",
-              r.frame_sigma_position_m * 1e3, r.frame_sigma_heading_rad * kRadToDeg, r.shared_sigma_position_m * 1e3,
+              r.frame_sigma_position_m * kMToMm, r.frame_sigma_heading_rad * kRadToDeg, r.shared_sigma_position_m * kMToMm,
               r.shared_sigma_heading_rad * kRadToDeg);
   std::printf("predicted: a %.1f s rest to %.3f mm, %.4f deg; a return error to %.3f mm, %.4f deg (1 sigma)\n",
-              o.rest_s, r.rest_sigma_position_m * 1e3, r.rest_sigma_heading_rad * kRadToDeg,
-              r.return_sigma_position_m * 1e3, r.return_sigma_heading_rad * kRadToDeg);
-  std::printf("floor in view at the tag's height: %.0f x %.0f mm; the %.0f mm squares %s\n", r.view_width_m * 1e3,
-              r.view_depth_m * 1e3, o.square_side_m * 1e3,
+              o.rest_s, r.rest_sigma_position_m * kMToMm, r.rest_sigma_heading_rad * kRadToDeg,
+              r.return_sigma_position_m * kMToMm, r.return_sigma_heading_rad * kRadToDeg);
+  std::printf("floor in view at the tag's height: %.0f x %.0f mm; the %.0f mm squares %s\n", r.view_width_m * kMToMm,
+              r.view_depth_m * kMToMm, o.square_side_m * kMToMm,
               r.squares_fit ? "fit (cw and ccw from here)" : "do NOT fit from here");
   std::printf("UMBMark with %d cw + %d ccw: Ed to +-%.2e, Eb to +-%.2e (1 sigma, from the camera alone)\n", o.runs_per_direction,
               o.runs_per_direction, r.sigma_Ed, r.sigma_Eb);
@@ -245,14 +241,7 @@ void RegisterSetupCheckCommand(CLI::App& app) {
       "Before a session: from a few seconds of the camera with the robot still, is the tag found, how large,\n"
       "how noisy at rest, does the planned square fit in view, and how well will the return errors, Ed and Eb\n"
       "be measured. Writes DIR/setup_check.json and an annotated DIR/setup_check.png");
-  cmd->add_option("--camera", args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
-      ->required();
-  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
-      ->required();
-  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
-  cmd->add_option("--mount-guess", args->mount,
-                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
-                  "from the tag's apparent size");
+  AddCameraTagOptions(cmd, "--camera", args.get());
   cmd->add_option("--seconds", args->seconds, "How much of the camera to look at")->default_val(3.0);
   cmd->add_option("--square-mm", args->square_mm, "The planned UMBMark squares' side")->default_val(1000.0);
   cmd->add_option("--runs", args->runs, "Squares per direction in the plan")->default_val(3);

@@ -9,6 +9,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/config/scenario.h"
 #include "odocal/report/json.h"
@@ -40,8 +41,8 @@ void RunSimulate(const SimulateArgs& args) {
   std::printf("  %-24s %12s %12s %12s\n", "run", "x [mm]", "y [mm]", "theta [deg]");
   for (size_t i = 0; i < result.runs.size(); ++i) {
     const calibration::Pose2 e = result.runs[i].TrueEndInStartFrame();
-    std::printf("  %-24s %12.3f %12.3f %12.5f\n", result.run_names[i].c_str(), e.x() * 1e3,
-                e.y() * 1e3, e.heading() * 180.0 / M_PI);
+    std::printf("  %-24s %12.3f %12.3f %12.5f\n", result.run_names[i].c_str(), e.x() * kMToMm,
+                e.y() * kMToMm, RadToDeg(e.heading()));
   }
   if (scenario->camera) {
     int frames = 0, visible = 0;

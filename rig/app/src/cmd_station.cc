@@ -40,6 +40,7 @@
 #include "cli_util.h"
 #include "commands.h"
 #include "record_util.h"
+#include "odocal/base/units.h"
 #include "odocal/records/digest.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
@@ -141,7 +142,7 @@ void Finish(station::StationSetup& setup, const station::StationOptions& options
   const station::StationIteration& last = result.iterations.back();
   if (first.estimate.ok() && last.estimate.ok())
     std::fprintf(stderr, "station: E_max,syst %.3f mm -> %.3f mm in %zu rounds (%.0fx), %.1f s\n",
-                 first.estimate.emax_syst_m * 1e3, last.estimate.emax_syst_m * 1e3, result.iterations.size(),
+                 first.estimate.emax_syst_m * kMToMm, last.estimate.emax_syst_m * kMToMm, result.iterations.size(),
                  result.improvement.value_or(1.0), result.wall_s);
   else
     std::fprintf(stderr, "station: %zu rounds, %.1f s\n", result.iterations.size(), result.wall_s);
@@ -348,15 +349,15 @@ void RunStation(const StationArgs& args) {
   if (!camera) Fail(name, kExitBadInput, error);
   if (c->default_plan) {
     station::DefaultPlanOptions d;
-    if (c->slow_turn_rate_deg_s) d.slow_turn_rate_rad_s = *c->slow_turn_rate_deg_s * M_PI / 180.0;
-    if (c->fast_turn_rate_deg_s) d.fast_turn_rate_rad_s = *c->fast_turn_rate_deg_s * M_PI / 180.0;
+    if (c->slow_turn_rate_deg_s) d.slow_turn_rate_rad_s = DegToRad(*c->slow_turn_rate_deg_s);
+    if (c->fast_turn_rate_deg_s) d.fast_turn_rate_rad_s = DegToRad(*c->fast_turn_rate_deg_s);
     setup.default_plan = d;
   } else if (!c->runs.empty()) {
     setup.plan = c->runs;
   } else {
     for (int i = 0; i < c->runs_per_direction; ++i) {
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * 1e-3));
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * 1e-3));
+      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * kMmToM));
+      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * kMmToM));
     }
   }
   setup.camera = camera.get();

@@ -5,6 +5,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/umbmark.h"
 #include "odocal/report/exports.h"
@@ -45,8 +46,8 @@ struct UmbmarkArgs {
 void RunUmbmark(const UmbmarkArgs& args) {
   if (auto e = report::CheckExports(args.exports)) Fail("umbmark", kExitBadInput, *e);
   calibration::UmbmarkInput input;
-  input.side_m = args.side_mm * 1e-3;
-  input.track_m = args.track_mm * 1e-3;
+  input.side_m = args.side_mm * kMmToM;
+  input.track_m = args.track_mm * kMmToM;
   input.cw = ParseRuns(args.cw, "--cw");
   input.ccw = ParseRuns(args.ccw, "--ccw");
   std::string why;
@@ -64,8 +65,8 @@ void RunUmbmark(const UmbmarkArgs& args) {
   calibration::WheelParams nominal_params;
   if (have_wheels) {
     calibration::WheelParams nominal;
-    nominal.left_wheel_diameter_m = args.left_mm * 1e-3;
-    nominal.right_wheel_diameter_m = args.right_mm * 1e-3;
+    nominal.left_wheel_diameter_m = args.left_mm * kMmToM;
+    nominal.right_wheel_diameter_m = args.right_mm * kMmToM;
     nominal.track_m = input.track_m;
     nominal.ticks_per_rev = args.ticks_per_rev;
     const calibration::WheelParams corrected = calibration::ApplyUmbmarkCorrection(

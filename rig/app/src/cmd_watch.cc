@@ -33,6 +33,7 @@
 #include "odocal/config/camera_file.h"
 #include "odocal/live/live_server.h"
 #include "odocal/live/live_state.h"
+#include "odocal/measure/measure.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/media/video.h"
 #include "odocal/vision/planar_pose.h"
@@ -50,11 +51,7 @@ constexpr int kMaxPlaneViews = 15;
 std::atomic<bool> g_watch_stop{false};
 void OnWatchSignal(int) { g_watch_stop = true; }
 
-struct WatchArgs {
-  std::string camera;
-  std::string calibration;
-  std::string tag;
-  std::string mount;
+struct WatchArgs : CameraTagArgs {
   std::string bind = "127.0.0.1";
   int port = 8080;
   double seconds = 0.0;
@@ -220,16 +217,9 @@ void RunWatch(const WatchArgs& args) {
     if (obs.corners_px) {
       ++found;
       if (!camera) {
-        if (mount_guess) {
-          mount = *mount_guess;
-          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
-        } else {
-          // A level camera at the height the tag's apparent size implies.
-          const double f = 0.5 * (intrinsics.fx + intrinsics.fy);
-          mount = vision::CameraMount{};
-          mount.height_mm = tag.height_mm + f * tag.size_mm / MeanSidePx(*obs.corners_px);
-          state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
-        }
+        mount = mount_guess ? *mount_guess
+                            : measure::LevelMountFromTagSize(intrinsics, tag, MeanSidePx(*obs.corners_px));
+        state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
         camera.emplace(intrinsics, mount);
       }
       if (!plane_done) {
@@ -239,9 +229,10 @@ void RunWatch(const WatchArgs& args) {
           std::vector<vision::TagCorners> views;
           const int step = std::max(1, static_cast<int>(plane_candidates.size()) / kMaxPlaneViews);
           for (size_t k = 0; k < plane_candidates.size(); k += step) views.push_back(plane_candidates[k]);
-          const vision::CameraPlaneResult plane = vision::EstimateCameraOverTagPlane(intrinsics, tag, views, mount);
-          if (plane.ok) {
-            mount = plane.mount;
+          const measure::CameraPlaneOrGuess fit = measure::EstimateCameraPlaneOrGuess(intrinsics, tag, views, mount);
+          const vision::CameraPlaneResult& plane = fit.plane;
+          if (fit.estimated()) {
+            mount = fit.mount;
             camera.emplace(intrinsics, mount);
             // The path so far, measured again on the fitted plane.
             std::vector<cv::Point2d> path;
@@ -291,14 +282,7 @@ void RegisterWatchCommand(CLI::App& app) {
       "The live view without a robot: a camera or a video watched frame by frame, the tag's outline, pose\n"
       "and trajectory served as a web page (bound to 127.0.0.1 unless --bind says otherwise; keys of\n"
       "/state.json in docs/formats.md). Prints \"live view: URL\"; Ctrl-C stops");
-  cmd->add_option("camera", args->camera, "A camera device (0, /dev/video0, a stream URL) or a video file")
-      ->required();
-  cmd->add_option("--calibration", args->calibration, "The camera's calibration (OpenCV or ROS camera_info YAML)")
-      ->required();
-  cmd->add_option("--tag", args->tag, "The robot's tag: FAMILY:ID:SIZE_MM[:HEIGHT_MM above the floor]")->required();
-  cmd->add_option("--mount-guess", args->mount,
-                  "Where the camera hangs: x,y,height,roll,pitch,yaw (mm, deg); default: level, the height "
-                  "from the tag's apparent size (the tilt is then fitted to the tag)");
+  AddCameraTagOptions(cmd, "camera", args.get());
   cmd->add_option("--bind", args->bind, "Address to serve on; 0.0.0.0 for a phone on the same network")
       ->default_val("127.0.0.1");
   cmd->add_option("--port", args->port, "Port to serve on; 0 for any free one (the URL printed says which)")

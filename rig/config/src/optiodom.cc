@@ -8,6 +8,7 @@
 #include <sstream>
 #include <vector>
 
+#include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/config/session.h"
 
@@ -147,8 +148,8 @@ std::optional<ConvertedRun> ConvertRun(const std::string& path, const std::strin
     }
     right += std::llround(v[4]);
     left += std::llround(v[5]);
-    std::snprintf(buffer, sizeof(buffer), "%.4f,%.4f,%.4f,%.5f\n", v[0], v[1] * 1e3, v[2] * 1e3,
-                  v[3] * 180.0 / M_PI);
+    std::snprintf(buffer, sizeof(buffer), "%.4f,%.4f,%.4f,%.5f\n", v[0], v[1] * kMToMm, v[2] * kMToMm,
+                  RadToDeg(v[3]));
     poses += buffer;
     std::snprintf(buffer, sizeof(buffer), "%.4f,%lld,%lld\n", v[0], left, right);
     telemetry += buffer;

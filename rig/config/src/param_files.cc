@@ -12,6 +12,8 @@
 #include "file_result.h"
 #include "yaml_util.h"
 
+#include "odocal/base/units.h"
+
 namespace odocal::config {
 namespace {
 
@@ -102,9 +104,9 @@ ReplaySet FromExplain(const nlohmann::json& j, const calibration::WheelParams& b
       return b[key].get<double>();
     };
     calibration::WheelParams fitted_on;
-    fitted_on.left_wheel_diameter_m = mm("left_wheel_diameter_mm") * 1e-3;
-    fitted_on.right_wheel_diameter_m = mm("right_wheel_diameter_mm") * 1e-3;
-    fitted_on.track_m = mm("track_mm") * 1e-3;
+    fitted_on.left_wheel_diameter_m = mm("left_wheel_diameter_mm") * kMmToM;
+    fitted_on.right_wheel_diameter_m = mm("right_wheel_diameter_mm") * kMmToM;
+    fitted_on.track_m = mm("track_mm") * kMmToM;
     fitted_on.ticks_per_rev = mm("ticks_per_rev");
     const double rl = es * (fitted_on.left_wheel_diameter_m + fitted_on.right_wheel_diameter_m) /
                       (fitted_on.left_wheel_diameter_m + ed * fitted_on.right_wheel_diameter_m);

@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "file_result.h"
+#include "odocal/base/units.h"
 #include "odocal/config/scenario.h"
 #include "yaml_util.h"
 
@@ -29,17 +30,17 @@ sim::RobotConfig ParseRobot(const YAML::Node& node) {
   if (const YAML::Node pose = node["start_pose"]) {
     CheckKeys(pose, "robot.start_pose", {"x_mm", "y_mm", "heading_deg"});
     c.start_pose = calibration::Pose2::FromXYHeading(
-        OptionalNumber(pose, "robot.start_pose", "x_mm", 0.0) * 1e-3,
-        OptionalNumber(pose, "robot.start_pose", "y_mm", 0.0) * 1e-3,
+        OptionalNumber(pose, "robot.start_pose", "x_mm", 0.0) * kMmToM,
+        OptionalNumber(pose, "robot.start_pose", "y_mm", 0.0) * kMmToM,
         OptionalNumber(pose, "robot.start_pose", "heading_deg", 0.0) * kDegToRad);
   }
   auto positive = [&](const char* key, double fallback) {
     const double v = OptionalNumber(node, path, key, fallback);
     return Positive(v, node[key] ? node[key] : node, Join(path, key));
   };
-  c.limits.speed_m_s = positive("speed_mm_s", 250.0) * 1e-3;
+  c.limits.speed_m_s = positive("speed_mm_s", 250.0) * kMmToM;
   c.limits.turn_rate_rad_s = positive("turn_rate_deg_s", 60.0) * kDegToRad;
-  c.limits.accel_m_s2 = positive("accel_mm_s2", 500.0) * 1e-3;
+  c.limits.accel_m_s2 = positive("accel_mm_s2", 500.0) * kMmToM;
   c.limits.turn_accel_rad_s2 = positive("turn_accel_deg_s2", 120.0) * kDegToRad;
   c.control_rate_hz = positive("control_rate_hz", 1000.0);
   c.telemetry_rate_hz = positive("telemetry_rate_hz", 50.0);
@@ -55,7 +56,7 @@ sim::RobotConfig ParseRobot(const YAML::Node& node) {
   if (const YAML::Node noise = node["noise"]) {
     CheckKeys(noise, "robot.noise", {"wheel_mm_per_sqrt_m", "random_encoder_phase"});
     c.noise.wheel_sigma_m_per_sqrt_m =
-        OptionalNumber(noise, "robot.noise", "wheel_mm_per_sqrt_m", 0.05) * 1e-3;
+        OptionalNumber(noise, "robot.noise", "wheel_mm_per_sqrt_m", 0.05) * kMmToM;
     if (c.noise.wheel_sigma_m_per_sqrt_m < 0.0)
       Fail(noise["wheel_mm_per_sqrt_m"], "robot.noise.wheel_mm_per_sqrt_m", "must not be negative");
     if (noise["random_encoder_phase"])
@@ -257,8 +258,8 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
     if (name == "tag_offset") {
       CheckKeys(e, path, {"name", "x_mm", "y_mm"});
       twice(out.tag_offset.has_value());
-      out.tag_offset = sim::TagOffsetEffect{RequiredNumber(e, path, "x_mm") * 1e-3,
-                                            RequiredNumber(e, path, "y_mm") * 1e-3};
+      out.tag_offset = sim::TagOffsetEffect{RequiredNumber(e, path, "x_mm") * kMmToM,
+                                            RequiredNumber(e, path, "y_mm") * kMmToM};
     } else if (name == "camera_latency") {
       CheckKeys(e, path, {"name", "ms"});
       twice(out.camera_latency.has_value());
@@ -283,7 +284,7 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       CheckKeys(e, path, {"name", "grain_deg", "rate_mm_per_m"});
       twice(out.carpet_drift.has_value());
       out.carpet_drift = sim::CarpetDriftEffect{RequiredNumber(e, path, "grain_deg") * kDegToRad,
-                                                RequiredNumber(e, path, "rate_mm_per_m") * 1e-3};
+                                                RequiredNumber(e, path, "rate_mm_per_m") * kMmToM};
     } else if (name == "tracker_yaw") {
       CheckKeys(e, path, {"name", "deg"});
       twice(out.tracker_yaw.has_value());

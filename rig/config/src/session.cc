@@ -7,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "file_result.h"
+#include "odocal/base/units.h"
 #include "odocal/base/utc_time.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/config/files.h"
@@ -41,10 +42,10 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
   switch (run.infer_procedure ? calibration::Procedure::kRecorded : spec.procedure) {
     case calibration::Procedure::kUmbmark:
       out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
-      out << YAML::Key << "side_mm" << YAML::Value << spec.side_m * 1e3;
+      out << YAML::Key << "side_mm" << YAML::Value << spec.side_m * kMToMm;
       break;
     case calibration::Procedure::kStraight:
-      out << YAML::Key << "distance_mm" << YAML::Value << spec.distance_m * 1e3;
+      out << YAML::Key << "distance_mm" << YAML::Value << spec.distance_m * kMToMm;
       break;
     case calibration::Procedure::kSpin:
       out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
@@ -53,18 +54,18 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
       break;
     case calibration::Procedure::kOutAndBack:
       out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
-      out << YAML::Key << "distance_mm" << YAML::Value << spec.distance_m * 1e3;
+      out << YAML::Key << "distance_mm" << YAML::Value << spec.distance_m * kMToMm;
       out << YAML::Key << "repeats" << YAML::Value << spec.repeats;
       out << YAML::Key << "reference" << YAML::Value << std::string(calibration::ToString(spec.reference));
       break;
     case calibration::Procedure::kRecorded: break;
     case calibration::Procedure::kCircle:
       out << YAML::Key << "direction" << YAML::Value << std::string(calibration::ToString(spec.direction));
-      out << YAML::Key << "radius_mm" << YAML::Value << spec.radius_m * 1e3;
+      out << YAML::Key << "radius_mm" << YAML::Value << spec.radius_m * kMToMm;
       out << YAML::Key << "turns" << YAML::Value << spec.turns;
       break;
   }
-  if (spec.speed_m_s) out << YAML::Key << "speed_mm_s" << YAML::Value << *spec.speed_m_s * 1e3;
+  if (spec.speed_m_s) out << YAML::Key << "speed_mm_s" << YAML::Value << *spec.speed_m_s * kMToMm;
   if (spec.turn_rate_rad_s)
     out << YAML::Key << "turn_rate_deg_s" << YAML::Value << *spec.turn_rate_rad_s / kDegToRad;
   if (!run.poses.empty()) {
@@ -132,9 +133,9 @@ std::optional<std::string> WriteSession(const Session& session, const std::strin
   const calibration::WheelParams& n = session.nominal;
   out << YAML::Key << "robot" << YAML::Value << YAML::BeginMap << YAML::Key << "nominal"
       << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "left_wheel_diameter_mm"
-      << YAML::Value << n.left_wheel_diameter_m * 1e3 << YAML::Key << "right_wheel_diameter_mm"
-      << YAML::Value << n.right_wheel_diameter_m * 1e3 << YAML::Key << "track_mm" << YAML::Value
-      << n.track_m * 1e3 << YAML::Key << "ticks_per_rev" << YAML::Value << n.ticks_per_rev
+      << YAML::Value << n.left_wheel_diameter_m * kMToMm << YAML::Key << "right_wheel_diameter_mm"
+      << YAML::Value << n.right_wheel_diameter_m * kMToMm << YAML::Key << "track_mm" << YAML::Value
+      << n.track_m * kMToMm << YAML::Key << "ticks_per_rev" << YAML::Value << n.ticks_per_rev
       << YAML::EndMap;
   if (!session.robot_id.empty()) out << YAML::Key << "id" << YAML::Value << session.robot_id;
   if (session.odometer_km) out << YAML::Key << "odometer_km" << YAML::Value << *session.odometer_km;

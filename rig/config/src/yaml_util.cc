@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "odocal/base/units.h"
 #include "odocal/vision/tag.h"
 
 namespace odocal::config::yaml_util {
@@ -103,11 +104,11 @@ calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& 
   calibration::WheelParams p;
   p.left_wheel_diameter_m =
       Positive(RequiredNumber(node, path, "left_wheel_diameter_mm"), node,
-               Join(path, "left_wheel_diameter_mm")) * 1e-3;
+               Join(path, "left_wheel_diameter_mm")) * kMmToM;
   p.right_wheel_diameter_m =
       Positive(RequiredNumber(node, path, "right_wheel_diameter_mm"), node,
-               Join(path, "right_wheel_diameter_mm")) * 1e-3;
-  p.track_m = Positive(RequiredNumber(node, path, "track_mm"), node, Join(path, "track_mm")) * 1e-3;
+               Join(path, "right_wheel_diameter_mm")) * kMmToM;
+  p.track_m = Positive(RequiredNumber(node, path, "track_mm"), node, Join(path, "track_mm")) * kMmToM;
   if (node["ticks_per_rev"]) {
     const double ticks = Number(node["ticks_per_rev"], Join(path, "ticks_per_rev"));
     if (!(ticks > 0.0) || ticks > double(1LL << 30))
@@ -167,14 +168,14 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
   }
   if (spec.procedure == calibration::Procedure::kUmbmark)
     spec.side_m = Positive(RequiredNumber(node, path, "side_mm"), node["side_mm"],
-                           Join(path, "side_mm")) * 1e-3;
+                           Join(path, "side_mm")) * kMmToM;
   if (spec.procedure == calibration::Procedure::kStraight ||
       spec.procedure == calibration::Procedure::kOutAndBack)
     spec.distance_m = Positive(RequiredNumber(node, path, "distance_mm"), node["distance_mm"],
-                               Join(path, "distance_mm")) * 1e-3;
+                               Join(path, "distance_mm")) * kMmToM;
   if (spec.procedure == calibration::Procedure::kCircle)
     spec.radius_m = Positive(RequiredNumber(node, path, "radius_mm"), node["radius_mm"],
-                             Join(path, "radius_mm")) * 1e-3;
+                             Join(path, "radius_mm")) * kMmToM;
   if (spec.procedure == calibration::Procedure::kSpin ||
       spec.procedure == calibration::Procedure::kCircle) {
     if (!node["turns"]) Fail(node, Join(path, "turns"), "missing (required for " + name + ")");
@@ -194,7 +195,7 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
     spec.reference = *parsed;
   }
   if (const YAML::Node v = node["speed_mm_s"])
-    spec.speed_m_s = Positive(Number(v, Join(path, "speed_mm_s")), v, Join(path, "speed_mm_s")) * 1e-3;
+    spec.speed_m_s = Positive(Number(v, Join(path, "speed_mm_s")), v, Join(path, "speed_mm_s")) * kMmToM;
   if (const YAML::Node v = node["turn_rate_deg_s"])
     spec.turn_rate_rad_s = Positive(Number(v, Join(path, "turn_rate_deg_s")), v,
                                     Join(path, "turn_rate_deg_s")) * kDegToRad;

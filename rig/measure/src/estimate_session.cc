@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/cvra.h"
 #include "odocal/calibration/explain.h"
@@ -243,7 +244,7 @@ std::optional<calibration::TrajectoryFitResult> FitSessionTrajectories(
                   "trajectory_fit: the model leaves a significant remainder (gap %.3f mm against %.3f mm "
                   "expected, residuals correlated in time: lag-1 %.2f); its sigmas assume nothing is missing "
                   "and are optimistic here; `odocal explain` looks for what is",
-                  remainder.gap_m * 1e3, remainder.expected_gap_m * 1e3, fit.lag1_autocorrelation);
+                  remainder.gap_m * kMToMm, remainder.expected_gap_m * kMToMm, fit.lag1_autocorrelation);
     notes->push_back(text);
   }
   return fit;

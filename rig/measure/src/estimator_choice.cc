@@ -7,6 +7,7 @@
 
 #include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/measure/estimate_session.h"
@@ -52,7 +53,7 @@ calibration::TrajectoryFitResult RefitWithout(const calibration::MeasuredSession
 
 std::string Mm(double m) {
   char text[32];
-  std::snprintf(text, sizeof(text), "%.2f", m * 1e3);
+  std::snprintf(text, sizeof(text), "%.2f", m * kMToMm);
   return text;
 }
 

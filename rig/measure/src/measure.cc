@@ -347,6 +347,30 @@ std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorn
   return thinned;
 }
 
+CameraPlaneOrGuess EstimateCameraPlaneOrGuess(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                              const std::vector<vision::TagCorners>& views,
+                                              const vision::CameraMount& guess,
+                                              const vision::CameraPlaneOptions& options,
+                                              const std::vector<vision::CornerVelocities>* velocities) {
+  CameraPlaneOrGuess fit;
+  fit.mount = guess;
+  if (static_cast<int>(views.size()) < options.min_views) {
+    fit.plane.message = Format("need at least %d views of the tag, got %zu", options.min_views, views.size());
+    return fit;
+  }
+  fit.plane = vision::EstimateCameraOverTagPlane(intrinsics, tag, views, guess, options, velocities);
+  if (fit.plane.ok) fit.mount = fit.plane.mount;
+  return fit;
+}
+
+vision::CameraMount LevelMountFromTagSize(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                          double side_px) {
+  const double f = 0.5 * (intrinsics.fx + intrinsics.fy);
+  vision::CameraMount level;
+  level.height_mm = tag.height_mm + f * tag.size_mm / side_px;
+  return level;
+}
+
 std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
@@ -582,15 +606,11 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
         PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
                   options.border_margin_px, options.exact_plane_refinement, &velocities,
                   sm.session.tag, options.edge_shift_views, &sm.edge_shift);
-    vision::CameraMount mount = sm.session.camera_mount_guess;
-    if (static_cast<int>(views.size()) >= options.plane.min_views) {
-      sm.plane = vision::EstimateCameraOverTagPlane(sm.session.intrinsics, sm.session.tag, views,
-                                                    sm.session.camera_mount_guess, options.plane, &velocities);
-      if (sm.plane.ok) {
-        mount = sm.plane.mount;
-        sm.plane_estimated = true;
-      }
-    }
+    const CameraPlaneOrGuess fit = EstimateCameraPlaneOrGuess(
+        sm.session.intrinsics, sm.session.tag, views, sm.session.camera_mount_guess, options.plane, &velocities);
+    vision::CameraMount mount = fit.mount;
+    sm.plane = fit.plane;
+    sm.plane_estimated = fit.estimated();
     if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
     {
       const config::Session& session = sm.session;

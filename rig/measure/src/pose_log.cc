@@ -224,7 +224,7 @@ std::optional<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path, std:
     row.nan = !std::isfinite(v[1]) || !std::isfinite(v[2]) || !std::isfinite(v[3]);
     row.valid = v[4] != 0.0 && !row.nan;
     if (!row.nan)
-      row.T_world_body = Pose2::FromXYHeading(v[1] * 1e-3, v[2] * 1e-3, v[3] * kDegToRad);
+      row.T_world_body = Pose2::FromXYHeading(v[1] * kMmToM, v[2] * kMmToM, v[3] * kDegToRad);
     if (!rows.empty() && !(row.t_s > rows.back().t_s)) {
       *error = Where(path, line_no, 1) + ": t_s " + fields[0] +
                (row.t_s == rows.back().t_s ? " duplicates" : " is before") + " line " +
@@ -289,7 +289,7 @@ std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
       return std::nullopt;
     }
     if (has_odometry) {
-      r.odometry = Pose2::FromXYHeading(v[3] * 1e-3, v[4] * 1e-3, v[5] * kDegToRad);
+      r.odometry = Pose2::FromXYHeading(v[3] * kMmToM, v[4] * kMmToM, v[5] * kDegToRad);
     } else {
       if (!records.empty()) {
         calibration::AdvanceArc(
@@ -368,8 +368,8 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   stats->pose_period_s = calibration::Median(periods);
 
   // The robot's pose from the body's: T_world_robot = T_world_body * T_robot_body^-1.
-  const Pose2 T_robot_body = Pose2::FromXYHeading(tracker.offset_x_mm * 1e-3,
-                                                  tracker.offset_y_mm * 1e-3,
+  const Pose2 T_robot_body = Pose2::FromXYHeading(tracker.offset_x_mm * kMmToM,
+                                                  tracker.offset_y_mm * kMmToM,
                                                   tracker.yaw_deg * kDegToRad);
   const Pose2 T_body_robot = T_robot_body.inverse();
 
@@ -494,7 +494,7 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     if (stats->path_ratio < options.min_unit_ratio || stats->path_ratio > options.max_unit_ratio) {
       *error = run.poses + ": columns x_mm,y_mm: the logged path is " +
                Format("%.4g", stats->path_ratio) +
-               " times the ticks' (" + Format("%.0f", tick_path * 1e3) +
+               " times the ticks' (" + Format("%.0f", tick_path * kMToMm) +
                " mm by " + run.telemetry + ", nominal parameters)" +
                (stats->path_ratio < 0.01 ? ": metres where millimetres are expected?"
                                          : ": wrong unit or wrong telemetry?");

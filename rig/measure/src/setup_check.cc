@@ -8,8 +8,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/base/format.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/statistics.h"
 #include "odocal/calibration/umbmark.h"
+#include "odocal/measure/measure.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/planar_pose.h"
@@ -138,10 +140,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   if (options.mount_guess) {
     r.mount = *options.mount_guess;
   } else {
-    const double f = 0.5 * (options.intrinsics.fx + options.intrinsics.fy);
-    vision::CameraMount level;
-    level.height_mm = options.tag.height_mm + f * options.tag.size_mm / print_side_px;
-    r.mount = level;
+    r.mount = LevelMountFromTagSize(options.intrinsics, options.tag, print_side_px);
     r.mount_from_tag_size = true;
   }
   // The tilt: a still tag's own perspective tells it (the bundle adjustment
@@ -152,15 +151,12 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     const int step = std::max<int>(1, static_cast<int>(corners.size()) / 20);
     std::vector<vision::TagCorners> views;
     for (size_t k = 0; k < corners.size(); k += step) views.push_back(corners[k]);
-    const vision::CameraPlaneResult plane =
-        vision::EstimateCameraOverTagPlane(options.intrinsics, options.tag, views, r.mount);
-    if (plane.ok) {
-      r.mount = plane.mount;
-      r.plane_from_tag = true;
-    } else {
-      r.warnings.push_back("the camera's tilt could not be estimated from the still tag (" + plane.message +
+    const CameraPlaneOrGuess fit = EstimateCameraPlaneOrGuess(options.intrinsics, options.tag, views, r.mount);
+    r.mount = fit.mount;
+    r.plane_from_tag = fit.estimated();
+    if (!fit.estimated())
+      r.warnings.push_back("the camera's tilt could not be estimated from the still tag (" + fit.plane.message +
                            "): the noise below may be overstated");
-    }
   }
   camera = vision::CameraModel(options.intrinsics, r.mount);
 
@@ -226,7 +222,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   // The squares from where the robot stands: the tag's centre at every
   // corner, with the heading it arrives and leaves with, must stay in view.
   const Pose2 start = Pose2::FromXYHeading(mean.x(), mean.y(), mean.z());
-  const Pose2 T_robot_tag = Pose2::FromXYHeading(options.tag.offset_x_mm * 1e-3, options.tag.offset_y_mm * 1e-3, 0.0);
+  const Pose2 T_robot_tag = Pose2::FromXYHeading(options.tag.offset_x_mm * kMmToM, options.tag.offset_y_mm * kMmToM, 0.0);
   const double L = options.square_side_m;
   r.squares_fit = true;
   for (int d = 0; d < 2; ++d) {
@@ -243,7 +239,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   if (!r.squares_fit)
     r.warnings.push_back(Format("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
                              "camera's view: move the robot, shrink the square, or raise the camera",
-                             L * 1e3));
+                             L * kMToMm));
 
   // Ed and Eb: UMBMark's coupled fit on return errors drawn with the
   // predicted sigmas, as often as the plan repeats the squares.
@@ -276,7 +272,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   // The edges' angle to the pixel grid, from the last frame's corners.
   {
     const vision::TagCorners& c = corners[posed.back()];
-    const double edge_deg = std::atan2(c[1].y - c[0].y, c[1].x - c[0].x) * 180.0 / M_PI;
+    const double edge_deg = RadToDeg(std::atan2(c[1].y - c[0].y, c[1].x - c[0].x));
     const double off = std::fmod(std::fmod(edge_deg, 90.0) + 90.0, 90.0);
     r.grid_angle_deg = std::min(off, 90.0 - off);
     if (r.grid_angle_deg < 5.0)

@@ -7,11 +7,11 @@
 
 namespace odocal::measure {
 
-double TapePair::camera_x_mm() const { return camera.pose.x() * 1e3; }
-double TapePair::camera_y_mm() const { return camera.pose.y() * 1e3; }
+double TapePair::camera_x_mm() const { return camera.pose.x() * kMToMm; }
+double TapePair::camera_y_mm() const { return camera.pose.y() * kMToMm; }
 double TapePair::camera_theta_deg() const { return camera.pose.heading() * kRadToDeg; }
-double TapePair::sigma_x_mm() const { return camera.sigma_x_m() * 1e3; }
-double TapePair::sigma_y_mm() const { return camera.sigma_y_m() * 1e3; }
+double TapePair::sigma_x_mm() const { return camera.sigma_x_m() * kMToMm; }
+double TapePair::sigma_y_mm() const { return camera.sigma_y_m() * kMToMm; }
 double TapePair::sigma_theta_deg() const { return camera.sigma_heading_rad() * kRadToDeg; }
 
 double NiceCeil(double v) {

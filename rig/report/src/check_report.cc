@@ -46,8 +46,8 @@ json Thinned(const std::vector<calibration::Pose2>& poses, int max_points) {
   if (poses.empty()) return points;
   const size_t step = std::max<size_t>(1, (poses.size() + max_points - 1) / std::max(1, max_points));
   for (size_t i = 0; i < poses.size(); i += step)
-    points.push_back({poses[i].x() * 1e3, poses[i].y() * 1e3});
-  if ((poses.size() - 1) % step != 0) points.push_back({poses.back().x() * 1e3, poses.back().y() * 1e3});
+    points.push_back({poses[i].x() * kMToMm, poses[i].y() * kMToMm});
+  if ((poses.size() - 1) % step != 0) points.push_back({poses.back().x() * kMToMm, poses.back().y() * kMToMm});
   return points;
 }
 
@@ -235,12 +235,12 @@ json CheckJson(const std::string& session_path, const calibration::MeasuredSessi
             {{"run", run.name}, {"set", result.sets[s].name}, {"reason", r.message}});
         continue;
       }
-      distance = r.distance_m * 1e3;
+      distance = r.distance_m * kMToMm;
       results.push_back({{"set", result.sets[s].name},
                          {"ok", true},
-                         {"final_position_error_mm", r.final_position_error_m * 1e3},
+                         {"final_position_error_mm", r.final_position_error_m * kMToMm},
                          {"final_heading_error_deg", r.final_heading_error_rad * kRadToDeg},
-                         {"rms_error_mm", r.rms_position_error_m * 1e3},
+                         {"rms_error_mm", r.rms_position_error_m * kMToMm},
                          {"final_error_percent", 100.0 * r.final_error_fraction()},
                          {"frames", r.measured.size()},
                          {"start", PoseJson(r.start)},

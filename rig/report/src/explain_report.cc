@@ -48,13 +48,13 @@ nlohmann::json ParamsJson(const std::vector<ParameterEstimate>& params, bool int
 nlohmann::json SummaryJson(const calibration::ResidualSummary& s) {
   nlohmann::json by_motion = nlohmann::json::object(), by_run = nlohmann::json::object(),
                  worst = nlohmann::json::array();
-  for (const auto& g : s.by_motion) by_motion[g.label] = {{"rms_mm", g.rms_m * 1e3}, {"frames", g.n}};
-  for (const auto& g : s.by_run) by_run[g.label] = {{"rms_mm", g.rms_m * 1e3}, {"frames", g.n}};
+  for (const auto& g : s.by_motion) by_motion[g.label] = {{"rms_mm", g.rms_m * kMToMm}, {"frames", g.n}};
+  for (const auto& g : s.by_run) by_run[g.label] = {{"rms_mm", g.rms_m * kMToMm}, {"frames", g.n}};
   for (const auto& w : s.worst)
     worst.push_back({{"run", w.run},
                      {"t_s", w.t_s},
                      {"motion", calibration::ToString(w.motion)},
-                     {"error_mm", w.error_m * 1e3}});
+                     {"error_mm", w.error_m * kMToMm}});
   return {{"by_motion", by_motion}, {"by_run", by_run}, {"largest", worst}};
 }
 
@@ -70,8 +70,8 @@ nlohmann::json FitJson(const calibration::TrajectoryFitResult& fit) {
                    {"identifiable", p.identifiable}};
   }
   return {{"parameters", params},
-          {"gap_mm", fit.gap_m * 1e3},
-          {"noise_floor_mm", fit.noise_floor_m * 1e3},
+          {"gap_mm", fit.gap_m * kMToMm},
+          {"noise_floor_mm", fit.noise_floor_m * kMToMm},
           {"frames", fit.n_frames},
           {"condition_number", std::isfinite(fit.condition_number)
                                    ? nlohmann::json(fit.condition_number)
@@ -94,8 +94,8 @@ nlohmann::json AliasJson(const calibration::AliasReport& a) {
 nlohmann::json CrossValidationJson(const calibration::CrossValidation& cv) {
   nlohmann::json j = {{"method", cv.method}, {"folds", cv.folds}, {"heldout_runs", cv.heldout_runs}};
   if (cv.possible()) {
-    j["heldout_rms_before_mm"] = cv.heldout_rms_before_m * 1e3;
-    j["heldout_rms_after_mm"] = cv.heldout_rms_after_m * 1e3;
+    j["heldout_rms_before_mm"] = cv.heldout_rms_before_m * kMToMm;
+    j["heldout_rms_after_mm"] = cv.heldout_rms_after_m * kMToMm;
     j["improved"] = cv.improved;
   } else {
     j["heldout_rms_before_mm"] = nullptr;
@@ -111,9 +111,9 @@ nlohmann::json TrialJson(const calibration::CandidateTrial& t) {
                       {"score", t.score},
                       {"wald", t.wald},
                       {"wald_threshold", t.wald_threshold},
-                      {"explained_mm", t.explained_m * 1e3},
+                      {"explained_mm", t.explained_m * kMToMm},
                       {"separation", t.alias.separation},
-                      {"gap_mm", t.gap_m * 1e3}};
+                      {"gap_mm", t.gap_m * kMToMm}};
   if (t.cross_validation) j["cross_validation"] = CrossValidationJson(*t.cross_validation);
   return j;
 }
@@ -124,16 +124,16 @@ nlohmann::json UnexplainedJson(const calibration::UnexplainedReport& u) {
     where.push_back({{"where", w.run},
                      {"when", {{"t_from_s", w.t_from_s}, {"t_to_s", w.t_to_s}}},
                      {"motion", w.motion},
-                     {"size_mm", w.size_m * 1e3},
+                     {"size_mm", w.size_m * kMToMm},
                      {"frames", w.frames}});
   return where;
 }
 
 nlohmann::json RemainderJson(const calibration::UnexplainedReport& u) {
-  return {{"gap_mm", u.gap_m * 1e3},
-          {"expected_gap_mm", u.expected_gap_m * 1e3},
-          {"wheel_noise_gap_mm", u.wheel_noise_gap_m * 1e3},
-          {"excess_mm", u.excess_m * 1e3},
+  return {{"gap_mm", u.gap_m * kMToMm},
+          {"expected_gap_mm", u.expected_gap_m * kMToMm},
+          {"wheel_noise_gap_mm", u.wheel_noise_gap_m * kMToMm},
+          {"excess_mm", u.excess_m * kMToMm},
           {"F", u.ratio},
           {"F_threshold", u.threshold},
           {"n_eff", u.n_eff},
@@ -168,7 +168,7 @@ std::string ResidualSvg(const calibration::MeasuredSession& session,
     const char* colour = r.motion == calibration::MotionKind::kTurn       ? "#d62728"
                          : r.motion == calibration::MotionKind::kStraight ? "#1f77b4"
                                                                           : "#7f7f7f";
-    plot.Circle(double(i), std::min(r.error_m.norm() * 1e3, y_max_mm), 1.0, colour);
+    plot.Circle(double(i), std::min(r.error_m.norm() * kMToMm, y_max_mm), 1.0, colour);
   }
   return plot.Svg("residuals");
 }
@@ -185,7 +185,7 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
     steps.push_back({{"effect", calibration::ToString(s.effect)},
                      {"params", ParamsJson(s.params, false)},
                      {"interval95", ParamsJson(s.params, true)},
-                     {"gap_after_mm", s.gap_after_m * 1e3},
+                     {"gap_after_mm", s.gap_after_m * kMToMm},
                      {"score", s.score},
                      {"cross_validation", CrossValidationJson(s.cross_validation)},
                      {"between_runs_z", FiniteOrNull(s.between_runs_z)},
@@ -205,11 +205,11 @@ nlohmann::json ExplainJson(const calibration::MeasuredSession& session,
   nlohmann::json aliased = nlohmann::json::array();
   for (const calibration::AliasReport& a : result.aliased) aliased.push_back(AliasJson(a));
   return {
-      {"gap_before_mm", result.gap_before_m() * 1e3},
+      {"gap_before_mm", result.gap_before_m() * kMToMm},
       {"steps", steps},
-      {"gap_after_mm", result.gap_after_m() * 1e3},
+      {"gap_after_mm", result.gap_after_m() * kMToMm},
       {"effects_added", result.EffectsAdded()},
-      {"noise_floor_mm", result.final_fit.noise_floor_m * 1e3},
+      {"noise_floor_mm", result.final_fit.noise_floor_m * kMToMm},
       {"criterion",
        "BIC drop N_eff ln(SSE_before/SSE_after) - k ln(N_eff) above 10, and a Wald test of the "
        "effect's parameters against zero (wheel noise included) above its chi-square 0.999 "
@@ -252,7 +252,7 @@ nlohmann::json CameraRefitJson(double k1_correction, const calibration::Measured
 std::string ExplainHtml(const calibration::MeasuredSession& session,
                         const calibration::ExplainResult& result) {
   double y_max = 0.0;
-  for (const auto& r : result.base.residuals) y_max = std::max(y_max, r.error_m.norm() * 1e3);
+  for (const auto& r : result.base.residuals) y_max = std::max(y_max, r.error_m.norm() * kMToMm);
   y_max = std::max(1.0, std::ceil(y_max));
   std::ostringstream os;
   os << std::fixed << std::setprecision(3);
@@ -260,18 +260,18 @@ std::string ExplainHtml(const calibration::MeasuredSession& session,
         "<style>body{font-family:sans-serif;margin:2em}td,th{padding:2px 8px;text-align:left}"
         "pre{background:#f6f6f6;padding:1em}</style></head><body>\n";
   os << "<h1>Where model and measurement disagree</h1>\n";
-  os << "<p>Gap (RMS position residual): <b>" << result.gap_before_m() * 1e3
-     << " mm</b> with the base model, <b>" << result.gap_after_m() * 1e3
-     << " mm</b> after; noise floor " << result.final_fit.noise_floor_m * 1e3 << " mm.</p>\n";
+  os << "<p>Gap (RMS position residual): <b>" << result.gap_before_m() * kMToMm
+     << " mm</b> with the base model, <b>" << result.gap_after_m() * kMToMm
+     << " mm</b> after; noise floor " << result.final_fit.noise_floor_m * kMToMm << " mm.</p>\n";
   os << "<h2>Steps</h2><table><tr><th>effect</th><th>parameters</th><th>gap after [mm]</th>"
         "<th>score (BIC drop)</th><th>held-out RMS before &rarr; after [mm]</th></tr>\n";
   for (const auto& s : result.steps) {
     os << "<tr><td>" << calibration::ToString(s.effect) << "</td><td>";
     for (const auto& p : s.params) os << p.name << " " << p.value << " &plusmn; " << 1.96 * p.sigma << "; ";
-    os << "</td><td>" << s.gap_after_m * 1e3 << "</td><td>" << s.score << "</td><td>";
+    os << "</td><td>" << s.gap_after_m * kMToMm << "</td><td>" << s.score << "</td><td>";
     if (s.cross_validation.possible())
-      os << s.cross_validation.heldout_rms_before_m * 1e3 << " &rarr; "
-         << s.cross_validation.heldout_rms_after_m * 1e3 << " (" << s.cross_validation.method
+      os << s.cross_validation.heldout_rms_before_m * kMToMm << " &rarr; "
+         << s.cross_validation.heldout_rms_after_m * kMToMm << " (" << s.cross_validation.method
          << ", " << s.cross_validation.folds << " folds)";
     else
       os << s.cross_validation.note;
@@ -280,8 +280,8 @@ std::string ExplainHtml(const calibration::MeasuredSession& session,
   if (result.steps.empty()) os << "<tr><td colspan='5'>nothing significant</td></tr>\n";
   os << "</table>\n";
   const calibration::UnexplainedReport& u = result.unexplained;
-  os << "<h2>Unexplained</h2><p>Remainder: gap " << u.gap_m * 1e3 << " mm against "
-     << u.expected_gap_m * 1e3 << " mm that camera and wheel noise leave (F " << u.ratio
+  os << "<h2>Unexplained</h2><p>Remainder: gap " << u.gap_m * kMToMm << " mm against "
+     << u.expected_gap_m * kMToMm << " mm that camera and wheel noise leave (F " << u.ratio
      << ", threshold " << u.threshold << ": " << (u.significant ? "significant" : "not significant")
      << ").</p>\n";
   if (u.any()) {
@@ -289,7 +289,7 @@ std::string ExplainHtml(const calibration::MeasuredSession& session,
           "</th><th>to [s]</th><th>motion</th><th>RMS [mm]</th><th>frames</th></tr>\n";
     for (const auto& w : u.where)
       os << "<tr><td>" << w.run << "</td><td>" << w.t_from_s << "</td><td>" << w.t_to_s
-         << "</td><td>" << w.motion << "</td><td>" << w.size_m * 1e3 << "</td><td>" << w.frames
+         << "</td><td>" << w.motion << "</td><td>" << w.size_m * kMToMm << "</td><td>" << w.frames
          << "</td></tr>\n";
     os << "</table>\n";
   } else {

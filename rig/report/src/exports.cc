@@ -3,6 +3,7 @@
 
 #include <cstdio>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/report/json.h"
 
@@ -39,8 +40,8 @@ std::string Ros2ExportYaml(const calibration::WheelParams& nominal,
 }
 
 std::string FirmwareExportYaml(const calibration::WheelParams& c) {
-  const std::string left = Number(c.left_wheel_diameter_m * 1e3),
-                    right = Number(c.right_wheel_diameter_m * 1e3), track = Number(c.track_m * 1e3),
+  const std::string left = Number(c.left_wheel_diameter_m * kMToMm),
+                    right = Number(c.right_wheel_diameter_m * kMToMm), track = Number(c.track_m * kMToMm),
                     ticks = Number(c.ticks_per_rev);
   return "# odocal: corrected parameters in the robot link's names (mm)\n"
          "# push: odocal robot push --port DEVICE left_wheel_diameter_mm=" + left +

@@ -334,7 +334,10 @@ std::string ReportHtml(const json& report, const std::string& title) {
       os << "<div><h3>Iteration " << k << "</h3>"
          << UmbmarkScatter(it["umbmark"], "Iteration " + std::to_string(k) + ": return errors")
          << UmbmarkTable(it["umbmark"]);
-      if (it.contains("pushed")) os << "<p>Pushed:</p>" << KeyValueTable(it["pushed"]);
+      // A round that pushed nothing ("pushed": null in the station's report) says so.
+      if (it.contains("pushed"))
+        os << (it["pushed"].is_object() && !it["pushed"].empty() ? "<p>Pushed:</p>" + KeyValueTable(it["pushed"])
+                                                                 : std::string("<p>Nothing pushed.</p>\n"));
       os << "</div>\n";
     }
   }

@@ -22,7 +22,7 @@ nlohmann::json FirstOrderJson(const calibration::FirstOrderEstimate& e) {
   return {
       {"alpha_deg", e.alpha_rad * kRadToDeg},
       {"beta_deg", e.beta_rad * kRadToDeg},
-      {"R_mm", FiniteOrNull(e.R_m * 1e3)},
+      {"R_mm", FiniteOrNull(e.R_m * kMToMm)},
       {"Ed", e.Ed},
       {"Eb", e.Eb},
       {"c_left", e.c_left},
@@ -48,12 +48,12 @@ nlohmann::json FiniteOrNull(double value) {
 }
 
 nlohmann::json PoseJson(const calibration::Pose2& pose) {
-  return {{"x_mm", pose.x() * 1e3}, {"y_mm", pose.y() * 1e3},
+  return {{"x_mm", pose.x() * kMToMm}, {"y_mm", pose.y() * kMToMm},
           {"heading_deg", pose.heading() * kRadToDeg}};
 }
 
 nlohmann::json ReturnErrorJson(const calibration::Pose2& error) {
-  return {{"x_mm", error.x() * 1e3}, {"y_mm", error.y() * 1e3},
+  return {{"x_mm", error.x() * kMToMm}, {"y_mm", error.y() * kMToMm},
           {"theta_deg", error.heading() * kRadToDeg}};
 }
 
@@ -65,9 +65,9 @@ nlohmann::json TicksPerRevJson(double ticks_per_rev) {
 }
 
 nlohmann::json WheelParamsJson(const calibration::WheelParams& p) {
-  return {{"left_wheel_diameter_mm", p.left_wheel_diameter_m * 1e3},
-          {"right_wheel_diameter_mm", p.right_wheel_diameter_m * 1e3},
-          {"track_mm", p.track_m * 1e3},
+  return {{"left_wheel_diameter_mm", p.left_wheel_diameter_m * kMToMm},
+          {"right_wheel_diameter_mm", p.right_wheel_diameter_m * kMToMm},
+          {"track_mm", p.track_m * kMToMm},
           {"ticks_per_rev", TicksPerRevJson(p.ticks_per_rev)}};
 }
 
@@ -89,26 +89,26 @@ nlohmann::json UmbmarkJson(const calibration::UmbmarkInput& input,
   nlohmann::json runs = {{"cw", nlohmann::json::array()}, {"ccw", nlohmann::json::array()}};
   for (const auto& [key, list] : {std::pair{"cw", &input.cw}, std::pair{"ccw", &input.ccw}})
     for (const calibration::ReturnError& e : *list) {
-      nlohmann::json j = {{"x_mm", e.x_m * 1e3}, {"y_mm", e.y_m * 1e3}};
+      nlohmann::json j = {{"x_mm", e.x_m * kMToMm}, {"y_mm", e.y_m * kMToMm}};
       if (e.heading_rad) j["theta_deg"] = *e.heading_rad * kRadToDeg;
       runs[key].push_back(j);
     }
   return {
       {"return_errors", runs},
-      {"side_mm", input.side_m * 1e3},
-      {"track_mm", input.track_m * 1e3},
+      {"side_mm", input.side_m * kMToMm},
+      {"track_mm", input.track_m * kMToMm},
       {"n_cw", s.cw.n},
       {"n_ccw", s.ccw.n},
-      {"x_cg_cw_mm", s.cw.x_m * 1e3},
-      {"y_cg_cw_mm", s.cw.y_m * 1e3},
-      {"x_cg_ccw_mm", s.ccw.x_m * 1e3},
-      {"y_cg_ccw_mm", s.ccw.y_m * 1e3},
+      {"x_cg_cw_mm", s.cw.x_m * kMToMm},
+      {"y_cg_cw_mm", s.cw.y_m * kMToMm},
+      {"x_cg_ccw_mm", s.ccw.x_m * kMToMm},
+      {"y_cg_ccw_mm", s.ccw.y_m * kMToMm},
       {"sigma_cg",
        {{"x_cw_mm", OrNull(s.cw.sigma_x_m, 1e3)},
         {"y_cw_mm", OrNull(s.cw.sigma_y_m, 1e3)},
         {"x_ccw_mm", OrNull(s.ccw.sigma_x_m, 1e3)},
         {"y_ccw_mm", OrNull(s.ccw.sigma_y_m, 1e3)}}},
-      {"emax_syst_mm", s.emax_syst_m * 1e3},
+      {"emax_syst_mm", s.emax_syst_m * kMToMm},
       {"first_order_x", FirstOrderJson(s.from_x)},
       {"first_order_y", FirstOrderJson(s.from_y)},
       {"estimate",
@@ -120,7 +120,7 @@ nlohmann::json UmbmarkJson(const calibration::UmbmarkInput& input,
         {"correlation", OrNull(c.correlation)},
         {"interval95", interval},
         {"used_heading", c.used_heading},
-        {"track_corrected_mm", s.track_corrected_m * 1e3},
+        {"track_corrected_mm", s.track_corrected_m * kMToMm},
         {"turn_scale", s.turn_scale},
         {"c_left", s.c_left},
         {"c_right", s.c_right}}},
@@ -136,8 +136,8 @@ nlohmann::json UmbmarkJson(const calibration::UmbmarkInput& input,
 std::string UmbmarkTable(const calibration::UmbmarkInput& input,
                          const calibration::UmbmarkSummary& s) {
   std::ostringstream os;
-  os << "UMBMark  side " << Fixed(input.side_m * 1e3, 1) << " mm, track "
-     << Fixed(input.track_m * 1e3, 1) << " mm, " << s.cw.n << " cw + " << s.ccw.n << " ccw runs\n\n";
+  os << "UMBMark  side " << Fixed(input.side_m * kMToMm, 1) << " mm, track "
+     << Fixed(input.track_m * kMToMm, 1) << " mm, " << s.cw.n << " cw + " << s.ccw.n << " ccw runs\n\n";
   os << "  centre of gravity    x [mm]               y [mm]\n";
   os << "  cw                   " << std::left << std::setw(21)
      << WithSigma(s.cw.x_m, s.cw.sigma_x_m, 2, 1e3) << WithSigma(s.cw.y_m, s.cw.sigma_y_m, 2, 1e3)
@@ -145,7 +145,7 @@ std::string UmbmarkTable(const calibration::UmbmarkInput& input,
   os << "  ccw                  " << std::setw(21)
      << WithSigma(s.ccw.x_m, s.ccw.sigma_x_m, 2, 1e3)
      << WithSigma(s.ccw.y_m, s.ccw.sigma_y_m, 2, 1e3) << "\n";
-  os << "  E_max,syst           " << Fixed(s.emax_syst_m * 1e3, 2) << " mm\n\n";
+  os << "  E_max,syst           " << Fixed(s.emax_syst_m * kMToMm, 2) << " mm\n\n";
   os << "                       alpha [deg]  beta [deg]   Ed           Eb\n";
   for (const auto& [label, fo] : {std::pair{"first order, from x", s.from_x},
                                   std::pair{"first order, from y", s.from_y}}) {
@@ -161,7 +161,7 @@ std::string UmbmarkTable(const calibration::UmbmarkInput& input,
   } else {
     os << "  (one run a direction: no uncertainty; repeat runs to get one)\n";
   }
-  os << "\n  corrected track      " << Fixed(s.track_corrected_m * 1e3, 3) << " mm\n";
+  os << "\n  corrected track      " << Fixed(s.track_corrected_m * kMToMm, 3) << " mm\n";
   os << "  turn scale           " << Fixed(s.turn_scale, 6) << "\n";
   os << "  c_left, c_right      " << Fixed(s.c_left, 6) << ", " << Fixed(s.c_right, 6)
      << "  (multiply each wheel's diameter, i.e. its travel per tick)\n";

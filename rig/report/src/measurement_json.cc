@@ -23,9 +23,9 @@ nlohmann::json RunJson(const measure::RunMeasurement& rm) {
   }
   if (const calibration::RelativePose* usable = measure::UsableReturnError(m)) {
     const calibration::RelativePose& r = *usable;
-    j["return_error"] = {{"x_mm", r.pose.x() * 1e3}, {"y_mm", r.pose.y() * 1e3},
+    j["return_error"] = {{"x_mm", r.pose.x() * kMToMm}, {"y_mm", r.pose.y() * kMToMm},
                          {"theta_deg", r.pose.heading() * kRadToDeg}};
-    j["sigma"] = {{"x_mm", r.sigma_x_m() * 1e3}, {"y_mm", r.sigma_y_m() * 1e3},
+    j["sigma"] = {{"x_mm", r.sigma_x_m() * kMToMm}, {"y_mm", r.sigma_y_m() * kMToMm},
                   {"theta_deg", r.sigma_heading_rad() * kRadToDeg}};
   } else {
     j["return_error"] = nullptr;
@@ -90,9 +90,9 @@ nlohmann::json TrajectoryJson(const measure::RunMeasurement& rm, int max_points)
   json points = json::array();
   const size_t step = std::max<size_t>(1, (valid.size() + max_points - 1) / std::max(1, max_points));
   for (size_t i = 0; i < valid.size(); i += step)
-    points.push_back({valid[i]->T_world_robot.x() * 1e3, valid[i]->T_world_robot.y() * 1e3});
+    points.push_back({valid[i]->T_world_robot.x() * kMToMm, valid[i]->T_world_robot.y() * kMToMm});
   if (!valid.empty() && (valid.size() - 1) % step != 0)
-    points.push_back({valid.back()->T_world_robot.x() * 1e3, valid.back()->T_world_robot.y() * 1e3});
+    points.push_back({valid.back()->T_world_robot.x() * kMToMm, valid.back()->T_world_robot.y() * kMToMm});
   return {{"name", rm.measured.name},
           {"procedure", calibration::ToString(rm.measured.spec.procedure)},
           {"direction", calibration::ToString(rm.measured.spec.direction)},

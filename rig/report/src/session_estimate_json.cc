@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/report/json.h"
 
@@ -42,8 +43,8 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
                                  const calibration::TrajectoryFitResult& fit) {
   nlohmann::json j = {{"method", "full-trajectory least squares (base model)"},
                       {"frames", fit.n_frames},
-                      {"gap_mm", fit.gap_m * 1e3},
-                      {"noise_floor_mm", fit.noise_floor_m * 1e3},
+                      {"gap_mm", fit.gap_m * kMToMm},
+                      {"noise_floor_mm", fit.noise_floor_m * kMToMm},
                       {"lag1_autocorrelation", fit.lag1_autocorrelation},
                       {"unidentifiable", fit.unidentifiable}};
   int runs_used = 0;
@@ -83,12 +84,12 @@ nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::
                         {"defined", c.params.has_value()},
                         {"corrected", c.params ? WheelParamsJson(*c.params) : nlohmann::json(nullptr)}};
     if (choice.cross_validated) {
-      j["heldout_final_error_mm"] = {{"mean", c.mean_m * 1e3}, {"sigma", c.sigma_m * 1e3}, {"max", c.max_m * 1e3}};
+      j["heldout_final_error_mm"] = {{"mean", c.mean_m * kMToMm}, {"sigma", c.sigma_m * kMToMm}, {"max", c.max_m * kMToMm}};
       nlohmann::json per_run = nlohmann::json::array();
-      for (double e : c.final_error_m) per_run.push_back(e * 1e3);
+      for (double e : c.final_error_m) per_run.push_back(e * kMToMm);
       j["per_run_mm"] = per_run;
-      j["heldout_rms_error_mm"] = {{"mean", c.rms_mean_m * 1e3}, {"sigma", c.rms_sigma_m * 1e3}};
-      j["versus_lowest_mm"] = {{"mean", c.versus_lowest_m * 1e3}, {"sigma", c.versus_lowest_sigma_m * 1e3}};
+      j["heldout_rms_error_mm"] = {{"mean", c.rms_mean_m * kMToMm}, {"sigma", c.rms_sigma_m * kMToMm}};
+      j["versus_lowest_mm"] = {{"mean", c.versus_lowest_m * kMToMm}, {"sigma", c.versus_lowest_sigma_m * kMToMm}};
       j["travel_scale"] = {{"value", c.scale}, {"sigma_between_runs", c.scale_sigma}};
     } else {
       j["heldout_final_error_mm"] = nullptr;
@@ -98,8 +99,8 @@ nlohmann::json EstimatorChoiceJson(const std::string& requested, const measure::
   nlohmann::json rule = nullptr;
   if (choice.cross_validated)
     rule = {{"paired_difference_mm",
-             {{"mean", choice.paired_difference_m * 1e3},
-              {"sigma", choice.paired_sigma_m * 1e3},
+             {{"mean", choice.paired_difference_m * kMToMm},
+              {"sigma", choice.paired_sigma_m * kMToMm},
               {"told_apart", choice.told_apart}}},
             {"scale_difference",
              {{"value", choice.scale.difference}, {"sigma", choice.scale.sigma}, {"z", choice.scale.z()}}},

@@ -27,8 +27,8 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   vision::TagSpec true_tag = *scenario.tag;
   true_tag.size_mm *= cam.tag_print_scale;  // as printed, not as stated
   if (effects.tag_offset) {
-    true_tag.offset_x_mm = effects.tag_offset->x_m * 1e3;
-    true_tag.offset_y_mm = effects.tag_offset->y_m * 1e3;
+    true_tag.offset_x_mm = effects.tag_offset->x_m * kMToMm;
+    true_tag.offset_y_mm = effects.tag_offset->y_m * kMToMm;
   }
   if (effects.tracker_yaw) true_tag.yaw_deg += effects.tracker_yaw->yaw_rad * kRadToDeg;
   vision::Intrinsics true_lens = cam.intrinsics;
@@ -79,9 +79,9 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
     const auto& c = frame.corners_px;
     std::snprintf(line, sizeof(line),
                   "%d,%.6f,%.6f,%d,%.5f,%.5f,%.6f,%.5f,%.5f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
-                  k, t, stamp, frame.tag_visible ? 1 : 0, frame.T_world_robot.x() * 1e3,
-                  frame.T_world_robot.y() * 1e3, frame.T_world_robot.heading() * kRadToDeg,
-                  frame.T_world_tag.x() * 1e3, frame.T_world_tag.y() * 1e3,
+                  k, t, stamp, frame.tag_visible ? 1 : 0, frame.T_world_robot.x() * kMToMm,
+                  frame.T_world_robot.y() * kMToMm, frame.T_world_robot.heading() * kRadToDeg,
+                  frame.T_world_tag.x() * kMToMm, frame.T_world_tag.y() * kMToMm,
                   frame.T_world_tag.heading() * kRadToDeg, c[0].x, c[0].y, c[1].x, c[1].y, c[2].x,
                   c[2].y, c[3].x, c[3].y);
     truth += line;
@@ -107,7 +107,7 @@ std::vector<vision::FloorTagPlacement> FloorTagPlacements(const config::CameraSc
     placement.family = cam.floor_tags->family;
     placement.id = t.id;
     placement.size_mm = cam.floor_tags->size_mm * cam.tag_print_scale;  // the same printer
-    placement.T_world_tag = calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.yaw_deg * kDegToRad);
+    placement.T_world_tag = calibration::Pose2::FromXYHeading(t.x_mm * kMmToM, t.y_mm * kMmToM, t.yaw_deg * kDegToRad);
     placements.push_back(placement);
   }
   return placements;

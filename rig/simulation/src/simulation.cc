@@ -23,7 +23,7 @@ std::string TelemetryCsv(const sim::RunRecord& run) {
   for (const sim::TelemetrySample& s : run.telemetry) {
     std::snprintf(line, sizeof(line), "%.3f,%lld,%lld,%.4f,%.4f,%.6f,%d\n", s.t_s,
                   static_cast<long long>(s.left_ticks), static_cast<long long>(s.right_ticks),
-                  s.odometry.x() * 1e3, s.odometry.y() * 1e3, s.odometry.heading() * kRadToDeg,
+                  s.odometry.x() * kMToMm, s.odometry.y() * kMToMm, s.odometry.heading() * kRadToDeg,
                   s.moving ? 1 : 0);
     csv += line;
   }
@@ -39,7 +39,7 @@ std::string TrajectoryCsv(const sim::RunRecord& run) {
   for (const sim::TelemetrySample& s : run.telemetry) {
     while (k + 1 < run.trajectory.size() && run.trajectory[k].t_s < s.t_s - 1e-9) ++k;
     const calibration::Pose2& T = run.trajectory[k].T_world_robot;
-    std::snprintf(line, sizeof(line), "%.3f,%.4f,%.4f,%.6f\n", s.t_s, T.x() * 1e3, T.y() * 1e3,
+    std::snprintf(line, sizeof(line), "%.3f,%.4f,%.4f,%.6f\n", s.t_s, T.x() * kMToMm, T.y() * kMToMm,
                   T.heading() * kRadToDeg);
     csv += line;
   }
@@ -51,10 +51,10 @@ nlohmann::json RunSpecJson(const calibration::RunSpec& spec) {
   switch (spec.procedure) {
     case calibration::Procedure::kUmbmark:
       j["direction"] = calibration::ToString(spec.direction);
-      j["side_mm"] = spec.side_m * 1e3;
+      j["side_mm"] = spec.side_m * kMToMm;
       break;
     case calibration::Procedure::kStraight:
-      j["distance_mm"] = spec.distance_m * 1e3;
+      j["distance_mm"] = spec.distance_m * kMToMm;
       break;
     case calibration::Procedure::kSpin:
       j["direction"] = calibration::ToString(spec.direction);
@@ -63,14 +63,14 @@ nlohmann::json RunSpecJson(const calibration::RunSpec& spec) {
       break;
     case calibration::Procedure::kOutAndBack:
       j["direction"] = calibration::ToString(spec.direction);
-      j["distance_mm"] = spec.distance_m * 1e3;
+      j["distance_mm"] = spec.distance_m * kMToMm;
       j["repeats"] = spec.repeats;
       j["reference"] = calibration::ToString(spec.reference);
       break;
     case calibration::Procedure::kRecorded: break;  // refused by the scenario parser
     case calibration::Procedure::kCircle:
       j["direction"] = calibration::ToString(spec.direction);
-      j["radius_mm"] = spec.radius_m * 1e3;
+      j["radius_mm"] = spec.radius_m * kMToMm;
       j["turns"] = spec.turns;
       break;
   }

@@ -220,9 +220,9 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
   try {
     // Only the nominal parameters and the plan: never `truth`, true poses or effects.
     const nlohmann::json& nominal = doc.at("robot").at("nominal");
-    believed.left_wheel_diameter_m = nominal.at("left_wheel_diameter_mm").get<double>() * 1e-3;
-    believed.right_wheel_diameter_m = nominal.at("right_wheel_diameter_mm").get<double>() * 1e-3;
-    believed.track_m = nominal.at("track_mm").get<double>() * 1e-3;
+    believed.left_wheel_diameter_m = nominal.at("left_wheel_diameter_mm").get<double>() * kMmToM;
+    believed.right_wheel_diameter_m = nominal.at("right_wheel_diameter_mm").get<double>() * kMmToM;
+    believed.track_m = nominal.at("track_mm").get<double>() * kMmToM;
     believed.ticks_per_rev = nominal.at("ticks_per_rev").get<double>();
     for (const nlohmann::json& j : doc.at("runs")) {
       SimulatedRunRecord run;
@@ -238,8 +238,8 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
         run.spec.reference =
             calibration::ParseReference(j["reference"].get<std::string>()).value_or(
                 calibration::Reference::kCamera);
-      run.spec.side_m = j.value("side_mm", 0.0) * 1e-3;
-      run.spec.distance_m = j.value("distance_mm", 0.0) * 1e-3;
+      run.spec.side_m = j.value("side_mm", 0.0) * kMmToM;
+      run.spec.distance_m = j.value("distance_mm", 0.0) * kMmToM;
       run.spec.turns = j.value("turns", 0);
       run.spec.repeats = j.value("repeats", 1);
       std::vector<std::vector<double>> rows;
@@ -248,7 +248,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
       for (const auto& r : rows)
         run.telemetry.push_back({r[0], static_cast<std::int64_t>(std::llround(r[1])),
                                  static_cast<std::int64_t>(std::llround(r[2])),
-                                 Pose2::FromXYHeading(r[3] * 1e-3, r[4] * 1e-3, r[5] * kDegToRad)});
+                                 Pose2::FromXYHeading(r[3] * kMmToM, r[4] * kMmToM, r[5] * kDegToRad)});
       rows.clear();
       // The true trajectory feeds only the stand-in camera.
       const std::string trajectory = dir + "/" + j.at("trajectory").get<std::string>();
@@ -256,7 +256,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
       for (const auto& r : rows) {
         if (!run.truth_t_s.empty() && r[0] <= run.truth_t_s.back()) continue;
         run.truth_t_s.push_back(r[0]);
-        run.truth_poses.push_back(Pose2::FromXYHeading(r[1] * 1e-3, r[2] * 1e-3, r[3] * kDegToRad));
+        run.truth_poses.push_back(Pose2::FromXYHeading(r[1] * kMmToM, r[2] * kMmToM, r[3] * kDegToRad));
       }
       runs.push_back(std::move(run));
     }

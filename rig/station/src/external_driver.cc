@@ -17,6 +17,7 @@
 #include <sstream>
 #include <thread>
 
+#include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/measure/pose_log.h"
 #include "odocal/report/exports.h"
@@ -58,12 +59,12 @@ std::map<std::string, std::string> RunValues(const RunRequest& run) {
   const calibration::RunSpec& s = run.spec;
   return {{"procedure", std::string(calibration::ToString(s.procedure))},
           {"direction", s.direction == calibration::Direction::kCw ? "cw" : "ccw"},
-          {"side_mm", Number(s.side_m * 1e3)},
-          {"distance_mm", Number(s.distance_m * 1e3)},
+          {"side_mm", Number(s.side_m * kMToMm)},
+          {"distance_mm", Number(s.distance_m * kMToMm)},
           {"turns", std::to_string(s.turns)},
           {"repeats", std::to_string(s.repeats)},
-          {"speed_mm_s", Number(s.speed_m_s.value_or(0.0) * 1e3)},
-          {"turn_rate_deg_s", Number(s.turn_rate_rad_s.value_or(0.0) * 180.0 / M_PI)},
+          {"speed_mm_s", Number(s.speed_m_s.value_or(0.0) * kMToMm)},
+          {"turn_rate_deg_s", Number(RadToDeg(s.turn_rate_rad_s.value_or(0.0)))},
           {"run", std::to_string(run.index)},
           {"run_name", run.name},
           {"log", run.log_path},
@@ -343,21 +344,21 @@ std::string DescribeForOperator(const calibration::RunSpec& s) {
   const std::string way = s.direction == calibration::Direction::kCw ? "clockwise" : "counter-clockwise";
   char buffer[200];
   const std::string rate =
-      s.turn_rate_rad_s ? " at " + Number(std::round(*s.turn_rate_rad_s * 180.0 / M_PI)) + " deg/s" : "";
+      s.turn_rate_rad_s ? " at " + Number(std::round(RadToDeg(*s.turn_rate_rad_s))) + " deg/s" : "";
   switch (s.procedure) {
     case calibration::Procedure::kUmbmark:
-      std::snprintf(buffer, sizeof(buffer), "the %s %.0f mm UMBMark square", way.c_str(), s.side_m * 1e3);
+      std::snprintf(buffer, sizeof(buffer), "the %s %.0f mm UMBMark square", way.c_str(), s.side_m * kMToMm);
       break;
     case calibration::Procedure::kStraight:
       std::snprintf(buffer, sizeof(buffer), "straight %s %.0f mm", s.distance_m < 0 ? "backwards" : "ahead",
-                    std::abs(s.distance_m) * 1e3);
+                    std::abs(s.distance_m) * kMToMm);
       break;
     case calibration::Procedure::kSpin:
       std::snprintf(buffer, sizeof(buffer), "%d %s turn%s in place%s", s.turns, way.c_str(),
                     s.turns == 1 ? "" : "s", rate.c_str());
       break;
     case calibration::Procedure::kOutAndBack:
-      std::snprintf(buffer, sizeof(buffer), "out %.0f mm and back, turning %s, %d time%s", s.distance_m * 1e3,
+      std::snprintf(buffer, sizeof(buffer), "out %.0f mm and back, turning %s, %d time%s", s.distance_m * kMToMm,
                     way.c_str(), s.repeats, s.repeats == 1 ? "" : "s");
       break;
     default: std::snprintf(buffer, sizeof(buffer), "%s", std::string(calibration::ToString(s.procedure)).c_str());

@@ -1,6 +1,7 @@
 // The link driver (driver.h): odocal's serial protocol.
 #include <sstream>
 
+#include "odocal/base/units.h"
 #include "odocal/station/driver.h"
 
 namespace odocal::station {
@@ -15,7 +16,7 @@ class LinkDriver final : public RobotDriver {
     client_.SetTelemetryCallback([this](const robot_link::TelemetrySample& t) {
       if (!running_ || t.run_id != run_id_) return;
       telemetry_.push_back({t.t_ms * 1e-3, std::chrono::steady_clock::now(), t.left_ticks, t.right_ticks,
-                            calibration::Pose2::FromXYHeading(t.x_mm * 1e-3, t.y_mm * 1e-3, t.heading_rad)});
+                            calibration::Pose2::FromXYHeading(t.x_mm * kMmToM, t.y_mm * kMmToM, t.heading_rad)});
     });
   }
 

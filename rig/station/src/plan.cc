@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "odocal/base/units.h"
+
 namespace odocal::station {
 
 using calibration::Pose2;
@@ -47,7 +49,7 @@ std::vector<RunSpec> DefaultPlan(const std::function<bool(const Eigen::Vector2d&
   }
   if (!side) {
     if (summary)
-      *summary = "not even a " + std::to_string(static_cast<int>(options.sizes_m.back() * 1e3)) +
+      *summary = "not even a " + std::to_string(static_cast<int>(options.sizes_m.back() * kMToMm)) +
                  " mm square keeps the tag in view from where the robot stands: move the robot to the middle of "
                  "the view, or raise the camera";
     return {};
@@ -76,14 +78,14 @@ std::vector<RunSpec> DefaultPlan(const std::function<bool(const Eigen::Vector2d&
     std::snprintf(text, sizeof(text),
                   "default plan: %d+%d UMBMark squares of %.0f mm, %s, %d+%d spins of %d turns at %.0f and %.0f "
                   "deg/s (%zu runs)",
-                  options.squares_per_direction, options.squares_per_direction, *side * 1e3,
+                  options.squares_per_direction, options.squares_per_direction, *side * kMToMm,
                   distance ? (std::to_string(2 * options.straight_pairs) + " straights of " +
-                              std::to_string(static_cast<int>(std::lround(*distance * 1e3))) + " mm ahead and back")
+                              std::to_string(static_cast<int>(std::lround(*distance * kMToMm))) + " mm ahead and back")
                                  .c_str()
                            : "no straight fits in view",
                   options.spins_per_rate / 2 + options.spins_per_rate % 2, options.spins_per_rate / 2,
-                  options.spin_turns, options.slow_turn_rate_rad_s * 180.0 / M_PI,
-                  options.fast_turn_rate_rad_s * 180.0 / M_PI, plan.size());
+                  options.spin_turns, RadToDeg(options.slow_turn_rate_rad_s),
+                  RadToDeg(options.fast_turn_rate_rad_s), plan.size());
     *summary = text;
   }
   return plan;
@@ -142,8 +144,8 @@ TurnSlipResult AnalyzeTurnRates(const std::vector<SpinTrack>& spins, double z) {
                   "turn slip %.1f %% at 1 rad/s (%.2f %% at %.0f deg/s, %.2f %% at %.0f deg/s; %.1f sigma): "
                   "the track the wheels need depends on how fast the robot turns: calibrate at your operating "
                   "turn rate",
-                  *r.slip_per_rad_s * 100.0, *r.slip_per_rad_s * w1 * 100.0, w1 * 180.0 / M_PI,
-                  *r.slip_per_rad_s * w2 * 100.0, w2 * 180.0 / M_PI, std::abs(*r.slip_per_rad_s) / *r.slip_sigma);
+                  *r.slip_per_rad_s * 100.0, *r.slip_per_rad_s * w1 * 100.0, RadToDeg(w1),
+                  *r.slip_per_rad_s * w2 * 100.0, RadToDeg(w2), std::abs(*r.slip_per_rad_s) / *r.slip_sigma);
     r.advice = text;
   }
   return r;

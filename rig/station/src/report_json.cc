@@ -18,7 +18,7 @@ nlohmann::json ParamSetJson(const robot_link::ParamSet& p) {
 nlohmann::json TurnSlipJson(const TurnSlipResult& t) {
   nlohmann::json groups = nlohmann::json::array();
   for (const TurnRateGroup& g : t.groups)
-    groups.push_back({{"turn_rate_deg_s", g.turn_rate_rad_s * 180.0 / M_PI},
+    groups.push_back({{"turn_rate_deg_s", RadToDeg(g.turn_rate_rad_s)},
                       {"runs", g.runs},
                       {"track_factor", g.mean},
                       {"sigma", g.standard_error ? nlohmann::json(*g.standard_error) : nlohmann::json()}});
@@ -42,35 +42,35 @@ nlohmann::json StationReportJson(const StationResult& result) {
       nlohmann::json r = {{"name", run.name},
                           {"procedure", calibration::ToString(run.spec.procedure)},
                           {"direction", calibration::ToString(run.spec.direction)},
-                          {"side_mm", run.spec.side_m * 1e3},
+                          {"side_mm", run.spec.side_m * kMToMm},
                           {"run_id", run.run_id},
                           {"moving_frames", run.moving_frames},
                           {"moving_frames_tag_found", run.moving_found},
                           {"max_motion_px", run.max_motion_px},
-                          {"turned_deg", run.turned_rad ? nlohmann::json(*run.turned_rad * 180.0 / M_PI)
+                          {"turned_deg", run.turned_rad ? nlohmann::json(RadToDeg(*run.turned_rad))
                                                         : nlohmann::json()},
                           {"unseen_s", run.unseen_s},
                           {"frames_dropped", run.frames_dropped},
                           {"rest_frames", {{"start", run.start_rest.n}, {"end", run.end_rest.n}}}};
       if (run.spec.procedure == calibration::Procedure::kStraight ||
           run.spec.procedure == calibration::Procedure::kOutAndBack)
-        r["distance_mm"] = run.spec.distance_m * 1e3;
+        r["distance_mm"] = run.spec.distance_m * kMToMm;
       if (run.spec.procedure == calibration::Procedure::kSpin) r["turns"] = run.spec.turns;
-      if (run.spec.turn_rate_rad_s) r["turn_rate_deg_s"] = *run.spec.turn_rate_rad_s * 180.0 / M_PI;
+      if (run.spec.turn_rate_rad_s) r["turn_rate_deg_s"] = RadToDeg(*run.spec.turn_rate_rad_s);
       if (!run.log_path.empty()) r["log"] = run.log_path;
       if (run.start_rest.n > 0 && run.end_rest.n > 0) {
         r["return_error"] = report::ReturnErrorJson(run.return_error.pose);
-        r["sigma"] = {{"x_mm", run.return_error.sigma_x_m() * 1e3},
-                      {"y_mm", run.return_error.sigma_y_m() * 1e3},
-                      {"theta_deg", run.return_error.sigma_heading_rad() * 180.0 / M_PI}};
+        r["sigma"] = {{"x_mm", run.return_error.sigma_x_m() * kMToMm},
+                      {"y_mm", run.return_error.sigma_y_m() * kMToMm},
+                      {"theta_deg", RadToDeg(run.return_error.sigma_heading_rad())}};
       }
       runs.push_back(r);
     }
     nlohmann::json j = {{"params_used", ParamSetJson(it.params_used)}, {"runs", runs}};
     if (it.estimate.ok()) {
       const calibration::CoupledEstimate& c = it.estimate.coupled;
-      j["emax_syst_mm"] = it.estimate.emax_syst_m * 1e3;
-      j["emax_syst_sigma_mm"] = it.emax_sigma_m ? nlohmann::json(*it.emax_sigma_m * 1e3) : nlohmann::json();
+      j["emax_syst_mm"] = it.estimate.emax_syst_m * kMToMm;
+      j["emax_syst_sigma_mm"] = it.emax_sigma_m ? nlohmann::json(*it.emax_sigma_m * kMToMm) : nlohmann::json();
       j["estimate"] = {{"Ed", c.Ed},
                        {"Eb", c.Eb},
                        {"sigma_Ed", c.sigma_Ed ? nlohmann::json(*c.sigma_Ed) : nlohmann::json()},

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "odocal/base/format.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/calibration/seen_turning.h"
 #include "odocal/calibration/segment.h"
@@ -234,9 +235,9 @@ void Station::ShowLive(const media::CameraFrame& frame, const vision::FrameObser
     const vision::PlanarPoseResult p = vision::MeasureTagPose(WatchCamera(), setup_.tag, *obs.corners_px);
     if (p.ok) {
       pose = live::LivePose{};
-      pose->x_mm = p.T_world_robot.x() * 1e3;
-      pose->y_mm = p.T_world_robot.y() * 1e3;
-      pose->heading_deg = p.T_world_robot.heading() * 180.0 / M_PI;
+      pose->x_mm = p.T_world_robot.x() * kMToMm;
+      pose->y_mm = p.T_world_robot.y() * kMToMm;
+      pose->heading_deg = RadToDeg(p.T_world_robot.heading());
     }
   }
   setup_.live->OnFrame(frame.grey, frame.t_s, obs.corners_px, pose);
@@ -246,7 +247,7 @@ void Station::ShowEstimates(const StationIteration& it) const {
   if (!setup_.live) return;
   const calibration::UmbmarkSummary& s = it.estimate;
   if (s.ok()) {
-    setup_.live->SetEstimate("E_max,syst", s.emax_syst_m * 1e3, it.emax_sigma_m.value_or(0.0) * 1e3, "mm");
+    setup_.live->SetEstimate("E_max,syst", s.emax_syst_m * kMToMm, it.emax_sigma_m.value_or(0.0) * kMToMm, "mm");
     setup_.live->SetEstimate("Ed (UMBMark)", s.coupled.Ed, s.coupled.sigma_Ed.value_or(0.0), "");
     setup_.live->SetEstimate("Eb (UMBMark)", s.coupled.Eb, s.coupled.sigma_Eb.value_or(0.0), "");
   }
@@ -282,7 +283,7 @@ std::vector<calibration::RunSpec> Station::MakeDefaultPlan(const RestFrames& res
     return px && camera.InImage(*px, margin);
   };
   const calibration::Pose2 T_robot_tag = calibration::Pose2::FromXYHeading(
-      setup_.tag.offset_x_mm * 1e-3, setup_.tag.offset_y_mm * 1e-3, 0.0);
+      setup_.tag.offset_x_mm * kMmToM, setup_.tag.offset_y_mm * kMmToM, 0.0);
   return DefaultPlan(in_view, pose.T_world_robot, T_robot_tag, *setup_.default_plan, why);
 }
 
@@ -437,14 +438,14 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     Log(what + Format(": total heading change not checked (no sighting for %.1f s of the run: the tag out of view, "
                       "or frames too far apart to unwrap at %.0f deg/s); the end heading and the turning in view agree "
                       "with the plan",
-                      seen.unseen_s, turning.max_turn_rate_rad_s * 180.0 / M_PI));
+                      seen.unseen_s, RadToDeg(turning.max_turn_rate_rad_s)));
   if (run->frames_dropped > 0)
     Log(what + Format(": %d frames dropped while it ran (the machine busy, or the camera slower than %.0f fps)",
                       run->frames_dropped, fps.value_or(0.0)));
   Log(Format("%s: completed in %.1f s, tag in %d/%d frames while moving (%.0f px), %zu/%d rest frames%s",
              what.c_str(), Seconds(Clock::now() - t0), run->moving_found, run->moving_frames, run->max_motion_px,
              end_rest.found.size(), end_rest.grabbed,
-             run->turned_rad ? Format(", turned %+.1f deg", *run->turned_rad * 180.0 / M_PI).c_str() : ""));
+             run->turned_rad ? Format(", turned %+.1f deg", RadToDeg(*run->turned_rad)).c_str() : ""));
   *rest = std::move(end_rest);
   return std::nullopt;
 }
@@ -466,20 +467,16 @@ std::optional<Station::Failure> Station::MeasureRound(
         measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
     if (shift.ok)
       for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
-    vision::CameraMount mount = setup_.mount_guess;
-    if (static_cast<int>(views.size()) >= options_.plane.min_views) {
-      plane_ = vision::EstimateCameraOverTagPlane(setup_.intrinsics, setup_.tag, views,
-                                                  setup_.mount_guess, options_.plane);
-      if (plane_.ok) {
-        mount = plane_.mount;
-        plane_estimated_ = true;
-        Log(Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
-                   "(rms %.3f px)",
-                   plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm,
-                   plane_.rms_reprojection_px));
-      }
-    }
-    if (!plane_estimated_)
+    const measure::CameraPlaneOrGuess fit =
+        measure::EstimateCameraPlaneOrGuess(setup_.intrinsics, setup_.tag, views, setup_.mount_guess, options_.plane);
+    vision::CameraMount mount = fit.mount;
+    plane_ = fit.plane;
+    plane_estimated_ = fit.estimated();
+    if (plane_estimated_)
+      Log(Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
+                 "(rms %.3f px)",
+                 plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm, plane_.rms_reprojection_px));
+    else
       Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
     EstimateScale(&mount, shift.ok ? &shift : nullptr);
     camera_.emplace(setup_.intrinsics, mount);
@@ -810,8 +807,8 @@ StationResult Station::Run() {
     const measure::SessionEstimate& e = iteration.session_estimate;
     std::string line = Format("round %d:", round);
     if (s.ok())
-      line += Format(" E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f;", s.emax_syst_m * 1e3,
-                     iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * 1e3).c_str() : "",
+      line += Format(" E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f;", s.emax_syst_m * kMToMm,
+                     iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * kMToMm).c_str() : "",
                      s.coupled.Ed, s.coupled.Eb);
     for (const auto& [label, pooled] : {std::pair{"ratio", &e.ratio}, std::pair{"scale", &e.scale},
                                         std::pair{"track", &e.track}})
@@ -889,7 +886,7 @@ StationResult Station::Run() {
         for (const calibration::ParameterEstimate& p : step.params)
           text += Format(" (%s %.5g ± %.2g)", p.name.c_str(), p.value, p.sigma);
         text += Format(" explains %.3f mm of the camera's gap: ",
-                       std::sqrt(std::max(0.0, gap_before * gap_before - step.gap_after_m * step.gap_after_m)) * 1e3);
+                       std::sqrt(std::max(0.0, gap_before * gap_before - step.gap_after_m * step.gap_after_m)) * kMToMm);
         gap_before = step.gap_after_m;
         result.findings.push_back(text + EffectAdvice(step.effect));
       }
@@ -943,8 +940,8 @@ std::optional<std::string> WithinUncertainty(const StationIteration& now, const 
     const double sigma = std::hypot(*now.emax_sigma_m, pushed_from.emax_sigma_m.value_or(0.0));
     if (s.emax_syst_m > k * sigma) return std::nullopt;
     why = Format("E_max,syst %.3f mm, %.1f sigma of this round's %.3f mm and the pushed estimate's %.3f mm",
-                 s.emax_syst_m * 1e3, sigma > 0.0 ? s.emax_syst_m / sigma : 0.0, *now.emax_sigma_m * 1e3,
-                 pushed_from.emax_sigma_m.value_or(0.0) * 1e3);
+                 s.emax_syst_m * kMToMm, sigma > 0.0 ? s.emax_syst_m / sigma : 0.0, *now.emax_sigma_m * kMToMm,
+                 pushed_from.emax_sigma_m.value_or(0.0) * kMToMm);
   }
   if (const std::optional<double> z = CvraMaxZ(now.session_estimate, pushed_from.session_estimate)) {
     if (*z > k) return std::nullopt;

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/floor_camera.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/pose2.h"
@@ -46,7 +47,7 @@ struct ReplayOptions {
   int max_anchor_frames = 200;
   // Stand-ins for a frame whose stated sigma is zero (as in the fit).
   double default_position_sigma_m = 1e-3;
-  double default_heading_sigma_rad = 0.2 * M_PI / 180.0;
+  double default_heading_sigma_rad = DegToRad(0.2);
   // Each wheel's last direction of motion before the run (+1, -1), for
   // encoder_backlash; a session's earlier runs set it (LastShaftDirections).
   int left_direction0 = 1;

@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
@@ -41,7 +42,7 @@ struct RestOptions {
   double position_tolerance_m = 0.0;
   double heading_tolerance_rad = 0.0;
   double min_position_tolerance_m = 0.3e-3;
-  double min_heading_tolerance_rad = 0.05 * M_PI / 180.0;
+  double min_heading_tolerance_rad = DegToRad(0.05);
   // A rest shorter than this is a pause, not a rest.
   double min_duration_s = 0.5;
   // A gap (invalid samples) longer than this splits a rest.
@@ -95,7 +96,7 @@ RelativePose Between(const RestWindow& start, const RestWindow& end);
 // (docs/vision.md). Added in quadrature to a return error's covariance.
 struct SystematicFloor {
   double position_m = 0.01e-3;
-  double heading_rad = 0.005 * M_PI / 180.0;
+  double heading_rad = DegToRad(0.005);
 };
 
 // Between(start, end) with `floor` added to the covariance: the return error

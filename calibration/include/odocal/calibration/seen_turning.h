@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/procedures.h"
 
 namespace odocal::calibration {
@@ -44,7 +45,7 @@ struct SeenTurningOptions {
   double max_turn_rate_rad_s = 2.0 * M_PI;
   // What a sighting's heading may be off by (frame noise, a tag seen at
   // the edge of the view): taken off the margin between the two unwraps.
-  double heading_margin_rad = 10.0 * M_PI / 180.0;
+  double heading_margin_rad = DegToRad(10.0);
 
   bool IsValid(std::string* why) const;
   // Whether a step seen as `wrapped_rad` (in (-pi, pi]) over `gap_s` has

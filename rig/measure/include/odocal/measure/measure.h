@@ -230,6 +230,25 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
 // `max_views`.
 std::vector<vision::TagCorners> PickPlaneViews(const std::vector<vision::TagCorners>& candidates,
                                                double separation_px, int max_views);
+// The camera's mount over the tag plane with the one fallback batch, the
+// station, setup-check and watch share: the plane fitted to `views`
+// (vision::EstimateCameraOverTagPlane, started from `guess`) when there are
+// at least `options.min_views` of them and the fit converges; else `guess`.
+struct CameraPlaneOrGuess {
+  vision::CameraMount mount;  // the fitted plane's, or the guess
+  // The fit; not ok: why (with too few views it was not tried, and says so).
+  vision::CameraPlaneResult plane;
+  bool estimated() const { return plane.ok; }
+};
+CameraPlaneOrGuess EstimateCameraPlaneOrGuess(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                              const std::vector<vision::TagCorners>& views,
+                                              const vision::CameraMount& guess,
+                                              const vision::CameraPlaneOptions& options = {},
+                                              const std::vector<vision::CornerVelocities>* velocities = nullptr);
+// Without an operator's guess: a level camera at the height the tag's
+// apparent size implies (f x size / side, plus the tag's height).
+vision::CameraMount LevelMountFromTagSize(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
+                                          double side_px);
 // The frames of a rest (those with t_begin_s <= t_s <= t_end_s), each refined
 // exactly from its kept crop and measured on the camera's plane, averaged;
 // nullopt when fewer than half of them could be.

@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/config/session.h"
@@ -68,13 +69,13 @@ struct PoseLogOptions {
   double rest_search_fraction = 0.35;
   // The per-frame noise stated when no rest has enough frames to measure it.
   double default_sigma_position_m = 0.5e-3;
-  double default_sigma_heading_rad = 0.1 * M_PI / 180.0;
+  double default_sigma_heading_rad = DegToRad(0.1);
   // Units: the pose log's path length (heading change) over the ticks'.
   double min_unit_ratio = 0.5;
   double max_unit_ratio = 2.0;
   // The checks need this much motion by the ticks to mean anything.
   double min_path_for_unit_check_m = 0.2;
-  double min_turn_for_unit_check_rad = 30.0 * M_PI / 180.0;
+  double min_turn_for_unit_check_rad = DegToRad(30.0);
   // A tracker jump: a step implying more than max(factor x the top speed by
   // the ticks, floor).
   double jump_speed_factor = 3.0;

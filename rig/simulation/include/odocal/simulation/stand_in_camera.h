@@ -25,6 +25,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/simulation/simulation.h"
 
@@ -35,7 +36,7 @@ struct StandInCameraOptions {
   // Per-frame noise of the measured pose (white, Gaussian), also stated in
   // each CameraRecord for weighting.
   double sigma_position_m = 1e-3;
-  double sigma_heading_rad = 0.3 * M_PI / 180.0;
+  double sigma_heading_rad = DegToRad(0.3);
   std::uint64_t seed = 1;
   // Home-area camera: frames are valid only while the robot is within this
   // radius of home_centre_m. Unset: the whole floor is seen.
@@ -63,7 +64,7 @@ struct StandInCameraOptions {
   // whatever rolling_shutter_s is. The default, 85 deg, sees +/-2.3 m from
   // the default camera's 2.5 m (the explain tests' squares of 2 m both ways);
   // a tag beyond it gets a fraction outside [0, 1] and stays valid.
-  double vertical_fov_rad = 85.0 * M_PI / 180.0;
+  double vertical_fov_rad = DegToRad(85.0);
 
   bool IsValid(std::string* why) const;
 };

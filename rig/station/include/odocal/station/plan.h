@@ -26,6 +26,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 
@@ -36,8 +37,8 @@ struct DefaultPlanOptions {
   int straight_pairs = 2;  // each: ahead, then back
   int spins_per_rate = 2;  // per rate: one ccw, one cw, alternating
   int spin_turns = 2;
-  double slow_turn_rate_rad_s = 30.0 * M_PI / 180.0;
-  double fast_turn_rate_rad_s = 120.0 * M_PI / 180.0;
+  double slow_turn_rate_rad_s = DegToRad(30.0);
+  double fast_turn_rate_rad_s = DegToRad(120.0);
   // Round sizes tried, largest first (m).
   std::vector<double> sizes_m = {2.0, 1.5, 1.2, 1.0, 0.8, 0.6, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15};
 };

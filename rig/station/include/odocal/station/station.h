@@ -52,6 +52,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/units.h"
 #include "odocal/calibration/explain.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/procedures.h"
@@ -116,7 +117,7 @@ struct StationOptions {
   // end-to-end agreement of its live, unpipelined camera return errors with
   // rendered truth (docs/vision.md): with the batch's 0.01 mm its first tests
   // saw verification rounds 3.1 sigma from zero with no error left to correct.
-  calibration::SystematicFloor systematic_floor{0.02e-3, 0.005 * M_PI / 180.0};
+  calibration::SystematicFloor systematic_floor{0.02e-3, DegToRad(0.005)};
   // Converged when E_max,syst is within this many of its standard errors
   // and every CVRA factor within this many of 1, each error counting the
   // pushed estimate's too (WithinUncertainty), or when a round does not
@@ -136,12 +137,12 @@ struct StationOptions {
   // sightings could be unwrapped, else the end heading modulo a turn and
   // the turning seen in view. Further than this from the plan fails the run
   // (a square the wrong way turns 720 deg from the plan).
-  double heading_check_rad = 60.0 * M_PI / 180.0;
+  double heading_check_rad = DegToRad(60.0);
   // The fastest the robot turns, for runs whose plan sets no turn rate
   // (those use 1.25 times theirs): across a gap between sightings in
   // which it could turn the step seen or that step's other unwrap, the
   // total turn is unknown (seen_turning.h).
-  double max_turn_rate_rad_s = 240.0 * M_PI / 180.0;
+  double max_turn_rate_rad_s = DegToRad(240.0);
   // Turn slip is reported when the slow and fast spins differ by this many sigmas.
   double turn_slip_sigmas = 3.0;
   // Run explain on the first round when it has telemetry.

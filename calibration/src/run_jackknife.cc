@@ -48,9 +48,8 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
       warm.start_poses.erase(warm.start_poses.begin() + at);
     }
     refits[j] = FitTrajectory(without, fit->options, &warm);
-    // Only the parameters are kept: the Jacobian and the residuals of
-    // every refit at once would hold the whole session g times.
-    refits[j].jacobian.resize(0, 0);
+    // Only the parameters are kept: the residuals of every refit at once
+    // would hold the whole session g times.
     refits[j].residuals.clear();
     refits[j].residuals.shrink_to_fit();
   });

@@ -38,7 +38,7 @@ bool Contains(const std::vector<Effect>& effects, Effect e) {
 // The BIC drop from `before` to `after` (positive: `after` explains more
 // than its added parameters cost).
 double BicScore(const TrajectoryFitResult& before, const TrajectoryFitResult& after) {
-  const double n = static_cast<double>(after.jacobian.rows());
+  const double n = static_cast<double>(after.n_residuals);
   const double rho = after.lag1_autocorrelation;
   const double n_eff = std::max(1.0, n * (1.0 - rho) / (1.0 + rho));
   const int k = after.n_parameters - before.n_parameters;
@@ -60,10 +60,8 @@ std::vector<ParameterEstimate> ParamsOf(const TrajectoryFitResult& fit, Effect e
 
 unsigned Threads(const ExplainOptions& options) { return options.threads > 0 ? static_cast<unsigned>(options.threads) : 0u; }
 
-// A fit kept only for its parameters: its Jacobian and residuals hold the
-// whole session.
-void DropJacobian(TrajectoryFitResult* fit) {
-  fit->jacobian.resize(0, 0);
+// A fit kept only for its parameters: its residuals hold the whole session.
+void DropResiduals(TrajectoryFitResult* fit) {
   fit->residuals.clear();
   fit->residuals.shrink_to_fit();
 }
@@ -124,7 +122,7 @@ FoldFits PrepareFolds(const MeasuredSession& session, const TrajectoryFitResult&
   f.without.resize(f.folds.size());
   ParallelFor(f.folds.size(), Threads(options), [&](size_t k) {
     f.without[k] = FitTrajectory(f.training[k], o);
-    DropJacobian(&f.without[k]);
+    DropResiduals(&f.without[k]);
   });
   return f;
 }

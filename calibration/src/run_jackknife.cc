@@ -34,23 +34,13 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
   std::vector<TrajectoryFitResult> refits(g);
   ParallelFor(groups.size(), threads > 0 ? static_cast<unsigned>(threads) : 0u, [&](size_t j) {
     MeasuredSession without = session;
-    TrajectoryFitResult warm;
-    warm.status = fit->status;
-    warm.scales = fit->scales;
-    warm.effects = fit->effects;
-    warm.run_used = fit->run_used;
-    warm.start_poses = fit->start_poses;
     // Erase from the back so the positions of the group stay valid.
-    for (auto it = groups[j].rbegin(); it != groups[j].rend(); ++it) {
-      const auto at = static_cast<std::ptrdiff_t>(*it);
-      without.runs.erase(without.runs.begin() + at);
-      warm.run_used.erase(warm.run_used.begin() + at);
-      warm.start_poses.erase(warm.start_poses.begin() + at);
-    }
+    for (auto it = groups[j].rbegin(); it != groups[j].rend(); ++it)
+      without.runs.erase(without.runs.begin() + static_cast<std::ptrdiff_t>(*it));
+    const TrajectoryFitResult warm = WarmStartWithout(*fit, groups[j]);
     refits[j] = FitTrajectory(without, fit->options, &warm);
-    // Only the parameters are kept: the Jacobian and the residuals of
-    // every refit at once would hold the whole session g times.
-    refits[j].jacobian.resize(0, 0);
+    // Only the parameters are kept: the residuals of every refit at once
+    // would hold the whole session g times.
     refits[j].residuals.clear();
     refits[j].residuals.shrink_to_fit();
   });
@@ -97,6 +87,23 @@ int AddRunJackknife(const MeasuredSession& session, TrajectoryFitResult* fit, in
       p.sigma_between_runs = std::hypot(p.sigma_between_runs, p.value * session.camera_scale_sigma);
   }
   return failed;
+}
+
+TrajectoryFitResult WarmStartWithout(const TrajectoryFitResult& fit,
+                                     const std::vector<size_t>& removed) {
+  TrajectoryFitResult warm;
+  warm.status = fit.status;
+  warm.scales = fit.scales;
+  warm.effects = fit.effects;
+  warm.run_used = fit.run_used;
+  warm.start_poses = fit.start_poses;
+  // Erase from the back so the positions still to erase stay valid.
+  for (auto it = removed.rbegin(); it != removed.rend(); ++it) {
+    const auto at = static_cast<std::ptrdiff_t>(*it);
+    warm.run_used.erase(warm.run_used.begin() + at);
+    warm.start_poses.erase(warm.start_poses.begin() + at);
+  }
+  return warm;
 }
 
 }  // namespace odocal::calibration

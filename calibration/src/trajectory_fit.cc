@@ -449,37 +449,50 @@ SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFit
   return outcome;
 }
 
+int Linearization::n_residuals() const {
+  int n = 0;
+  for (const RunLinearization& run : runs) n += static_cast<int>(run.residuals.size());
+  return n;
+}
+
+double Linearization::weighted_sse() const {
+  // One reduction over all the residuals, not a sum of the runs' sums: a BIC
+  // score is a difference of two nearly equal costs times thousands of
+  // frames, and the order of the additions shows in its last digits.
+  Eigen::VectorXd all(n_residuals());
+  int row = 0;
+  for (const RunLinearization& run : runs) {
+    all.segment(row, run.residuals.size()) = run.residuals;
+    row += static_cast<int>(run.residuals.size());
+  }
+  return all.squaredNorm();
+}
+
 Linearization Linearize(const TrajectoryProblem& problem, const std::vector<RunData>& runs,
                         const FitParameters& params) {
-  const int n_cols = kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(runs.size());
-  int n_rows = 0;
-  for (const RunData& rd : runs) n_rows += rd.n_residuals();
   Linearization lin;
-  lin.J_residual_param = Eigen::MatrixXd::Zero(n_rows, n_cols);
-  lin.whitened_residuals.resize(n_rows);
-  int row = 0;
+  lin.runs.resize(runs.size());
   for (size_t r = 0; r < runs.size(); ++r) {
     const RunData& rd = runs[r];
     const int m = rd.residuals_per_frame;
     const int rows = rd.n_residuals();
-    std::vector<double> res(rows);
+    RunLinearization& out = lin.runs[r];
+    out.residuals.resize(rows);
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> J_base(rows, kBaseParams),
         J_start(rows, kStartPoseParams), J_effects(rows, kEffectParams);
     const std::array<const double*, 3> blocks = BlocksOf(params, r);
     double* jacobians[] = {J_base.data(), J_start.data(), J_effects.data()};
-    problem.run_costs[r]->Evaluate(blocks.data(), res.data(), jacobians);
-    lin.J_residual_param.block(row, 0, rows, kBaseParams) = J_base;
-    lin.J_residual_param.block(row, kBaseParams, rows, kEffectParams) = J_effects;
-    lin.J_residual_param.block(row, kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(r),
-                               rows, kStartPoseParams) = J_start;
-    for (int i = 0; i < rows; ++i) lin.whitened_residuals[row + i] = res[i];
+    problem.run_costs[r]->Evaluate(blocks.data(), out.residuals.data(), jacobians);
+    out.J_global.resize(rows, kGlobalParams);
+    out.J_global << J_base, J_effects;
+    out.J_start = J_start;
     // Lag-one autocorrelation per residual component along the run.
+    const Eigen::VectorXd& res = out.residuals;
     for (int c = 0; c < m; ++c)
       for (size_t j = 0; j + 1 < rd.frame_t_s.size(); ++j) {
         lin.lag1_numerator += res[m * j + c] * res[m * (j + 1) + c];
         lin.lag1_denominator += res[m * j + c] * res[m * j + c];
       }
-    row += rows;
   }
   return lin;
 }
@@ -542,70 +555,144 @@ FittedColumns SelectFittedColumns(const MeasuredSession& session,
       columns.names.push_back(std::string(ToString(e)) + "." + names[k]);
     }
   }
+  columns.n_global = static_cast<int>(columns.index.size());
   for (size_t r = 0; r < runs.size(); ++r)
     for (int c = 0; c < kStartPoseParams; ++c) {
-      columns.index.push_back(kBaseParams + kEffectParams + kStartPoseParams * static_cast<int>(r) + c);
+      columns.index.push_back(kGlobalParams + kStartPoseParams * static_cast<int>(r) + c);
       columns.names.push_back(session.runs[runs[r].run].name + ".start_" + "xyh"[c]);
     }
   return columns;
 }
 
-Eigen::MatrixXd FittedJacobian(const Eigen::MatrixXd& J_residual_param,
-                               const FittedColumns& columns) {
-  const int p = static_cast<int>(columns.index.size());
-  Eigen::MatrixXd J(J_residual_param.rows(), p);
-  for (int c = 0; c < p; ++c) J.col(c) = J_residual_param.col(columns.index[c]);
+Eigen::MatrixXd RunFittedJacobian(const RunLinearization& run, const FittedColumns& columns) {
+  const int q = columns.n_global;
+  Eigen::MatrixXd J(run.J_global.rows(), q + kStartPoseParams);
+  for (int c = 0; c < q; ++c) J.col(c) = run.J_global.col(columns.index[c]);
+  J.rightCols<kStartPoseParams>() = run.J_start;
   return J;
 }
 
-Identifiability AnalyseIdentifiability(const Eigen::MatrixXd& J_fitted, double rank_tolerance) {
-  const int p = static_cast<int>(J_fitted.cols());
-  Identifiability id;
-  id.column_norms = J_fitted.colwise().norm();
-  for (int c = 0; c < p; ++c) id.column_norms[c] = id.column_norms[c] > 0.0 ? id.column_norms[c] : 1.0;
-  const Eigen::MatrixXd J_normalised = J_fitted * id.column_norms.cwiseInverse().asDiagonal();
-  // J = Q R (Householder, Q never formed), then the SVD of the small R:
-  // the same singular values and V as J's, and U = J V S^-1. The Jacobi
-  // SVD of the tall J itself, with its column-pivoting QR and an explicit
-  // Q, took a quarter of explain's time on real sessions.
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(J_normalised);
-  const int k = std::min<int>(p, static_cast<int>(J_normalised.rows()));
+namespace {
+
+// The square upper triangle R of a Householder QR (Q never formed; rows
+// beyond a short matrix's height zero).
+Eigen::MatrixXd UpperR(const Eigen::MatrixXd& A) {
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
+  const int p = static_cast<int>(A.cols());
+  const int k = std::min<int>(p, static_cast<int>(A.rows()));
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(p, p);
   R.topRows(k) = qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
+  return R;
+}
+
+// From R with R^T R = J^T J of the column-normalised Jacobian (any such R:
+// its singular values and V are J's). The SVD of the small R rather than of
+// the tall J, whose Jacobi SVD with an explicit Q took a quarter of
+// explain's time on real sessions.
+Identifiability IdentifiabilityOfR(const Eigen::MatrixXd& R, Eigen::VectorXd column_norms,
+                                   double rank_tolerance) {
+  const int p = static_cast<int>(R.cols());
+  Identifiability id;
+  id.column_norms = std::move(column_norms);
+  const Eigen::BDCSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeThinV);
   id.singular_values = svd.singularValues();
   id.V = svd.matrixV();
-  Eigen::VectorXd inverse_s = Eigen::VectorXd::Zero(p);
-  for (int i = 0; i < p; ++i)
-    if (id.singular_values[i] > 0.0) inverse_s[i] = 1.0 / id.singular_values[i];
-  id.U = J_normalised * (id.V * inverse_s.asDiagonal());  // columns of zero singular value: 0
   const Eigen::VectorXd& s = id.singular_values;
   id.condition_number = s[p - 1] > 0.0 ? s[0] / s[p - 1] : INFINITY;
   id.determined.assign(p, false);
   for (int i = 0; i < p; ++i) {
     if (s[i] > rank_tolerance * s[0]) {
       id.determined[i] = true;
-    } else {
-      id.null_vectors.push_back(id.V.col(i));
+      continue;
     }
+    // A singular vector's sign is the SVD's choice: its largest component
+    // positive, so that its description does not depend on how R was formed.
+    Eigen::VectorXd v = id.V.col(i);
+    Eigen::Index largest = 0;
+    v.cwiseAbs().maxCoeff(&largest);
+    if (v[largest] < 0.0) v = -v;
+    id.null_vectors.push_back(v);
   }
   return id;
+}
+
+Eigen::VectorXd NonZero(Eigen::VectorXd norms) {
+  for (Eigen::Index c = 0; c < norms.size(); ++c) norms[c] = norms[c] > 0.0 ? norms[c] : 1.0;
+  return norms;
+}
+
+}  // namespace
+
+Identifiability AnalyseIdentifiability(const Eigen::MatrixXd& J_fitted, double rank_tolerance) {
+  const Eigen::VectorXd norms = NonZero(J_fitted.colwise().norm().transpose());
+  return IdentifiabilityOfR(UpperR(J_fitted * norms.cwiseInverse().asDiagonal()), norms,
+                            rank_tolerance);
+}
+
+Identifiability AnalyseIdentifiability(const Linearization& lin, const FittedColumns& columns,
+                                       double rank_tolerance) {
+  const int q = columns.n_global;
+  const int p = static_cast<int>(columns.index.size());
+  const int n_runs = static_cast<int>(lin.runs.size());
+  Eigen::VectorXd norms = Eigen::VectorXd::Zero(p);
+  for (int r = 0; r < n_runs; ++r) {
+    for (int c = 0; c < q; ++c) norms[c] += lin.runs[r].J_global.col(columns.index[c]).squaredNorm();
+    norms.segment<kStartPoseParams>(q + kStartPoseParams * r) =
+        lin.runs[r].J_start.colwise().squaredNorm().transpose();
+  }
+  norms = NonZero(norms.cwiseSqrt());
+  // R of the normalised J, in the fitted columns' order, run by run: the QR
+  // of a run's [start pose | globals] leaves 3 rows of R on its start pose
+  // (and the globals) and q rows on the globals alone, which a last QR over
+  // the runs merges. p x p; no N x p matrix is formed.
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(p, p);
+  Eigen::MatrixXd global_rows(q * n_runs, q);
+  for (int r = 0; r < n_runs; ++r) {
+    const int start = q + kStartPoseParams * r;
+    const Eigen::MatrixXd J = RunFittedJacobian(lin.runs[r], columns);
+    Eigen::MatrixXd A(J.rows(), kStartPoseParams + q);
+    A.leftCols<kStartPoseParams>() =
+        J.rightCols<kStartPoseParams>() *
+        norms.segment<kStartPoseParams>(start).cwiseInverse().asDiagonal();
+    A.rightCols(q) = J.leftCols(q) * norms.head(q).cwiseInverse().asDiagonal();
+    const Eigen::MatrixXd Rr = UpperR(A);
+    R.block<kStartPoseParams, kStartPoseParams>(kStartPoseParams * r, start) =
+        Rr.topLeftCorner<kStartPoseParams, kStartPoseParams>();
+    R.block(kStartPoseParams * r, 0, kStartPoseParams, q) = Rr.topRightCorner(kStartPoseParams, q);
+    global_rows.middleRows(q * r, q) = Rr.bottomRightCorner(q, q);
+  }
+  R.bottomLeftCorner(q, q) = UpperR(global_rows);
+  return IdentifiabilityOfR(R, norms, rank_tolerance);
+}
+
+ReducedGlobals ReduceGlobals(const Linearization& lin) {
+  const int n_runs = static_cast<int>(lin.runs.size());
+  ReducedGlobals out;
+  out.column_norms = Eigen::VectorXd::Zero(kGlobalParams);
+  Eigen::MatrixXd global_rows(kGlobalParams * n_runs, kGlobalParams);
+  for (int r = 0; r < n_runs; ++r) {
+    const RunLinearization& run = lin.runs[r];
+    out.column_norms += run.J_global.colwise().squaredNorm().transpose();
+    Eigen::MatrixXd A(run.J_global.rows(), kStartPoseParams + kGlobalParams);
+    A << run.J_start, run.J_global;
+    global_rows.middleRows(kGlobalParams * r, kGlobalParams) =
+        UpperR(A).bottomRightCorner<kGlobalParams, kGlobalParams>();
+  }
+  out.column_norms = out.column_norms.cwiseSqrt();
+  out.R = UpperR(global_rows);
+  return out;
 }
 
 ParameterCovariance CameraNoiseCovariance(const Identifiability& id, int n_residuals,
                                           double weighted_sse, const Linearization& lin) {
   const int p = static_cast<int>(id.column_norms.size());
   const Eigen::VectorXd& s = id.singular_values;
-  // Over the determined directions: cov = V S^-2 V^T, and the pseudo-inverse
-  // of J (normalised), p x N, V S^-1 U^T: how each whitened residual moves
-  // the estimate. One matrix product each (p rank-one updates of the p x N
-  // pseudo-inverse were a fifth of explain's time on real sessions).
+  // Over the determined directions: cov = V S^-2 V^T (normalised).
   Eigen::VectorXd inverse_s = Eigen::VectorXd::Zero(p);
   for (int i = 0; i < p; ++i)
     if (id.determined[i]) inverse_s[i] = 1.0 / s[i];
   const Eigen::MatrixXd V_scaled = id.V * inverse_s.asDiagonal();
   const Eigen::MatrixXd cov_normalised = V_scaled * V_scaled.transpose();
-  const Eigen::MatrixXd pinv_normalised = V_scaled * id.U.transpose();
   ParameterCovariance out;
   const int dof = std::max(1, n_residuals - (p - static_cast<int>(id.null_vectors.size())));
   out.lag1_autocorrelation =
@@ -615,42 +702,59 @@ ParameterCovariance CameraNoiseCovariance(const Identifiability& id, int n_resid
   // Camera noise: the stated sigmas, scaled up when the residuals say they
   // are larger (never down: a fit is not more certain than its sensor).
   out.variance_factor = std::max(1.0, weighted_sse / dof);
-  out.pinv = id.column_norms.cwiseInverse().asDiagonal() * pinv_normalised;
-  out.covariance = id.column_norms.cwiseInverse().asDiagonal() * cov_normalised *
-                   id.column_norms.cwiseInverse().asDiagonal() * out.variance_factor;
+  out.normal_inverse = id.column_norms.cwiseInverse().asDiagonal() * cov_normalised *
+                       id.column_norms.cwiseInverse().asDiagonal();
+  out.covariance = out.normal_inverse * out.variance_factor;
+  return out;
+}
+
+std::vector<Eigen::MatrixXd> GlobalPseudoInverseByRun(const Linearization& lin,
+                                                      const FittedColumns& columns,
+                                                      const Eigen::MatrixXd& normal_inverse) {
+  // pinv(J) = normal_inverse J^T; run r's rows of J are non-zero only in the
+  // global columns and its own start pose.
+  const int q = columns.n_global;
+  std::vector<Eigen::MatrixXd> out(lin.runs.size());
+  for (size_t r = 0; r < lin.runs.size(); ++r) {
+    Eigen::MatrixXd M(q, q + kStartPoseParams);
+    M.leftCols(q) = normal_inverse.topLeftCorner(q, q);
+    M.rightCols<kStartPoseParams>() =
+        normal_inverse.block(0, q + kStartPoseParams * static_cast<int>(r), q, kStartPoseParams);
+    out[r] = M * RunFittedJacobian(lin.runs[r], columns).transpose();
+  }
   return out;
 }
 
 void AddWheelNoiseCovariance(const std::vector<RunData>& runs, const ModelConstants& constants,
                              const FitParameters& params, double wheel_sigma_m_per_sqrt_m,
                              ParameterCovariance* covariance) {
-  // Suffix sums over the frames make this O(steps * p) per run.
-  const Eigen::MatrixXd& pinv = covariance->pinv;
-  const int p = static_cast<int>(pinv.rows());
+  // Suffix sums over the frames make this O(steps * q) per run.
+  const int q = static_cast<int>(covariance->pinv_by_run.front().rows());
   const double q_m = wheel_sigma_m_per_sqrt_m * wheel_sigma_m_per_sqrt_m;  // variance per metre
   const double true_track_m = params.base_scales[2] * constants.track_m;
-  int row0 = 0;
+  Eigen::MatrixXd sandwich = Eigen::MatrixXd::Zero(q, q);
   for (size_t r = 0; r < runs.size(); ++r) {
     const RunData& rd = runs[r];
+    const Eigen::MatrixXd& pinv = covariance->pinv_by_run[r];
     const int m = rd.residuals_per_frame;
     const DeadReckonedPoses poses = DeadReckonRun(rd, constants, params, r);
     // Over the frames after step k: the sums of pinv's columns for x and y
     // (weighted), for the heading, and the x columns times the frames' y
     // and the y columns times their x (for rotations about a point).
-    Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(p), sum_y = sum_x, sum_h = sum_x,
+    Eigen::VectorXd sum_x = Eigen::VectorXd::Zero(q), sum_y = sum_x, sum_h = sum_x,
                     sum_x_times_y = sum_x, sum_y_times_x = sum_x;
     int j = rd.n_frames() - 1;
     for (int k = static_cast<int>(rd.t_s.size()) - 1; k >= 1; --k) {
       // Frames at or after the end of step k feel its noise.
       for (; j >= 0 && FrameTelemetryTime(rd, j, params.effects) >= rd.t_s[k]; --j) {
         const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
-        const Eigen::VectorXd ax = pinv.col(row0 + m * j) * g;
-        const Eigen::VectorXd ay = pinv.col(row0 + m * j + 1) * g;
+        const Eigen::VectorXd ax = pinv.col(m * j) * g;
+        const Eigen::VectorXd ay = pinv.col(m * j + 1) * g;
         sum_x += ax;
         sum_y += ay;
         sum_x_times_y += ax * rd.measured_y_m[j];
         sum_y_times_x += ay * rd.measured_x_m[j];
-        if (m == 3) sum_h += pinv.col(row0 + m * j + 2) * (rd.sqrt_weight[j] / rd.sigma_heading_rad[j]);
+        if (m == 3) sum_h += pinv.col(m * j + 2) * (rd.sqrt_weight[j] / rd.sigma_heading_rad[j]);
       }
       const double left_m =
           std::abs(rd.left_step_ticks[k] * constants.left_m_per_tick * params.base_scales[0]);
@@ -668,29 +772,30 @@ void AddWheelNoiseCovariance(const std::vector<RunData>& runs, const ModelConsta
       // turn of -/+ 1/track.
       const Eigen::VectorXd g_left = g_x * half_cos + g_y * half_sin - g_rotation / true_track_m;
       const Eigen::VectorXd g_right = g_x * half_cos + g_y * half_sin + g_rotation / true_track_m;
-      covariance->covariance += q_m * left_m * g_left * g_left.transpose() +
-                                q_m * right_m * g_right * g_right.transpose();
+      sandwich += q_m * left_m * g_left * g_left.transpose() +
+                  q_m * right_m * g_right * g_right.transpose();
     }
-    row0 += rd.n_residuals();
   }
+  covariance->covariance.topLeftCorner(q, q) += sandwich;
 }
 
 void AddCameraScaleCovariance(const std::vector<RunData>& runs, double camera_scale_sigma,
                               ParameterCovariance* covariance) {
-  const int n_rows = static_cast<int>(covariance->pinv.cols());
-  Eigen::VectorXd residuals_per_unit_scale = Eigen::VectorXd::Zero(n_rows);
-  int row0 = 0;
-  for (const RunData& rd : runs) {
+  const int q = static_cast<int>(covariance->pinv_by_run.front().rows());
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(q);
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunData& rd = runs[r];
     const int m = rd.residuals_per_frame;
+    Eigen::VectorXd residuals_per_unit_scale = Eigen::VectorXd::Zero(rd.n_residuals());
     for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
       const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
-      residuals_per_unit_scale[row0 + m * j] = rd.measured_x_m[j] * g;
-      residuals_per_unit_scale[row0 + m * j + 1] = rd.measured_y_m[j] * g;
+      residuals_per_unit_scale[m * j] = rd.measured_x_m[j] * g;
+      residuals_per_unit_scale[m * j + 1] = rd.measured_y_m[j] * g;
     }
-    row0 += rd.n_residuals();
+    v += covariance->pinv_by_run[r] * residuals_per_unit_scale;
   }
-  const Eigen::VectorXd v = covariance->pinv * residuals_per_unit_scale;
-  covariance->covariance += camera_scale_sigma * camera_scale_sigma * v * v.transpose();
+  covariance->covariance.topLeftCorner(q, q) +=
+      camera_scale_sigma * camera_scale_sigma * v * v.transpose();
 }
 
 ParameterCovariance ComputeCovariance(const MeasuredSession& session,
@@ -699,78 +804,107 @@ ParameterCovariance ComputeCovariance(const MeasuredSession& session,
                                       const FitParameters& params,
                                       const TrajectoryFitOptions& options,
                                       const Identifiability& identifiability,
-                                      const Linearization& linearization, double weighted_sse) {
-  ParameterCovariance cov =
-      CameraNoiseCovariance(identifiability, static_cast<int>(linearization.whitened_residuals.size()),
-                            weighted_sse, linearization);
-  if (options.wheel_sigma_m_per_sqrt_m > 0.0)
-    AddWheelNoiseCovariance(runs, constants, params, options.wheel_sigma_m_per_sqrt_m, &cov);
-  if (session.camera_scale_sigma > 0.0)
-    AddCameraScaleCovariance(runs, session.camera_scale_sigma, &cov);
+                                      const FittedColumns& columns,
+                                      const Linearization& linearization) {
+  ParameterCovariance cov = CameraNoiseCovariance(
+      identifiability, linearization.n_residuals(), linearization.weighted_sse(), linearization);
+  const bool wheels = options.wheel_sigma_m_per_sqrt_m > 0.0;
+  const bool scale = session.camera_scale_sigma > 0.0;
+  if (!wheels && !scale) return cov;
+  cov.pinv_by_run = GlobalPseudoInverseByRun(linearization, columns, cov.normal_inverse);
+  if (wheels) AddWheelNoiseCovariance(runs, constants, params, options.wheel_sigma_m_per_sqrt_m, &cov);
+  if (scale) AddCameraScaleCovariance(runs, session.camera_scale_sigma, &cov);
   return cov;
 }
 
+namespace {
+
+// One draw of the wheels' random walk over a run: the whitened residual
+// change of each frame (displacement of a later point p: shift + rotation *
+// (-p.y, p.x)).
+Eigen::VectorXd WheelNoiseDraw(const RunData& rd, const ModelConstants& constants,
+                               const FitParameters& params, const DeadReckonedPoses& poses,
+                               double sigma_w, double true_track_m,
+                               std::normal_distribution<double>& normal, std::mt19937& rng) {
+  const int m = rd.residuals_per_frame;
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(rd.n_residuals());
+  double shift_x_m = 0.0, shift_y_m = 0.0, rotation_rad = 0.0;
+  size_t j = 0;
+  auto assign_until = [&](double t_s) {
+    for (; j < rd.frame_t_s.size() && FrameTelemetryTime(rd, j, params.effects) < t_s; ++j) {
+      const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
+      delta[m * j] = (shift_x_m - rotation_rad * rd.measured_y_m[j]) * g;
+      delta[m * j + 1] = (shift_y_m + rotation_rad * rd.measured_x_m[j]) * g;
+      if (m == 3) delta[m * j + 2] = rotation_rad * rd.sqrt_weight[j] / rd.sigma_heading_rad[j];
+    }
+  };
+  for (size_t k = 1; k < rd.t_s.size(); ++k) {
+    assign_until(rd.t_s[k]);
+    const double left_m =
+        std::abs(rd.left_step_ticks[k] * constants.left_m_per_tick * params.base_scales[0]);
+    const double right_m =
+        std::abs(rd.right_step_ticks[k] * constants.right_m_per_tick * params.base_scales[1]);
+    if (left_m == 0.0 && right_m == 0.0) continue;
+    const double left_error_m = sigma_w * std::sqrt(left_m) * normal(rng);
+    const double right_error_m = sigma_w * std::sqrt(right_m) * normal(rng);
+    const double ds_m = 0.5 * (left_error_m + right_error_m),
+                 dtheta_rad = (right_error_m - left_error_m) / true_track_m;
+    shift_x_m += ds_m * std::cos(poses.heading_rad[k]) + dtheta_rad * poses.y_m[k];
+    shift_y_m += ds_m * std::sin(poses.heading_rad[k]) - dtheta_rad * poses.x_m[k];
+    rotation_rad += dtheta_rad;
+  }
+  assign_until(INFINITY);
+  return delta;
+}
+
+}  // namespace
+
 double WheelNoiseGap(const std::vector<RunData>& runs, const ModelConstants& constants,
                      const FitParameters& params, const TrajectoryFitOptions& options,
-                     const Eigen::MatrixXd& J_fitted, const Eigen::MatrixXd& pinv, int n_frames) {
+                     const Linearization& linearization, const FittedColumns& columns,
+                     const Eigen::MatrixXd& normal_inverse, int n_frames) {
   // A travel error at step k moves every later frame rigidly (translation
   // along the heading, rotation about the pose at k); the fit removes its
   // projection on J. Explain's `unexplained` needs it: with a precise camera
   // the wheel noise, not the camera, sets the floor.
   if (!(options.wheel_sigma_m_per_sqrt_m > 0.0 && options.wheel_noise_draws > 0)) return 0.0;
-  const int n_rows = static_cast<int>(J_fitted.rows());
+  const int q = columns.n_global;
+  std::vector<Eigen::MatrixXd> J(runs.size());
+  std::vector<DeadReckonedPoses> poses(runs.size());
+  for (size_t r = 0; r < runs.size(); ++r) {
+    J[r] = RunFittedJacobian(linearization.runs[r], columns);
+    poses[r] = DeadReckonRun(runs[r], constants, params, r);
+  }
   std::mt19937 rng(20261123);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double sigma_w = options.wheel_sigma_m_per_sqrt_m;
   const double true_track_m = params.base_scales[2] * constants.track_m;
   double sum_sq_m2 = 0.0;
   for (int draw = 0; draw < options.wheel_noise_draws; ++draw) {
-    Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_rows);  // whitened residual change
-    int row0 = 0;
+    // Each run's whitened residual change, and J^T of it (globals, then the start poses).
+    std::vector<Eigen::VectorXd> delta(runs.size());
+    Eigen::VectorXd J_t_delta = Eigen::VectorXd::Zero(normal_inverse.rows());
+    for (size_t r = 0; r < runs.size(); ++r) {
+      delta[r] = WheelNoiseDraw(runs[r], constants, params, poses[r], sigma_w, true_track_m,
+                                normal, rng);
+      const Eigen::VectorXd t = J[r].transpose() * delta[r];
+      J_t_delta.head(q) += t.head(q);
+      J_t_delta.segment<kStartPoseParams>(q + kStartPoseParams * static_cast<int>(r)) =
+          t.tail<kStartPoseParams>();
+    }
+    const Eigen::VectorXd x = normal_inverse * J_t_delta;  // pinv(J) delta
     for (size_t r = 0; r < runs.size(); ++r) {
       const RunData& rd = runs[r];
       const int m = rd.residuals_per_frame;
-      const DeadReckonedPoses poses = DeadReckonRun(rd, constants, params, r);
-      // Displacement of a later point p: shift + rotation_rad * (-p.y, p.x).
-      double shift_x_m = 0.0, shift_y_m = 0.0, rotation_rad = 0.0;
-      size_t j = 0;
-      auto assign_until = [&](double t_s) {
-        for (; j < rd.frame_t_s.size() && FrameTelemetryTime(rd, j, params.effects) < t_s; ++j) {
-          const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
-          delta[row0 + m * j] = (shift_x_m - rotation_rad * rd.measured_y_m[j]) * g;
-          delta[row0 + m * j + 1] = (shift_y_m + rotation_rad * rd.measured_x_m[j]) * g;
-          if (m == 3) delta[row0 + m * j + 2] = rotation_rad * rd.sqrt_weight[j] / rd.sigma_heading_rad[j];
-        }
-      };
-      for (size_t k = 1; k < rd.t_s.size(); ++k) {
-        assign_until(rd.t_s[k]);
-        const double left_m =
-            std::abs(rd.left_step_ticks[k] * constants.left_m_per_tick * params.base_scales[0]);
-        const double right_m =
-            std::abs(rd.right_step_ticks[k] * constants.right_m_per_tick * params.base_scales[1]);
-        if (left_m == 0.0 && right_m == 0.0) continue;
-        const double left_error_m = sigma_w * std::sqrt(left_m) * normal(rng);
-        const double right_error_m = sigma_w * std::sqrt(right_m) * normal(rng);
-        const double ds_m = 0.5 * (left_error_m + right_error_m),
-                     dtheta_rad = (right_error_m - left_error_m) / true_track_m;
-        shift_x_m += ds_m * std::cos(poses.heading_rad[k]) + dtheta_rad * poses.y_m[k];
-        shift_y_m += ds_m * std::sin(poses.heading_rad[k]) - dtheta_rad * poses.x_m[k];
-        rotation_rad += dtheta_rad;
-      }
-      assign_until(INFINITY);
-      row0 += rd.n_residuals();
-    }
-    const Eigen::VectorXd left_over = delta - J_fitted * (pinv * delta);
-    row0 = 0;
-    for (const RunData& rd : runs) {
-      const int m = rd.residuals_per_frame;
+      Eigen::VectorXd x_run(q + kStartPoseParams);
+      x_run << x.head(q), x.segment<kStartPoseParams>(q + kStartPoseParams * static_cast<int>(r));
+      const Eigen::VectorXd left_over = delta[r] - J[r] * x_run;
       for (size_t j = 0; j < rd.frame_t_s.size(); ++j) {
         const double g = rd.sqrt_weight[j] / rd.sigma_position_m[j];
-        sum_sq_m2 += (left_over[row0 + m * j] * left_over[row0 + m * j] +
-                      left_over[row0 + m * j + 1] * left_over[row0 + m * j + 1]) /
+        sum_sq_m2 += (left_over[m * j] * left_over[m * j] +
+                      left_over[m * j + 1] * left_over[m * j + 1]) /
                      (g * g);
       }
-      row0 += rd.n_residuals();
     }
   }
   return std::sqrt(sum_sq_m2 / (options.wheel_noise_draws * n_frames));
@@ -1110,9 +1244,12 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
     return result;
   }
 
-  // The solution: residuals, gap and the full Jacobian.
+  // The solution: residuals, gap and the Jacobian, by run.
   const Linearization linearization = Linearize(problem, runs, params);
-  result.jacobian = linearization.J_residual_param;
+  ReducedGlobals reduced = ReduceGlobals(linearization);
+  result.reduced_jacobian = std::move(reduced.R);
+  result.global_column_norms = std::move(reduced.column_norms);
+  result.n_residuals = linearization.n_residuals();
   FrameReport frames = ReportFrames(runs, constants, params);
   result.residuals = std::move(frames.residuals);
   for (size_t r = 0; r < runs.size(); ++r)
@@ -1121,7 +1258,7 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   result.n_frames = static_cast<int>(result.residuals.size());
   result.gap_m = frames.gap_m;
   result.noise_floor_m = frames.noise_floor_m;
-  result.weighted_sse = linearization.whitened_residuals.squaredNorm();
+  result.weighted_sse = linearization.weighted_sse();
   result.scales.r_left = params.base_scales[0];
   result.scales.r_right = params.base_scales[1];
   result.scales.Eb = params.base_scales[2];
@@ -1130,16 +1267,15 @@ TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
   // Identifiability and covariance over the fitted columns.
   const FittedColumns columns = SelectFittedColumns(session, runs, options);
   result.n_parameters = static_cast<int>(columns.index.size());
-  const Eigen::MatrixXd J_fitted = FittedJacobian(result.jacobian, columns);
-  const Identifiability identifiability = AnalyseIdentifiability(J_fitted, options.rank_tolerance);
+  const Identifiability identifiability =
+      AnalyseIdentifiability(linearization, columns, options.rank_tolerance);
   result.condition_number = identifiability.condition_number;
-  const ParameterCovariance covariance =
-      ComputeCovariance(session, runs, constants, params, options, identifiability,
-                        linearization, result.weighted_sse);
+  const ParameterCovariance covariance = ComputeCovariance(
+      session, runs, constants, params, options, identifiability, columns, linearization);
   result.lag1_autocorrelation = covariance.lag1_autocorrelation;
   result.variance_factor = covariance.variance_factor;
-  result.wheel_noise_gap_m =
-      WheelNoiseGap(runs, constants, params, options, J_fitted, covariance.pinv, result.n_frames);
+  result.wheel_noise_gap_m = WheelNoiseGap(runs, constants, params, options, linearization,
+                                           columns, covariance.normal_inverse, result.n_frames);
 
   // Derived estimates.
   result.effect_covariance = EffectBlockCovariance(covariance.covariance, options.effects);
@@ -1201,13 +1337,16 @@ void LastShaftDirections(const MeasuredRun& run, int* left_direction, int* right
 AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
                           double alias_tolerance) {
   constexpr int kBase = internal::kBaseParams;
-  constexpr int kFx = internal::kEffectParams;
   AliasReport report;
   report.effect = candidate;
   report.distinguishing_runs = DistinguishingRuns(candidate);
-  const Eigen::MatrixXd& J = fit.jacobian;
+  // The global columns with the runs' start poses projected out: the
+  // candidate's distance from the span of the model and the start poses is
+  // its distance, there, from the span of the model alone (Frisch-Waugh).
+  const Eigen::MatrixXd& J = fit.reduced_jacobian;
+  const Eigen::VectorXd& norms = fit.global_column_norms;
   if (J.size() == 0) return report;
-  // Fitted columns: base, enabled effects, start poses.
+  // Fitted columns: base, enabled effects.
   std::vector<int> cols = {0, 1, 2};
   std::vector<std::string> names = {"r_left", "r_right", "Eb"};
   for (Effect e : fit.options.effects)
@@ -1224,18 +1363,15 @@ AliasReport CheckAliasing(const TrajectoryFitResult& fit, Effect candidate,
       names.push_back(std::string(ToString(candidate)) + " (its nuisance)");
     }
   const int n_model = static_cast<int>(cols.size());
-  for (int c = kBase + kFx; c < J.cols(); ++c) {
-    cols.push_back(c);
-    names.push_back("the runs' start poses");
-  }
+  // Each column normalised by its norm in the full Jacobian.
   Eigen::MatrixXd A(J.rows(), cols.size());
   for (size_t c = 0; c < cols.size(); ++c) {
-    const double n = J.col(cols[c]).norm();
+    const double n = norms[cols[c]];
     A.col(c) = n > 0.0 ? Eigen::VectorXd(J.col(cols[c]) / n) : Eigen::VectorXd(J.col(cols[c]));
   }
   Eigen::MatrixXd C(J.rows(), idx.size());
   for (size_t k = 0; k < idx.size(); ++k) {
-    const double n = J.col(kBase + idx[k]).norm();
+    const double n = norms[kBase + idx[k]];
     if (n < 1e-9) {
       report.no_signal = true;
       report.aliased = true;

@@ -175,7 +175,7 @@ TEST(AnalyticJacobians, WheelNoiseSandwichMatchesNumericDerivatives) {
     expected += q * left_m * d_left * d_left.transpose() + q * right_m * d_right * d_right.transpose();
   }
   ParameterCovariance sandwich;
-  sandwich.pinv = Eigen::MatrixXd::Identity(n_rows, n_rows);
+  sandwich.pinv_by_run = {Eigen::MatrixXd::Identity(n_rows, n_rows)};
   sandwich.covariance = Eigen::MatrixXd::Zero(n_rows, n_rows);
   AddWheelNoiseCovariance({rd}, constants, params, sigma, &sandwich);
   // A step turns by at most 12 * 2e-4 / 0.3 = 8e-3 rad: its half-turn sets

@@ -207,7 +207,7 @@ TEST(TrajectoryFitStages, ReweightHuberDownweightsOnlyTheOutlier) {
   EXPECT_LE(downweighted, 5);
 }
 
-TEST(TrajectoryFitStages, LinearizePlacesEachBlockInItsColumns) {
+TEST(TrajectoryFitStages, LinearizeKeepsEachRunsBlocks) {
   const MeasuredSession s = ExactSession({1.004, 0.997, 1.012});
   TrajectoryFitOptions options;
   const ModelConstants constants = ConstantsOf(s.believed, std::nullopt);
@@ -215,24 +215,29 @@ TEST(TrajectoryFitStages, LinearizePlacesEachBlockInItsColumns) {
   const FitParameters p = InitialParameters(extracted.runs, extracted.run_used, options, nullptr);
   const TrajectoryProblem problem = BuildProblem(extracted.runs, constants, options);
   const Linearization lin = Linearize(problem, extracted.runs, p);
-  const int rows0 = extracted.runs[0].n_residuals();
-  ASSERT_EQ(lin.J_residual_param.cols(), kBaseParams + kEffectParams + 3 * 4);
-  ASSERT_EQ(lin.whitened_residuals.size(), rows0 + 3 * extracted.runs[1].n_residuals());
-  // Run 1's start heading, by central differences.
+  ASSERT_EQ(lin.runs.size(), 4u);
+  const int rows1 = extracted.runs[1].n_residuals();
+  ASSERT_EQ(lin.runs[1].J_global.cols(), kBaseParams + kEffectParams);
+  ASSERT_EQ(lin.runs[1].J_start.rows(), rows1);
+  ASSERT_EQ(lin.n_residuals(), extracted.runs[0].n_residuals() + 3 * rows1);
+  // Run 1's start heading and its Eb, by central differences.
   const double h = 1e-7;
   FitParameters plus = p, minus = p;
   plus.start_poses[1][2] += h;
   minus.start_poses[1][2] -= h;
-  const std::vector<double> rp = RunResiduals(problem, plus, 1), rm = RunResiduals(problem, minus, 1);
-  const int col = kBaseParams + kEffectParams + 3 * 1 + 2;
-  for (int i = 0; i < extracted.runs[1].n_residuals(); ++i)
-    EXPECT_NEAR(lin.J_residual_param(rows0 + i, col), (rp[i] - rm[i]) / (2 * h), 1e-4) << i;
-  // Run 0's rows do not depend on run 1's start.
-  EXPECT_EQ(lin.J_residual_param.block(0, col, rows0, 1).norm(), 0.0);
+  std::vector<double> rp = RunResiduals(problem, plus, 1), rm = RunResiduals(problem, minus, 1);
+  for (int i = 0; i < rows1; ++i)
+    EXPECT_NEAR(lin.runs[1].J_start(i, 2), (rp[i] - rm[i]) / (2 * h), 1e-4) << i;
+  plus = minus = p;
+  plus.base_scales[2] += h;
+  minus.base_scales[2] -= h;
+  rp = RunResiduals(problem, plus, 1), rm = RunResiduals(problem, minus, 1);
+  for (int i = 0; i < rows1; ++i)
+    EXPECT_NEAR(lin.runs[1].J_global(i, 2), (rp[i] - rm[i]) / (2 * h), 1e-4) << i;
   const std::vector<double> r0 = RunResiduals(problem, p, 0);
   // (Evaluated with Jets there, with doubles here: equal to rounding.)
-  for (int i = 0; i < rows0; ++i)
-    EXPECT_NEAR(lin.whitened_residuals[i], r0[i], 1e-12 * (1.0 + std::abs(r0[i])));
+  for (int i = 0; i < extracted.runs[0].n_residuals(); ++i)
+    EXPECT_NEAR(lin.runs[0].residuals[i], r0[i], 1e-12 * (1.0 + std::abs(r0[i])));
 }
 
 TEST(TrajectoryFitStages, ReportFramesGapAndNoiseFloor) {
@@ -266,9 +271,14 @@ TEST(TrajectoryFitStages, SelectFittedColumnsNamesThem) {
   EXPECT_EQ(columns.names[5], "tag_offset.y_m");
   EXPECT_EQ(columns.names[6], "straight.start_x");
   EXPECT_EQ(columns.index[17], kBaseParams + kEffectParams + 11);
-  Eigen::MatrixXd J = Eigen::MatrixXd::Random(5, kBaseParams + kEffectParams + 12);
-  const Eigen::MatrixXd J_fitted = FittedJacobian(J, columns);
-  EXPECT_TRUE(J_fitted.col(4) == J.col(kBaseParams + EffectParams::kTagX));
+  EXPECT_EQ(columns.n_global, 6);
+  RunLinearization run;
+  run.J_global = Eigen::MatrixXd::Random(5, kBaseParams + kEffectParams);
+  run.J_start = Eigen::MatrixXd::Random(5, 3);
+  const Eigen::MatrixXd J_fitted = RunFittedJacobian(run, columns);
+  ASSERT_EQ(J_fitted.cols(), 6 + 3);
+  EXPECT_TRUE(J_fitted.col(4) == run.J_global.col(kBaseParams + EffectParams::kTagX));
+  EXPECT_TRUE(J_fitted.col(8) == run.J_start.col(2));
 }
 
 TEST(TrajectoryFitStages, IdentifiabilityFindsTheNullDirection) {
@@ -299,6 +309,76 @@ TEST(TrajectoryFitStages, IdentifiabilityFindsTheNullDirection) {
   EXPECT_EQ(zero.null_vectors.size(), 1u);
 }
 
+// Random run blocks and the dense N x (17 + 3 runs) Jacobian they make.
+struct BlockCase {
+  Linearization lin;
+  FittedColumns columns;
+  Eigen::MatrixXd J_full;    // every global column, then 3 per run
+  Eigen::MatrixXd J_fitted;  // the fitted columns
+};
+BlockCase RandomBlocks(int n_runs, int rows, std::mt19937* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  BlockCase b;
+  TrajectoryFitOptions options;
+  options.effects = {Effect::kTagOffset, Effect::kTurnSlip};
+  b.J_full = Eigen::MatrixXd::Zero(n_runs * rows, kGlobalParams + 3 * n_runs);
+  std::vector<RunData> runs(n_runs);
+  MeasuredSession session;
+  for (int r = 0; r < n_runs; ++r) {
+    RunLinearization run;
+    run.J_global = Eigen::MatrixXd::NullaryExpr(rows, kGlobalParams, [&] { return normal(*rng); });
+    run.J_global.col(0) *= 1e3;  // columns of very different scales
+    run.J_start = Eigen::MatrixXd::NullaryExpr(rows, 3, [&] { return normal(*rng); });
+    run.residuals = Eigen::VectorXd::Zero(rows);
+    b.J_full.block(r * rows, 0, rows, kGlobalParams) = run.J_global;
+    b.J_full.block(r * rows, kGlobalParams + 3 * r, rows, 3) = run.J_start;
+    b.lin.runs.push_back(run);
+    runs[r].run = r;
+    session.runs.push_back(MeasuredRun{});
+    session.runs.back().name = "run" + std::to_string(r);
+  }
+  b.columns = SelectFittedColumns(session, runs, options);
+  b.J_fitted.resize(b.J_full.rows(), b.columns.index.size());
+  for (size_t c = 0; c < b.columns.index.size(); ++c)
+    b.J_fitted.col(c) = b.J_full.col(b.columns.index[c]);
+  return b;
+}
+
+// Run by run, the same singular values, covariance and pseudo-inverse as the
+// dense Jacobian's, and the globals' information with the start poses
+// eliminated is the Schur complement of the full one.
+TEST(TrajectoryFitStages, RunByRunAlgebraEqualsTheDenseJacobians) {
+  std::mt19937 rng(7);
+  const BlockCase b = RandomBlocks(4, 30, &rng);
+  const Identifiability dense = AnalyseIdentifiability(b.J_fitted, 1e-5);
+  const Identifiability blocks = AnalyseIdentifiability(b.lin, b.columns, 1e-5);
+  EXPECT_LT((dense.singular_values - blocks.singular_values).norm(),
+            1e-12 * dense.singular_values.norm());
+  EXPECT_NEAR(dense.condition_number, blocks.condition_number, 1e-12 * dense.condition_number);
+  const ParameterCovariance c_dense = CameraNoiseCovariance(dense, 120, 1.0, b.lin);
+  const ParameterCovariance c_blocks = CameraNoiseCovariance(blocks, 120, 1.0, b.lin);
+  const Eigen::MatrixXd normal_inverse = (b.J_fitted.transpose() * b.J_fitted).inverse();
+  EXPECT_LT((c_blocks.normal_inverse - normal_inverse).norm(), 1e-10 * normal_inverse.norm());
+  EXPECT_LT((c_blocks.normal_inverse - c_dense.normal_inverse).norm(), 1e-12 * normal_inverse.norm());
+  // pinv(J)'s global rows, run by run.
+  const Eigen::MatrixXd pinv = normal_inverse * b.J_fitted.transpose();
+  const std::vector<Eigen::MatrixXd> by_run =
+      GlobalPseudoInverseByRun(b.lin, b.columns, c_blocks.normal_inverse);
+  const int q = b.columns.n_global;
+  for (int r = 0; r < 4; ++r)
+    EXPECT_LT((by_run[r] - pinv.block(0, 30 * r, q, 30)).norm(), 1e-10 * pinv.norm()) << r;
+  // Reduced globals: R^T R = the Schur complement of the start poses in J^T J.
+  const Eigen::MatrixXd H = b.J_full.transpose() * b.J_full;
+  const int g = kGlobalParams, s = static_cast<int>(H.rows()) - g;
+  const Eigen::MatrixXd schur =
+      H.topLeftCorner(g, g) -
+      H.topRightCorner(g, s) * H.bottomRightCorner(s, s).inverse() * H.bottomLeftCorner(s, g);
+  const ReducedGlobals reduced = ReduceGlobals(b.lin);
+  EXPECT_LT((reduced.R.transpose() * reduced.R - schur).norm(), 1e-10 * schur.norm());
+  EXPECT_LT((reduced.column_norms - b.J_full.leftCols(g).colwise().norm().transpose()).norm(),
+            1e-12 * reduced.column_norms.norm());
+}
+
 TEST(TrajectoryFitStages, CameraNoiseCovarianceIsTheInverseNormalMatrix) {
   std::mt19937 rng(5);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -315,7 +395,7 @@ TEST(TrajectoryFitStages, CameraNoiseCovarianceIsTheInverseNormalMatrix) {
   EXPECT_EQ(c.variance_factor, 1.0);
   EXPECT_NEAR(c.lag1_autocorrelation, 0.3, 1e-15);
   EXPECT_LT((c.covariance - normal_inverse).norm(), 1e-10 * normal_inverse.norm());
-  EXPECT_LT((c.pinv - normal_inverse * J.transpose()).norm(), 1e-10 * c.pinv.norm());
+  EXPECT_LT((c.normal_inverse - normal_inverse).norm(), 1e-10 * normal_inverse.norm());
   // Larger residuals than stated: scaled by the reduced chi-square.
   c = CameraNoiseCovariance(id, 30, 2.0 * 26, lin);
   EXPECT_NEAR(c.variance_factor, 2.0, 1e-15);
@@ -333,7 +413,7 @@ TEST(TrajectoryFitStages, CameraScaleAddsOneRankOneTerm) {
   rd.sigma_position_m = {0.5, 0.25};
   rd.sqrt_weight = {1.0, 1.0};
   ParameterCovariance c;
-  c.pinv = Eigen::MatrixXd::Identity(4, 4);
+  c.pinv_by_run = {Eigen::MatrixXd::Identity(4, 4)};
   c.covariance = Eigen::MatrixXd::Zero(4, 4);
   AddCameraScaleCovariance({rd}, 0.1, &c);
   const Eigen::Vector4d v(2.0, -2.0, 8.0, 2.0);

@@ -12,6 +12,7 @@
 // The sessions come from the virtual robot and the stand-in camera, which
 // live in rig (Simulate, MeasureWithStandInCamera): hence the rig link.
 #include "explain_fixtures.h"
+#include "odocal/calibration/internal/trajectory_fit_stages.h"
 
 namespace odocal::testing {
 namespace {
@@ -240,9 +241,17 @@ TEST(RollingShutter, JacobianMatchesCentralDifferences) {
       rows.push_back(f.image_row_fraction);
       frames.push_back(&f);
     }
-  constexpr int kBase = 3;  // r_left, r_right, Eb come first
-  const Eigen::VectorXd d_readout = fit.jacobian.col(kBase + calibration::EffectParams::kReadout);
-  const Eigen::VectorXd d_latency = fit.jacobian.col(kBase + calibration::EffectParams::kLatency);
+  // The Jacobian at the solution, as the fit forms it (its robust weights 1 here).
+  namespace internal = calibration::internal;
+  const internal::ModelConstants constants = internal::ConstantsOf(s.session.believed, s.session.camera);
+  const internal::ExtractedRuns extracted = internal::ExtractRuns(s.session, options, constants);
+  const internal::FitParameters at =
+      internal::InitialParameters(extracted.runs, extracted.run_used, options, &fit);
+  const internal::Linearization lin =
+      internal::Linearize(internal::BuildProblem(extracted.runs, constants, options), extracted.runs, at);
+  constexpr int kBase = internal::kBaseParams;  // r_left, r_right, Eb come first
+  const Eigen::VectorXd d_readout = lin.runs[0].J_global.col(kBase + calibration::EffectParams::kReadout);
+  const Eigen::VectorXd d_latency = lin.runs[0].J_global.col(kBase + calibration::EffectParams::kLatency);
   ASSERT_EQ(d_readout.size(), 3 * static_cast<int>(stamps.size()));
   auto predict = [&](double readout_s) {
     calibration::EffectParams fx = fit.effects;

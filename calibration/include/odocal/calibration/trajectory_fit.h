@@ -267,10 +267,15 @@ struct TrajectoryFitResult {
   // The jackknife's refits: jackknife_runs, or kMaxJackknifeGroups groups of runs.
   int jackknife_groups = 0;
 
-  // The whitened, robust-weighted Jacobian at the solution over every
-  // parameter, enabled or not: base (r_left, r_right, Eb), the effect block
-  // (EffectParams order), then 3 per used run. For aliasing tests.
-  Eigen::MatrixXd jacobian;
+  // The whitened, robust-weighted Jacobian at the solution over every global
+  // parameter, enabled or not (base r_left, r_right, Eb, then the effect
+  // block in EffectParams order), with the runs' start poses projected out:
+  // 17 rows whose column products are those of the N rows (R^T R =
+  // J_g^T (I - P_start) J_g), whatever the runs. For aliasing tests.
+  Eigen::MatrixXd reduced_jacobian;
+  // The norms of those 17 columns of the full Jacobian (before the projection).
+  Eigen::VectorXd global_column_norms;
+  int n_residuals = 0;  // rows of the Jacobian: 2 or 3 per frame
 
   bool ok() const { return status == StatusCode::kOk; }
   std::string BriefReport() const;
@@ -281,6 +286,14 @@ struct TrajectoryFitResult {
 TrajectoryFitResult FitTrajectory(const MeasuredSession& session,
                                   const TrajectoryFitOptions& options = {},
                                   const TrajectoryFitResult* warm_start = nullptr);
+
+// A warm start for a fit of the same session without some of its runs
+// (`removed`: positions in the session, ascending): `fit`'s parameters, its
+// start poses and used runs without those. A few runs fewer move the
+// solution a little, which a refit from here reaches in a few iterations
+// instead of a cold start's many (jackknife, cross-validation folds).
+TrajectoryFitResult WarmStartWithout(const TrajectoryFitResult& fit,
+                                     const std::vector<size_t>& removed);
 
 // How much the parameters move from run to run, whatever moves them. The
 // model's sigma holds when the model leaves nothing but independent frame

@@ -7,10 +7,11 @@
 //   InitialParameters       scales at 1, start poses at the first frames (or a warm start)
 //   BuildProblem            one dead-reckoned cost block per run, the weak base prior
 //   SolveWithIrls           Ceres, with Huber reweighting between rounds
-//   Linearize               the whitened residuals and the full Jacobian at the solution
+//   Linearize               the whitened residuals and the Jacobian at the solution, by run
 //   ReportFrames            each frame against the model, the gap and the noise floor
 //   SelectFittedColumns     the Jacobian columns of the fitted parameters, named
-//   AnalyseIdentifiability  SVD of the column-normalised Jacobian, its null space
+//   AnalyseIdentifiability  SVD of the column-normalised Jacobian (its R, assembled
+//                           run by run), its null space
 //   ComputeCovariance       camera noise, wheel-noise sandwich, camera scale (kept apart
 //                           from the solve, as ceres::Covariance is from ceres::Solve)
 //   WheelNoiseGap           the gap the wheel noise alone leaves (seeded Monte Carlo)
@@ -44,6 +45,7 @@ namespace odocal::calibration::internal {
 inline constexpr int kBaseParams = 3;
 inline constexpr int kEffectParams = EffectParams::kSize;
 inline constexpr int kStartPoseParams = 3;  // x_m, y_m, heading_rad
+inline constexpr int kGlobalParams = kBaseParams + kEffectParams;  // shared by every run
 
 // Everything the model needs of one run, extracted once.
 struct RunData {
@@ -147,13 +149,22 @@ SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFit
 void ReweightHuber(const TrajectoryProblem& problem, const FitParameters& params,
                    double huber_threshold, std::vector<RunData>* runs);
 
-// Stage 6. The whitened residuals and the Jacobian over every parameter
-// (base, the effect block in EffectParams order, then 3 per used run).
+// Stage 6. The whitened residuals and the Jacobian, run by run: a run's rows
+// depend on the global parameters (base, then the effect block in
+// EffectParams order) and on its own start pose only, so the Jacobian is kept
+// as each run's two blocks (N x 20 in all), never as one N x (17 + 3 runs)
+// matrix, whose storage and dense algebra grow as the runs squared.
+struct RunLinearization {
+  Eigen::MatrixXd J_global;  // rows x kGlobalParams
+  Eigen::MatrixXd J_start;   // rows x kStartPoseParams
+  Eigen::VectorXd residuals;
+};
 struct Linearization {
-  Eigen::MatrixXd J_residual_param;
-  Eigen::VectorXd whitened_residuals;
+  std::vector<RunLinearization> runs;  // in the order of the used runs
   // Lag-one products of the whitened residuals within runs, per component.
   double lag1_numerator = 0.0, lag1_denominator = 0.0;
+  int n_residuals() const;
+  double weighted_sse() const;
 };
 Linearization Linearize(const TrajectoryProblem& problem, const std::vector<RunData>& runs,
                         const FitParameters& params);
@@ -174,37 +185,58 @@ struct FrameReport {
 FrameReport ReportFrames(const std::vector<RunData>& runs, const ModelConstants& constants,
                          const FitParameters& params);
 
-// Stage 8. The fitted parameters as columns of the full Jacobian, named
-// (base, the enabled effects' parameters in options.effects order, the
-// start poses).
+// Stage 8. The fitted parameters, named: the fitted global ones (base, the
+// enabled effects' parameters in options.effects order), then the start
+// poses. index < kGlobalParams: a column of RunLinearization::J_global; else
+// kGlobalParams + 3 r + c, column c of used run r's J_start.
 struct FittedColumns {
-  std::vector<int> index;  // into Linearization::J_residual_param's columns
+  std::vector<int> index;
   std::vector<std::string> names;
+  int n_global = 0;  // the first n_global are global
 };
 FittedColumns SelectFittedColumns(const MeasuredSession& session,
                                   const std::vector<RunData>& runs,
                                   const TrajectoryFitOptions& options);
-// The fitted columns of the full Jacobian.
-Eigen::MatrixXd FittedJacobian(const Eigen::MatrixXd& J_residual_param,
-                               const FittedColumns& columns);
+// A run's rows over the fitted global columns, then its start pose.
+Eigen::MatrixXd RunFittedJacobian(const RunLinearization& run, const FittedColumns& columns);
 
 // Stage 9. The singular values of the column-normalised Jacobian; those
 // below rank_tolerance of the largest span the null space.
 struct Identifiability {
   Eigen::VectorXd column_norms;     // 1 where a column is zero
   Eigen::VectorXd singular_values;  // of the normalised Jacobian, descending
-  Eigen::MatrixXd U, V;             // its thin SVD
+  Eigen::MatrixXd V;                // its right singular vectors
   std::vector<bool> determined;     // per singular value
   std::vector<Eigen::VectorXd> null_vectors;  // in normalised coordinates
   double condition_number = 0.0;
 };
+// Of a dense Jacobian (its columns those of the fitted parameters).
 Identifiability AnalyseIdentifiability(const Eigen::MatrixXd& J_fitted, double rank_tolerance);
+// Of the fitted columns of a linearisation, run by run (the same values).
+Identifiability AnalyseIdentifiability(const Linearization& linearization,
+                                       const FittedColumns& columns, double rank_tolerance);
 
-// Stage 10. The covariance of the fitted parameters and the pseudo-inverse
-// of the Jacobian (how each whitened residual moves the estimate).
+// The start poses projected out of the global columns: R (kGlobalParams
+// square, upper triangular) with R^T R = J_g^T (I - P_start) J_g, P_start the
+// projection on the runs' start-pose columns. Whatever the runs, 17 x 17: the
+// aliasing test's Jacobian (TrajectoryFitResult::reduced_jacobian), with
+// the norms of the global columns before the projection.
+struct ReducedGlobals {
+  Eigen::MatrixXd R;
+  Eigen::VectorXd column_norms;
+};
+ReducedGlobals ReduceGlobals(const Linearization& linearization);
+
+// Stage 10. The covariance of the fitted parameters and how each whitened
+// residual moves the estimate.
 struct ParameterCovariance {
-  Eigen::MatrixXd pinv;        // p x N
-  Eigen::MatrixXd covariance;  // p x p
+  // pinv(J^T J) over the determined directions (p x p): pinv(J) = normal_inverse J^T.
+  Eigen::MatrixXd normal_inverse;
+  // Per used run, the rows of pinv(J) of the fitted global parameters over
+  // that run's residuals (n_global x rows): all the noise terms below need
+  // (the start poses are nuisances), q N numbers instead of p N.
+  std::vector<Eigen::MatrixXd> pinv_by_run;
+  Eigen::MatrixXd covariance;  // p x p; the noise terms below on its global block
   double variance_factor = 1.0;
   double lag1_autocorrelation = 0.0;
 };
@@ -213,6 +245,10 @@ struct ParameterCovariance {
 ParameterCovariance CameraNoiseCovariance(const Identifiability& identifiability,
                                           int n_residuals, double weighted_sse,
                                           const Linearization& linearization);
+// ParameterCovariance::pinv_by_run from normal_inverse.
+std::vector<Eigen::MatrixXd> GlobalPseudoInverseByRun(const Linearization& linearization,
+                                                      const FittedColumns& columns,
+                                                      const Eigen::MatrixXd& normal_inverse);
 // The wheel noise: a travel error of a wheel at step k moves every later
 // frame rigidly (along the heading at k, and a rotation about the pose at
 // k); its effect on the estimate is pinv * dr/dw, added as the sandwich
@@ -231,13 +267,15 @@ ParameterCovariance ComputeCovariance(const MeasuredSession& session,
                                       const FitParameters& params,
                                       const TrajectoryFitOptions& options,
                                       const Identifiability& identifiability,
-                                      const Linearization& linearization, double weighted_sse);
+                                      const FittedColumns& columns,
+                                      const Linearization& linearization);
 
 // What the wheel noise alone leaves of the gap once the fit has absorbed
 // what it can: seeded Monte Carlo of the wheels' random walk, linearised.
 double WheelNoiseGap(const std::vector<RunData>& runs, const ModelConstants& constants,
                      const FitParameters& params, const TrajectoryFitOptions& options,
-                     const Eigen::MatrixXd& J_fitted, const Eigen::MatrixXd& pinv, int n_frames);
+                     const Linearization& linearization, const FittedColumns& columns,
+                     const Eigen::MatrixXd& normal_inverse, int n_frames);
 
 // Stage 11. The effect block's covariance (EffectParams order, zero where
 // disabled) from the fitted parameters' covariance.

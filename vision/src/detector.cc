@@ -313,7 +313,12 @@ TrackResult TagTracker::Track(const cv::Mat& grey) {
     result.roi = cv::Rect(0, 0, grey.cols, grey.rows);
     at_full_resolution = false;
     result.find = detector_->Find(grey, id_);
-    if (result.find.status == DetectStatus::kNotFound && options_.full_resolution_every > 0 &&
+    // Only while the tag has not been seen yet, or was small when it was
+    // lost: a tag the decimated search found before is found by it again,
+    // and a whole frame at full resolution costs 5-10 times as much (a
+    // noisy 1080p frame: 412 ms against 34, docs/performance.md).
+    const bool may_be_small = !ever_found_ || lost_small_;
+    if (result.find.status == DetectStatus::kNotFound && may_be_small && options_.full_resolution_every > 0 &&
         detector_->options().quad_decimate > 1.0f && whole_frame_misses_++ % options_.full_resolution_every == 0) {
       at_full_resolution = true;
       result.find = detector_->Find(grey, id_, std::nullopt, full_resolution);
@@ -330,7 +335,10 @@ TrackResult TagTracker::Track(const cv::Mat& grey) {
     // near the threshold must not alternate between them from frame to frame.
     last_small_ = shorter < options_.small_tag_px * (at_full_resolution ? 1.5 : 1.0);
     whole_frame_misses_ = 0;
+    ever_found_ = true;
+    lost_small_ = false;
   } else {
+    lost_small_ = lost_small_ || last_small_;
     Reset();
   }
   return result;

@@ -128,12 +128,15 @@ struct TrackerOptions {
   // ... and by at least this many pixels.
   int roi_min_margin_px = 16;
   // Small tags are looked for at full resolution (quad_decimate 1): a tag
-  // whose shorter side was under `small_tag_px` in the last frame, and, while
-  // the tag is lost, every `full_resolution_every`-th whole-frame search that
-  // the decimated one missed. At decimate 2 a tag's cells under ~2 px fall
-  // apart in libapriltag's quad finder: a 100 mm tag 1.5 m off the axis of a
-  // fisheye 1.05 m above it is 14 x 27 px, found in the full image and not in
-  // the decimated one (TagTracker.FindsASmallTagAtAFisheyesRim).
+  // whose shorter side was under `small_tag_px` in the last frame (in its
+  // window), and, before the tag is first found or while it is lost after
+  // being small, every `full_resolution_every`-th whole-frame search that the
+  // decimated one missed (a whole frame costs 5-10 times as much at full
+  // resolution, so not for a tag lost while large). At decimate 2 a tag's
+  // cells under ~2 px fall apart in libapriltag's quad finder: an 80 mm tag
+  // 1.3-1.5 m off the axis of a fisheye 1.05 m above it is 14-18 px across
+  // the view's radius, found in the full image and not in the decimated one
+  // (FisheyeLens.ASmallTagAtTheRimIsFoundAtFullResolutionAndMeasured).
   double small_tag_px = 32.0;
   int full_resolution_every = 4;  // 0: never
 
@@ -163,7 +166,9 @@ class TagTracker {
   TrackerOptions options_;
   std::optional<std::array<cv::Point2d, 4>> last_, before_last_;
   bool last_small_ = false;    // the last detection's shorter side under small_tag_px
-  int whole_frame_misses_ = 0;  // whole-frame searches that missed since the last detection
+  bool ever_found_ = false;    // the tag was found in some frame since the tracker was made
+  bool lost_small_ = false;    // the tag is lost, and was small when it was
+  int whole_frame_misses_ = 0;  // full-resolution-eligible whole-frame misses since the last detection
 };
 
 }  // namespace odocal::vision

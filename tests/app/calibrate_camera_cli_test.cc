@@ -403,6 +403,7 @@ TEST_F(FisheyeViews, DetectWithoutACalibrationRefinesTheBoardThroughALensFromThe
   EXPECT_EQ(through["lens"]["distortion_model"], "equidistant");
   EXPECT_NEAR(through["lens"]["fx"].get<double>(), lens_.fx, 1.0);
   EXPECT_EQ(straight["lens"]["source"], "none");
+  EXPECT_EQ(straight["lens"]["why"], "--straight-edges");
   // No poses from a lens the user did not give.
   for (const auto& image : through["images"]) EXPECT_FALSE(image["board"].contains("pose_in_camera"));
   const Score a = score(through), b = score(straight);

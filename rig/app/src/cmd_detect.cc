@@ -424,6 +424,7 @@ void RunDetect(const DetectArgs& args) {
   });
   json lens = args.calibration.empty() ? json{{"source", "none"}, {"edges", "straight"}}
                                        : json{{"source", "calibration"}, {"file", args.calibration}};
+  if (args.straight_edges && args.calibration.empty()) lens["why"] = "--straight-edges";
   if (board && !intrinsics && !args.straight_edges) {
     std::vector<bool> done;
     lens = LensFromTheImages(inputs, &found_in_image, *board, args.threads, &refine_lens, &done);

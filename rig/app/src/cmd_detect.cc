@@ -137,8 +137,10 @@ json LensFromTheImages(const std::vector<std::string>& inputs, std::vector<Found
   vision::CameraCalibrationOptions options;
   json out = {{"source", "none"}, {"edges", "straight"}};
   if (static_cast<int>(views.size()) < options.min_views) {
-    out["why"] = std::to_string(views.size()) + " image(s) show the board; a lens needs " +
-                 std::to_string(options.min_views) + " (name one with --calibration)";
+    const bool videos = std::any_of(inputs.begin(), inputs.end(), [](const std::string& p) { return IsVideo(p); });
+    out["why"] = std::to_string(views.size()) + " image(s) show the board" +
+                 (videos ? " (a video's frames are not used for a lens)" : "") + "; a lens needs " +
+                 std::to_string(options.min_views) + ": name one with --calibration";
     return out;
   }
   size = media::ReadGreyImage(inputs[view_input.front()]).grey.size();

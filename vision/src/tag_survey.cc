@@ -135,7 +135,9 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
     t.hamming = d.hamming;
     t.decision_margin = d.decision_margin;
     t.corners_px = d.corners_px;
-    if (options.refine) {
+    if (options.not_refined.count(d.id)) {
+      t.refine_message = "left to the board's refinement";
+    } else if (options.refine) {
       std::array<cv::Matx22d, 4> cov;
       const CornerRefineResult r =
           internal::RefineTagCornersByEdgeModelWithCovariance(grey, d.corners_px, camera, refine, {0, 0}, &cov);

@@ -18,6 +18,7 @@
 
 #include <array>
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,9 @@ struct TagSurveyOptions {
   // The exact edge model (RefineTagCornersByEdgeModel) with each corner's
   // sigma; off: libapriltag's corners, no sigma.
   bool refine = true;
+  // Tags (by id) left as libapriltag found them, not refined: a board's,
+  // which DetectBoard refines its own way (detect --board).
+  std::set<int> not_refined;
   // libapriltag's candidate quads (apriltag_quad_thresh, the library's own
   // first stage) that no tag was decoded from.
   bool collect_rejected = true;

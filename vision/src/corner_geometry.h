@@ -14,6 +14,7 @@
 
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/corner_refine.h"
+#include "odocal/vision/internal/edge_costs.h"
 
 namespace odocal::vision::internal {
 
@@ -45,25 +46,6 @@ void CornersFromEdges(const std::array<EdgeLine, 4>& lines, const CameraModel* c
 // segment (in distorted pixels, where the detector's corners are) and
 // between `end_margin` of its length from either end. Image pixel (x, y) is
 // grey(y - origin.y, x - origin.x).
-struct EdgeBandSamples {
-  std::vector<cv::Point2d> undistorted;  // pixel centres, undistorted when a camera is given
-  // d undistorted / d pixel at each centre (row-major 2x2); the identity
-  // without a camera. A pixel is a unit square in the image, not in the
-  // undistorted plane: through a fisheye it is a parallelogram up to twice
-  // as wide there, and wider on the outer side of an edge than the inner.
-  std::vector<cv::Vec4d> jacobian;
-  std::vector<double> value;             // grey level
-  // +1 where the dark side is inside (towards the tag's centre), -1 where it
-  // is outside (an aprilgrid's corner square beyond the tag's corner, whose
-  // edge continues the tag's); empty: all +1.
-  std::vector<double> polarity;
-  std::vector<double> offset_px;         // signed distance from the edge, outwards positive
-  cv::Point2d normal_px;                 // outwards, distorted pixels
-  // The detector's edge mapped like the pixels: the line n . q = c with n at
-  // angle `start_angle` (outwards), c = `start_offset`.
-  double start_angle = 0.0;
-  double start_offset = 0.0;
-};
 EdgeBandSamples SampleEdgeBand(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                const CameraModel* camera, double half_width, double end_margin);

@@ -27,64 +27,13 @@
 #include "odocal/vision/corner_refine.h"
 
 #include "corner_geometry.h"
-#include "odocal/vision/internal/edge_functions.h"
+#include "odocal/vision/internal/edge_costs.h"
 #include "edge_model_refine.h"
 
 namespace odocal::vision {
 namespace {
 
-using internal::G;
-using internal::H;
-
 using EdgePixels = internal::EdgeBandSamples;
-
-// Parameters: theta (normal angle), c (offset along the normal), a, b, log s;
-// and the edge shift.
-class EdgeModelCost {
- public:
-  // shift[0]: the black grown by this much towards the white (edge_shift.h);
-  // the line is then where the print's edge is.
-  explicit EdgeModelCost(const EdgePixels* pixels) : pixels_(pixels) {}
-  template <typename T>
-  bool operator()(const T* const p, const T* const shift, T* residual) const {
-    using std::abs;
-    using std::cos;
-    using std::exp;
-    using std::sin;
-    using std::sqrt;
-    const T nx = cos(p[0]), ny = sin(p[0]);
-    const T s = exp(p[4]);
-    for (size_t i = 0; i < pixels_->value.size(); ++i) {
-      const cv::Point2d& q = pixels_->undistorted[i];
-      // The edge is straight in the undistorted plane; the pixel is a unit
-      // square in the image. With J = d undistorted / d pixel, the image's
-      // normal to the edge is J^T n and a distance d there is d / |J^T n|
-      // in pixels (the identity without a camera).
-      const cv::Vec4d& J = pixels_->jacobian[i];
-      const T gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
-      const T g = sqrt(gx * gx + gy * gy);
-      const T w1 = abs(gx) / (g * s), w2 = abs(gy) / (g * s);
-      const double polarity = pixels_->polarity.empty() ? 1.0 : pixels_->polarity[i];
-      // (Written so that with no shift it is the same arithmetic as without one.)
-      const T u = (nx * q.x + ny * q.y - p[1] - polarity * shift[0] * g) / (g * s);
-      T fraction;
-      if (w2 < 1e-3 || w1 < 1e-3) {
-        const T w = w1 < 1e-3 ? w2 : w1;  // a single box
-        fraction = (G(u + 0.5 * w) - G(u - 0.5 * w)) / w;
-      } else {
-        fraction = (H(u + 0.5 * w1 + 0.5 * w2) - H(u + 0.5 * w1 - 0.5 * w2) -
-                    H(u - 0.5 * w1 + 0.5 * w2) + H(u - 0.5 * w1 - 0.5 * w2)) /
-                   (w1 * w2);
-      }
-      if (polarity < 0) fraction = T(1.0) - fraction;
-      residual[i] = p[2] + p[3] * fraction - pixels_->value[i];
-    }
-    return true;
-  }
-
- private:
-  const EdgePixels* pixels_;
-};
 
 using FittedLine = internal::EdgeLine;
 
@@ -149,10 +98,9 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   const bool free_shift = shift_freedom_px > 0.0 &&
                           std::any_of(pixels.polarity.begin(), pixels.polarity.end(), [](double side) { return side < 0.0; });
   ceres::Problem problem;
-  problem.AddResidualBlock(
-      new ceres::AutoDiffCostFunction<EdgeModelCost, ceres::DYNAMIC, 5, 1>(
-          new EdgeModelCost(&pixels), static_cast<int>(pixels.value.size())),
-      nullptr, p, &shift);
+  // Parameters: theta (the normal's angle), c (the line's offset along it),
+  // a, b, log s; and the edge shift (internal::EdgeModelCost).
+  problem.AddResidualBlock(new internal::EdgeModelCost(&pixels), nullptr, p, &shift);
   if (free_shift) {
     problem.SetParameterLowerBound(&shift, 0, shift_px - shift_freedom_px);
     problem.SetParameterUpperBound(&shift, 0, shift_px + shift_freedom_px);

@@ -18,6 +18,7 @@
 #include "odocal/vision/tag.h"
 
 #include "apriltag_util.h"
+#include "odocal/vision/internal/edge_costs.h"
 #include "odocal/vision/internal/edge_functions.h"
 
 namespace odocal::vision {
@@ -58,21 +59,7 @@ std::optional<TagCells> TagCells::Of(const std::string& family, int id, std::str
 
 namespace {
 
-// One pixel of the fit: where it is in u, the blur's scale there, its grey
-// level, and the black cells near it with the sides of each that face white.
-struct ShiftPixel {
-  double qx = 0.0, qy = 0.0;  // undistorted pixel
-  double ux = 0.0, uy = 0.0;
-  double cells_per_px = 0.0;  // sqrt |det d u / d pixel|
-  double value = 0.0;
-  // Per black cell: its printed bounds in cells (x0 < x1, y0 < y1, y up) and
-  // which of its sides (left, right, bottom, top) face white.
-  struct Cell {
-    double x0, x1, y0, y1;
-    bool wl, wr, wb, wt;
-  };
-  std::vector<Cell> cells;
-};
+using internal::ShiftPixel;
 
 // The blurred print's black fraction at u (cells) for a pixel with the
 // black cells of `q`, shift s (cells), lambda = n / (n + 2 s), blur sigma
@@ -89,32 +76,6 @@ T BlackAt(const ShiftPixel& q, const T& ux, const T& uy, const T& s, const T& la
   }
   return black;
 }
-
-// The shift alone: u fixed by the refined corners.
-class EdgeShiftCost {
- public:
-  EdgeShiftCost(const std::vector<ShiftPixel>* pixels, double n) : pixels_(pixels), n_(n) {}
-  // p: s (cells), log blur (px), dark, light - dark.
-  template <typename T>
-  bool operator()(const T* const p, T* residual) const {
-    using std::exp;
-    using std::sqrt;
-    const T s = p[0];
-    const T lambda = n_ / (n_ + 2.0 * s);
-    const T blur = exp(p[1]);
-    const T blur2 = blur * blur + 1.0 / 12.0;  // the pixel's box, as its variance
-    for (size_t i = 0; i < pixels_->size(); ++i) {
-      const ShiftPixel& q = (*pixels_)[i];
-      const T sigma = sqrt(blur2) * q.cells_per_px;
-      residual[i] = p[2] + p[3] * (1.0 - BlackAt(q, T(q.ux), T(q.uy), s, lambda, sigma)) - q.value;
-    }
-    return true;
-  }
-
- private:
-  const std::vector<ShiftPixel>* pixels_;
-  double n_;
-};
 
 // The whole tag: the outer square's four corners (undistorted pixels) free
 // too, so every black/white boundary of the tag, not only the outer four,
@@ -325,9 +286,8 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
                                  new TagPatternCost(&pixels, n), static_cast<int>(pixels.size())),
                              nullptr, c8, p);
   } else {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EdgeShiftCost, ceres::DYNAMIC, 4>(
-                                 new EdgeShiftCost(&pixels, n), static_cast<int>(pixels.size())),
-                             nullptr, p);
+    // The shift alone, u fixed by the refined corners.
+    problem.AddResidualBlock(new internal::EdgeShiftCost(&pixels, n), nullptr, p);
   }
   problem.SetParameterLowerBound(p, 0, -0.3);
   problem.SetParameterUpperBound(p, 0, 0.3);

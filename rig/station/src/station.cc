@@ -976,7 +976,8 @@ bool StationOptions::IsValid(std::string* why) const {
   if (!(min_rest_found_fraction > 0.0 && min_rest_found_fraction <= 1.0))
     return fail("min_rest_found_fraction must be in (0, 1]");
   if (rest_flush_frames < 0 || settle_s < 0.0) return fail("rest_flush_frames and settle_s must not be negative");
-  if (run_timeout.count() <= 0 || poll_interval.count() < 0) return fail("run_timeout must be positive");
+  if (run_timeout.count() <= 0) return fail("run_timeout must be positive");
+  if (poll_interval.count() < 0) return fail("poll_interval must not be negative");
   if (!(converge_sigmas > 0.0)) return fail("converge_sigmas must be positive");
   if (floor_frames < 1) return fail("floor_frames must be at least 1");
   if (!(max_turn_rate_rad_s > 0.0) || !std::isfinite(max_turn_rate_rad_s))

@@ -173,7 +173,14 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                 {"view_depth_mm", r.view_depth_m * kMToMm},
                 {"square_cw_mm", polygon(r.squares[0])},
                 {"square_ccw_mm", polygon(r.squares[1])},
-                {"squares_fit", r.squares_fit}};
+                {"squares_fit", r.squares_fit},
+                {"squares_min_tag_side_px", r.squares_min_tag_side_px > 0.0 ? nlohmann::json(r.squares_min_tag_side_px)
+                                                                         : nlohmann::json(nullptr)},
+                {"squares_min_tag_side_at_mm",
+                 r.squares_min_tag_side_px > 0.0
+                     ? nlohmann::json{r.squares_min_tag_side_at.x() * kMToMm, r.squares_min_tag_side_at.y() * kMToMm}
+                     : nlohmann::json(nullptr)},
+                {"squares_tag_too_small", r.squares_tag_too_small}};
   return j;
 }
 
@@ -224,11 +231,13 @@ void RunSetupCheck(const SetupCheckArgs& args) {
   std::printf("floor in view at the tag's height: %.0f x %.0f mm; the %.0f mm squares %s\n", r.view_width_m * kMToMm,
               r.view_depth_m * kMToMm, o.square_side_m * kMToMm,
               r.squares_fit ? "fit (cw and ccw from here)" : "do NOT fit from here");
+  if (r.squares_min_tag_side_px > 0.0)
+    std::printf("the tag at the squares' corners: %.0f px across at the smallest\n", r.squares_min_tag_side_px);
   std::printf("UMBMark with %d cw + %d ccw: Ed to +-%.2e, Eb to +-%.2e (1 sigma, from the camera alone)\n", o.runs_per_direction,
               o.runs_per_direction, r.sigma_Ed, r.sigma_Eb);
   for (const std::string& w : r.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("wrote %s/setup_check.json and setup_check.png\n", args.out.c_str());
-  if (!r.squares_fit || !r.quality_flags.empty())
+  if (!r.squares_fit || r.squares_tag_too_small || !r.quality_flags.empty())
     Fail(kSetupCheck, kExitFailure, "this setup cannot measure the plan as it stands (warnings above)");
 }
 

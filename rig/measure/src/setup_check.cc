@@ -1,8 +1,10 @@
 #include "odocal/measure/setup_check.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -15,6 +17,7 @@
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
 #include "odocal/vision/planar_pose.h"
+#include "odocal/vision/tag.h"
 
 namespace odocal::measure {
 namespace {
@@ -224,22 +227,59 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   const Pose2 start = Pose2::FromXYHeading(mean.x(), mean.y(), mean.z());
   const Pose2 T_robot_tag = Pose2::FromXYHeading(options.tag.offset_x_mm * kMmToM, options.tag.offset_y_mm * kMmToM, 0.0);
   const double L = options.square_side_m;
+  // The tag's shortest side in the image with the robot at `robot`.
+  const Pose2 T_robot_tag_turned = T_robot_tag * Pose2::FromXYHeading(0.0, 0.0, DegToRad(options.tag.yaw_deg));
+  const auto tag_side_px = [&](const Pose2& robot) {
+    const Pose2 tag = robot * T_robot_tag_turned;
+    std::array<Eigen::Vector2d, 4> px;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d w = tag * vision::TagCornersInTag(options.tag.size_m())[k];
+      const auto p = camera.ProjectWorld(Eigen::Vector3d(w.x(), w.y(), options.tag.height_m()));
+      if (!p) return 0.0;
+      px[k] = *p;
+    }
+    double side = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 4; ++k) side = std::min(side, (px[(k + 1) % 4] - px[k]).norm());
+    return side;
+  };
   r.squares_fit = true;
+  r.squares_min_tag_side_px = std::numeric_limits<double>::infinity();
   for (int d = 0; d < 2; ++d) {
     const double turn = d == 0 ? -M_PI / 2 : M_PI / 2;  // cw turns right
     Pose2 pose = start;
     for (int side = 0; side < 4; ++side) {
       r.squares[d].push_back(pose.translation());
       pose = pose * Pose2::FromXYHeading(L, 0.0, 0.0);
-      for (const Pose2& at : {pose, pose * Pose2::FromXYHeading(0.0, 0.0, turn)})
-        if (!Inside(r.view_polygon, (at * T_robot_tag).translation())) r.squares_fit = false;
+      for (const Pose2& at : {pose, pose * Pose2::FromXYHeading(0.0, 0.0, turn)}) {
+        if (!Inside(r.view_polygon, (at * T_robot_tag).translation())) {
+          r.squares_fit = false;
+          continue;
+        }
+        const double px = tag_side_px(at);
+        if (px < r.squares_min_tag_side_px) {
+          r.squares_min_tag_side_px = px;
+          r.squares_min_tag_side_at = at.translation();
+        }
+      }
       pose = pose * Pose2::FromXYHeading(0.0, 0.0, turn);
     }
   }
+  if (!std::isfinite(r.squares_min_tag_side_px)) r.squares_min_tag_side_px = 0.0;
   if (!r.squares_fit)
     r.warnings.push_back(Format("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
                              "camera's view: move the robot, shrink the square, or raise the camera",
                              L * kMToMm));
+  if (r.squares_min_tag_side_px > 0.0 && r.squares_min_tag_side_px < kSmallTagSidePx) {
+    r.squares_tag_too_small = r.squares_min_tag_side_px < kTooSmallTagSidePx;
+    r.warnings.push_back(Format(
+        "at the squares' corner at (%.0f, %.0f) mm the tag is %.0f px across (%.0f px where it stands): %s; "
+        "keep the squares nearer the middle of the view, or use a larger tag",
+        r.squares_min_tag_side_at.x() * kMToMm, r.squares_min_tag_side_at.y() * kMToMm, r.squares_min_tag_side_px,
+        r.quality.side_px,
+        r.squares_tag_too_small ? "too small to be measured there (its cells under 2 px)"
+                                : "below ~32 px its corners carry several times the error (a wide lens shrinks a "
+                                  "tag towards the rim of its view)"));
+  }
 
   // Ed and Eb: UMBMark's coupled fit on return errors drawn with the
   // predicted sigmas, as often as the plan repeats the squares.

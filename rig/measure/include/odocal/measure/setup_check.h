@@ -113,12 +113,27 @@ struct SetupCheckResult {
   std::array<std::vector<Eigen::Vector2d>, 2> squares;
   bool squares_fit = false;
   double view_width_m = 0.0, view_depth_m = 0.0;  // of the polygon's bounding box
+  // The tag's shortest side in the image (px) at the squares' corners, as
+  // the robot arrives and leaves, and where (world, m, the axle): a wide
+  // lens shrinks a tag towards the rim of its view (a 190-degree fisheye to
+  // half its centre's size at 55 degrees off the axis). Below
+  // kSmallTagSidePx a warning; below kTooSmallTagSidePx the rests there are
+  // not measured and the plan cannot be (`squares_tag_too_small`).
+  double squares_min_tag_side_px = 0.0;
+  Eigen::Vector2d squares_min_tag_side_at = Eigen::Vector2d::Zero();
+  bool squares_tag_too_small = false;
   // Predicted 1-sigma of UMBMark's coupled Ed and Eb for the plan.
   double sigma_Ed = 0.0, sigma_Eb = 0.0;
   // The last refined frame and its corners (for the annotated image).
   cv::Mat last_frame;
   std::optional<vision::TagCorners> last_corners;
 };
+
+// A tag this narrow (px) carries several times the corner error of a
+// 60 px one (docs/vision.md, "Small tags"); one narrower is not measured
+// (its cells under 2 px, vision::CornerRefineOptions::min_cell_px).
+inline constexpr double kSmallTagSidePx = 32.0;
+inline constexpr double kTooSmallTagSidePx = 16.0;
 
 SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCheckOptions& options);
 

@@ -42,8 +42,8 @@ bool RestOptions::IsValid(std::string* why) const {
     return false;
   };
   if (!(window_s > 0.0)) return fail("window_s must be positive");
-  if (position_tolerance_m < 0.0 || heading_tolerance_rad < 0.0)
-    return fail("tolerances must not be negative");
+  if (!(position_tolerance_m >= 0.0)) return fail("position_tolerance_m must not be negative");
+  if (!(heading_tolerance_rad >= 0.0)) return fail("heading_tolerance_rad must not be negative");
   if (!(min_duration_s >= 0.0)) return fail("min_duration_s must not be negative");
   if (!(max_gap_s >= 0.0)) return fail("max_gap_s must not be negative");
   return true;

@@ -67,8 +67,10 @@ TEST(ReplayOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
 TEST(RestOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
   ExpectValidAndEachEditRejected<RestOptions>({},
                                               {{[](RestOptions* o) { o->window_s = 0.0; }, "window_s must be positive"},
-                                               {[](RestOptions* o) { o->position_tolerance_m = -1e-3; }, "tolerances"},
-                                               {[](RestOptions* o) { o->heading_tolerance_rad = -1e-3; }, "tolerances"},
+                                               {[](RestOptions* o) { o->position_tolerance_m = -1e-3; }, "position_tolerance_m"},
+                                               {[](RestOptions* o) { o->position_tolerance_m = kNaN; }, "position_tolerance_m"},
+                                               {[](RestOptions* o) { o->heading_tolerance_rad = -1e-3; }, "heading_tolerance_rad"},
+                                               {[](RestOptions* o) { o->heading_tolerance_rad = kNaN; }, "heading_tolerance_rad"},
                                                {[](RestOptions* o) { o->min_duration_s = -1.0; }, "min_duration_s"},
                                                {[](RestOptions* o) { o->max_gap_s = kNaN; }, "max_gap_s"}});
 }

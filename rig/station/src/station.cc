@@ -975,7 +975,16 @@ bool StationOptions::IsValid(std::string* why) const {
   if (rest_frames < 2) return fail("rest_frames must be at least 2");
   if (!(min_rest_found_fraction > 0.0 && min_rest_found_fraction <= 1.0))
     return fail("min_rest_found_fraction must be in (0, 1]");
-  if (rest_flush_frames < 0 || settle_s < 0.0) return fail("rest_flush_frames and settle_s must not be negative");
+  if (rest_flush_frames < 0) return fail("rest_flush_frames must not be negative");
+  if (!(settle_s >= 0.0) || !std::isfinite(settle_s)) return fail("settle_s must be a number, not negative");
+  if (max_plane_views < 1) return fail("max_plane_views must be at least 1");
+  if (edge_shift_frames < 0) return fail("edge_shift_frames must not be negative (0: off)");
+  if (!(min_view_separation_px >= 0.0)) return fail("min_view_separation_px must not be negative");
+  if (!(motion_threshold_px > 0.0)) return fail("motion_threshold_px must be positive");
+  if (!(still_px > 0.0)) return fail("still_px must be positive");
+  if (!(still_s > 0.0)) return fail("still_s must be positive");
+  if (start_timeout.count() <= 0) return fail("start_timeout must be positive");
+  if (!(turn_slip_sigmas > 0.0)) return fail("turn_slip_sigmas must be positive");
   if (run_timeout.count() <= 0) return fail("run_timeout must be positive");
   if (poll_interval.count() < 0) return fail("poll_interval must not be negative");
   if (!(converge_sigmas > 0.0)) return fail("converge_sigmas must be positive");

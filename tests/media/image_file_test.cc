@@ -87,7 +87,7 @@ TEST_F(ImageFile, TenAndTwelveBitSensorsInSixteenBitFilesReachFullScale) {
       {"ten_bit.png", {0, 4, 511, 512, 1000, 1023}, 1023.0, "read as a 10-bit sensor"},
       {"twelve_bit.tiff", {0, 700, 1400, 4095}, 4095.0, "read as a 12-bit sensor"},
       // At most 255: read as 8 bits, each value its own level.
-      {"eight_bit_in_sixteen.png", {0, 17, 200, 255}, 255.0, "read as a 8-bit sensor"},
+      {"eight_bit_in_sixteen.png", {0, 17, 200, 255}, 255.0, "read as an 8-bit sensor"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

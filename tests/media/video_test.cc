@@ -124,6 +124,7 @@ TEST_F(Video, ReaderNamesAFileItCannotRead) {
     EXPECT_THAT(s.message, HasSubstr("'" + Path(name) + "'"));
     cv::Mat frame;
     EXPECT_FALSE(reader.Read(&frame)) << name;
+    if (name == "empty_dir") EXPECT_THAT(s.message, HasSubstr("is a directory, not a video file"));
   }
 }
 

@@ -23,7 +23,8 @@ GreyImage ReadGreyImage(const std::string& path) {
     int bits = 8;
     while (bits < 16 && max_value > std::ldexp(1.0, bits) - 1.0) ++bits;
     scale = 255.0 / (std::ldexp(1.0, bits) - 1.0);
-    std::snprintf(what, sizeof(what), "16-bit file, values up to %.0f: read as a %d-bit sensor", max_value, bits);
+    std::snprintf(what, sizeof(what), "16-bit file, values up to %.0f: read as %s %d-bit sensor", max_value,
+                  bits == 8 || bits == 11 ? "an" : "a", bits);
   } else {
     scale = max_value <= 1.0 ? 255.0 : 255.0 / max_value;
     std::snprintf(what, sizeof(what), "floating-point file, values up to %.4g: scaled by %.4g", max_value, scale);

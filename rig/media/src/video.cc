@@ -201,6 +201,8 @@ Status VideoReader::Open(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec))
     return Status::Error(StatusCode::kNotFound, "video file '" + path + "' does not exist");
+  if (std::filesystem::is_directory(path, ec))
+    return Status::Error(StatusCode::kBadFile, "'" + path + "' is a directory, not a video file");
   if (std::filesystem::file_size(path, ec) == 0 || ec) {
     return Status::Error(StatusCode::kBadFile, "video file '" + path + "' is empty");
   }

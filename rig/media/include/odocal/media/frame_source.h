@@ -36,7 +36,8 @@ class FrameSource {
 // Frames are stamped with the host's steady clock.
 class CaptureSource final : public FrameSource {
  public:
-  // nullptr with `*error` when the camera cannot be opened or gives no frame.
+  // nullptr with `*error` when the camera cannot be opened. One that opens
+  // but delivers nothing fails at the first Grab, which names it.
   static std::unique_ptr<CaptureSource> Open(const std::string& device, std::string* error);
   std::optional<CameraFrame> Grab(std::string* error) override;
   std::string Describe() const override { return "camera " + device_; }

@@ -9,7 +9,7 @@
 #include "odocal/vision/edge_quality.h"
 
 #include "corner_geometry.h"
-#include "odocal/vision/internal/edge_functions.h"
+#include "odocal/vision/internal/edge_costs.h"
 
 namespace odocal::vision {
 
@@ -44,44 +44,6 @@ constexpr int kEdgeParams = 4;
 constexpr int kSharedParams = 4;
 
 using BandPixels = internal::EdgeBandSamples;
-
-class ModelFreeCost {
- public:
-  explicit ModelFreeCost(const BandPixels* pixels) : pixels_(pixels) {}
-  template <typename T>
-  bool operator()(const T* const p, const T* const shared, T* residual) const {
-    using std::cos;
-    using std::exp;
-    using std::log;
-    using std::sin;
-    const T nx = cos(p[0]), ny = sin(p[0]);
-    const T s1 = exp(shared[0]), s2 = exp(shared[1]);
-    const T w = shared[2];
-    const T inv_gamma = exp(-shared[3]);
-    using std::sqrt;
-    for (size_t i = 0; i < pixels_->value.size(); ++i) {
-      const cv::Point2d& q = pixels_->undistorted[i];
-      // Distance and normal in the image, where the pixel is a unit square
-      // (edge_model_refine.cc): the line is the undistorted plane's.
-      const cv::Vec4d& J = pixels_->jacobian[i];
-      const T gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
-      const T g = sqrt(gx * gx + gy * gy);
-      const T d = (nx * q.x + ny * q.y - p[1]) / g;
-      const T mx = gx / g, my = gy / g;
-      const T spread = (1.0 - w) * internal::PixelEdgeFraction(d, mx, my, s1) +
-                       w * internal::PixelEdgeFraction(d, mx, my, s2);
-      T linear = p[2] + p[3] * spread;
-      // The tone curve is defined for positive light only; a fit straying
-      // below zero is pulled back by the residual, not by a NaN.
-      if (linear < T(1e-3)) linear = T(1e-3);
-      residual[i] = 255.0 * exp(inv_gamma * log(linear / 255.0)) - pixels_->value[i];
-    }
-    return true;
-  }
-
- private:
-  const BandPixels* pixels_;
-};
 
 struct EdgeBand {
   BandPixels pixels;
@@ -145,10 +107,7 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
   ceres::Problem problem;
   for (int k = 0; k < 4; ++k) {
     std::copy(bands[k].start, bands[k].start + kEdgeParams, p[k].begin());
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<ModelFreeCost, ceres::DYNAMIC, kEdgeParams, kSharedParams>(
-            new ModelFreeCost(&bands[k].pixels), static_cast<int>(bands[k].pixels.value.size())),
-        nullptr, p[k].data(), shared);
+    problem.AddResidualBlock(new internal::ModelFreeCost(&bands[k].pixels), nullptr, p[k].data(), shared);
   }
   // Widths from a fifth of a pixel (a sharp lens still integrates over the
   // pixel) to beyond any usable blur; the mixture weight allows an overshoot
@@ -192,9 +151,7 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
     const size_t m = bands[k].pixels.value.size();
     std::vector<double> r(m);
     double* blocks[] = {p[k].data(), shared};
-    ceres::AutoDiffCostFunction<ModelFreeCost, ceres::DYNAMIC, kEdgeParams, kSharedParams> cost(
-        new ModelFreeCost(&bands[k].pixels), static_cast<int>(m));
-    cost.Evaluate(blocks, r.data(), nullptr);
+    internal::ModelFreeCost(&bands[k].pixels).Evaluate(blocks, r.data(), nullptr);
     double sq = 0.0;
     for (double v : r) sq += v * v;
     q.rms_residual_grey = std::max(q.rms_residual_grey, std::sqrt(sq / m));

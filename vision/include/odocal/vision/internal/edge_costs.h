@@ -1,10 +1,11 @@
-// The two per-pixel least-squares costs of the edge models, with their
+// The per-pixel least-squares costs of the edge models, with their
 // derivatives in closed form: the exact edge model that places each edge of a
-// tag (edge_model_refine.cc) and the edge shift measured in a tag's pattern
-// (edge_shift.cc). They are evaluated at every pixel of every band for every
-// iteration, most of an aprilgrid frame's time; Ceres' autodiff carried Jets
-// of 6 and 4 through the closed forms (edge_functions.h), the hand-written
-// derivatives below cost a third of that. edge_costs_test checks them against
+// tag (edge_model_refine.cc), the PSF- and tone-free one that measures the
+// robot's tag at rest (model_free_refine.cc) and the edge shift measured in a
+// tag's pattern (edge_shift.cc). They are evaluated at every pixel of every
+// band for every iteration, most of an aprilgrid frame's time and of a
+// session's measurement; Ceres' autodiff carried Jets of 6, 8 and 4 through
+// the closed forms (edge_functions.h). edge_costs_test checks them against
 // central differences of the residuals. Not part of the public surface (here
 // so that tests can check them): names and shapes may change with the models.
 #ifndef ODOCAL_VISION_INTERNAL_EDGE_COSTS_H_
@@ -46,6 +47,20 @@ struct EdgeBandSamples {
 class EdgeModelCost final : public ceres::CostFunction {
  public:
   explicit EdgeModelCost(const EdgeBandSamples* pixels);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  const EdgeBandSamples* pixels_;
+};
+
+// The PSF- and tone-free edge model (model_free_refine.cc, edge_quality.h):
+// pixel i's residual 255 (linear_i / 255)^(1 / gamma) - value_i, linear_i =
+// a + b ((1 - w) F(s1) + w F(s2)) with F the pixel's mean of a blurred step
+// of spread s across the line n(theta) . q = c. Parameter blocks: the
+// edge's (theta, c, a, b) and the tag's shared (log s1, log s2, w, log gamma).
+class ModelFreeCost final : public ceres::CostFunction {
+ public:
+  explicit ModelFreeCost(const EdgeBandSamples* pixels);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:

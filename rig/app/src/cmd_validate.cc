@@ -95,6 +95,13 @@ void RegisterValidateCommand(CLI::App& app) {
              args->manual + ":" + std::to_string(r.line) + ": run '" + r.run + "' is not in " +
                  args->session + " (its runs: " + run_names + ")");
 
+    // Too few readings for any statistics: said before the videos are
+    // measured (a minute for a session's worth of 1080p).
+    if (readings->size() < 3)
+      Fail(name, kExitFailure,
+           "fewer than 3 readings in " + args->manual + ": no agreement statistics (" +
+               std::to_string(readings->size()) + " given)");
+
     measure::MeasureOptions options;
     options.threads = args->threads;
     const auto measured =

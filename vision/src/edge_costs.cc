@@ -26,9 +26,9 @@ EdgeModelCost::EdgeModelCost(const EdgeBandSamples* pixels) : pixels_(pixels) {
 namespace {
 
 // A pixel's mean of the blurred step, fraction(u, w1, w2) (edge_costs.h's
-// EdgeModelCost), with its derivatives by u, w1 and w2. The arithmetic of
-// edge_functions.h's PixelEdgeFraction, so the residuals are the autodiff
-// versions' to the last bit.
+// EdgeModelCost), with its derivatives by u, w1 and w2. The same arithmetic
+// as the autodiff costs these replaced, so the residuals are theirs to the
+// last bit.
 struct PixelFraction {
   double f, f_u, f_w1, f_w2;
 };

@@ -1,7 +1,8 @@
-// The closed forms of a pixel-integrated, Gaussian-blurred straight edge,
-// shared by the exact edge model (edge_model_refine.cc), the PSF- and
-// tone-free one (model_free_refine.cc) and the edge shift (edge_shift.cc).
-// Templates for Ceres' Jets. Not part of the public surface (here so that
+// The closed forms of a pixel-integrated, Gaussian-blurred straight edge:
+// the normal's CDF and density and their first and second antiderivatives G
+// and H, on doubles for the edge models' costs (edge_costs.h: a pixel's mean
+// of a blurred step is four H over its two box widths) and on Ceres' Jets
+// for the whole-tag pattern fit (edge_shift.cc). Not part of the public surface (here so that
 // tests can check them): the names and shapes may change with the models.
 #ifndef ODOCAL_VISION_INTERNAL_EDGE_FUNCTIONS_H_
 #define ODOCAL_VISION_INTERNAL_EDGE_FUNCTIONS_H_
@@ -90,23 +91,6 @@ ceres::Jet<double, N> H(const ceres::Jet<double, N>& z) {
   const Normal n = NormalAt(z.a);
   const double g = z.a * n.cdf + n.pdf;
   return ceres::Jet<double, N>(0.5 * ((z.a * z.a + 1.0) * n.cdf + z.a * n.pdf), g * z.v);
-}
-
-// Mean over a pixel of Phi(d / s) for an edge with unit normal (nx, ny), the
-// pixel centre at signed distance d: the pixel square projects on the normal
-// as the convolution of two boxes of widths |nx| and |ny|.
-template <typename T>
-T PixelEdgeFraction(const T& d, const T& nx, const T& ny, const T& s) {
-  using std::abs;
-  const T u = d / s;
-  const T w1 = abs(nx) / s, w2 = abs(ny) / s;
-  if (w2 < 1e-3 || w1 < 1e-3) {
-    const T w = w1 < 1e-3 ? w2 : w1;  // a single box
-    return (G(u + 0.5 * w) - G(u - 0.5 * w)) / w;
-  }
-  return (H(u + 0.5 * w1 + 0.5 * w2) - H(u + 0.5 * w1 - 0.5 * w2) - H(u - 0.5 * w1 + 0.5 * w2) +
-          H(u - 0.5 * w1 - 0.5 * w2)) /
-         (w1 * w2);
 }
 
 }  // namespace odocal::vision::internal

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "media_fixtures.h"
+#include "media_test.h"
 #include "odocal/test_util/test_util.h"
 
 namespace odocal::media {
@@ -19,14 +20,7 @@ namespace {
 using ::testing::HasSubstr;
 using namespace odocal::testing;  // the clip
 
-class CaptureSourceTest : public ::testing::Test {
- protected:
-  void SetUp() override { dir_ = test_util::MakeTempDir("odocal_media_capture_"); }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
-
-  std::string dir_;
-};
+class CaptureSourceTest : public odocal::testing::MediaTest {};
 
 TEST_F(CaptureSourceTest, AVideoFileIsACameraOfGreyFramesOnTheHostClock) {
   const std::string path = Path("square.mp4");

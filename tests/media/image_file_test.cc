@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "media_test.h"
 #include "odocal/test_util/test_util.h"
 
 namespace odocal::media {
@@ -20,14 +21,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-class ImageFile : public ::testing::Test {
- protected:
-  void SetUp() override { dir_ = test_util::MakeTempDir("odocal_media_image_"); }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
-
-  std::string dir_;
-};
+class ImageFile : public odocal::testing::MediaTest {};
 
 // A one-row image holding `values` at depth T.
 template <typename T>

@@ -15,6 +15,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "media_fixtures.h"
+#include "media_test.h"
 #include "odocal/test_util/test_util.h"
 
 namespace odocal::media {
@@ -23,14 +24,7 @@ namespace {
 using ::testing::HasSubstr;
 using namespace odocal::testing;  // the clip
 
-class Video : public ::testing::Test {
- protected:
-  void SetUp() override { dir_ = test_util::MakeTempDir("odocal_media_video_"); }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string Path(const std::string& name) const { return dir_ + "/" + name; }
-
-  std::string dir_;
-};
+class Video : public odocal::testing::MediaTest {};
 
 TEST_F(Video, ReaderGivesEveryFrameOfAnH264ClipAsGreyWithinCodecTolerance) {
   const std::string path = Path("square.mp4");
@@ -124,7 +118,9 @@ TEST_F(Video, ReaderNamesAFileItCannotRead) {
     EXPECT_THAT(s.message, HasSubstr("'" + Path(name) + "'"));
     cv::Mat frame;
     EXPECT_FALSE(reader.Read(&frame)) << name;
-    if (name == "empty_dir") EXPECT_THAT(s.message, HasSubstr("is a directory, not a video file"));
+    if (name == "empty_dir") {
+      EXPECT_THAT(s.message, HasSubstr("is a directory, not a video file"));
+    }
   }
 }
 

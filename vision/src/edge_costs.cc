@@ -61,6 +61,25 @@ PixelFraction FractionOfPixel(double u, double w1, double w2) {
   return out;
 }
 
+// The line's normal n = (cos theta, sin theta) as the image sees it at a
+// pixel with J = d undistorted / d pixel: J^T n, its length g, and their
+// derivatives by theta.
+struct ImageNormal {
+  double gx, gy, g;
+  double dgx, dgy, dg;
+};
+
+ImageNormal NormalInImage(const cv::Vec4d& J, double nx, double ny) {
+  ImageNormal m{};
+  m.gx = J[0] * nx + J[2] * ny;
+  m.gy = J[1] * nx + J[3] * ny;
+  m.g = std::sqrt(m.gx * m.gx + m.gy * m.gy);
+  m.dgx = -J[0] * ny + J[2] * nx;
+  m.dgy = -J[1] * ny + J[3] * nx;
+  m.dg = (m.gx * m.dgx + m.gy * m.dgy) / m.g;
+  return m;
+}
+
 }  // namespace
 
 bool EdgeModelCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
@@ -72,9 +91,8 @@ bool EdgeModelCost::Evaluate(double const* const* parameters, double* residuals,
   double* js = jacobians != nullptr ? jacobians[1] : nullptr;
   for (size_t i = 0; i < pixels_->value.size(); ++i) {
     const cv::Point2d& q = pixels_->undistorted[i];
-    const cv::Vec4d& J = pixels_->jacobian[i];
-    const double gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
-    const double g = std::sqrt(gx * gx + gy * gy);
+    const ImageNormal m = NormalInImage(pixels_->jacobian[i], nx, ny);
+    const double gx = m.gx, gy = m.gy, g = m.g;
     const double w1 = std::abs(gx) / (g * s), w2 = std::abs(gy) / (g * s);
     const double polarity = pixels_->polarity.empty() ? 1.0 : pixels_->polarity[i];
     const double u = (nx * q.x + ny * q.y - p[1] - polarity * shift * g) / (g * s);
@@ -82,9 +100,8 @@ bool EdgeModelCost::Evaluate(double const* const* parameters, double* residuals,
     if (polarity < 0) f = {1.0 - f.f, -f.f_u, -f.f_w1, -f.f_w2};
     residuals[i] = p[2] + p[3] * f.f - pixels_->value[i];
     if (jp == nullptr && js == nullptr) continue;
-    // d / d theta of n, J^T n, g; then of u, w1, w2.
-    const double dgx = -J[0] * ny + J[2] * nx, dgy = -J[1] * ny + J[3] * nx;
-    const double dg = (gx * dgx + gy * dgy) / g;
+    // d / d theta of u, w1, w2.
+    const double dgx = m.dgx, dgy = m.dgy, dg = m.dg;
     const double u_theta = ((-ny * q.x + nx * q.y - polarity * shift * dg) / (g * s)) - u * dg / g;
     const double w1_theta = (gx < 0 ? -dgx : dgx) / (g * s) - w1 * dg / g;
     const double w2_theta = (gy < 0 ? -dgy : dgy) / (g * s) - w2 * dg / g;
@@ -125,9 +142,8 @@ bool ModelFreeCost::Evaluate(double const* const* parameters, double* residuals,
   double* js = jacobians != nullptr ? jacobians[1] : nullptr;
   for (size_t i = 0; i < pixels_->value.size(); ++i) {
     const cv::Point2d& q = pixels_->undistorted[i];
-    const cv::Vec4d& J = pixels_->jacobian[i];
-    const double gx = J[0] * nx + J[2] * ny, gy = J[1] * nx + J[3] * ny;
-    const double g = std::sqrt(gx * gx + gy * gy);
+    const ImageNormal m = NormalInImage(pixels_->jacobian[i], nx, ny);
+    const double gx = m.gx, gy = m.gy, g = m.g;
     const double d = (nx * q.x + ny * q.y - p[1]) / g;
     const double mx = gx / g, my = gy / g;
     PixelFraction f[2];
@@ -148,8 +164,7 @@ bool ModelFreeCost::Evaluate(double const* const* parameters, double* residuals,
     if (jp == nullptr && js == nullptr) continue;
     const double r_linear = held ? 0.0 : inv_gamma * encoded / linear;
     // d / d theta of d, m_x, m_y.
-    const double dgx = -J[0] * ny + J[2] * nx, dgy = -J[1] * ny + J[3] * nx;
-    const double dg = (gx * dgx + gy * dgy) / g;
+    const double dgx = m.dgx, dgy = m.dgy, dg = m.dg;
     const double d_theta = (-ny * q.x + nx * q.y) / g - d * dg / g;
     const double mx_theta = dgx / g - mx * dg / g, my_theta = dgy / g - my * dg / g;
     const double weight[2] = {1.0 - w, w};

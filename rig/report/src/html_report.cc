@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
 
 #include "odocal/report/json.h"
 #include "svg_plot.h"
@@ -376,9 +377,16 @@ std::string ReportHtml(const json& report, const std::string& title) {
       os << "</table>\n<p>Decided by: " << Escape(c.value("basis", std::string())) << "</p>\n";
     }
   }
-  for (const char* k : {"corrected", "robot_params_final", "ros2", "truth", "quality"})
-    if (report.contains(k) && report[k].is_object())
-      os << "<h2>" << k << "</h2>\n" << KeyValueTable(report[k]);
+  // Each block under a heading in words, its report.json key beside it.
+  static constexpr std::pair<const char*, const char*> kBlocks[] = {
+      {"corrected", "Corrected parameters"},
+      {"robot_params_final", "The robot's parameters at the end"},
+      {"ros2", "ROS 2 wheel multipliers"},
+      {"truth", "The simulation's truth"},
+      {"quality", "Quality"}};
+  for (const auto& [key, heading] : kBlocks)
+    if (report.contains(key) && report[key].is_object())
+      os << "<h2>" << heading << " <small><code>" << key << "</code></small></h2>\n" << KeyValueTable(report[key]);
   if (report.contains("notes") && report["notes"].is_array() && !report["notes"].empty()) {
     os << "<h2>Notes</h2><ul>";
     for (const json& n : report["notes"]) os << "<li>" << ScalarCell(n) << "</li>";

@@ -346,8 +346,8 @@ TEST_P(LinkEmulated, PowerCutsAtRandomInstantsOfAPush) {
   // cuts before the write (old set, image as it was), during it (old set, the
   // new record half written) and after it (new set). A push's timing varies
   // by some milliseconds from one process to the next; the margins cover it.
-  const int from_ms = std::max(0, ms(*write_begin) - 40), to_ms = ms(*write_end) + 40;
-  std::uniform_int_distribution<int> at(from_ms, to_ms);
+  int from_ms = std::max(0, ms(*write_begin) - 40), to_ms = ms(*write_end) + 40;
+  const int watched_from_ms = from_ms, watched_to_ms = to_ms;
   int old_count = 0, new_count = 0, wrong = 0, torn = 0, cuts = 0;
   // `kills` cuts, and more (up to three times as many) until one lands in
   // the write: on a loaded machine (the suite's other test beside it) a
@@ -356,7 +356,7 @@ TEST_P(LinkEmulated, PowerCutsAtRandomInstantsOfAPush) {
   for (int i = 0; i < kills || (torn == 0 && i < 3 * kills); ++i) {
     ++cuts;
     const ParamSet next = NthSet(rng);
-    const int cut_ms = at(rng);
+    const int cut_ms = std::uniform_int_distribution<int>(from_ms, to_ms)(rng);
     const std::string before = test_util::Slurp(image_);
     std::thread push([&] { RunCommand(Robot(PushArgs(next), port())); });
     std::this_thread::sleep_for(std::chrono::milliseconds(cut_ms));
@@ -365,21 +365,29 @@ TEST_P(LinkEmulated, PowerCutsAtRandomInstantsOfAPush) {
     const bool image_changed = test_util::Slurp(image_) != before;
     Boot();
     const ParamSet held = GetSet(port());
+    // The window follows what the cuts find (a loaded machine moves the
+    // write by more than the margins, all one way, while this runs): a cut
+    // after the write (the new set held) pulls the window's end before it,
+    // one before the write (the old set, the image untouched) its start
+    // after it; a window that closes opens again around the last cut.
     if (held.SameBits(current)) {
       ++old_count;
       torn += image_changed;  // the new record was being written when the power went
+      if (!image_changed) from_ms = cut_ms + 1;
     } else if (held.SameBits(next)) {
       ++new_count;
       current = next;
+      to_ms = cut_ms - 1;
     } else {
       ++wrong;
       ADD_FAILURE() << "cut " << i << " at " << cut_ms << " ms booted " << held;
     }
+    if (from_ms >= to_ms) from_ms = std::max(0, cut_ms - 40), to_ms = cut_ms + 40;
   }
-  std::printf("[emulated %s] %d power cuts at %d..%d ms of a push (storage written at %d..%d ms): "
-              "%d old set (%d of them with the new record half written), %d new set, %d mixed\n",
-              GetParam().name.c_str(), cuts, from_ms, to_ms, ms(*write_begin), ms(*write_end),
-              old_count, torn, new_count, wrong);
+  std::printf("[emulated %s] %d power cuts from %d..%d ms of a push, ending at %d..%d ms (storage written at "
+              "%d..%d ms): %d old set (%d of them with the new record half written), %d new set, %d mixed\n",
+              GetParam().name.c_str(), cuts, watched_from_ms, watched_to_ms, from_ms, to_ms, ms(*write_begin),
+              ms(*write_end), old_count, torn, new_count, wrong);
   EXPECT_EQ(wrong, 0);
   EXPECT_GT(torn, 0) << "no cut landed while the new record was being written";
 }

@@ -83,10 +83,13 @@ std::string_view ErrorName(uint8_t e) {
 }
 
 bool ClientOptions::IsValid(std::string* why) const {
-  if (reply_timeout.count() <= 0 || max_attempts < 1 || status_poll_interval.count() <= 0) {
-    if (why) *why = "reply_timeout and status_poll_interval must be positive, max_attempts >= 1";
+  const auto fail = [why](const char* what) {
+    if (why) *why = what;
     return false;
-  }
+  };
+  if (reply_timeout.count() <= 0) return fail("reply_timeout must be positive");
+  if (max_attempts < 1) return fail("max_attempts must be at least 1");
+  if (status_poll_interval.count() <= 0) return fail("status_poll_interval must be positive");
   return true;
 }
 

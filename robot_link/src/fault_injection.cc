@@ -1,15 +1,20 @@
 #include "odocal/robot_link/fault_injection.h"
 
 #include <cassert>
+#include <string>
 #include <thread>
+#include <utility>
 
 namespace odocal::robot_link {
 
 bool FaultOptions::IsValid(std::string* why) const {
-  for (double p : {corrupt_probability, drop_probability, duplicate_probability,
-                   delay_probability}) {
+  const std::pair<const char*, double> probabilities[] = {{"corrupt_probability", corrupt_probability},
+                                                          {"drop_probability", drop_probability},
+                                                          {"duplicate_probability", duplicate_probability},
+                                                          {"delay_probability", delay_probability}};
+  for (const auto& [name, p] : probabilities) {
     if (!(p >= 0.0 && p <= 1.0)) {
-      if (why) *why = "fault probabilities must be in [0, 1]";
+      if (why) *why = std::string(name) + " must be in [0, 1] (a fault probability)";
       return false;
     }
   }

@@ -30,10 +30,10 @@ TEST(ClientOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
 
 TEST(FaultOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
   ExpectValidAndEachEditRejected<FaultOptions>(
-      {}, {{[](FaultOptions* o) { o->corrupt_probability = 1.5; }, "probabilities must be in [0, 1]"},
-           {[](FaultOptions* o) { o->drop_probability = -0.1; }, "probabilities"},
-           {[](FaultOptions* o) { o->duplicate_probability = kNaN; }, "probabilities"},
-           {[](FaultOptions* o) { o->delay_probability = 2.0; }, "probabilities"},
+      {}, {{[](FaultOptions* o) { o->corrupt_probability = 1.5; }, "corrupt_probability must be in [0, 1]"},
+           {[](FaultOptions* o) { o->drop_probability = -0.1; }, "drop_probability"},
+           {[](FaultOptions* o) { o->duplicate_probability = kNaN; }, "duplicate_probability"},
+           {[](FaultOptions* o) { o->delay_probability = 2.0; }, "delay_probability"},
            {[](FaultOptions* o) { o->delay = -1ms; }, "delay"}});
 }
 

@@ -4,17 +4,24 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace odocal::vision {
 
 bool CornerRefineOptions::IsValid(std::string* why) const {
-  if (!(sample_step_px > 0.0) || !(end_margin >= 0.0 && end_margin < 0.5) ||
-      !(max_half_width_px > 0.5) || !(min_cell_px > 0.0) || width_at_border < 3 ||
-      !edge_model_solver.IsValid(nullptr) || !model_free_solver.IsValid(nullptr)) {
-    if (why) *why = "corner refinement options out of range";
+  const auto fail = [why](const std::string& field, const std::string& rule) {
+    if (why) *why = "corner refinement: " + field + " " + rule;
     return false;
-  }
+  };
+  if (!(sample_step_px > 0.0)) return fail("sample_step_px", "must be positive");
+  if (!(end_margin >= 0.0 && end_margin < 0.5)) return fail("end_margin", "must be in [0, 0.5)");
+  if (!(max_half_width_px > 0.5)) return fail("max_half_width_px", "must be over 0.5");
+  if (!(min_cell_px > 0.0)) return fail("min_cell_px", "must be positive");
+  if (width_at_border < 3) return fail("width_at_border", "must be at least 3");
+  std::string solver_why;
+  if (!edge_model_solver.IsValid(&solver_why)) return fail("edge_model_solver:", solver_why);
+  if (!model_free_solver.IsValid(&solver_why)) return fail("model_free_solver:", solver_why);
   return true;
 }
 

@@ -24,11 +24,15 @@
 namespace odocal::vision {
 
 bool EdgeShiftOptions::IsValid(std::string* why) const {
-  if (!(margin_cells >= 0.0 && margin_cells <= 2.0) || !(corner_cells >= 0.0) || !(min_cell_px > 0.0) ||
-      !(max_blur_cells > 0.0) || !(max_pixels >= 100.0)) {
-    if (why) *why = "edge shift options out of range";
+  const auto fail = [why](const std::string& what) {
+    if (why) *why = "edge shift options: " + what;
     return false;
-  }
+  };
+  if (!(margin_cells >= 0.0 && margin_cells <= 2.0)) return fail("margin_cells must be in [0, 2]");
+  if (!(corner_cells >= 0.0)) return fail("corner_cells must not be negative");
+  if (!(min_cell_px > 0.0)) return fail("min_cell_px must be positive");
+  if (!(max_blur_cells > 0.0)) return fail("max_blur_cells must be positive");
+  if (!(max_pixels >= 100.0)) return fail("max_pixels must be at least 100");
   return solver.IsValid(why);
 }
 

@@ -14,11 +14,15 @@
 namespace odocal::vision {
 
 bool QualityGate::IsValid(std::string* why) const {
-  if (!(min_contrast_grey >= 0.0) || !(max_blur_cells > 0.0) ||
-      !(max_saturated_fraction >= 0.0 && max_saturated_fraction <= 1.0) || !(max_relative_residual > 0.0)) {
-    if (why) *why = "quality gate out of range";
+  const auto fail = [why](const std::string& what) {
+    if (why) *why = "quality gate: " + what;
     return false;
-  }
+  };
+  if (!(min_contrast_grey >= 0.0)) return fail("min_contrast_grey must not be negative");
+  if (!(max_blur_cells > 0.0)) return fail("max_blur_cells must be positive");
+  if (!(max_saturated_fraction >= 0.0 && max_saturated_fraction <= 1.0))
+    return fail("max_saturated_fraction must be in [0, 1]");
+  if (!(max_relative_residual > 0.0)) return fail("max_relative_residual must be positive");
   return true;
 }
 

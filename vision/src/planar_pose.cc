@@ -194,13 +194,16 @@ RestCornerError EstimateRestCornerError(const std::vector<std::array<Eigen::Vect
 }
 
 bool CameraPlaneOptions::IsValid(std::string* why) const {
-  if (!solver.IsValid(nullptr) || !(huber_px >= 0.0) || min_views < 1 || !(rolling_shutter_probe_s > 0.0) ||
-      !(rolling_shutter_min_shear_px > 0.0)) {
-    if (why)
-      *why = "camera-plane options: valid solver settings, huber_px >= 0, min_views >= 1, rolling-shutter "
-             "probe and shear > 0";
+  const auto fail = [why](const std::string& what) {
+    if (why) *why = "camera-plane options: " + what;
     return false;
-  }
+  };
+  std::string solver_why;
+  if (!solver.IsValid(&solver_why)) return fail("solver: " + solver_why);
+  if (!(huber_px >= 0.0)) return fail("huber_px must not be negative");
+  if (min_views < 1) return fail("min_views must be at least 1");
+  if (!(rolling_shutter_probe_s > 0.0)) return fail("rolling_shutter_probe_s must be positive");
+  if (!(rolling_shutter_min_shear_px > 0.0)) return fail("rolling_shutter_min_shear_px must be positive");
   return true;
 }
 

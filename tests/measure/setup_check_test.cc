@@ -120,13 +120,14 @@ TEST(SetupCheck, SaysWhereAWideLensShrinksTheTagAtTheSquaresCorners) {
                 c.height_mm, side_m, check.squares_min_tag_side_px, truth, where.x() * 1e3, where.y() * 1e3, check.quality.side_px);
     EXPECT_NEAR(check.squares_min_tag_side_px, truth, 0.03 * truth);
     EXPECT_LT((check.squares_min_tag_side_at - where.translation()).norm(), 0.01);
-    EXPECT_EQ(check.squares_tag_too_small, truth < kTooSmallTagSidePx) << truth;
+    // tag36h11: 8 cells at the border.
+    EXPECT_EQ(check.squares_tag_too_small, truth < 8 * kTooSmallTagCellPx) << truth;
     const bool warned = std::any_of(check.warnings.begin(), check.warnings.end(), [](const std::string& w) {
       return w.find("px across (") != std::string::npos;
     });
     // 50-55 degrees off the axis the fisheye halves the tag's size across
     // the line of sight.
-    EXPECT_EQ(truth < kSmallTagSidePx, c.warned) << truth;
+    EXPECT_EQ(truth < 8 * kSmallTagCellPx, c.warned) << truth;
     EXPECT_EQ(warned, c.warned) << ::testing::PrintToString(check.warnings);
   }
 }

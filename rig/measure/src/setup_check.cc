@@ -256,7 +256,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
           continue;
         }
         const double px = tag_side_px(at);
-        if (px < r.squares_min_tag_side_px) {
+        if (px > 0.0 && px < r.squares_min_tag_side_px) {
           r.squares_min_tag_side_px = px;
           r.squares_min_tag_side_at = at.translation();
         }
@@ -269,16 +269,17 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
     r.warnings.push_back(Format("the planned %.0f mm squares (cw and ccw from where the robot stands) leave the "
                              "camera's view: move the robot, shrink the square, or raise the camera",
                              L * kMToMm));
-  if (r.squares_min_tag_side_px > 0.0 && r.squares_min_tag_side_px < kSmallTagSidePx) {
-    r.squares_tag_too_small = r.squares_min_tag_side_px < kTooSmallTagSidePx;
+  const double cells = vision::TagWidthAtBorder(options.tag.family);
+  if (r.squares_min_tag_side_px > 0.0 && r.squares_min_tag_side_px < kSmallTagCellPx * cells) {
+    r.squares_tag_too_small = r.squares_min_tag_side_px < kTooSmallTagCellPx * cells;
     r.warnings.push_back(Format(
         "at the squares' corner at (%.0f, %.0f) mm the tag is %.0f px across (%.0f px where it stands): %s; "
         "keep the squares nearer the middle of the view, or use a larger tag",
         r.squares_min_tag_side_at.x() * kMToMm, r.squares_min_tag_side_at.y() * kMToMm, r.squares_min_tag_side_px,
         r.quality.side_px,
         r.squares_tag_too_small ? "too small to be measured there (its cells under 2 px)"
-                                : "below ~32 px its corners carry several times the error (a wide lens shrinks a "
-                                  "tag towards the rim of its view)"));
+                                : "with cells under 4 px its corners carry several times the error (a wide lens "
+                                  "shrinks a tag towards the rim of its view)"));
   }
 
   // Ed and Eb: UMBMark's coupled fit on return errors drawn with the

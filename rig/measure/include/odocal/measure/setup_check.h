@@ -116,8 +116,8 @@ struct SetupCheckResult {
   // The tag's shortest side in the image (px) at the squares' corners, as
   // the robot arrives and leaves, and where (world, m, the axle): a wide
   // lens shrinks a tag towards the rim of its view (a 190-degree fisheye to
-  // half its centre's size at 55 degrees off the axis). Below
-  // kSmallTagSidePx a warning; below kTooSmallTagSidePx the rests there are
+  // half its centre's size at 55 degrees off the axis). With cells under
+  // kSmallTagCellPx a warning; under kTooSmallTagCellPx the rests there are
   // not measured and the plan cannot be (`squares_tag_too_small`).
   double squares_min_tag_side_px = 0.0;
   Eigen::Vector2d squares_min_tag_side_at = Eigen::Vector2d::Zero();
@@ -129,11 +129,13 @@ struct SetupCheckResult {
   std::optional<vision::TagCorners> last_corners;
 };
 
-// A tag this narrow (px) carries several times the corner error of a
-// 60 px one (docs/vision.md, "Small tags"); one narrower is not measured
-// (its cells under 2 px, vision::CornerRefineOptions::min_cell_px).
-inline constexpr double kSmallTagSidePx = 32.0;
-inline constexpr double kTooSmallTagSidePx = 16.0;
+// A tag whose cells (its side over the family's width at the border) are
+// this narrow carries several times the corner error of a 60 px tag36h11
+// (docs/vision.md, "Small tags"); one with narrower cells is not measured
+// (vision::CornerRefineOptions::min_cell_px). A tag36h11 (8 cells): 32 and
+// 16 px; Kalibr's tag36h11b2 (10): 40 and 20 px.
+inline constexpr double kSmallTagCellPx = 4.0;
+inline constexpr double kTooSmallTagCellPx = 2.0;
 
 SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCheckOptions& options);
 

@@ -96,7 +96,7 @@ void RegisterValidateCommand(CLI::App& app) {
                  args->session + " (its runs: " + run_names + ")");
 
     // Too few readings for any statistics: said before the videos are
-    // measured (a minute for a session's worth of 1080p).
+    // measured (most of validate's time).
     if (readings->size() < 3)
       Fail(name, kExitFailure,
            "fewer than 3 readings in " + args->manual + ": no agreement statistics (" +

@@ -38,8 +38,8 @@ struct TagSurveyOptions {
   // The exact edge model (RefineTagCornersByEdgeModel) with each corner's
   // sigma; off: libapriltag's corners, no sigma.
   bool refine = true;
-  // Tags (by id) left as libapriltag found them, not refined: a board's,
-  // which DetectBoard refines its own way (detect --board).
+  // Tags (by id) left as libapriltag found them, not refined: e.g. a
+  // board's, which DetectBoard refines its own way.
   std::set<int> not_refined;
   // libapriltag's candidate quads (apriltag_quad_thresh, the library's own
   // first stage) that no tag was decoded from.

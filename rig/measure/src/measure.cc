@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -371,6 +372,19 @@ vision::CameraMount LevelMountFromTagSize(const vision::Intrinsics& intrinsics, 
   return level;
 }
 
+// Whether two observations give a refinement the same input: the same crop
+// pixels at the same place, the same starting corners and cell count.
+bool SameRefinementInput(const vision::FrameObservation& a, const vision::FrameObservation& b) {
+  if (a.crop_origin != b.crop_origin || a.width_at_border != b.width_at_border || !a.corners_px ||
+      !b.corners_px || *a.corners_px != *b.corners_px || a.crop.size() != b.crop.size() ||
+      a.crop.type() != b.crop.type())
+    return false;
+  const size_t row_bytes = a.crop.cols * a.crop.elemSize();
+  for (int y = 0; y < a.crop.rows; ++y)
+    if (std::memcmp(a.crop.ptr(y), b.crop.ptr(y), row_bytes) != 0) return false;
+  return true;
+}
+
 std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
@@ -379,14 +393,25 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
   std::vector<std::array<Eigen::Vector2d, 4>> closures;
   int tried = 0;
   std::map<std::string, int> reasons;
+  // A still scene through a codec often decodes to the same image frame
+  // after frame, and the same input gives the same fit: the previous
+  // frame's, when its crop, place and starting corners are this frame's to
+  // the bit.
+  const vision::FrameObservation* previous = nullptr;
+  vision::ModelFreeRefineResult previous_fit;
+  std::optional<vision::TagCorners> previous_corners;
   for (const vision::FrameObservation& f : frames) {
     if (f.t_s < t_begin_s - 1e-9 || f.t_s > t_end_s + 1e-9 || !f.corners_px) continue;
     ++tried;
     std::optional<vision::TagCorners> corners;
+    const bool repeated = previous != nullptr && SameRefinementInput(*previous, f);
+    if (!repeated) previous = &f;
     if (quality) {
       if (f.crop.empty()) continue;
-      const vision::ModelFreeRefineResult r = vision::RefineTagCornersModelFree(
-          f.crop, *f.corners_px, &camera, vision::RefineOptionsFor(f), f.crop_origin);
+      if (!repeated)
+        previous_fit = vision::RefineTagCornersModelFree(f.crop, *f.corners_px, &camera,
+                                                         vision::RefineOptionsFor(f), f.crop_origin);
+      const vision::ModelFreeRefineResult& r = previous_fit;
       FrameQuality fq;
       fq.t_s = f.t_s;
       fq.fitted = r.ok;
@@ -396,7 +421,8 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
       if (fq.flags.empty()) corners = r.corners_px;
       quality->per_frame.push_back(std::move(fq));
     } else {
-      corners = vision::RefineObservationExactly(f, camera);
+      if (!repeated) previous_corners = vision::RefineObservationExactly(f, camera);
+      corners = previous_corners;
     }
     if (!corners) continue;
     const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);

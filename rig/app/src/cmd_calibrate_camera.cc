@@ -10,6 +10,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "odocal/base/parallel.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/media/image_file.h"
+#include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
 
 namespace odocal::app {
@@ -41,6 +43,31 @@ struct ImageOutcome {
 };
 
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json BoardShapeJson(const vision::BoardShape& shape) {
+  nlohmann::json tags = nlohmann::json::array();
+  for (const vision::TagLift& t : shape.tags)
+    tags.push_back({{"id", t.id}, {"lift_mm", t.lift_mm}, {"sigma_mm", t.sigma_mm}, {"corners", t.corners}});
+  return {{"flat", shape.flat},
+          {"rms_lift_mm", shape.rms_lift_mm},
+          {"max_abs_lift_mm", shape.max_abs_lift_mm},
+          {"max_lift_id", shape.max_lift_id},
+          {"chi2_per_dof", shape.chi2_per_dof},
+          {"dof", shape.dof},
+          {"explained_fraction", shape.explained_fraction},
+          {"tags", tags}};
+}
+
+// One line: is the board flat, and if not by how much and where.
+std::string BoardShapeLine(const vision::BoardShape& shape) {
+  if (shape.flat)
+    return "board: flat within what these views can tell (tag lifts RMS " + Fixed(shape.rms_lift_mm, 2) +
+           " mm, chi2/dof " + Fixed(shape.chi2_per_dof, 2) + ")";
+  return "warning: the board is not flat (or not printed to its layout): its tags sit off its plane by " +
+         Fixed(shape.rms_lift_mm, 2) + " mm RMS, up to " + Fixed(shape.max_abs_lift_mm, 2) + " mm (tag " +
+         std::to_string(shape.max_lift_id) + "), chi2/dof " + Fixed(shape.chi2_per_dof, 1) +
+         "; the calibration takes it as flat (a board on glass or aluminium calibrates better)";
+}
 
 // One image as first searched.
 struct Searched {
@@ -272,6 +299,12 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     if (f.ok() && f.rms_reprojection_error_px < 0.5 * result.rms_reprojection_error_px)
       fisheye_rms_px = f.rms_reprojection_error_px;
   }
+  // An aprilgrid's flatness, as these views see it (vision/board_shape.h).
+  std::optional<vision::BoardShape> shape;
+  if (board.type == vision::CalibrationBoard::Type::kAprilgrid) {
+    shape = vision::MeasureBoardShape(lens_fit.views, board, result.intrinsics);
+    if (!shape->ok) shape.reset();
+  }
   for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
   for (int v : result.views_left_out) outcomes[view_image[v]].left_out = true;
 
@@ -328,6 +361,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
                                                 {"chosen", static_cast<int>(chosen_count)}}
                                : nlohmann::json()},
         {"corners_used", result.corners},
+        {"board_shape", shape ? BoardShapeJson(*shape) : nlohmann::json()},
         {"images", images},
     };
     std::cout << doc.dump(2) << std::endl;
@@ -369,6 +403,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
                          : "skipped (" + o.reason + ")")
               << "\n";
   }
+  if (shape) std::cout << "  " << BoardShapeLine(*shape) << "\n";
   std::cout << "\n  wrote " << args.out << " (" << config::CameraFileFormatName(*format) << ")\n";
 }
 

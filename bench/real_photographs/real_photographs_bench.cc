@@ -49,6 +49,10 @@
 //                   (IPPE) against the pose the frame's other tags give it:
 //                   the error across the line of sight (mm) and about the
 //                   tag's normal (deg), RMS over the frame's tags
+//   board shape     (b) across the line of sight explained by one lift per
+//                   tag off the board's plane (the same for every method's
+//                   corners on a board that is not flat), and (b) with each
+//                   frame's board shape from the other frames
 // (a) and (b) on the tags every method found in that frame (all 4 corners),
 // on the frames where each method sees at least 5 tags.
 #include <algorithm>
@@ -211,6 +215,13 @@ struct FrameScore {
   double heading_deg = NAN;  // RMS over the frame's tags
   int flipped = 0;           // tags whose own pose took IPPE's other solution
   std::array<double, 4> parts_px{NAN, NAN, NAN, NAN};  // (a) as moved, grown, turned, bent
+  // (b) per tag: the error across the line of sight, and what a tag lifted
+  // 1 m off the board along its normal would make of it (the normal's part
+  // across the line of sight), both in the camera frame [m].
+  struct TagAcross {
+    cv::Vec3d across, normal;
+  };
+  std::map<int, TagAcross> tags;
 };
 
 FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::CalibrationBoard& board,
@@ -305,6 +316,8 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
       continue;
     }
     const double heading = std::atan2(R(1, 0), R(0, 0));
+    const cv::Vec3d normal(Rb(0, 2), Rb(1, 2), Rb(2, 2));
+    s.tags[id] = {across, normal - v * normal.dot(v)};
     across2 += across.dot(across);
     heading2 += heading * heading;
     ++n;
@@ -708,20 +721,92 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.3f | %.3f | %.3f | %.3f |\n", methods[m].name.c_str(), Median(parts[0]), Median(parts[1]),
                 Median(parts[2]), Median(parts[3]));
   }
+  // (b) and the board's shape. A tag that sits off the board's plane by h
+  // along its normal moves, seen from the others' pose, by h times the
+  // normal's part across the line of sight: the same for every method's
+  // corners. Fitted per tag from the frames (least squares of the across
+  // errors on that direction): on all of them (how much of (b) the shape
+  // explains), and leaving the scored frame out (its board measured from
+  // the other frames, as its intrinsics are). First order: the others'
+  // pose is not refitted to the lifted layout.
+  auto lifts = [&](size_t m, std::optional<size_t> leave_out) {
+    std::map<int, std::pair<double, double>> sums;  // id -> (sum a.n, sum n.n)
+    for (size_t i = 0; i < scores[m].size(); ++i) {
+      if (leave_out && i == *leave_out) continue;
+      for (const auto& [id, t] : scores[m][i].tags) {
+        sums[id].first += t.across.dot(t.normal);
+        sums[id].second += t.normal.dot(t.normal);
+      }
+    }
+    std::map<int, double> h;
+    for (const auto& [id, s2] : sums)
+      if (s2.second > 0.0) h[id] = s2.first / s2.second;
+    return h;
+  };
+  std::vector<std::vector<double>> shaped(methods.size());  // per method and frame: (b) across, board shape from the other frames [mm]
+  std::printf("\n(b) and the board's shape: each tag's lift off the board's plane, fitted to the across errors "
+              "(one number per tag)\n\n| corners | (b) across the line of sight explained by the tags' lifts, "
+              "fitted to every frame | (b) across, each frame's board shape from the other frames: median / mean "
+              "[mm] |\n|---|---|---|\n");
+  for (size_t m = 0; m < methods.size(); ++m) {
+    const std::map<int, double> all = lifts(m, std::nullopt);
+    double total = 0.0, left = 0.0;
+    for (const FrameScore& fs : scores[m])
+      for (const auto& [id, t] : fs.tags) {
+        total += t.across.dot(t.across);
+        const cv::Vec3d r = t.across - all.at(id) * t.normal;
+        left += r.dot(r);
+      }
+    for (size_t i = 0; i < scores[m].size(); ++i) {
+      const std::map<int, double> h = lifts(m, i);
+      double sq = 0.0;
+      for (const auto& [id, t] : scores[m][i].tags) {
+        const auto it = h.find(id);
+        const cv::Vec3d r = t.across - (it == h.end() ? 0.0 : it->second) * t.normal;
+        sq += r.dot(r);
+      }
+      shaped[m].push_back(scores[m][i].tags.empty() ? NAN : 1e3 * std::sqrt(sq / scores[m][i].tags.size()));
+    }
+    double sum = 0.0;
+    int n = 0;
+    for (double x : shaped[m])
+      if (std::isfinite(x)) sum += x, ++n;
+    std::printf("| %s | %.0f %% | %.3f / %.3f |\n", methods[m].name.c_str(), total > 0.0 ? 100.0 * (1.0 - left / total) : NAN,
+                Median(shaped[m]), n ? sum / n : NAN);
+  }
+  if (board.type == vision::CalibrationBoard::Type::kAprilgrid) {
+    std::printf("\nEach tag's lift [mm] fitted to every frame, by id (row 0 holds ids 0 to %d; '.': not scored):\n\n",
+                board.cols - 1);
+    for (size_t m = 0; m < methods.size(); ++m) {
+      if (m > 0 && methods[m].name.rfind("odocal", 0) == 0) continue;  // odocal's variants
+      const std::map<int, double> all = lifts(m, std::nullopt);
+      std::printf("%s:\n", methods[m].name.c_str());
+      for (int r = 0; r < board.rows; ++r) {
+        std::printf("   ");
+        for (int c = 0; c < board.cols; ++c) {
+          const auto it = all.find(board.first_id + r * board.cols + c);
+          if (it == all.end()) std::printf("      .");
+          else std::printf(" %+6.2f", 1e3 * it->second);
+        }
+        std::printf("\n");
+      }
+    }
+  }
   // odocal against each peer and variant, frame by frame.
   for (size_t ref : {size_t{0}}) {
-    std::printf("\nFrames where %s is below the peer (of %zu):\n\n| peer | (a) board | (b) across | (b) heading |\n"
-                "|---|---|---|---|\n",
+    std::printf("\nFrames where %s is below the peer (of %zu):\n\n| peer | (a) board | (b) across | (b) heading | "
+                "(b) across, the board's shape from the other frames |\n|---|---|---|---|---|\n",
                 methods[ref].name.c_str(), used_frames.size());
     for (size_t m = 0; m < methods.size(); ++m) {
       if (m == ref) continue;
-      int a = 0, b = 0, h = 0;
+      int a = 0, b = 0, h = 0, bs = 0;
       for (size_t i = 0; i < used_frames.size(); ++i) {
         a += scores[ref][i].board_rms_px < scores[m][i].board_rms_px;
         b += scores[ref][i].across_mm < scores[m][i].across_mm;
         h += scores[ref][i].heading_deg < scores[m][i].heading_deg;
+        bs += shaped[ref][i] < shaped[m][i];
       }
-      std::printf("| %s | %d | %d | %d |\n", methods[m].name.c_str(), a, b, h);
+      std::printf("| %s | %d | %d | %d | %d |\n", methods[m].name.c_str(), a, b, h, bs);
     }
   }
   return 0;

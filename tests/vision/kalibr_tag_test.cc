@@ -31,6 +31,7 @@
 #include "odocal/config/calib_target.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/board_render.h"
+#include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/edge_shift.h"
 #include "odocal/vision/corner_refine.h"
@@ -915,7 +916,7 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
   const CalibrationBoard board = KalibrBoard();
-  std::vector<BoardDetection> ours, yacs, as_seen;
+  std::vector<BoardDetection> ours, yacs, yac_tags, as_seen;
   std::vector<double> shifts;
   for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) {
     if (e.path().extension() != ".jpg") continue;
@@ -936,13 +937,25 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
       as_seen.push_back(std::move(g));
       ours.push_back(std::move(d));
     }
-    BoardDetection y;
-    for (const auto& [key, p] : ReadYac(dir / "grid0" / "cam0" / "data" / (e.path().stem().string() + ".csv"))) {
+    BoardDetection y, y_tags;
+    const auto yac = ReadYac(dir / "grid0" / "cam0" / "data" / (e.path().stem().string() + ".csv"));
+    for (const auto& [key, p] : yac) {
       y.object_points.push_back(*board.AprilgridCorner(key.first, key.second));
       y.image_points.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+      // The tags yac found whole, as DetectBoard lists them (4 corners each).
+      if (key.second == 0 && yac.count({key.first, 1}) && yac.count({key.first, 2}) && yac.count({key.first, 3})) {
+        y_tags.tag_ids.push_back(key.first);
+        for (int k = 0; k < 4; ++k) {
+          const cv::Point2d q = yac.at({key.first, k});
+          y_tags.object_points.push_back(*board.AprilgridCorner(key.first, k));
+          y_tags.image_points.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+        }
+      }
     }
     y.found = y.image_points.size() >= 16;
+    y_tags.found = y_tags.tag_ids.size() >= 4;
     if (y.found) yacs.push_back(std::move(y));
+    if (y_tags.found) yac_tags.push_back(std::move(y_tags));
   }
   const CameraCalibrationResult a = CalibrateCamera(ours, cv::Size(640, 480));
   const CameraCalibrationResult b = CalibrateCamera(yacs, cv::Size(640, 480));
@@ -972,6 +985,38 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
   // The same camera from either (the focal lengths within 1 %).
   EXPECT_NEAR(a.intrinsics.fx, b.intrinsics.fx, 0.01 * b.intrinsics.fx);
   EXPECT_NEAR(a.intrinsics.fy, b.intrinsics.fy, 0.01 * b.intrinsics.fy);
+
+  // The board is not flat, and both corner sets say where (board_shape.h):
+  // each tag's lift off the board's plane from odocal's corners and from
+  // yac's, each under its own calibration.
+  const BoardShape ours_shape = MeasureBoardShape(ours, board, a.intrinsics);
+  const BoardShape yac_shape = MeasureBoardShape(yac_tags, board, b.intrinsics);
+  ASSERT_TRUE(ours_shape.ok) << ours_shape.message;
+  ASSERT_TRUE(yac_shape.ok) << yac_shape.message;
+  std::map<int, double> yac_lift;
+  for (const TagLift& t : yac_shape.tags) yac_lift[t.id] = t.lift_mm;
+  double sq = 0.0, ours_sq = 0.0, sigma_sq = 0.0;
+  int common = 0;
+  for (const TagLift& t : ours_shape.tags) {
+    if (!yac_lift.count(t.id)) continue;
+    sq += std::pow(t.lift_mm - yac_lift[t.id], 2);
+    ours_sq += t.lift_mm * t.lift_mm;
+    sigma_sq += t.sigma_mm * t.sigma_mm;
+    ++common;
+  }
+  ASSERT_GE(common, 30);
+  const double apart = std::sqrt(sq / common), lifts = std::sqrt(ours_sq / common);
+  std::printf("board shape: odocal's corners %zu tags, lifts RMS %.3f mm (max %.2f, tag %d), sigma ~%.3f mm, chi2/dof "
+              "%.0f; yac's %zu tags, RMS %.3f mm, chi2/dof %.0f; the two %.3f mm RMS apart over %d tags\n",
+              ours_shape.tags.size(), ours_shape.rms_lift_mm, ours_shape.max_abs_lift_mm, ours_shape.max_lift_id,
+              std::sqrt(sigma_sq / common), ours_shape.chi2_per_dof, yac_shape.tags.size(), yac_shape.rms_lift_mm,
+              yac_shape.chi2_per_dof, apart, common);
+  EXPECT_FALSE(ours_shape.flat);
+  EXPECT_FALSE(yac_shape.flat);
+  // Lifts of ~0.5 mm RMS, measured by either to a third of that: the same
+  // board, not either method's noise.
+  EXPECT_GT(lifts, 0.3);
+  EXPECT_LT(apart, lifts / 3.0);
 }
 
 // A higher-resolution camera seeing the same board: one real frame scaled 4x

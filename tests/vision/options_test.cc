@@ -55,6 +55,7 @@ TEST(CornerRefineOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
            {[](CornerRefineOptions* o) { o->max_half_width_px = 0.5; }, "max_half_width_px"},
            {[](CornerRefineOptions* o) { o->min_cell_px = 0.0; }, "min_cell_px"},
            {[](CornerRefineOptions* o) { o->width_at_border = 2; }, "width_at_border"},
+           {[](CornerRefineOptions* o) { o->model_free_settled_px = -1.0; }, "model_free_settled_px"},
            {[](CornerRefineOptions* o) { o->edge_model_solver.max_iterations = 0; }, "edge_model_solver"},
            {[](CornerRefineOptions* o) { o->model_free_solver.num_threads = 0; }, "model_free_solver"}});
 }

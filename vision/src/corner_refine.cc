@@ -19,6 +19,7 @@ bool CornerRefineOptions::IsValid(std::string* why) const {
   if (!(max_half_width_px > 0.5)) return fail("max_half_width_px", "must be over 0.5");
   if (!(min_cell_px > 0.0)) return fail("min_cell_px", "must be positive");
   if (width_at_border < 3) return fail("width_at_border", "must be at least 3");
+  if (!(model_free_settled_px >= 0.0)) return fail("model_free_settled_px", "must not be negative");
   std::string solver_why;
   if (!edge_model_solver.IsValid(&solver_why)) return fail("edge_model_solver:", solver_why);
   if (!model_free_solver.IsValid(&solver_why)) return fail("model_free_solver:", solver_why);

@@ -1,6 +1,7 @@
 // Corner refinement free of the PSF's shape and of a power-law tone curve
 // (edge_quality.h explains the model and why).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -85,6 +86,41 @@ std::optional<EdgeBand> PrepareEdge(const cv::Mat& grey, const cv::Point& origin
   return band;
 }
 
+
+// Ends the fit once its corners have settled (CornerRefineOptions::
+// model_free_settled_px). Each corner is where two neighbouring edges' lines
+// cross, in the undistorted pixels the lines are fitted in; the fit stops
+// after two successful steps in a row that moved none by more than the
+// tolerance.
+class CornersSettled : public ceres::IterationCallback {
+ public:
+  CornersSettled(const std::array<std::array<double, kEdgeParams>, 4>* p, double tolerance_px)
+      : p_(p), tolerance_px_(tolerance_px) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (!summary.step_is_successful) return ceres::SOLVER_CONTINUE;
+    double moved = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      // Where edge k's line n . q = c meets edge k + 1's.
+      const std::array<double, kEdgeParams>& a = (*p_)[k];
+      const std::array<double, kEdgeParams>& b = (*p_)[(k + 1) % 4];
+      const double ax = std::cos(a[0]), ay = std::sin(a[0]), bx = std::cos(b[0]), by = std::sin(b[0]);
+      const double det = ax * by - ay * bx;
+      const cv::Point2d corner = std::abs(det) > 1e-9
+                                     ? cv::Point2d((a[1] * by - ay * b[1]) / det, (ax * b[1] - a[1] * bx) / det)
+                                     : cv::Point2d(1e9, 1e9);
+      if (summary.iteration > 0) moved = std::max(moved, cv::norm(corner - corners_[k]));
+      corners_[k] = corner;
+    }
+    settled_ = summary.iteration > 0 && moved < tolerance_px_ ? settled_ + 1 : 0;
+    return settled_ >= 2 ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::array<std::array<double, kEdgeParams>, 4>* p_;
+  double tolerance_px_;
+  std::array<cv::Point2d, 4> corners_{};
+  int settled_ = 0;
+};
 }  // namespace
 
 ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
@@ -127,6 +163,11 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
   ApplyTo(options.model_free_solver, &solver);
+  CornersSettled settled(&p, options.model_free_settled_px);
+  if (options.model_free_settled_px > 0.0) {
+    solver.update_state_every_iteration = true;
+    solver.callbacks.push_back(&settled);
+  }
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable()) {

@@ -585,8 +585,19 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
 CrossValidation CrossValidateCandidate(const MeasuredSession& session,
                                        const TrajectoryFitResult& current, Effect candidate,
                                        const ExplainOptions& options) {
-  FoldFits folds = PrepareFolds(session, current, options);
-  return CrossValidate(session, current, candidate, options, &folds);
+  return CrossValidateCandidates(session, current, {candidate}, options).front();
+}
+
+std::vector<CrossValidation> CrossValidateCandidates(const MeasuredSession& session,
+                                                     const TrajectoryFitResult& current_fit,
+                                                     const std::vector<Effect>& candidates,
+                                                     const ExplainOptions& options) {
+  // The folds' fits without a candidate are the same for every candidate:
+  // once (as Explain's rounds do), not once per candidate.
+  FoldFits folds = PrepareFolds(session, current_fit, options);
+  std::vector<CrossValidation> out;
+  for (Effect e : candidates) out.push_back(CrossValidate(session, current_fit, e, options, &folds));
+  return out;
 }
 
 }  // namespace odocal::calibration

@@ -191,6 +191,42 @@ struct RunResidual {
   }
 };
 
+// The solve's cost of a run. RunResidual's Jets carry a derivative for each
+// of its 20 parameters (base, start pose, the 14 of the effect block) whatever
+// is fitted, and a fit of the base model, or of the base and one candidate,
+// spent most of its time differentiating effect parameters held at zero. Here
+// the effect block is cut to `slots`, the (at most kSolveSlots) effect
+// parameters being fitted; the others enter as the constants they are held
+// at. A Jet's derivatives are computed each on its own, so the residuals and
+// the fitted parameters' columns are RunResidual's to the bit, and so is the
+// solve. Without a fitted effect parameter the block is left out.
+inline constexpr int kSolveSlots = 4;
+
+struct SolveResidual {
+  RunResidual model;
+  const std::array<double, kEffectParams>* held;  // every effect parameter's value
+  std::array<int, kSolveSlots> slots;             // its EffectParams index, or -1: unused
+
+  template <typename T>
+  bool operator()(const T* base_scales, const T* start, const T* slot_values, T* residuals) const {
+    std::array<T, kEffectParams> effect_values;
+    for (int i = 0; i < kEffectParams; ++i) effect_values[i] = T((*held)[i]);
+    for (int k = 0; k < kSolveSlots; ++k)
+      if (slots[k] >= 0) effect_values[slots[k]] = slot_values[k];
+    return model(base_scales, start, effect_values.data(), residuals);
+  }
+  template <typename T>
+  bool operator()(const T* base_scales, const T* start, T* residuals) const {
+    std::array<T, kEffectParams> effect_values;
+    for (int i = 0; i < kEffectParams; ++i) effect_values[i] = T((*held)[i]);
+    return model(base_scales, start, effect_values.data(), residuals);
+  }
+};
+template <int... kBlockSizes>
+using SolveCost = ceres::AutoDiffCostFunction<SolveResidual, ceres::DYNAMIC, kBlockSizes...>;
+using BaseSolveCost = SolveCost<kBaseParams, kStartPoseParams>;
+using SlotsSolveCost = SolveCost<kBaseParams, kStartPoseParams, kSolveSlots>;
+
 // A weak prior on the base ratios at 1 (the nominal parameters): it keeps
 // the solver in a physical region along directions the data leave free, and
 // weighs ~1e-7 of the data on a determined parameter. It is left out of the
@@ -356,6 +392,7 @@ TrajectoryProblem::~TrajectoryProblem() = default;
 TrajectoryProblem BuildProblem(const std::vector<RunData>& runs, const ModelConstants& constants,
                                const TrajectoryFitOptions& options) {
   TrajectoryProblem problem;
+  problem.constants = &constants;
   for (const RunData& rd : runs) {
     auto* functor = new RunResidual{&rd, &constants};
     problem.run_costs.emplace_back(
@@ -410,30 +447,68 @@ SolveOutcome SolveWithIrls(const TrajectoryProblem& problem, const TrajectoryFit
                            std::vector<RunData>* runs, FitParameters* params) {
   SolveOutcome outcome;
   ceres::Solver::Summary summary;
+  // The fitted effect parameters, in slots when they fit (SolveResidual);
+  // else the whole effect block with the others held (problem.run_costs).
+  std::vector<int> fitted, held_at_zero;
+  for (int i = 0; i < kEffectParams; ++i) {
+    std::vector<int>& list = params->effect_enabled[i] ? fitted : held_at_zero;
+    list.push_back(i);
+  }
+  const bool in_slots = static_cast<int>(fitted.size()) <= kSolveSlots;
+  std::array<double, kSolveSlots> slot_values{};
+  std::vector<int> unused_slots;
+  std::vector<std::unique_ptr<ceres::CostFunction>> solve_costs;
+  if (in_slots) {
+    std::array<int, kSolveSlots> slots;
+    slots.fill(-1);
+    for (int k = 0; k < kSolveSlots; ++k) {
+      if (k >= static_cast<int>(fitted.size())) {
+        unused_slots.push_back(k);
+        continue;
+      }
+      slots[k] = fitted[k];
+      slot_values[k] = params->effects.values[fitted[k]];
+    }
+    for (const RunData& rd : *runs) {
+      auto* functor = new SolveResidual{{&rd, problem.constants}, &params->effects.values, slots};
+      const int rows = rd.n_residuals();
+      if (fitted.empty())
+        solve_costs.emplace_back(new BaseSolveCost(functor, rows));
+      else
+        solve_costs.emplace_back(new SlotsSolveCost(functor, rows));
+    }
+  }
+  double* const slot_block = slot_values.data();
   for (int round = 0; round < options.irls_rounds; ++round) {
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem ceres_problem(problem_options);
-    for (size_t r = 0; r < runs->size(); ++r)
-      ceres_problem.AddResidualBlock(problem.run_costs[r].get(), nullptr,
-                                     params->base_scales.data(), params->start_poses[r].data(),
-                                     params->effects.values.data());
+    for (size_t r = 0; r < runs->size(); ++r) {
+      double* base = params->base_scales.data();
+      double* start = params->start_poses[r].data();
+      double* effects = params->effects.values.data();
+      if (!in_slots)
+        ceres_problem.AddResidualBlock(problem.run_costs[r].get(), nullptr, base, start, effects);
+      else if (fitted.empty())
+        ceres_problem.AddResidualBlock(solve_costs[r].get(), nullptr, base, start);
+      else
+        ceres_problem.AddResidualBlock(solve_costs[r].get(), nullptr, base, start, slot_block);
+    }
     if (options.base_prior_sigma > 0.0)
       ceres_problem.AddResidualBlock(problem.base_prior.get(), nullptr,
                                      params->base_scales.data());
-    std::vector<int> held_at_zero;
-    for (int i = 0; i < kEffectParams; ++i)
-      if (!params->effect_enabled[i]) held_at_zero.push_back(i);
-    if (static_cast<int>(held_at_zero.size()) == kEffectParams)
-      ceres_problem.SetParameterBlockConstant(params->effects.values.data());
-    else if (!held_at_zero.empty())
+    if (!in_slots && !held_at_zero.empty())
       ceres_problem.SetManifold(params->effects.values.data(),
                                 new ceres::SubsetManifold(kEffectParams, held_at_zero));
+    if (in_slots && !fitted.empty() && !unused_slots.empty())
+      ceres_problem.SetManifold(slot_block, new ceres::SubsetManifold(kSolveSlots, unused_slots));
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     ApplyTo(options.solver, &solver_options);
     ceres::Solve(solver_options, &ceres_problem, &summary);
+    if (in_slots)
+      for (size_t k = 0; k < fitted.size(); ++k) params->effects.values[fitted[k]] = slot_values[k];
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost)) {
       outcome.failed = true;
       outcome.message = summary.message;

@@ -380,8 +380,15 @@ TEST(CrossValidation, ChanceRarelyPassesTheMarginAndNeverAllGates) {
     const SessionUnderTest s = MakeSession(IdentifyingPlan(), {}, seed);
     const auto base = calibration::FitTrajectory(s.session);
     ASSERT_TRUE(base.ok());
-    for (calibration::Effect e : calibration::kAllEffects) {
-      const auto cv = calibration::CrossValidateCandidate(s.session, base, e, options);
+    // Every candidate on the same folds (their fits without it made once).
+    const auto& effects = calibration::kAllEffects;
+    const std::vector<calibration::Effect> all(effects.begin(), effects.end());
+    const std::vector<calibration::CrossValidation> cvs =
+        calibration::CrossValidateCandidates(s.session, base, all, options);
+    ASSERT_EQ(cvs.size(), all.size());
+    for (size_t i = 0; i < all.size(); ++i) {
+      const calibration::Effect e = all[i];
+      const calibration::CrossValidation& cv = cvs[i];
       ASSERT_EQ(cv.method, "leave_one_run_out");
       ASSERT_EQ(cv.heldout_runs, 5);
       const double gain = 1.0 - cv.heldout_rms_after_m / cv.heldout_rms_before_m;

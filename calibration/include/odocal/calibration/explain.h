@@ -247,6 +247,12 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
 CrossValidation CrossValidateCandidate(const MeasuredSession& session,
                                        const TrajectoryFitResult& current, Effect candidate,
                                        const ExplainOptions& options = {});
+// ...and of each of `candidates` to the model of `current_fit`, on folds fitted
+// without a candidate once for all of them.
+std::vector<CrossValidation> CrossValidateCandidates(const MeasuredSession& session,
+                                                     const TrajectoryFitResult& current_fit,
+                                                     const std::vector<Effect>& candidates,
+                                                     const ExplainOptions& options = {});
 
 }  // namespace odocal::calibration
 

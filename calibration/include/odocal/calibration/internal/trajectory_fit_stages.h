@@ -123,6 +123,7 @@ FitParameters InitialParameters(const std::vector<RunData>& runs,
 struct TrajectoryProblem {
   std::vector<std::unique_ptr<ceres::CostFunction>> run_costs;
   std::unique_ptr<ceres::CostFunction> base_prior;
+  const ModelConstants* constants = nullptr;  // SolveWithIrls builds its costs of the runs with it
   TrajectoryProblem();
   TrajectoryProblem(TrajectoryProblem&&) noexcept;
   ~TrajectoryProblem();

@@ -150,6 +150,47 @@ TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
   EXPECT_NEAR(shape.rms_lift_mm, std::sqrt(truth_sq / shape.tags.size()), 0.1);
 }
 
+// The lifts back into the calibration (CameraCalibrationOptions::
+// board_lift_m): the intrinsics' error from taking a lifted board as flat
+// against the same views' calibration with the measured lifts, and the same
+// poses' views of a flat board (the noise alone), over four seeds.
+TEST(BoardShape, CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics) {
+  const CalibrationBoard board = Aprilgrid();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> mm(-1.0, 1.0);
+  std::map<int, double> lift_m;
+  for (int id = 0; id < 36; ++id) lift_m[id] = 1e-3 * mm(rng);
+  lift_m = WithoutPlane(board, lift_m);
+  auto worst = [](const Intrinsics& in) {
+    return std::max({std::abs(in.fx - kCamera.fx), std::abs(in.fy - kCamera.fy), std::abs(in.cx - kCamera.cx),
+                     std::abs(in.cy - kCamera.cy)});
+  };
+  double flat_sq = 0.0, fitted_sq = 0.0, noise_sq = 0.0;
+  for (unsigned seed : {5u, 6u, 11u, 19u}) {
+    const std::vector<BoardDetection> views = Views(board, kCamera, lift_m, 20, 0.05, seed);
+    const CameraCalibrationResult flat = CalibrateCamera(views, cv::Size(640, 480));
+    ASSERT_TRUE(flat.ok()) << flat.message;
+    const BoardShape shape = MeasureBoardShape(views, board, flat.intrinsics);
+    ASSERT_TRUE(shape.ok) << shape.message;
+    CameraCalibrationOptions options;
+    for (const TagLift& t : shape.tags) options.board_lift_m[t.id] = 1e-3 * t.lift_mm;
+    options.initial = flat.intrinsics;
+    const CameraCalibrationResult fitted = CalibrateCamera(views, cv::Size(640, 480), options);
+    ASSERT_TRUE(fitted.ok()) << fitted.message;
+    const CameraCalibrationResult noise = CalibrateCamera(Views(board, kCamera, {}, 20, 0.05, seed), cv::Size(640, 480));
+    ASSERT_TRUE(noise.ok()) << noise.message;
+    std::printf("seed %2u: worst of fx, fy, cx, cy - truth: as flat %.3f px (RMS %.3f px), with the lifts %.3f px "
+                "(RMS %.3f px), a flat board %.3f px\n",
+                seed, worst(flat.intrinsics), flat.rms_reprojection_error_px, worst(fitted.intrinsics),
+                fitted.rms_reprojection_error_px, worst(noise.intrinsics));
+    flat_sq += std::pow(worst(flat.intrinsics), 2);
+    fitted_sq += std::pow(worst(fitted.intrinsics), 2);
+    noise_sq += std::pow(worst(noise.intrinsics), 2);
+  }
+  EXPECT_LT(fitted_sq, 0.25 * flat_sq);
+  EXPECT_LT(fitted_sq, 4.0 * noise_sq);
+}
+
 TEST(BoardShape, OtherBoardsAndBadOptionsAreRefusedByName) {
   CalibrationBoard chess;
   chess.type = CalibrationBoard::Type::kChessboard;

@@ -109,7 +109,13 @@ TEST(TagSurveyOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
 TEST(CameraCalibrationOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
   ExpectValidAndEachEditRejected<CameraCalibrationOptions>(
       {}, {{[](CameraCalibrationOptions* o) { o->min_views = 2; }, "min_views must be >= 3"},
-           {[](CameraCalibrationOptions* o) { o->threads = -1; }, "threads"}});
+           {[](CameraCalibrationOptions* o) { o->threads = -1; }, "threads"},
+           {[](CameraCalibrationOptions* o) { o->board_lift_m[3] = 1e-3; }, "board_lift_m needs initial"},
+           {[](CameraCalibrationOptions* o) {
+              o->board_lift_m[3] = NAN;
+              o->initial = Intrinsics{640, 480, 600.0, 600.0, 320.0, 240.0};
+            },
+            "tag 3's lift"}});
 }
 
 TEST(ImageFormationOptions, EachPartsOptionsNameTheirField) {

@@ -746,6 +746,16 @@ bool CameraCalibrationOptions::IsValid(std::string* why) const {
     if (why) *why = "threads must be >= 0 (0: one per core)";
     return false;
   }
+  for (const auto& [id, lift] : board_lift_m) {
+    if (!std::isfinite(lift) || std::abs(lift) > 0.1) {
+      if (why) *why = "board_lift_m: tag " + std::to_string(id) + "'s lift must be finite and within 0.1 m";
+      return false;
+    }
+  }
+  if (!board_lift_m.empty() && !initial) {
+    if (why) *why = "board_lift_m needs initial (the same views calibrated as flat)";
+    return false;
+  }
   return true;
 }
 
@@ -933,6 +943,11 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
       return result;
     }
     object_points.push_back(v.object_points);
+    // The board as lifted: each tag's corners off its plane by the tag's lift.
+    if (!options.board_lift_m.empty() && v.tag_ids.size() * 4 == v.object_points.size())
+      for (size_t i = 0; i < v.object_points.size(); ++i)
+        if (const auto it = options.board_lift_m.find(v.tag_ids[i / 4]); it != options.board_lift_m.end())
+          object_points.back()[i].z = static_cast<float>(it->second);
     image_points.push_back(v.image_points);
     result.corners += static_cast<int>(v.image_points.size());
   }
@@ -971,6 +986,12 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
   if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
   cv::Mat K, D, std_intrinsics, std_extrinsics, per_view;
+  if (!options.board_lift_m.empty()) {
+    // A lifted board is not planar: OpenCV starts from the flat calibration.
+    K = options.initial->CameraMatrix();
+    D = options.initial->DistortionCoeffs();
+    flags |= cv::CALIB_USE_INTRINSIC_GUESS;
+  }
   std::vector<cv::Mat> rvecs, tvecs;
   try {
     result.rms_reprojection_error_px = cv::calibrateCamera(

@@ -44,11 +44,15 @@ struct ImageOutcome {
 
 nlohmann::json Finite(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
-nlohmann::json BoardShapeJson(const vision::BoardShape& shape) {
+// `rms_as_flat_px`: with --board-shape fit, the RMS of the calibration that
+// took the board as flat (NaN: the board was not fitted).
+nlohmann::json BoardShapeJson(const vision::BoardShape& shape, double rms_as_flat_px) {
   nlohmann::json tags = nlohmann::json::array();
   for (const vision::TagLift& t : shape.tags)
     tags.push_back({{"id", t.id}, {"lift_mm", t.lift_mm}, {"sigma_mm", t.sigma_mm}, {"corners", t.corners}});
   return {{"flat", shape.flat},
+          {"fitted", std::isfinite(rms_as_flat_px)},
+          {"rms_as_flat_px", Finite(rms_as_flat_px)},
           {"rms_lift_mm", shape.rms_lift_mm},
           {"max_abs_lift_mm", shape.max_abs_lift_mm},
           {"max_lift_id", shape.max_lift_id},
@@ -59,14 +63,20 @@ nlohmann::json BoardShapeJson(const vision::BoardShape& shape) {
 }
 
 // One line: is the board flat, and if not by how much and where.
-std::string BoardShapeLine(const vision::BoardShape& shape) {
+std::string BoardShapeLine(const vision::BoardShape& shape, double rms_as_flat_px) {
   if (shape.flat)
     return "board: flat within what these views can tell (tag lifts RMS " + Fixed(shape.rms_lift_mm, 2) +
            " mm, chi2/dof " + Fixed(shape.chi2_per_dof, 2) + ")";
-  return "warning: the board is not flat (or not printed to its layout): its tags sit off its plane by " +
-         Fixed(shape.rms_lift_mm, 2) + " mm RMS, up to " + Fixed(shape.max_abs_lift_mm, 2) + " mm (tag " +
-         std::to_string(shape.max_lift_id) + "), chi2/dof " + Fixed(shape.chi2_per_dof, 1) +
-         "; the calibration takes it as flat (a board on glass or aluminium calibrates better)";
+  const std::string what = "the board is not flat (or not printed to its layout): its tags sit off its plane by " +
+                           Fixed(shape.rms_lift_mm, 2) + " mm RMS, up to " + Fixed(shape.max_abs_lift_mm, 2) +
+                           " mm (tag " + std::to_string(shape.max_lift_id) + "), chi2/dof " +
+                           Fixed(shape.chi2_per_dof, 1);
+  if (std::isfinite(rms_as_flat_px))
+    return what + "; calibrated with each tag at its lift (--board-shape fit; RMS " + Fixed(rms_as_flat_px, 4) +
+           " px as flat)";
+  return "warning: " + what +
+         "; the calibration takes it as flat (--board-shape fit calibrates it as it is; a board on glass or "
+         "aluminium calibrates better)";
 }
 
 // One image as first searched.
@@ -126,6 +136,7 @@ struct CalibrateCameraArgs {
   bool json = false;
   int threads = 0;  // 0: one per core
   int max_views = 60;  // 0: every view
+  std::string board_shape = "report";  // report | fit
 };
 
 void RunCalibrateCamera(const CalibrateCameraArgs& args) {
@@ -305,6 +316,19 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
     shape = vision::MeasureBoardShape(lens_fit.views, board, result.intrinsics);
     if (!shape->ok) shape.reset();
   }
+  // --board-shape fit: a board that is not flat calibrated as it is, each
+  // tag at its lift (taken as flat, a +-1 mm board moved fx and cx by up to
+  // 0.7 px in BoardShape.CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics).
+  double rms_as_flat_px = NAN;
+  if (args.board_shape == "fit" && shape && !shape->flat) {
+    vision::CameraCalibrationOptions lifted = options;
+    for (const vision::TagLift& t : shape->tags) lifted.board_lift_m[t.id] = 1e-3 * t.lift_mm;
+    lifted.initial = result.intrinsics;
+    vision::CameraCalibrationResult fitted = vision::CalibrateCamera(lens_fit.views, size, lifted);
+    if (!fitted.ok()) Fail(kCalibrateCamera, kExitFailure, "--board-shape fit: " + fitted.message + " (no camera file written)");
+    rms_as_flat_px = result.rms_reprojection_error_px;
+    result = std::move(fitted);
+  }
   for (size_t i = 0; i < views.size(); ++i) outcomes[view_image[i]].rms_px = result.per_view_rms_px[i];
   for (int v : result.views_left_out) outcomes[view_image[v]].left_out = true;
 
@@ -361,7 +385,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
                                                 {"chosen", static_cast<int>(chosen_count)}}
                                : nlohmann::json()},
         {"corners_used", result.corners},
-        {"board_shape", shape ? BoardShapeJson(*shape) : nlohmann::json()},
+        {"board_shape", shape ? BoardShapeJson(*shape, rms_as_flat_px) : nlohmann::json()},
         {"images", images},
     };
     std::cout << doc.dump(2) << std::endl;
@@ -403,7 +427,7 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
                          : "skipped (" + o.reason + ")")
               << "\n";
   }
-  if (shape) std::cout << "  " << BoardShapeLine(*shape) << "\n";
+  if (shape) std::cout << "  " << BoardShapeLine(*shape, rms_as_flat_px) << "\n";
   std::cout << "\n  wrote " << args.out << " (" << config::CameraFileFormatName(*format) << ")\n";
 }
 
@@ -435,6 +459,10 @@ void RegisterCalibrateCameraCommand(CLI::App& app) {
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->add_option("--threads", args->threads, "Worker threads for the images (default: one per core)")
       ->check(CLI::Range(0, kMaxCount));
+  cmd->add_option("--board-shape", args->board_shape,
+                  "Aprilgrid: report (default) whether the board was flat, or fit: a board that is not is then "
+                  "calibrated with each tag's measured lift off its plane")
+      ->check(CLI::IsMember({"report", "fit"}));
   cmd->add_option("--max-views", args->max_views,
                   "With more images than this (a video's frames), calibrate from this many views chosen for their "
                   "spread of poses (default: 60; 0: every view)")

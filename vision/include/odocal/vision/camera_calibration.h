@@ -31,6 +31,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -235,6 +236,13 @@ struct CameraCalibrationOptions {
   bool weight_by_corner_sigma = true;
   // The jackknife's refits on at most this many workers (0: one per core).
   int threads = 0;
+  // Aprilgrid: each tag's lift off the board's plane [m], by id
+  // (MeasureBoardShape, board_shape.h): the board is then calibrated as
+  // lifted, not flat. OpenCV's plumb_bob fit of a board that is not planar
+  // starts from a camera: `initial`, the same views calibrated as flat,
+  // which the lifts need.
+  std::map<int, double> board_lift_m;
+  std::optional<Intrinsics> initial;
 
   bool IsValid(std::string* why) const;
 };

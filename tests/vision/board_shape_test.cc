@@ -95,6 +95,16 @@ std::map<int, double> WithoutPlane(const CalibrationBoard& board, const std::map
   return out;
 }
 
+// Up to +-1 mm per tag, with no plane in it a pose could take: what the
+// real D435i board shows (docs/vision.md).
+std::map<int, double> RandomLifts(const CalibrationBoard& board) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> mm(-1.0, 1.0);
+  std::map<int, double> lift_m;
+  for (int id = 0; id < board.cols * board.rows; ++id) lift_m[id] = 1e-3 * mm(rng);
+  return WithoutPlane(board, lift_m);
+}
+
 TEST(BoardShape, AFlatBoardIsFlat) {
   const CalibrationBoard board = Aprilgrid();
   const std::vector<BoardDetection> views = Views(board, kCamera, {}, 20, 0.05, 3);
@@ -113,13 +123,7 @@ TEST(BoardShape, AFlatBoardIsFlat) {
 
 TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
   const CalibrationBoard board = Aprilgrid();
-  // Up to +-1 mm per tag, with no plane in it a pose could take: what the
-  // real D435i board shows (docs/vision.md).
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> mm(-1.0, 1.0);
-  std::map<int, double> lift_m;
-  for (int id = 0; id < 36; ++id) lift_m[id] = 1e-3 * mm(rng);
-  lift_m = WithoutPlane(board, lift_m);
+  const std::map<int, double> lift_m = RandomLifts(board);
   const std::vector<BoardDetection> views = Views(board, kCamera, lift_m, 20, 0.05, 5);
   const CameraCalibrationResult cal = CalibrateCamera(views, cv::Size(640, 480));
   ASSERT_TRUE(cal.ok()) << cal.message;
@@ -156,11 +160,7 @@ TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
 // poses' views of a flat board (the noise alone), over four seeds.
 TEST(BoardShape, CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics) {
   const CalibrationBoard board = Aprilgrid();
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> mm(-1.0, 1.0);
-  std::map<int, double> lift_m;
-  for (int id = 0; id < 36; ++id) lift_m[id] = 1e-3 * mm(rng);
-  lift_m = WithoutPlane(board, lift_m);
+  const std::map<int, double> lift_m = RandomLifts(board);
   auto worst = [](const Intrinsics& in) {
     return std::max({std::abs(in.fx - kCamera.fx), std::abs(in.fy - kCamera.fy), std::abs(in.cx - kCamera.cx),
                      std::abs(in.cy - kCamera.cy)});

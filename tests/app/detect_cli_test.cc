@@ -280,8 +280,9 @@ TEST(CliDetect, RealAprilgridBoardPoseAndResiduals) {
     int with_residuals = 0;
     for (const auto& t : image["tags"]) {
       // One tag's 4 corners: too few degrees of freedom to rescale by.
-      if (t.contains("pose_in_camera") && t["pose_in_camera"].is_object())
+      if (t.contains("pose_in_camera") && t["pose_in_camera"].is_object()) {
         EXPECT_NEAR(t["pose_in_camera"]["covariance_scale"].get<double>(), 1.0, 1e-12);
+      }
       if (!t.contains("residuals_px")) continue;
       ++with_residuals;
       for (int k = 0; k < 4; ++k) EXPECT_LT(std::hypot(t["residuals_px"][k][0].get<double>(), t["residuals_px"][k][1].get<double>()), 2.5);

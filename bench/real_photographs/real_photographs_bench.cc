@@ -5,7 +5,11 @@
 //
 //   real_photographs_bench DATA_DIR [--target FILE] [--images DIR] [--peer DIR]
 //                          [--model plumb_bob|fisheye] [--refits N] [--seed S] [--variants 0]
-//                          [--frames N]
+//                          [--frames N] [--board-shape fit]
+//
+// --board-shape fit: every method's camera calibrated with the board's shape
+// measured from its own corners on the same frames (calibrate-camera
+// --board-shape fit, vision/board_shape.h), and scored on that lifted board.
 //
 // --frames (default 60; 0: all): a video's thousands of frames are cut to N
 // evenly spaced in name order (every measure calibrates once per frame).
@@ -79,6 +83,7 @@
 #include "odocal/base/format.h"
 #include "odocal/config/calib_target.h"
 #include "odocal/media/image_file.h"
+#include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_shift.h"
@@ -147,29 +152,71 @@ int TagsIn(const Corners& c) {
   return static_cast<int>(ids.size());
 }
 
+// Each tag's lift off the board's plane [m], by id (vision/board_shape.h);
+// empty: the board as printed, flat.
+using Lifts = std::map<int, double>;
+
 vision::BoardDetection AsDetection(const Corners& c, const vision::CalibrationBoard& board,
-                                   const std::set<int>* only = nullptr) {
+                                   const std::set<int>* only = nullptr, const Lifts* lifts = nullptr) {
   vision::BoardDetection d;
   for (const auto& [key, p] : c) {
     if (only && !only->count(key.first)) continue;
     d.object_points.push_back(*board.AprilgridCorner(key.first, key.second));
+    if (lifts && lifts->count(key.first)) d.object_points.back().z = static_cast<float>(lifts->at(key.first));
     d.image_points.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   }
   d.found = d.image_points.size() >= 16;
   return d;
 }
 
-vision::CameraCalibrationResult Calibrate(const Method& m, const vision::CalibrationBoard& board, cv::Size size,
-                                          const std::vector<bool>& use, vision::LensModel lens) {
+// The tags whose 4 corners a method found, with their ids (what
+// MeasureBoardShape and a lifted calibration need).
+vision::BoardDetection AsTagDetection(const Corners& c, const vision::CalibrationBoard& board) {
+  vision::BoardDetection d;
+  for (const auto& [key, p] : c) {
+    if (key.second != 0) continue;
+    bool whole = true;
+    for (int k = 1; k < 4; ++k) whole = whole && c.count({key.first, k});
+    if (!whole) continue;
+    d.tag_ids.push_back(key.first);
+    for (int k = 0; k < 4; ++k) {
+      d.object_points.push_back(*board.AprilgridCorner(key.first, k));
+      const cv::Point2d q = c.at({key.first, k});
+      d.image_points.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+    }
+  }
+  d.found = d.tag_ids.size() >= 4;
+  return d;
+}
+
+// A method's camera from the frames `use` marks, and, with `shape` (the
+// bench's --board-shape fit), the board's shape measured from the same
+// frames and the camera calibrated again with each tag at its lift.
+struct Calibrated {
+  vision::CameraCalibrationResult result;
+  Lifts lifts;
+  bool ok() const { return result.ok(); }
+};
+
+Calibrated Calibrate(const Method& m, const vision::CalibrationBoard& board, cv::Size size,
+                     const std::vector<bool>& use, vision::LensModel lens, bool shape = false) {
   std::vector<vision::BoardDetection> views;
   for (size_t f = 0; f < m.frames.size(); ++f) {
     if (!use[f]) continue;
-    vision::BoardDetection d = AsDetection(m.frames[f], board);
+    vision::BoardDetection d = shape ? AsTagDetection(m.frames[f], board) : AsDetection(m.frames[f], board);
     if (d.found) views.push_back(std::move(d));
   }
   vision::CameraCalibrationOptions options;
   options.lens = lens;
-  return vision::CalibrateCamera(views, size, options);
+  Calibrated out{vision::CalibrateCamera(views, size, options), {}};
+  if (!shape || !out.ok() || board.type != vision::CalibrationBoard::Type::kAprilgrid) return out;
+  const vision::BoardShape measured = vision::MeasureBoardShape(views, board, out.result.intrinsics);
+  if (!measured.ok) return out;
+  for (const vision::TagLift& t : measured.tags) options.board_lift_m[t.id] = 1e-3 * t.lift_mm;
+  options.initial = out.result.intrinsics;
+  vision::CameraCalibrationResult lifted = vision::CalibrateCamera(views, size, options);
+  if (!lifted.ok()) return out;
+  return {std::move(lifted), options.board_lift_m};
 }
 
 // solvePnP through any lens: the points undistorted to the normalised plane
@@ -224,12 +271,13 @@ struct FrameScore {
   std::map<int, TagAcross> tags;
 };
 
+// `lifts`: the board's shape the camera was calibrated with (empty: flat).
 FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::CalibrationBoard& board,
-                 const vision::Intrinsics& in) {
+                 const vision::Intrinsics& in, const Lifts* lifts = nullptr) {
   FrameScore s;
   const vision::CameraModel camera(in, vision::CameraMount{});
   // (a) one rigid pose for every corner.
-  const vision::BoardDetection all = AsDetection(c, board, &tags);
+  const vision::BoardDetection all = AsDetection(c, board, &tags, lifts);
   cv::Mat rvec, tvec;
   if (!SolvePnPThroughLens(all.object_points, all.image_points, camera, rvec, tvec)) return s;
   const std::vector<cv::Point2f> projected = ProjectThroughLens(all.object_points, rvec, tvec, camera);
@@ -286,7 +334,7 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
     std::set<int> others = tags;
     others.erase(id);
     if (others.size() < 4) continue;
-    const vision::BoardDetection rest = AsDetection(c, board, &others);
+    const vision::BoardDetection rest = AsDetection(c, board, &others, lifts);
     cv::Mat rb, tb;
     if (!SolvePnPThroughLens(rest.object_points, rest.image_points, camera, rb, tb)) continue;
     // IPPE_SQUARE's object order: (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2),
@@ -298,7 +346,8 @@ FrameScore Score(const Corners& c, const std::set<int>& tags, const vision::Cali
     if (!SolvePnPThroughLens(square, own, camera, rt, tt, cv::SOLVEPNP_IPPE_SQUARE)) continue;
     // The tag's centre and axes on the board, through the others' pose.
     const cv::Point3f c0 = *board.AprilgridCorner(id, 0), c2 = *board.AprilgridCorner(id, 2);
-    const cv::Vec3d centre_board(0.5 * (c0.x + c2.x), 0.5 * (c0.y + c2.y), 0.0);
+    const cv::Vec3d centre_board(0.5 * (c0.x + c2.x), 0.5 * (c0.y + c2.y),
+                                 lifts && lifts->count(id) ? lifts->at(id) : 0.0);
     cv::Matx33d Rb, Rt;
     cv::Rodrigues(rb, Rb);
     cv::Rodrigues(rt, Rt);
@@ -367,7 +416,7 @@ double StdDev(const std::vector<double>& v) {
 int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr, "usage: %s DATA_DIR [--target FILE] [--images DIR] [--peer DIR] [--model plumb_bob|fisheye] [--refits N] [--seed S] "
-                 "[--variants 0] [--frames N]\n", argv[0]);
+                 "[--variants 0] [--frames N] [--board-shape fit]\n", argv[0]);
     return 2;
   }
   const fs::path dir = argv[1];
@@ -376,6 +425,10 @@ int main(int argc, char** argv) {
   int max_frames = 60;  // --frames; 0: every frame
   unsigned seed = 1;
   bool with_variants = true;  // --variants 0: odocal and the peers only (a quick probe)
+  // --board-shape fit: every method's camera calibrated with the board's
+  // shape measured from its own corners (calibrate-camera --board-shape
+  // fit), and its frames scored on that lifted board.
+  bool board_shape_fit = false;
   std::optional<vision::LensModel> model;  // --model; else a camera file's cam0 dist_model, else chosen
   vision::BoardDetectionOptions detect;
   for (int i = 2; i + 1 < argc; i += 2) {
@@ -387,6 +440,7 @@ int main(int argc, char** argv) {
     else if (a == "--frames") max_frames = std::stoi(argv[i + 1]);
     else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(argv[i + 1]));
     else if (a == "--variants") with_variants = std::string(argv[i + 1]) != "0";
+    else if (a == "--board-shape") board_shape_fit = std::string(argv[i + 1]) == "fit";
     else if (a == "--model") {
       model = vision::ParseLensModel(argv[i + 1]);
       if (!model) {
@@ -527,8 +581,8 @@ int main(int argc, char** argv) {
   // fitted to odocal's first-pass corners, as calibrate-camera --model auto.
   if (!model) {
     const std::vector<bool> all(images.size(), true);
-    const auto p = Calibrate(odocal, board, size, all, vision::LensModel::kPlumbBob);
-    const auto f = Calibrate(odocal, board, size, all, vision::LensModel::kEquidistant);
+    const auto p = Calibrate(odocal, board, size, all, vision::LensModel::kPlumbBob).result;
+    const auto f = Calibrate(odocal, board, size, all, vision::LensModel::kEquidistant).result;
     std::vector<vision::BoardDetection> views;
     for (const Corners& c : odocal.frames)
       if (vision::BoardDetection d = AsDetection(c, board); d.found) views.push_back(std::move(d));
@@ -546,7 +600,7 @@ int main(int argc, char** argv) {
   first_pass.name = "odocal, first pass (edges straight)";
   {
     vision::BoardDetectionOptions through = detect;
-    const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true), lens_model);
+    const auto first = Calibrate(odocal, board, size, std::vector<bool>(images.size(), true), lens_model).result;
     if (first.ok()) {
       through.lens = first.intrinsics;
       for (size_t i = 0; i < images.size(); ++i) {
@@ -625,7 +679,7 @@ int main(int argc, char** argv) {
   for (size_t m = 0; m < methods.size(); ++m) {
     int tags = 0;
     for (const Corners& c : methods[m].frames) tags += TagsIn(c);
-    full[m] = Calibrate(methods[m], board, size, std::vector<bool>(F, true), lens_model);
+    full[m] = Calibrate(methods[m], board, size, std::vector<bool>(F, true), lens_model, board_shape_fit).result;
     const auto& r = full[m];
     if (!r.ok()) {
       std::printf("| %s | %d | — | %s |\n", methods[m].name.c_str(), tags, r.message.c_str());
@@ -639,7 +693,7 @@ int main(int argc, char** argv) {
       std::shuffle(order.begin(), order.end(), rng);
       std::vector<bool> use(F, true);
       for (size_t i = 0; i < F / 5; ++i) use[order[i]] = false;
-      const auto s = Calibrate(methods[m], board, size, use, lens_model);
+      const auto s = Calibrate(methods[m], board, size, use, lens_model, board_shape_fit).result;
       if (!s.ok()) continue;
       fx.push_back(s.intrinsics.fx);
       fy.push_back(s.intrinsics.fy);
@@ -666,17 +720,23 @@ int main(int argc, char** argv) {
     used_frames.push_back(f);
     std::vector<bool> use(F, true);
     use[f] = false;
-    std::vector<vision::CameraCalibrationResult> cals;
+    std::vector<Calibrated> cals;
     for (size_t m = 0; m < methods.size(); ++m) {
-      cals.push_back(Calibrate(methods[m], board, size, use, lens_model));
-      scores[m].push_back(cals[m].ok() ? Score(methods[m].frames[f], tags, board, cals[m].intrinsics) : FrameScore{});
+      cals.push_back(Calibrate(methods[m], board, size, use, lens_model, board_shape_fit));
+      scores[m].push_back(cals[m].ok() ? Score(methods[m].frames[f], tags, board, cals[m].result.intrinsics,
+                                               &cals[m].lifts)
+                                       : FrameScore{});
     }
     // Each peer's corners under odocal's camera and odocal's under each
     // peer's: is a difference the corners' or the calibration's?
     cross.resize(methods.size());
     for (size_t m = 1; m < methods.size(); ++m) {
-      cross[m].first.push_back(cals[m].ok() ? Score(methods[0].frames[f], tags, board, cals[m].intrinsics) : FrameScore{});
-      cross[m].second.push_back(cals[0].ok() ? Score(methods[m].frames[f], tags, board, cals[0].intrinsics) : FrameScore{});
+      cross[m].first.push_back(cals[m].ok() ? Score(methods[0].frames[f], tags, board, cals[m].result.intrinsics,
+                                                    &cals[m].lifts)
+                                            : FrameScore{});
+      cross[m].second.push_back(cals[0].ok() ? Score(methods[m].frames[f], tags, board, cals[0].result.intrinsics,
+                                                     &cals[0].lifts)
+                                             : FrameScore{});
     }
   }
   std::printf("\n## Per frame, intrinsics from the other frames (%zu frames where every method sees >= 5 tags; "

@@ -1,13 +1,16 @@
-# odocal_test(name [SERIAL] [SERIAL_FILTER GTEST_FILTER] [SOURCES ...] [LIBS ...])
+# odocal_test(name [SERIAL] [SERIAL_FILTER GTEST_FILTER] [COST SECONDS] [SOURCES ...] [LIBS ...])
 # One line registers a test: tests/<dir>/<name>.cc linked to GoogleTest, the
 # shared test_util library and the listed module libraries. SERIAL: its
 # tests run with nothing beside them; SERIAL_FILTER: only those the filter
 # names (one that loads every core on purpose), the rest beside others. A
 # serial test makes ctest drain every running test first (a 7-minute one
-# included) with the other core idle: keep the list short.
+# included) with the other core idle: keep the list short. COST: ctest's
+# estimate of its tests' seconds until it has measured them (a fresh
+# checkout has no Testing/Temporary/CTestCostData.txt): the long ones start
+# first instead of last, where one would run alone at the end.
 include(GoogleTest)
 function(odocal_test name)
-  cmake_parse_arguments(ARG "SERIAL" "SERIAL_FILTER" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "SERIAL_FILTER;COST" "SOURCES;LIBS" ${ARGN})
   if(NOT ARG_SOURCES)
     set(ARG_SOURCES ${name}.cc)
   endif()
@@ -15,17 +18,21 @@ function(odocal_test name)
   target_link_libraries(${name} PRIVATE odocal::test_util GTest::gmock_main ${ARG_LIBS})
   # Records the tests' runs make go to the build tree's store, never the user's.
   set(env "ODOCAL_BINARY=${CMAKE_BINARY_DIR}/odocal;ODOCAL_SOURCE_DIR=${PROJECT_SOURCE_DIR};ODOCAL_DB=${CMAKE_BINARY_DIR}/Testing/records.sqlite")
+  set(cost "")
+  if(ARG_COST)
+    set(cost COST ${ARG_COST})
+  endif()
   if(ARG_SERIAL)
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE ${cost} DISCOVERY_TIMEOUT 60)
   elseif(ARG_SERIAL_FILTER)
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} TEST_FILTER "-${ARG_SERIAL_FILTER}"
-      PROPERTIES ENVIRONMENT "${env}" DISCOVERY_TIMEOUT 60)
+      PROPERTIES ENVIRONMENT "${env}" ${cost} DISCOVERY_TIMEOUT 60)
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} TEST_FILTER "${ARG_SERIAL_FILTER}"
-      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+      PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE ${cost} DISCOVERY_TIMEOUT 60)
   else()
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-      PROPERTIES ENVIRONMENT "${env}" DISCOVERY_TIMEOUT 60)
+      PROPERTIES ENVIRONMENT "${env}" ${cost} DISCOVERY_TIMEOUT 60)
   endif()
 endfunction()
 

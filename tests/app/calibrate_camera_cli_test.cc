@@ -87,10 +87,13 @@ TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
   images.insert(images.begin() + 5, WriteBlank(dir));
   const std::string out = dir + "/camera.yaml";
   const CommandResult r = RunCommand(test_util::OdocalBinary() + " calibrate-camera" + Join(images) +
-                                     " --board chessboard:9x6:25 --out " + out + " --json");
+                                     " --board chessboard:9x6:25 --out " + out + " --json --board-shape fit");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // The image without a board is named, on stderr and in the report.
   EXPECT_THAT(r.err, ::testing::HasSubstr("skipping " + dir + "/no_board.png: chessboard 9x6 not found"))
+      << r.err;
+  // A chessboard's shape is not measured: asked to fit it, it says so.
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--board-shape fit: a board's shape is measured on aprilgrids only"))
       << r.err;
   const nlohmann::json doc = nlohmann::json::parse(r.out);
   EXPECT_EQ(doc["views_used"], 12);

@@ -320,6 +320,12 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   // tag at its lift (taken as flat, a +-1 mm board moved fx and cx by up to
   // 0.7 px in BoardShape.CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics).
   double rms_as_flat_px = NAN;
+  if (args.board_shape == "fit" && !shape)
+    std::cerr << "odocal " << kCalibrateCamera << ": --board-shape fit: "
+              << (board.type == vision::CalibrationBoard::Type::kAprilgrid
+                      ? "the board's shape could not be measured from these views"
+                      : "a board's shape is measured on aprilgrids only")
+              << "; calibrated as flat\n";
   if (args.board_shape == "fit" && shape && !shape->flat) {
     vision::CameraCalibrationOptions lifted = options;
     for (const vision::TagLift& t : shape->tags) lifted.board_lift_m[t.id] = 1e-3 * t.lift_mm;

@@ -81,10 +81,14 @@ int main(int argc, char** argv) {
   int size = 416;
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
-    if (a == "--focal") focal = std::stod(argv[i + 1]);
-    else if (a == "--size") size = std::stoi(argv[i + 1]);
-    else if (a == "--k1") k1 = std::stod(argv[i + 1]);
-    else if (a == "--vignette") vignette = std::stod(argv[i + 1]);
+    if (a == "--focal")
+      focal = std::stod(argv[i + 1]);
+    else if (a == "--size")
+      size = std::stoi(argv[i + 1]);
+    else if (a == "--k1")
+      k1 = std::stod(argv[i + 1]);
+    else if (a == "--vignette")
+      vignette = std::stod(argv[i + 1]);
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -93,7 +97,8 @@ int main(int argc, char** argv) {
   // Frames and the peer's corners.
   std::map<std::string, fs::path> frames, peers;
   for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) frames[e.path().stem().string()] = e.path();
-  for (const auto& e : fs::directory_iterator(dir / "grid0" / "cam0" / "data")) peers[e.path().stem().string()] = e.path();
+  for (const auto& e : fs::directory_iterator(dir / "grid0" / "cam0" / "data"))
+    peers[e.path().stem().string()] = e.path();
   std::vector<std::vector<cv::Point3f>> object;
   std::vector<std::vector<cv::Point2f>> image;
   cv::Size source_size;
@@ -115,9 +120,16 @@ int main(int argc, char** argv) {
   std::vector<cv::Mat> rvecs, tvecs;
   const double rms = cv::calibrateCamera(object, image, source_size, K, D, rvecs, tvecs);
   D = D.rowRange(0, 1).colRange(0, 4).clone();  // radtan4 (k1, k2, p1, p2), as the data set's camera file
-  std::printf("source camera (radtan from %zu frames of the peer's corners): RMS %.4f px, fx %.3f fy %.3f cx %.3f cy %.3f, D %s\n",
-              object.size(), rms, K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 2), K.at<double>(1, 2),
-              [&] { std::ostringstream s; s << D; return s.str(); }().c_str());
+  std::printf(
+      "source camera (radtan from %zu frames of the peer's corners): RMS %.4f px, fx %.3f fy %.3f cx %.3f cy %.3f, D "
+      "%s\n",
+      object.size(), rms, K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 2), K.at<double>(1, 2),
+      [&] {
+        std::ostringstream s;
+        s << D;
+        return s.str();
+      }()
+          .c_str());
 
   const odocal::testing::FisheyeResample fisheye(K, D, source_size, focal, size, k1, vignette);
   const double c = fisheye.centre_px();
@@ -150,7 +162,8 @@ int main(int argc, char** argv) {
       csv << corners[i].line_head << "," << x << "," << y << "," << corners[i].line_tail << "\n";
     }
   }
-  std::printf("%zu frames; the peer's corners: %zu of %zu inside the fisheye image\n", frames.size(), n_kept, n_corners);
+  std::printf("%zu frames; the peer's corners: %zu of %zu inside the fisheye image\n", frames.size(), n_kept,
+              n_corners);
 
   // The target (the first *.yaml with calib_target), marked equi4, and the truth.
   for (const auto& e : fs::directory_iterator(dir)) {

@@ -327,8 +327,10 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
   // Under 1.3 px a cell the bits are a grey smear: refused, not guessed.
   const double side = 1.2 * cells->n;
   const std::vector<cv::Point2f> from{{-5, -5}, {5, -5}, {5, 5}, {-5, 5}};
-  const std::array<cv::Point2d, 4> small{cv::Point2d(20 - side / 2, 20 + side / 2), {20 + side / 2, 20 + side / 2},
-                                         {20 + side / 2, 20 - side / 2}, {20 - side / 2, 20 - side / 2}};
+  const std::array<cv::Point2d, 4> small{cv::Point2d(20 - side / 2, 20 + side / 2),
+                                         {20 + side / 2, 20 + side / 2},
+                                         {20 + side / 2, 20 - side / 2},
+                                         {20 - side / 2, 20 - side / 2}};
   std::vector<cv::Point2f> to;
   for (const auto& p : small) to.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   cv::Matx33d H;

@@ -56,7 +56,8 @@ class FisheyeResample {
     std::vector<cv::Point2f> corners{{0, 0}, {w, 0}, {0, h}, {w, h}}, normal;
     cv::undistortPoints(corners, normal, K_, D_);
     for (const auto& p : normal)
-      corner_theta_ = std::max(corner_theta_, std::atan(std::hypot(static_cast<double>(p.x), static_cast<double>(p.y))));
+      corner_theta_ =
+          std::max(corner_theta_, std::atan(std::hypot(static_cast<double>(p.x), static_cast<double>(p.y))));
     for (int v = 0, i = 0; v < n; ++v) {
       for (int u = 0; u < n; ++u, ++i) {
         const bool behind = rays[i].z <= 0.f;

@@ -28,19 +28,19 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fisheye_resample.h"
 #include "odocal/config/calib_target.h"
 #include "odocal/test_util/test_util.h"
 #include "odocal/vision/board_render.h"
 #include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
-#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
+#include "odocal/vision/edge_shift.h"
 #include "odocal/vision/planar_pose.h"
 #include "odocal/vision/renderer.h"
-#include "odocal/vision/tag_observer.h"
 #include "odocal/vision/tag.h"
-#include "fisheye_resample.h"
+#include "odocal/vision/tag_observer.h"
 #include "vision_fixtures.h"
 
 namespace odocal::vision {
@@ -1099,13 +1099,15 @@ TEST(KalibrTagRealAprilgrid, ThroughAFisheyeTheTagsKeepTheirPlaceAndSize) {
   ASSERT_GT(n, 0);
   outward /= n;
   const double rms = std::sqrt(sq / n);
-  std::printf("real frames through a fisheye (f 300 px, source calibrated to %.3f px): %d tags found of yac's %d, %d in "
-              "both; corners - yac's mapped: %.4f px rms, %+.4f px outwards; edge shift measured in %d of 8 views, "
-              "mean %+.4f px\n",
-              source_rms, found, yac_tags, common, rms, outward, shifts, shifts ? shift_sum / shifts : 0.0);
+  std::printf(
+      "real frames through a fisheye (f 300 px, source calibrated to %.3f px): %d tags found of yac's %d, %d in "
+      "both; corners - yac's mapped: %.4f px rms, %+.4f px outwards; edge shift measured in %d of 8 views, "
+      "mean %+.4f px\n",
+      source_rms, found, yac_tags, common, rms, outward, shifts, shifts ? shift_sum / shifts : 0.0);
   EXPECT_GE(found, 0.88 * yac_tags);  // 92 % on all 30 frames
   EXPECT_EQ(shifts, 8) << "the shift is measured in 13-14 px tags";
-  EXPECT_LT(shift_sum / std::max(1, shifts), -0.03) << "the black looks thinner, as in the photographs (-0.16 px at full size)";
+  EXPECT_LT(shift_sum / std::max(1, shifts), -0.03)
+      << "the black looks thinner, as in the photographs (-0.16 px at full size)";
   // Corners where yac's are, at the print's size (yac's X-corners do not
   // move with the shift; their own noise, halved by the resampling, is
   // ~0.13 px of the rms).

@@ -785,6 +785,15 @@ fs::path AprilgridDir() {
   return {};
 }
 
+// The data set's frames (cam0/data/*.jpg), in name (time) order.
+std::vector<fs::path> RealFrames(const fs::path& dir) {
+  std::vector<fs::path> frames;
+  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
+    if (e.path().extension() == ".jpg") frames.push_back(e.path());
+  std::sort(frames.begin(), frames.end());
+  return frames;
+}
+
 // yac's corners of one frame: (tag id, corner index) -> pixel.
 std::map<std::pair<int, int>, cv::Point2d> ReadYac(const fs::path& csv) {
   const auto read = config::ReadYacAprilgridCsv(csv.string());
@@ -798,11 +807,7 @@ std::map<std::pair<int, int>, cv::Point2d> ReadYac(const fs::path& csv) {
 TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
-  std::vector<fs::path> frames;
-  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) {
-    if (e.path().extension() == ".jpg") frames.push_back(e.path());
-  }
-  std::sort(frames.begin(), frames.end());
+  const std::vector<fs::path> frames = RealFrames(dir);
   ASSERT_EQ(frames.size(), 30u);
 
   // The production path: DetectBoard on Kalibr's target (camera_calibration.h).
@@ -1037,10 +1042,7 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
 TEST(KalibrTagRealAprilgrid, ThroughAFisheyeTheTagsKeepTheirPlaceAndSize) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
-  std::vector<fs::path> frames;
-  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
-    if (e.path().extension() == ".jpg") frames.push_back(e.path());
-  std::sort(frames.begin(), frames.end());
+  const std::vector<fs::path> frames = RealFrames(dir);
   ASSERT_EQ(frames.size(), 30u);
   const CalibrationBoard board = KalibrBoard();
   // The source camera from yac's corners (radtan4, as the data set's file).
@@ -1118,10 +1120,7 @@ TEST(KalibrTagRealAprilgrid, ThroughAFisheyeTheTagsKeepTheirPlaceAndSize) {
 TEST(KalibrTagRealAprilgrid, TheSameBoardAtFourTimesTheResolution) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
-  std::vector<fs::path> frames;
-  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data"))
-    if (e.path().extension() == ".jpg") frames.push_back(e.path());
-  std::sort(frames.begin(), frames.end());
+  const std::vector<fs::path> frames = RealFrames(dir);
   ASSERT_FALSE(frames.empty());
   const cv::Mat small = cv::imread(frames[3].string(), cv::IMREAD_GRAYSCALE);
   ASSERT_FALSE(small.empty());

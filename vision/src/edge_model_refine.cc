@@ -37,6 +37,10 @@ using EdgePixels = internal::EdgeBandSamples;
 
 using FittedLine = internal::EdgeLine;
 
+// Five parameters: 12 pixels leave 7 degrees of freedom for the residual
+// that scales the covariance (a 10 px tag's steep edge has 14-19).
+constexpr size_t kMinEdgePixels = 12;
+
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
                                   const cv::Point2d& b_px, const cv::Point2d& centre_px,
                                   const CameraModel* camera, double half_width,
@@ -48,6 +52,11 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // (in distorted pixels, where the detector's corners are), away from its ends.
   EdgePixels pixels =
       internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, options.end_margin);
+  // A tag of ~10 px (a Kalibr tag far off a fisheye's axis) leaves 7-11
+  // pixels in the band, fewer than the fit needs: the band then runs on
+  // nearer the corners, half the end margin.
+  if (pixels.value.size() < kMinEdgePixels && options.end_margin > 0.0)
+    pixels = internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, 0.5 * options.end_margin);
   // The mean grey level inside (towards the tag's centre) minus outside, more
   // than half a pixel from the line.
   const auto contrast = [](const EdgePixels& band) {
@@ -80,9 +89,7 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
       pixels.polarity.insert(pixels.polarity.end(), more.value.size(), -1.0);
     }
   }
-  // Five parameters: 12 pixels leave 7 degrees of freedom for the residual
-  // that scales the covariance (a 10 px tag's steep edge has 14-19).
-  if (pixels.value.size() < 12) return std::nullopt;
+  if (pixels.value.size() < kMinEdgePixels) return std::nullopt;
   double dark = 255.0, light = 0.0;
   for (double v : pixels.value) {
     dark = std::min(dark, v);

@@ -193,6 +193,30 @@ cv::Mat InkPrint(const TagCells& cells, const cv::Matx33d& H_px_from_cells, doub
   return out;
 }
 
+// A tag's n x n cells printed as a square of side `side_px` about `centre`,
+// turned by `angle`, one side (x > 0) `persp` nearer: its corners (tag.h's
+// order) and the homography from cells (y up the bitmap) to pixels.
+struct PlacedSquare {
+  std::array<cv::Point2d, 4> corners;
+  cv::Matx33d H_px_from_cells;
+};
+PlacedSquare PlaceSquare(int n, const cv::Point2d& centre, double side_px, double angle, double persp) {
+  const double half = 0.5 * n;
+  PlacedSquare out;
+  std::vector<cv::Point2f> from, to;
+  for (int k = 0; k < 4; ++k) {
+    const double sx = (k == 0 || k == 3) ? -1 : 1, sy = k < 2 ? -1 : 1;
+    const double scale = 0.5 * side_px * (1.0 + persp * sx);
+    const cv::Point2d v(sx * scale, -sy * scale);
+    out.corners[k] = centre + cv::Point2d(v.x * std::cos(angle) - v.y * std::sin(angle),
+                                          v.x * std::sin(angle) + v.y * std::cos(angle));
+    from.emplace_back(static_cast<float>(sx * half), static_cast<float>(sy * half));
+    to.emplace_back(static_cast<float>(out.corners[k].x), static_cast<float>(out.corners[k].y));
+  }
+  cv::getPerspectiveTransform(from, to).convertTo(cv::Mat(3, 3, CV_64F, out.H_px_from_cells.val), CV_64F);
+  return out;
+}
+
 TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
   std::mt19937 rng(11);
   struct Case {
@@ -207,22 +231,10 @@ TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
     const double half = 0.5 * cells->n;
     for (double angle : {0.0, 0.37, 1.1}) {
       // A slightly perspective square about (60, 60) px.
-      const cv::Point2d centre(60.3, 58.7);
-      std::vector<cv::Point2f> from, to;
-      std::array<cv::Point2d, 4> truth;
-      for (int k = 0; k < 4; ++k) {
-        const double sx = (k == 0 || k == 3) ? -1 : 1, sy = k < 2 ? -1 : 1;
-        const double persp = 1.0 + 0.03 * sx;  // one side nearer
-        const cv::Point2d v(sx * half * c.cell_px * persp, -sy * half * c.cell_px * persp);
-        const cv::Point2d p = centre + cv::Point2d(v.x * std::cos(angle) - v.y * std::sin(angle),
-                                                   v.x * std::sin(angle) + v.y * std::cos(angle));
-        from.emplace_back(static_cast<float>(sx * half), static_cast<float>(sy * half));
-        to.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
-        truth[k] = p;
-      }
-      cv::Matx33d H;
-      cv::getPerspectiveTransform(from, to).convertTo(cv::Mat(3, 3, CV_64F, H.val), CV_64F);
-      const cv::Mat image = InkPrint(*cells, H, c.d_px / c.cell_px, c.blur_px, cv::Size(120, 120), &rng);
+      const PlacedSquare square = PlaceSquare(cells->n, {60.3, 58.7}, 2.0 * half * c.cell_px, angle, 0.03);
+      const std::array<cv::Point2d, 4>& truth = square.corners;
+      const cv::Mat image =
+          InkPrint(*cells, square.H_px_from_cells, c.d_px / c.cell_px, c.blur_px, cv::Size(120, 120), &rng);
       // The edge fit's corners: where the grown square's are (the truth's
       // square grown by d), as the exact edge model finds them.
       CornerRefineOptions ro;
@@ -278,21 +290,11 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
   for (const Case& c : {Case{1.5, -0.12, 0.55}, Case{1.5, 0.1, 0.6}, Case{1.35, -0.08, 0.5}, Case{1.35, 0.08, 0.5}}) {
     std::vector<EdgeShiftResult> views;
     for (double angle : {0.0, 0.21, 0.52, 0.8, 1.1, 1.37, 2.0, 2.6}) {
-      const cv::Point2d centre(20.3 + 0.1 * angle, 19.6 - 0.2 * angle);
-      std::vector<cv::Point2f> from, to;
-      std::array<cv::Point2d, 4> truth;
-      for (int k = 0; k < 4; ++k) {
-        const double sx = (k == 0 || k == 3) ? -1 : 1, sy = k < 2 ? -1 : 1;
-        const double persp = 1.0 + 0.04 * sx;
-        const cv::Point2d v(sx * half * c.cell_px * persp, -sy * half * c.cell_px * persp);
-        truth[k] = centre + cv::Point2d(v.x * std::cos(angle) - v.y * std::sin(angle),
-                                        v.x * std::sin(angle) + v.y * std::cos(angle));
-        from.emplace_back(static_cast<float>(sx * half), static_cast<float>(sy * half));
-        to.emplace_back(static_cast<float>(truth[k].x), static_cast<float>(truth[k].y));
-      }
-      cv::Matx33d H;
-      cv::getPerspectiveTransform(from, to).convertTo(cv::Mat(3, 3, CV_64F, H.val), CV_64F);
-      const cv::Mat image = InkPrint(*cells, H, c.d_px / c.cell_px, c.blur_px, cv::Size(40, 40), &rng);
+      const PlacedSquare square =
+          PlaceSquare(cells->n, {20.3 + 0.1 * angle, 19.6 - 0.2 * angle}, 2.0 * half * c.cell_px, angle, 0.04);
+      const std::array<cv::Point2d, 4>& truth = square.corners;
+      const cv::Mat image =
+          InkPrint(*cells, square.H_px_from_cells, c.d_px / c.cell_px, c.blur_px, cv::Size(40, 40), &rng);
       CornerRefineOptions ro;
       ro.width_at_border = cells->n / 2;  // DetectBoard's band on b2 tags: 2 cells of border
       ro.min_cell_px = 0.5;
@@ -315,7 +317,9 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
     for (const auto& v : views) {
       const bool says_unsure = v.sigma_px > 4.0 * sigmas[4];
       unsure += says_unsure ? 1 : 0;
-      if (!says_unsure) EXPECT_NEAR(v.shift_px, c.d_px, 0.04) << c.cell_px << " px cells, sigma " << v.sigma_px;
+      if (!says_unsure) {
+        EXPECT_NEAR(v.shift_px, c.d_px, 0.04) << c.cell_px << " px cells, sigma " << v.sigma_px;
+      }
     }
     EXPECT_LE(unsure, 2) << c.cell_px << " px cells";
     const EdgeShiftEstimate pooled = PoolEdgeShifts(views, 0.0);
@@ -354,25 +358,14 @@ TEST(SmallTag, ANineAndAHalfPixelKalibrTagIsRefinedOnAShorterMargin) {
   std::string why;
   const auto cells = TagCells::Of("tag36h11b2", 3, &why);
   ASSERT_TRUE(cells) << why;
-  const double half = 0.5 * cells->n;
   double worst = 0.0, sq = 0.0;
   int n = 0;
   for (double angle : {0.15, 0.6, 1.0, 1.4, 2.3}) {
-    std::vector<cv::Point2f> from, to;
-    std::array<cv::Point2d, 4> truth, start;
-    const cv::Point2d centre(15.2, 14.7);
-    for (int k = 0; k < 4; ++k) {
-      const double sx = (k == 0 || k == 3) ? -1 : 1, sy = k < 2 ? -1 : 1;
-      const cv::Point2d v(sx * 4.75, -sy * 4.75);  // a 9.5 px square
-      truth[k] = centre + cv::Point2d(v.x * std::cos(angle) - v.y * std::sin(angle),
-                                      v.x * std::sin(angle) + v.y * std::cos(angle));
-      start[k] = truth[k] + cv::Point2d(0.3 * sx, -0.2 * sy);  // a detector's corners, off by a few tenths
-      from.emplace_back(static_cast<float>(sx * half), static_cast<float>(sy * half));
-      to.emplace_back(static_cast<float>(truth[k].x), static_cast<float>(truth[k].y));
-    }
-    cv::Matx33d H;
-    cv::getPerspectiveTransform(from, to).convertTo(cv::Mat(3, 3, CV_64F, H.val), CV_64F);
-    const cv::Mat image = InkPrint(*cells, H, 0.0, 0.45, cv::Size(30, 30), &rng);
+    const PlacedSquare square = PlaceSquare(cells->n, {15.2, 14.7}, 9.5, angle, 0.0);
+    const std::array<cv::Point2d, 4>& truth = square.corners;
+    std::array<cv::Point2d, 4> start;  // a detector's corners, off by a few tenths
+    for (int k = 0; k < 4; ++k) start[k] = truth[k] + cv::Point2d((k == 0 || k == 3) ? -0.3 : 0.3, k < 2 ? 0.2 : -0.2);
+    const cv::Mat image = InkPrint(*cells, square.H_px_from_cells, 0.0, 0.45, cv::Size(30, 30), &rng);
     CornerRefineOptions ro;  // as DetectBoard refines b2 tags: 2 bits a band cell, 8 px the smallest tag
     ro.width_at_border = cells->n / 2;
     ro.min_cell_px = 8.0 / ro.width_at_border;

@@ -56,7 +56,8 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   // pixels in the band, fewer than the fit needs: the band then runs on
   // nearer the corners, half the end margin.
   if (pixels.value.size() < kMinEdgePixels && options.end_margin > 0.0)
-    pixels = internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, 0.5 * options.end_margin);
+    pixels =
+        internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, 0.5 * options.end_margin);
   // The mean grey level inside (towards the tag's centre) minus outside, more
   // than half a pixel from the line.
   const auto contrast = [](const EdgePixels& band) {

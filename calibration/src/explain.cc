@@ -11,25 +11,11 @@
 
 #include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
+#include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
 namespace {
-
-// A candidate the session lacks the input for cannot be formed: the lens
-// candidate without the camera's geometry over the tag plane, rolling_shutter
-// without any frame's image row (pose logs). What it would need, else empty.
-std::string MissingInput(const MeasuredSession& session, Effect e) {
-  if (e == Effect::kLensDistortion && !session.camera)
-    return "the camera's floor geometry (centre, height)";
-  if (e == Effect::kRollingShutter) {
-    for (const MeasuredRun& run : session.runs)
-      for (const CameraRecord& f : run.camera)
-        if (f.valid && f.has_image_row()) return "";
-    return "each frame's image row (video measured by odocal; a pose log has none)";
-  }
-  return "";
-}
 
 bool Contains(const std::vector<Effect>& effects, Effect e) {
   return std::find(effects.begin(), effects.end(), e) != effects.end();
@@ -464,8 +450,9 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   // refitted together as effects were added).
   for (ExplainStep& s : result.steps) {
     s.params = ParamsOf(current, s.effect);
+    const auto& not_compared = Describe(s.effect).not_compared_across_runs;
     for (const ParameterEstimate& p : s.params) {
-      if (p.name == "grain_rad" || p.name.rfind("camera_tilt", 0) == 0) continue;
+      if (std::find(not_compared.begin(), not_compared.end(), p.name) != not_compared.end()) continue;
       if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)  // fmax: NaN loses
         s.between_runs_z = std::fmax(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
     }

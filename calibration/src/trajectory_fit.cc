@@ -14,6 +14,7 @@
 
 #include "odocal/base/format.h"
 #include "odocal/calibration/arc.h"
+#include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/internal/trajectory_fit_stages.h"
 #include "odocal/calibration/statistics.h"
 
@@ -1112,21 +1113,7 @@ std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
 
 }  // namespace internal
 
-std::string_view ToString(Effect effect) {
-  switch (effect) {
-    case Effect::kTagOffset: return "tag_offset";
-    case Effect::kCameraLatency: return "camera_latency";
-    case Effect::kTurnSlip: return "turn_slip";
-    case Effect::kLensDistortion: return "lens_distortion";
-    case Effect::kEncoderBacklash: return "encoder_backlash";
-    case Effect::kCarpetDrift: return "carpet_drift";
-    case Effect::kTrackerYaw: return "tracker_yaw";
-    case Effect::kSpeedSlip: return "speed_slip";
-    case Effect::kArcScale: return "arc_scale";
-    case Effect::kRollingShutter: return "rolling_shutter";
-  }
-  return "?";
-}
+std::string_view ToString(Effect effect) { return Describe(effect).name; }
 
 std::string_view ToString(MotionKind kind) {
   switch (kind) {
@@ -1142,81 +1129,16 @@ double EffectParams::drift_rate_m_per_m() const {
 }
 double EffectParams::drift_grain_rad() const { return std::atan2(values[kDriftB], values[kDriftA]); }
 
-std::vector<int> EffectParamIndices(Effect effect) {
-  switch (effect) {
-    case Effect::kTagOffset: return {EffectParams::kTagX, EffectParams::kTagY};
-    case Effect::kCameraLatency: return {EffectParams::kLatency};
-    case Effect::kTurnSlip: return {EffectParams::kSlip};
-    case Effect::kLensDistortion:
-      return {EffectParams::kK1, EffectParams::kTiltX, EffectParams::kTiltY};
-    case Effect::kEncoderBacklash: return {EffectParams::kBacklash};
-    case Effect::kCarpetDrift: return {EffectParams::kDriftA, EffectParams::kDriftB};
-    case Effect::kTrackerYaw: return {EffectParams::kTrackerYaw};
-    case Effect::kSpeedSlip: return {EffectParams::kSpeedSlip};
-    case Effect::kArcScale: return {EffectParams::kArcScale};
-    case Effect::kRollingShutter: return {EffectParams::kReadout};
-  }
-  return {};
-}
+std::vector<int> EffectParamIndices(Effect effect) { return Describe(effect).params; }
 
-std::vector<int> EffectTestedIndices(Effect effect) {
-  if (effect == Effect::kLensDistortion) return {EffectParams::kK1};
-  return EffectParamIndices(effect);
-}
+std::vector<int> EffectTestedIndices(Effect effect) { return Describe(effect).tested; }
 
 std::vector<std::string> EffectParamNames(Effect effect) {
-  switch (effect) {
-    case Effect::kTagOffset: return {"x_m", "y_m"};
-    case Effect::kCameraLatency: return {"latency_s"};
-    case Effect::kTurnSlip: return {"fraction_at_1rad_s"};
-    case Effect::kLensDistortion: return {"k1", "camera_tilt_x_rad", "camera_tilt_y_rad"};
-    case Effect::kEncoderBacklash: return {"ticks"};
-    case Effect::kCarpetDrift: return {"rate_cos_grain", "rate_sin_grain"};
-    case Effect::kTrackerYaw: return {"yaw_rad"};
-    case Effect::kSpeedSlip: return {"fraction_at_1m_s"};
-    case Effect::kArcScale: return {"fraction_at_1_per_m"};
-    case Effect::kRollingShutter: return {"readout_s"};
-  }
-  return {};
+  const EffectDescriptor& d = Describe(effect);
+  return {d.param_names.begin(), d.param_names.end()};
 }
 
-std::string DistinguishingRuns(Effect effect) {
-  switch (effect) {
-    case Effect::kTagOffset:
-      return "a spin in place seen by the camera (the tag circles the axle; a centred tag does "
-             "not move)";
-    case Effect::kCameraLatency:
-      return "motion seen by the camera at two speeds (e.g. straights at 100 and 400 mm/s) or a "
-             "spin seen by the camera";
-    case Effect::kTurnSlip:
-      return "in-place turns at two different turn rates (e.g. spins at 30 and 120 deg/s): slip "
-             "at one rate is a track error";
-    case Effect::kLensDistortion:
-      return "runs seen both near the image centre and near its edge (e.g. a square that "
-             "crosses the field of view)";
-    case Effect::kEncoderBacklash:
-      return "runs that reverse each wheel a different number of times per metre (e.g. "
-             "out_and_back beside long straights, spins in both directions)";
-    case Effect::kCarpetDrift:
-      return "straights in several headings seen by the camera (e.g. cw and ccw squares, or "
-             "straights at 0, 90, 180 deg): drift along one heading is a wheel-ratio error";
-    case Effect::kTrackerYaw:
-      return "straights seen by the pose source with their measured headings (the direction of "
-             "travel against the heading the tracker reports)";
-    case Effect::kSpeedSlip:
-      return "straights at two different speeds (e.g. out-and-backs at 100 and 400 mm/s): slip at "
-             "one speed is a scale error, and in spins a turn slip";
-    case Effect::kArcScale:
-      return "arcs (e.g. circles of radius 0.3-1 m) beside straights and turns in place: on arcs of "
-             "one curvature it is a scale of both wheels there, which only straights tell from Es "
-             "(and spins from Eb)";
-    case Effect::kRollingShutter:
-      return "motion seen by a video camera at different image rows (e.g. squares or straights "
-             "that cross the image top to bottom, spins away from the middle row): at one row "
-             "it is a camera latency, at the middle row nothing";
-  }
-  return "";
-}
+std::string DistinguishingRuns(Effect effect) { return std::string(Describe(effect).distinguishing_runs); }
 
 bool TrajectoryFitOptions::IsValid(std::string* why) const {
   auto fail = [why](const char* m) {

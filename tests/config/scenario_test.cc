@@ -3,6 +3,8 @@
 #include "odocal/config/scenario.h"
 #include "odocal/config/session.h"
 
+#include "odocal/calibration/effect_registry.h"
+
 #include <cmath>
 #include <filesystem>
 #include <algorithm>
@@ -109,6 +111,18 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"ZeroTicksPerRev", "ticks_per_rev: 2048}", "ticks_per_rev: 0}", "ticks_per_rev: must be a positive number"},
         BadCase{"InvalidYaml", "left_wheel_diameter_mm: 70.0,", "left_wheel_diameter_mm: [70.0,", "not valid YAML"}),
     [](const ::testing::TestParamInfo<BadCase>& info) { return info.param.name; });
+
+// Every candidate effect explain can name (calibration/effect_registry.h)
+// has the simulator's counterpart of the same name, hidden in a scenario:
+// named alone it is not an unknown effect (a missing parameter, at most).
+TEST(Scenario, EveryRegisteredEffectHasItsSimulatorCounterpart) {
+  for (const calibration::EffectDescriptor& d : calibration::Effects()) {
+    std::string text = kIssueScenario;
+    text.replace(text.find("effects: []"), 11, "effects: [{name: " + std::string(d.name) + "}]");
+    const auto s = config::LoadScenario(WriteTemp(text));
+    if (!s) EXPECT_EQ(s.message.find("unknown effect"), std::string::npos) << d.name << ": " << s.message;
+  }
+}
 
 TEST(Scenario, LoadsEveryEffect) {
   std::string text = kIssueScenario;

@@ -13,6 +13,7 @@
 #include "yaml_util.h"
 
 #include "odocal/base/units.h"
+#include "odocal/calibration/effect_registry.h"
 
 namespace odocal::config {
 namespace {
@@ -118,9 +119,8 @@ ReplaySet FromExplain(const nlohmann::json& j, const calibration::WheelParams& b
   if (!j.contains("effects_added")) throw KeyError("effects_added: missing (required)");
   if (!j["effects_added"].is_array()) throw KeyError("effects_added: expected a list of effects");
   for (const nlohmann::json& name : j["effects_added"]) {
-    std::optional<Effect> effect;
-    for (Effect e : calibration::kAllEffects)
-      if (name.is_string() && name.get<std::string>() == calibration::ToString(e)) effect = e;
+    const std::optional<Effect> effect =
+        name.is_string() ? calibration::EffectNamed(name.get<std::string>()) : std::nullopt;
     if (!effect) throw KeyError("effects_added: unknown effect " + name.dump());
     set.effects.push_back(*effect);
     const std::string prefix = std::string(calibration::ToString(*effect)) + ".";

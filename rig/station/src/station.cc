@@ -15,6 +15,7 @@
 #include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
+#include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/seen_turning.h"
 #include "odocal/calibration/segment.h"
 #include "odocal/config/scenario.h"
@@ -45,25 +46,6 @@ double MaxCornerDistance(const vision::TagCorners& a, const vision::TagCorners& 
   double d = 0.0;
   for (int k = 0; k < 4; ++k) d = std::max(d, std::hypot(a[k].x - b[k].x, a[k].y - b[k].y));
   return d;
-}
-
-// What to do about an effect explain found (calibration/trajectory_fit.h's candidates).
-const char* EffectAdvice(calibration::Effect effect) {
-  using calibration::Effect;
-  switch (effect) {
-    case Effect::kTagOffset: return "measure the tag's offset from the axle and set tag.offset_mm";
-    case Effect::kCameraLatency: return "the camera's frames lag the robot's clock: harmless to return errors; "
-                                        "state it as the clock offset where poses and telemetry are combined";
-    case Effect::kTurnSlip: return "turns in place slip: calibrate the track at your operating turn rate";
-    case Effect::kLensDistortion: return "the lens calibration is off: calibrate the camera again (calibrate-camera)";
-    case Effect::kEncoderBacklash: return "the encoders lose counts when a wheel reverses: check the couplings";
-    case Effect::kCarpetDrift: return "the floor pushes the robot sideways (carpet grain): calibrate on the floor it works on";
-    case Effect::kTrackerYaw: return "the tag is turned on the robot: set tag.yaw_deg";
-    case Effect::kSpeedSlip: return "the wheels slip more at speed: calibrate at your operating speed";
-    case Effect::kArcScale: return "arcs travel a different scale than straights: calibrate on the paths you drive";
-    case Effect::kRollingShutter: return "the camera's rolling shutter skews moving frames: measure at rest, or use a global shutter";
-  }
-  return "";
 }
 
 // The largest deviation from 1 of a CVRA factor, in standard errors that
@@ -888,7 +870,7 @@ StationResult Station::Run() {
         text += Format(" explains %.3f mm of the camera's gap: ",
                        std::sqrt(std::max(0.0, gap_before * gap_before - step.gap_after_m * step.gap_after_m)) * kMToMm);
         gap_before = step.gap_after_m;
-        result.findings.push_back(text + EffectAdvice(step.effect));
+        result.findings.push_back(text + std::string(calibration::Describe(step.effect).advice));
       }
     }
     result.explain = std::move(explain);

@@ -7,27 +7,10 @@
 
 #include "file_result.h"
 
+#include "odocal/base/text.h"
+
 namespace odocal::config {
 namespace {
-
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
-
-std::vector<std::string> SplitCommas(const std::string& line) {
-  std::vector<std::string> cells;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = line.find(',', start);
-    cells.push_back(Trim(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return cells;
-}
 
 std::optional<double> ParseNumber(const std::string& text) {
   if (text.empty()) return std::nullopt;
@@ -72,9 +55,9 @@ std::optional<std::vector<ManualReading>> ReadManualCsvOrError(const std::string
   while (std::getline(in, text)) {
     ++line;
     if (line == 1 && text.rfind("\xEF\xBB\xBF", 0) == 0) text = text.substr(3);  // BOM
-    const std::string trimmed = Trim(text);
+    const std::string trimmed(Trim(text));
     if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::vector<std::string> cells = SplitCommas(trimmed);
+    const std::vector<std::string> cells = SplitFields(trimmed);
     if (!have_header) {
       for (size_t i = 0; i < cells.size(); ++i) {
         const std::string& c = cells[i];

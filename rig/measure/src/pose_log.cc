@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "odocal/base/format.h"
+#include "odocal/base/text.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/statistics.h"
@@ -20,23 +21,6 @@ using calibration::RunFlagKind;
 namespace {
 
 using calibration::Pose2;
-
-
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
-
-std::vector<std::string> SplitFields(const std::string& line) {
-  std::vector<std::string> fields;
-  std::stringstream ss(line);
-  std::string f;
-  while (std::getline(ss, f, ',')) fields.push_back(Trim(f));
-  if (!line.empty() && line.back() == ',') fields.push_back("");
-  return fields;
-}
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string s;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "odocal/base/format.h"
+#include "odocal/base/text.h"
 
 namespace odocal::records {
 namespace {
@@ -37,12 +38,6 @@ const Key* FindKey(std::string_view name) {
   for (const Key& k : kKeys)
     if (name == k.name) return &k;
   return nullptr;
-}
-
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return s;
 }
 
 // The whole of `text` as a number, or nullopt ("2mm", "", "nan" are not).

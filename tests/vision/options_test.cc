@@ -12,6 +12,7 @@
 
 #include "odocal/test_util/options_checks.h"
 #include "odocal/vision/board_render.h"
+#include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -38,6 +39,13 @@ TEST(DetectorOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
            {[](DetectorOptions* o) { o->decode_sharpening = -0.25; }, "decode_sharpening"},
            {[](DetectorOptions* o) { o->nthreads = 0; }, "nthreads"},
            {[](DetectorOptions* o) { o->max_hamming = 4; }, "max_hamming"}});
+}
+
+TEST(BoardShapeOptions, DefaultsAreValidAndEachBadFieldIsNamed) {
+  ExpectValidAndEachEditRejected<BoardShapeOptions>(
+      {}, {{[](BoardShapeOptions* o) { o->min_sightings = 3; }, "min_sightings"},
+           {[](BoardShapeOptions* o) { o->flat_mm = -0.1; }, "flat_mm"},
+           {[](BoardShapeOptions* o) { o->flat_mm = kNaN; }, "flat_mm"}});
 }
 
 TEST(TrackerOptions, DefaultsAreValidAndEachBadFieldIsNamed) {

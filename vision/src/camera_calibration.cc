@@ -89,79 +89,93 @@ cv::Mat EvenContrast(const cv::Mat& gray, int k) {
 // Kalibr's aprilgrid: every tag of the board in view, its corners refined by
 // the exact edge model; tags off the board, seen twice, or whose edges could
 // not be fitted are refused (named in tags_refused).
-BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& board,
-                               const BoardDetectionOptions& options) {
-  BoardDetection out;
-  // The tags are looked for and refined in the image with its contrast made
-  // even (EvenContrast over a window of aprilgrid_even_contrast_window of the
-  // longer side). Under a fisheye's vignetting the white at the rim is a
-  // third of the centre's and changes by half across one tag: one threshold
-  // per tile of libapriltag misses the dark tags, and an edge fitted with
-  // constant levels on either side leans with the light (a tag's own edges
-  // and the longer lines through its corner squares then disagree by
-  // 0.4-1.7 px, and the tag is refused). A rendered 190-degree lens darkened
-  // by 0.6 cos^4 off the axis: 114 of 137 tags, 0.112 px rms, as it is;
-  // 135, 0.063 px, evened (KalibrTagRendered.AVignettedFisheyeFindsItsDarkTags).
-  const cv::Mat gray =
-      options.aprilgrid_even_contrast_window > 0.0
-          ? EvenContrast(image, std::max(8, static_cast<int>(std::lround(options.aprilgrid_even_contrast_window *
-                                                                           std::max(image.cols, image.rows)))))
-          : image;
-  // 0: by the image's size (aprilgrid_upsample's comment).
-  const int up = options.aprilgrid_upsample > 0
-                     ? options.aprilgrid_upsample
-                     : std::clamp(static_cast<int>(std::lround(1920.0 / std::max(gray.cols, gray.rows))), 1, 3);
-  DetectorOptions detector_options;
-  detector_options.family = board.tag_family;
-  detector_options.quad_decimate = static_cast<float>(up);
-  auto created = TagDetector::Create(detector_options);
-  if (!created.ok) {
-    out.message = "aprilgrid: " + created.message;
+//
+// A search in stages, each a method: Prepare (the image evened and upsampled,
+// libapriltag set up, the edge model's band), LookInPasses (the plain and
+// thinned images), LookInPaintedPasses (the corner squares painted white),
+// LookWherePredicted (the tags the found ones place), SelectTags (clear of
+// the border, corners as sure as the view's), then the edge shift
+// (FitWholeTags, or MeasureTheEdgeShift and RefitThroughCornerSquares).
+struct AprilgridSearch {
+  AprilgridSearch(const CalibrationBoard& board, const BoardDetectionOptions& options)
+      : board(board), options(options), quick(options.aprilgrid_corners_only) {}
+
+  BoardDetection Run(const cv::Mat& image) {
+    if (!Prepare(image)) return out;
+    LookInPasses();
+    LookInPaintedPasses();
+    LookWherePredicted();
+    if (!SelectTags()) return out;
+    if (!quick && !RemoveTheEdgeShift()) return out;
+    out.found = true;
     return out;
   }
-  // Five passes: the plain image, the same with the black thinned by 1,
-  // 2 and 3 pixels of the upsampled image. Kalibr's corner squares touch each
-  // tag's corners; where the touch survives thresholding, the white around a
-  // tag is cut into four strips, and libapriltag's quad finder (which pairs
-  // one black with one white component) sees four lone edges, no quad. A
-  // rendered aprilgrid at 25-40 px a tag: 1 tag of 36 found in the plain
-  // image. Thinning opens the touches; too much of it erases the bits, hence
-  // several; and the corner squares painted white (below). The
-  // thinned passes' corners lie a little inside the tag; the edge model
-  // refits every tag's corners on the (evened) image either way.
-  cv::Mat big = gray;
-  if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
-  // The edge model's band reaches 0.45 "cell" to either side of an edge,
-  // a cell being the tag's side / width_at_border. On an aprilgrid the black
-  // border is 2 cells wide (b2 families) and the gap 3 cells (spacing 0.3),
-  // so the band may span 2 cells: small tags (2-3 px a cell on a 640x480
-  // camera at 2 m) are then refined instead of refused as too small.
-  const int width = TagWidthAtBorder(board.tag_family);
-  const bool two_bit = board.tag_family.size() > 2 && board.tag_family.substr(board.tag_family.size() - 2) == "b2";
-  const int gap_cells = static_cast<int>(std::floor(board.spacing * width + 1e-9));
-  const int unit = std::max(1, std::min(two_bit ? 2 : 1, gap_cells));
-  CornerRefineOptions refine;
-  refine.width_at_border = std::max(3, width / unit);
-  refine.min_cell_px = options.aprilgrid_min_tag_px / refine.width_at_border;
-  std::optional<CameraModel> lens_model;
-  if (options.lens) lens_model.emplace(*options.lens, CameraMount{});
-  const CameraModel* lens = lens_model ? &*lens_model : nullptr;
 
-  // Every tag of the board is refined on the original image as soon as a
-  // pass finds it; a later pass retries a tag whose corners could not be
-  // refined (a thinned or painted image moves libapriltag's corners).
-  struct FoundTag {
-    CornerRefineResult refined;
-    std::array<cv::Matx22d, 4> cov;
-  };
-  std::map<int, FoundTag> tags;
-  const bool quick = options.aprilgrid_corners_only;
-  std::map<int, int> ambiguous;  // ids seen more than once in one pass: how many times
+  // The image to look in, libapriltag, and the edge model for this board;
+  // false (out.message says why) when the detector cannot be made.
+  bool Prepare(const cv::Mat& image) {
+    // The tags are looked for and refined in the image with its contrast made
+    // even (EvenContrast over a window of aprilgrid_even_contrast_window of the
+    // longer side). Under a fisheye's vignetting the white at the rim is a
+    // third of the centre's and changes by half across one tag: one threshold
+    // per tile of libapriltag misses the dark tags, and an edge fitted with
+    // constant levels on either side leans with the light (a tag's own edges
+    // and the longer lines through its corner squares then disagree by
+    // 0.4-1.7 px, and the tag is refused). A rendered 190-degree lens darkened
+    // by 0.6 cos^4 off the axis: 114 of 137 tags, 0.112 px rms, as it is;
+    // 135, 0.063 px, evened (KalibrTagRendered.AVignettedFisheyeFindsItsDarkTags).
+    gray = options.aprilgrid_even_contrast_window > 0.0
+               ? EvenContrast(image, std::max(8, static_cast<int>(std::lround(options.aprilgrid_even_contrast_window *
+                                                                              std::max(image.cols, image.rows)))))
+               : image;
+    // 0: by the image's size (aprilgrid_upsample's comment).
+    up = options.aprilgrid_upsample > 0
+             ? options.aprilgrid_upsample
+             : std::clamp(static_cast<int>(std::lround(1920.0 / std::max(gray.cols, gray.rows))), 1, 3);
+    DetectorOptions detector_options;
+    detector_options.family = board.tag_family;
+    detector_options.quad_decimate = static_cast<float>(up);
+    created = TagDetector::Create(detector_options);
+    if (!created.ok) {
+      out.message = "aprilgrid: " + created.message;
+      return false;
+    }
+    // Five passes: the plain image, the same with the black thinned by 1,
+    // 2 and 3 pixels of the upsampled image. Kalibr's corner squares touch each
+    // tag's corners; where the touch survives thresholding, the white around a
+    // tag is cut into four strips, and libapriltag's quad finder (which pairs
+    // one black with one white component) sees four lone edges, no quad. A
+    // rendered aprilgrid at 25-40 px a tag: 1 tag of 36 found in the plain
+    // image. Thinning opens the touches; too much of it erases the bits, hence
+    // several; and the corner squares painted white (below). The
+    // thinned passes' corners lie a little inside the tag; the edge model
+    // refits every tag's corners on the (evened) image either way.
+    big = gray;
+    if (up > 1) cv::resize(gray, big, cv::Size(), up, up, cv::INTER_CUBIC);
+    // The edge model's band reaches 0.45 "cell" to either side of an edge,
+    // a cell being the tag's side / width_at_border. On an aprilgrid the black
+    // border is 2 cells wide (b2 families) and the gap 3 cells (spacing 0.3),
+    // so the band may span 2 cells: small tags (2-3 px a cell on a 640x480
+    // camera at 2 m) are then refined instead of refused as too small.
+    const int width = TagWidthAtBorder(board.tag_family);
+    const bool two_bit = board.tag_family.size() > 2 && board.tag_family.substr(board.tag_family.size() - 2) == "b2";
+    const int gap_cells = static_cast<int>(std::floor(board.spacing * width + 1e-9));
+    const int unit = std::max(1, std::min(two_bit ? 2 : 1, gap_cells));
+    refine.width_at_border = std::max(3, width / unit);
+    refine.min_cell_px = options.aprilgrid_min_tag_px / refine.width_at_border;
+    if (options.lens) lens_model.emplace(*options.lens, CameraMount{});
+    lens = lens_model ? &*lens_model : nullptr;
+    return true;
+  }
+
   // Pixel centres at integers in both images: x = (X + 0.5) / up - 0.5.
-  const auto to_image = [up](const cv::Point2d& c) { return cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5); };
-  const auto to_big = [up](const cv::Point2d& c) { return cv::Point2d((c.x + 0.5) * up - 0.5, (c.y + 0.5) * up - 0.5); };
+  cv::Point2d ToImage(const cv::Point2d& c) const {
+    return cv::Point2d((c.x + 0.5) / up - 0.5, (c.y + 0.5) / up - 0.5);
+  }
+  cv::Point2d ToBig(const cv::Point2d& c) const { return cv::Point2d((c.x + 0.5) * up - 0.5, (c.y + 0.5) * up - 0.5); }
+
   // A pass's tags of the board; how many were refined that were not before.
-  const auto add = [&](const cv::Mat& pass_image) {
+  int Add(const cv::Mat& pass_image) {
     const std::vector<TagDetection> pass = created.detector->Detect(pass_image).detections;
     std::map<int, int> count;
     for (const TagDetection& d : pass) ++count[d.id];
@@ -173,7 +187,7 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
       if (count[d.id] > 1) ambiguous[d.id] = std::max(ambiguous[d.id], count[d.id]);
       if (ambiguous.count(d.id)) continue;
       std::array<cv::Point2d, 4> corners;
-      for (int k = 0; k < 4; ++k) corners[k] = to_image(d.corners_px[k]);
+      for (int k = 0; k < 4; ++k) corners[k] = ToImage(d.corners_px[k]);
       FoundTag f;
       if (quick) {
         f.refined.ok = true;
@@ -186,13 +200,18 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
       tags[d.id] = f;
     }
     return added;
-  };
-  add(big);
-  for (const int k : {3, 5, 7}) {
-    cv::Mat thinned;
-    cv::dilate(big, thinned, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
-    add(thinned);
   }
+
+  // The plain image, then thinned (the comment in Prepare).
+  void LookInPasses() {
+    Add(big);
+    for (const int k : {3, 5, 7}) {
+      cv::Mat thinned;
+      cv::dilate(big, thinned, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+      Add(thinned);
+    }
+  }
+
   // Then passes with the corner squares painted white where the refined tags
   // found so far put them, so that the white around every tag is one region.
   // Each round paints two images: every square through one homography of the
@@ -211,22 +230,32 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
   // above the paper, which then reads as black (a rendered 190-degree view
   // darkened by cos^4 of the angle off axis, before the contrast was made
   // even: 3 tags of 14 with 255, 14 with the paper's white).
-  const double s = board.square_m, g = board.spacing * s, pitch = s + g, e = 0.04 * s;
-  cv::Mat paper;  // the paper's white near each pixel of `big`, made on first use
-  const auto paper_white = [&]() -> const cv::Mat& {
+  // A printed square's side, its corner squares' and the pitch of the grid (m).
+  double Pitch() const {
+    const double s = board.square_m, g = board.spacing * s;
+    return s + g;
+  }
+
+  // The paper's white near each pixel of `big`, made on first use.
+  const cv::Mat& PaperWhite() {
     if (!paper.empty()) return paper;
     std::vector<double> sides;
     for (const auto& [id, f] : tags)
       if (f.refined.ok)
-        sides.push_back(0.5 * (cv::norm(f.refined.corners_px[2] - f.refined.corners_px[0]) +
-                               cv::norm(f.refined.corners_px[3] - f.refined.corners_px[1])) / std::sqrt(2.0));
+        sides.push_back(0.5 *
+                        (cv::norm(f.refined.corners_px[2] - f.refined.corners_px[0]) +
+                         cv::norm(f.refined.corners_px[3] - f.refined.corners_px[1])) /
+                        std::sqrt(2.0));
     const int k = std::max(3, static_cast<int>(std::lround(sides.empty() ? 9.0 : calibration::Median(sides))) | 1);
     cv::Mat local_max;
     cv::dilate(gray, local_max, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
     cv::resize(local_max, paper, big.size(), 0, 0, cv::INTER_LINEAR);
     return paper;
-  };
-  const auto paint_square = [&](cv::Mat& mask, const cv::Mat& H, int i, int j) {
+  }
+
+  // Corner square (i, j) through the board-to-`big` homography H, 4 % of a tag larger all round.
+  void PaintSquare(cv::Mat& mask, const cv::Mat& H, int i, int j) const {
+    const double s = board.square_m, g = board.spacing * s, pitch = s + g, e = 0.04 * s;
     const double x0 = i * pitch - g - e, x1 = i * pitch + e, y0 = j * pitch - g - e, y1 = j * pitch + e;
     const std::vector<cv::Point2f> square = {cv::Point2f(static_cast<float>(x0), static_cast<float>(y0)),
                                              cv::Point2f(static_cast<float>(x1), static_cast<float>(y0)),
@@ -237,205 +266,219 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
     std::vector<cv::Point> poly;
     for (const auto& p : px) poly.emplace_back(cvRound(p.x), cvRound(p.y));
     cv::fillConvexPoly(mask, poly, cv::Scalar(255), cv::LINE_AA);
-  };
+  }
+
   // `big` with the squares in `mask` (anti-aliased coverage) painted the paper's white.
   // cv::blendLinear's arithmetic, on the painted pixels only (the mask is
   // 0 on most of `big`, where the blend gives `big` back; three whole-image
   // float passes were a tenth of an aprilgrid frame's time).
-  const auto painted_image = [&](const cv::Mat& mask) {
-    const cv::Mat& white = paper_white();
-    cv::Mat out = big.clone();
+  cv::Mat PaintedImage(const cv::Mat& mask) {
+    const cv::Mat& white = PaperWhite();
+    cv::Mat painted = big.clone();
     for (int y = 0; y < mask.rows; ++y) {
       const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
       const std::uint8_t* w = white.ptr<std::uint8_t>(y);
-      std::uint8_t* o = out.ptr<std::uint8_t>(y);
+      std::uint8_t* o = painted.ptr<std::uint8_t>(y);
       for (int x = 0; x < mask.cols; ++x) {
         if (m[x] == 0) continue;
         const float w1 = m[x] * static_cast<float>(1.0 / 255.0), w2 = 1.0f - w1;
         o[x] = cv::saturate_cast<std::uint8_t>((w[x] * w1 + o[x] * w2) / (w1 + w2 + 1e-5f));
       }
     }
-    return out;
-  };
-  for (int round = 0; round < (quick ? 0 : options.aprilgrid_paint_rounds); ++round) {
-    std::vector<cv::Point2f> on_board, in_image;
-    struct Local {
-      int col, row;
-      cv::Mat H;
-    };
-    std::vector<Local> local;
-    for (const auto& [id, f] : tags) {
-      if (!f.refined.ok) continue;
-      std::vector<cv::Point2f> tag_board, tag_image;
-      for (int k = 0; k < 4; ++k) {
-        const cv::Point3f b = *board.AprilgridCorner(id, k);
-        tag_board.emplace_back(b.x, b.y);
-        tag_image.emplace_back(to_big(f.refined.corners_px[k]));
+    return painted;
+  }
+
+  void LookInPaintedPasses() {
+    const double pitch = Pitch();
+    for (int round = 0; round < (quick ? 0 : options.aprilgrid_paint_rounds); ++round) {
+      std::vector<cv::Point2f> on_board, in_image;
+      struct Local {
+        int col, row;
+        cv::Mat H;
+      };
+      std::vector<Local> local;
+      for (const auto& [id, f] : tags) {
+        if (!f.refined.ok) continue;
+        std::vector<cv::Point2f> tag_board, tag_image;
+        for (int k = 0; k < 4; ++k) {
+          const cv::Point3f b = *board.AprilgridCorner(id, k);
+          tag_board.emplace_back(b.x, b.y);
+          tag_image.emplace_back(ToBig(f.refined.corners_px[k]));
+        }
+        on_board.insert(on_board.end(), tag_board.begin(), tag_board.end());
+        in_image.insert(in_image.end(), tag_image.begin(), tag_image.end());
+        const float min_x = std::min({tag_board[0].x, tag_board[1].x, tag_board[2].x, tag_board[3].x});
+        const float min_y = std::min({tag_board[0].y, tag_board[1].y, tag_board[2].y, tag_board[3].y});
+        local.push_back({static_cast<int>(std::lround(min_x / pitch)), static_cast<int>(std::lround(min_y / pitch)),
+                         cv::getPerspectiveTransform(tag_board, tag_image)});
       }
-      on_board.insert(on_board.end(), tag_board.begin(), tag_board.end());
-      in_image.insert(in_image.end(), tag_image.begin(), tag_image.end());
-      const float min_x = std::min({tag_board[0].x, tag_board[1].x, tag_board[2].x, tag_board[3].x});
-      const float min_y = std::min({tag_board[0].y, tag_board[1].y, tag_board[2].y, tag_board[3].y});
-      local.push_back({static_cast<int>(std::lround(min_x / pitch)), static_cast<int>(std::lround(min_y / pitch)),
-                       cv::getPerspectiveTransform(tag_board, tag_image)});
-    }
-    if (local.empty()) break;
-    // The board's homography only from tags that span two rows and two
-    // columns: tags in one row leave it free across the row.
-    std::set<int> cols, rows;
-    for (const Local& l : local) cols.insert(l.col), rows.insert(l.row);
-    const cv::Mat H = on_board.size() >= 16 && cols.size() >= 2 && rows.size() >= 2
-                          ? cv::findHomography(on_board, in_image, cv::RANSAC, 3.0 * up)
-                          : cv::Mat();
-    int added = 0;
-    if (!H.empty()) {
+      if (local.empty()) break;
+      // The board's homography only from tags that span two rows and two
+      // columns: tags in one row leave it free across the row.
+      std::set<int> cols, rows;
+      for (const Local& l : local) cols.insert(l.col), rows.insert(l.row);
+      const cv::Mat H = on_board.size() >= 16 && cols.size() >= 2 && rows.size() >= 2
+                            ? cv::findHomography(on_board, in_image, cv::RANSAC, 3.0 * up)
+                            : cv::Mat();
+      int added = 0;
+      if (!H.empty()) {
+        cv::Mat mask = cv::Mat::zeros(big.size(), CV_8U);
+        for (int j = 0; j <= board.rows; ++j)
+          for (int i = 0; i <= board.cols; ++i) PaintSquare(mask, H, i, j);
+        added += Add(PaintedImage(mask));
+      }
       cv::Mat mask = cv::Mat::zeros(big.size(), CV_8U);
-      for (int j = 0; j <= board.rows; ++j)
-        for (int i = 0; i <= board.cols; ++i) paint_square(mask, H, i, j);
-      added += add(painted_image(mask));
-    }
-    cv::Mat mask = cv::Mat::zeros(big.size(), CV_8U);
-    for (int j = 0; j <= board.rows; ++j) {
-      for (int i = 0; i <= board.cols; ++i) {
-        // Square (i, j) touches tags (i - 1 .. i, j - 1 .. j); its distance
-        // to tag (c, r) in tags is max(|i - c - 0.5|, |j - r - 0.5|) - 0.5.
-        const Local* nearest = nullptr;
-        double best = options.aprilgrid_paint_reach;
-        for (const Local& l : local) {
-          const double d = std::max(std::abs(i - l.col - 0.5), std::abs(j - l.row - 0.5)) - 0.5;
-          if (d <= best) best = d, nearest = &l;
-        }
-        if (nearest) paint_square(mask, nearest->H, i, j);
-        else if (!H.empty()) paint_square(mask, H, i, j);
-      }
-    }
-    added += add(painted_image(mask));
-    if (added == 0) break;
-  }
-
-  // Last, the tags no pass found, looked for where the found ones put them
-  // (aprilgrid_search.h): refined from there by the edge model and kept when
-  // their own bits are there. Through a fisheye a large tag's edges are curves
-  // no quad fits; repeated while it finds tags, each ring opening the next.
-  for (int round = 0; round < (quick ? 0 : options.aprilgrid_predict_rounds); ++round) {
-    std::map<int, internal::TagCorners> measured;
-    for (const auto& [id, f] : tags)
-      if (f.refined.ok && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
-    const auto prediction = internal::BoardPrediction::Fit(board, measured, lens);
-    if (!prediction) break;
-    int added = 0;
-    for (int i = 0; i < board.cols * board.rows; ++i) {
-      const int id = board.first_id + i;
-      if (measured.count(id) || ambiguous.count(id)) continue;
-      const auto predicted = prediction->Corners(id);
-      if (!predicted) continue;
-      FoundTag f;
-      f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, *predicted, lens, refine, {0, 0}, &f.cov);
-      if (!f.refined.ok) continue;
-      std::string why;
-      const auto cells = TagCells::Of(board.tag_family, id, &why);
-      const auto code = cells ? internal::CheckTagCode(gray, f.refined.corners_px, *cells, lens) : std::nullopt;
-      // The bits read at their centres; for a small tag, its whole data
-      // area against its bitmap's and every other id's.
-      bool accepted = code && code->contrast >= options.aprilgrid_predicted_min_contrast &&
-                      code->mismatches <= options.aprilgrid_predicted_max_mismatch * code->cells;
-      if (!accepted && cells) {
-        const auto own = internal::CorrelateTagData(gray, f.refined.corners_px, *cells, lens);
-        if (own && own->correlation >= options.aprilgrid_predicted_min_correlation &&
-            own->contrast >= options.aprilgrid_predicted_min_contrast) {
-          double rival = 0.0;
-          for (int other = board.first_id; other < board.first_id + board.cols * board.rows; ++other) {
-            if (other == id) continue;
-            const auto other_cells = TagCells::Of(board.tag_family, other, &why);
-            const auto r =
-                other_cells ? internal::CorrelateTagData(gray, f.refined.corners_px, *other_cells, lens) : std::nullopt;
-            if (r) rival = std::max(rival, r->correlation);
+      for (int j = 0; j <= board.rows; ++j) {
+        for (int i = 0; i <= board.cols; ++i) {
+          // Square (i, j) touches tags (i - 1 .. i, j - 1 .. j); its distance
+          // to tag (c, r) in tags is max(|i - c - 0.5|, |j - r - 0.5|) - 0.5.
+          const Local* nearest = nullptr;
+          double best = options.aprilgrid_paint_reach;
+          for (const Local& l : local) {
+            const double d = std::max(std::abs(i - l.col - 0.5), std::abs(j - l.row - 0.5)) - 0.5;
+            if (d <= best) best = d, nearest = &l;
           }
-          accepted = own->correlation - rival >= options.aprilgrid_predicted_min_margin;
+          if (nearest)
+            PaintSquare(mask, nearest->H, i, j);
+          else if (!H.empty())
+            PaintSquare(mask, H, i, j);
         }
       }
-      if (!accepted) continue;
-      tags[id] = f;
-      ++added;
+      added += Add(PaintedImage(mask));
+      if (added == 0) break;
     }
-    if (added == 0) break;
   }
 
-  int on_board = 0;
-  std::vector<std::array<cv::Point2d, 4>> refined;  // per used tag, for the edge shift
-  // The tags refined and clear of the border, with their worst corner's
-  // sigma; the view's median corner sigma.
-  const auto corner_sigma = [](const FoundTag& f, int k) { return std::sqrt(0.5 * (f.cov[k](0, 0) + f.cov[k](1, 1))); };
-  std::vector<std::pair<int, double>> candidates;
-  std::vector<double> sigmas;
-  for (const auto& [id, f] : tags) {
-    ++on_board;
-    if (ambiguous.count(id)) continue;
-    if (!f.refined.ok) {
-      out.tags_refused.emplace_back(id, "corners not refined: " + f.refined.message);
-      continue;
-    }
-    const CornerRefineResult& r = f.refined;
-    const double m = options.aprilgrid_min_border_px;
-    if (std::any_of(r.corners_px.begin(), r.corners_px.end(), [&](const cv::Point2d& c) {
-          return !(c.x >= m && c.y >= m && c.x <= gray.cols - 1 - m && c.y <= gray.rows - 1 - m);
-        })) {
-      char why[64];
-      std::snprintf(why, sizeof(why), "a corner within %g px of the image's border", m);
-      out.tags_refused.emplace_back(id, why);
-      continue;
-    }
-    double worst = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      sigmas.push_back(corner_sigma(f, k));
-      worst = std::max(worst, sigmas.back());
-    }
-    candidates.emplace_back(id, worst);
-  }
-  double median_sigma = 0.0;
-  if (!sigmas.empty()) {
-    std::nth_element(sigmas.begin(), sigmas.begin() + static_cast<long>(sigmas.size() / 2), sigmas.end());
-    median_sigma = sigmas[sigmas.size() / 2];
-  }
-  for (const auto& [id, worst] : candidates) {
-    const FoundTag& f = tags.at(id);
-    if (!(worst <= options.aprilgrid_max_corner_sigma_ratio * median_sigma)) {
-      char why[112];
-      std::snprintf(why, sizeof(why), "a corner's sigma %.3f px, over %g times the view's median %.3f px", worst,
-                    options.aprilgrid_max_corner_sigma_ratio, median_sigma);
-      out.tags_refused.emplace_back(id, why);
-      continue;
-    }
-    out.tag_ids.push_back(id);
-    refined.push_back(f.refined.corners_px);
-    for (int k = 0; k < 4; ++k) {
-      out.image_points.emplace_back(static_cast<float>(f.refined.corners_px[k].x),
-                                    static_cast<float>(f.refined.corners_px[k].y));
-      out.object_points.push_back(*board.AprilgridCorner(id, k));
-      out.point_sigma_px.push_back(corner_sigma(f, k));
+  void LookWherePredicted() {
+    // Last, the tags no pass found, looked for where the found ones put them
+    // (aprilgrid_search.h): refined from there by the edge model and kept when
+    // their own bits are there. Through a fisheye a large tag's edges are curves
+    // no quad fits; repeated while it finds tags, each ring opening the next.
+    for (int round = 0; round < (quick ? 0 : options.aprilgrid_predict_rounds); ++round) {
+      std::map<int, internal::TagCorners> measured;
+      for (const auto& [id, f] : tags)
+        if (f.refined.ok && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
+      const auto prediction = internal::BoardPrediction::Fit(board, measured, lens);
+      if (!prediction) break;
+      int added = 0;
+      for (int i = 0; i < board.cols * board.rows; ++i) {
+        const int id = board.first_id + i;
+        if (measured.count(id) || ambiguous.count(id)) continue;
+        const auto predicted = prediction->Corners(id);
+        if (!predicted) continue;
+        FoundTag f;
+        f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, *predicted, lens, refine, {0, 0}, &f.cov);
+        if (!f.refined.ok) continue;
+        std::string why;
+        const auto cells = TagCells::Of(board.tag_family, id, &why);
+        const auto code = cells ? internal::CheckTagCode(gray, f.refined.corners_px, *cells, lens) : std::nullopt;
+        // The bits read at their centres; for a small tag, its whole data
+        // area against its bitmap's and every other id's.
+        bool accepted = code && code->contrast >= options.aprilgrid_predicted_min_contrast &&
+                        code->mismatches <= options.aprilgrid_predicted_max_mismatch * code->cells;
+        if (!accepted && cells) {
+          const auto own = internal::CorrelateTagData(gray, f.refined.corners_px, *cells, lens);
+          if (own && own->correlation >= options.aprilgrid_predicted_min_correlation &&
+              own->contrast >= options.aprilgrid_predicted_min_contrast) {
+            double rival = 0.0;
+            for (int other = board.first_id; other < board.first_id + board.cols * board.rows; ++other) {
+              if (other == id) continue;
+              const auto other_cells = TagCells::Of(board.tag_family, other, &why);
+              const auto r = other_cells ? internal::CorrelateTagData(gray, f.refined.corners_px, *other_cells, lens)
+                                         : std::nullopt;
+              if (r) rival = std::max(rival, r->correlation);
+            }
+            accepted = own->correlation - rival >= options.aprilgrid_predicted_min_margin;
+          }
+        }
+        if (!accepted) continue;
+        tags[id] = f;
+        ++added;
+      }
+      if (added == 0) break;
     }
   }
-  for (const auto& [id, n] : ambiguous) {
-    if (!tags.count(id)) ++on_board;
-    out.tags_refused.emplace_back(id, "seen " + std::to_string(n) + " times");
+
+  // The tags kept, into `out`; false (out.message says why) when too few.
+  bool SelectTags() {
+    int on_board = 0;
+    // The tags refined and clear of the border, with their worst corner's
+    // sigma; the view's median corner sigma.
+    const auto corner_sigma = [](const FoundTag& f, int k) {
+      return std::sqrt(0.5 * (f.cov[k](0, 0) + f.cov[k](1, 1)));
+    };
+    std::vector<std::pair<int, double>> candidates;
+    std::vector<double> sigmas;
+    for (const auto& [id, f] : tags) {
+      ++on_board;
+      if (ambiguous.count(id)) continue;
+      if (!f.refined.ok) {
+        out.tags_refused.emplace_back(id, "corners not refined: " + f.refined.message);
+        continue;
+      }
+      const CornerRefineResult& r = f.refined;
+      const double m = options.aprilgrid_min_border_px;
+      if (std::any_of(r.corners_px.begin(), r.corners_px.end(), [&](const cv::Point2d& c) {
+            return !(c.x >= m && c.y >= m && c.x <= gray.cols - 1 - m && c.y <= gray.rows - 1 - m);
+          })) {
+        char why[64];
+        std::snprintf(why, sizeof(why), "a corner within %g px of the image's border", m);
+        out.tags_refused.emplace_back(id, why);
+        continue;
+      }
+      double worst = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        sigmas.push_back(corner_sigma(f, k));
+        worst = std::max(worst, sigmas.back());
+      }
+      candidates.emplace_back(id, worst);
+    }
+    double median_sigma = 0.0;
+    if (!sigmas.empty()) {
+      std::nth_element(sigmas.begin(), sigmas.begin() + static_cast<long>(sigmas.size() / 2), sigmas.end());
+      median_sigma = sigmas[sigmas.size() / 2];
+    }
+    for (const auto& [id, worst] : candidates) {
+      const FoundTag& f = tags.at(id);
+      if (!(worst <= options.aprilgrid_max_corner_sigma_ratio * median_sigma)) {
+        char why[112];
+        std::snprintf(why, sizeof(why), "a corner's sigma %.3f px, over %g times the view's median %.3f px", worst,
+                      options.aprilgrid_max_corner_sigma_ratio, median_sigma);
+        out.tags_refused.emplace_back(id, why);
+        continue;
+      }
+      out.tag_ids.push_back(id);
+      refined.push_back(f.refined.corners_px);
+      for (int k = 0; k < 4; ++k) {
+        out.image_points.emplace_back(static_cast<float>(f.refined.corners_px[k].x),
+                                      static_cast<float>(f.refined.corners_px[k].y));
+        out.object_points.push_back(*board.AprilgridCorner(id, k));
+        out.point_sigma_px.push_back(corner_sigma(f, k));
+      }
+    }
+    for (const auto& [id, n] : ambiguous) {
+      if (!tags.count(id)) ++on_board;
+      out.tags_refused.emplace_back(id, "seen " + std::to_string(n) + " times");
+    }
+    const int used = static_cast<int>(out.tag_ids.size());
+    if (used < options.min_aprilgrid_tags) {
+      out.message = "aprilgrid " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " (" +
+                    board.tag_family + "): " + std::to_string(used) + " usable tag" + (used == 1 ? "" : "s") + " (" +
+                    std::to_string(on_board) + " of the board's seen), need " +
+                    std::to_string(options.min_aprilgrid_tags);
+      return false;
+    }
+    return true;
   }
-  const int used = static_cast<int>(out.tag_ids.size());
-  if (used < options.min_aprilgrid_tags) {
-    out.message = "aprilgrid " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " (" +
-                  board.tag_family + "): " + std::to_string(used) + " usable tag" + (used == 1 ? "" : "s") +
-                  " (" + std::to_string(on_board) + " of the board's seen), need " +
-                  std::to_string(options.min_aprilgrid_tags);
-    return out;
-  }
+
   // The edge shift (edge_shift.h): the black of a real print through a real
   // camera looks larger or smaller than printed, and the tags' edge corners
   // with it, while the board's pitch does not change. Measured inside every
   // (n / aprilgrid_edge_shift_tags)-th tag, one value per view (the view's
   // tags share the print and the optics), removed from every tag; the
   // whole-tag fit instead places each tag by its own pattern and shift.
-  if (quick) {
-    // libapriltag's corners as they are.
-  } else if (options.aprilgrid_whole_tag_fit) {
+  // The whole-tag fit instead: each tag placed by its own pattern and shift.
+  void FitWholeTags() {
     std::vector<EdgeShiftResult> shifts;
     for (size_t t = 0; t < out.tag_ids.size(); ++t) {
       std::string why;
@@ -450,7 +493,15 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
     const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
     out.edge_shift_px = shift.shift_px;
     out.edge_shift_sigma_px = shift.sigma_px;
-  } else if (options.aprilgrid_edge_shift) {
+  }
+
+  // false (out.message says why) when the refit leaves too few tags.
+  bool RemoveTheEdgeShift() {
+    if (options.aprilgrid_whole_tag_fit) {
+      FitWholeTags();
+      return true;
+    }
+    if (!options.aprilgrid_edge_shift) return true;
     std::vector<EdgeShiftResult> shifts;
     const size_t stride = std::max<size_t>(
         1, out.tag_ids.size() / static_cast<size_t>(std::max(1, options.aprilgrid_edge_shift_tags)));
@@ -460,79 +511,110 @@ BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& boa
         shifts.push_back(MeasureEdgeShift(gray, refined[t], *cells, lens));
     }
     const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
-    if (shift.ok) {
-      out.edge_shift_px = shift.shift_px;
-      out.edge_shift_sigma_px = shift.sigma_px;
-      // Each tag's edges fitted again where the print's are (the shift
-      // known), each line on through the corner squares' edges that continue
-      // it; a tag whose lines do not fit so keeps its own edges, shifted.
-      CornerRefineOptions through = refine;
-      through.edge_shift_px = shift.shift_px;
-      through.collinear_extension = options.aprilgrid_collinear_edges ? board.spacing : 0.0;
-      // Each edge's own shift within 3 times the spread of the view's tags'
-      // shifts (0.015-0.037 px on the real D435i frames).
-      through.edge_shift_freedom_px = 3.0 * std::max(shift.spread_px, shift.sigma_px);
-      std::vector<size_t> disagreeing;
-      for (size_t t = 0; t < out.tag_ids.size(); ++t) {
-        std::array<cv::Matx22d, 4> cov;
-        const CornerRefineResult r = internal::RefineTagCornersByEdgeModelWithCovariance(
-            gray, refined[t], lens, through, {0, 0}, &cov);
-        // The refit agrees with the first fit, shifted, within the first
-        // fit's sigma: where it does not, one of the two is off by more than
-        // it says and the tag is not used. On tags of 8-12 px (1-px cells,
-        // 2-px corner squares) a line on through the squares can take a
-        // neighbour's edge (0.7 px off, sigma 0.06, on a rendered fisheye
-        // rim); 6 of the 1050 tags on the real D435i frames, moved 0.5-0.7
-        // px. A large tag's refit may move further: through a lens not
-        // modelled its longer lines are straight where its own edges bend.
-        const auto fixed = RemoveEdgeShift(refined[t], shift.shift_px, lens);
-        if (!r.ok) {
-          for (int k = 0; k < 4; ++k)
-            out.image_points[4 * t + k] = cv::Point2f(static_cast<float>(fixed[k].x), static_cast<float>(fixed[k].y));
-          continue;
-        }
-        double side = 0.0, moved = 0.0;
-        bool agrees = true;
-        for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(refined[t][(k + 1) % 4] - refined[t][k]);
-        for (int k = 0; k < 4; ++k) {
-          const double d = cv::norm(r.corners_px[k] - fixed[k]);
-          moved = std::max(moved, d);
-          agrees = agrees && d <= std::max({options.aprilgrid_refit_min_disagreement_px,
-                                            4.0 * out.point_sigma_px[4 * t + k],
-                                            options.aprilgrid_refit_disagreement_per_px * side});
-        }
-        if (!agrees) {
-          char why[96];
-          std::snprintf(why, sizeof(why), "refitted through the corner squares, a corner moved %.2f px", moved);
-          out.tags_refused.emplace_back(out.tag_ids[t], why);
-          disagreeing.push_back(t);
-          continue;
-        }
-        for (int k = 0; k < 4; ++k) {
-          out.image_points[4 * t + k] =
-              cv::Point2f(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
-          out.point_sigma_px[4 * t + k] = std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1)));
-        }
+    if (!shift.ok) return true;
+    out.edge_shift_px = shift.shift_px;
+    out.edge_shift_sigma_px = shift.sigma_px;
+    return RefitThroughCornerSquares(shift);
+  }
+
+  bool RefitThroughCornerSquares(const EdgeShiftEstimate& shift) {
+    // Each tag's edges fitted again where the print's are (the shift
+    // known), each line on through the corner squares' edges that continue
+    // it; a tag whose lines do not fit so keeps its own edges, shifted.
+    CornerRefineOptions through = refine;
+    through.edge_shift_px = shift.shift_px;
+    through.collinear_extension = options.aprilgrid_collinear_edges ? board.spacing : 0.0;
+    // Each edge's own shift within 3 times the spread of the view's tags'
+    // shifts (0.015-0.037 px on the real D435i frames).
+    through.edge_shift_freedom_px = 3.0 * std::max(shift.spread_px, shift.sigma_px);
+    std::vector<size_t> disagreeing;
+    for (size_t t = 0; t < out.tag_ids.size(); ++t) {
+      std::array<cv::Matx22d, 4> cov;
+      const CornerRefineResult r =
+          internal::RefineTagCornersByEdgeModelWithCovariance(gray, refined[t], lens, through, {0, 0}, &cov);
+      // The refit agrees with the first fit, shifted, within the first
+      // fit's sigma: where it does not, one of the two is off by more than
+      // it says and the tag is not used. On tags of 8-12 px (1-px cells,
+      // 2-px corner squares) a line on through the squares can take a
+      // neighbour's edge (0.7 px off, sigma 0.06, on a rendered fisheye
+      // rim); 6 of the 1050 tags on the real D435i frames, moved 0.5-0.7
+      // px. A large tag's refit may move further: through a lens not
+      // modelled its longer lines are straight where its own edges bend.
+      const auto fixed = RemoveEdgeShift(refined[t], shift.shift_px, lens);
+      if (!r.ok) {
+        for (int k = 0; k < 4; ++k)
+          out.image_points[4 * t + k] = cv::Point2f(static_cast<float>(fixed[k].x), static_cast<float>(fixed[k].y));
+        continue;
       }
-      for (auto t = disagreeing.rbegin(); t != disagreeing.rend(); ++t) {
-        const auto erase = [t](auto& v, long per) {
-          const long first = per * static_cast<long>(*t);
-          v.erase(v.begin() + first, v.begin() + first + per);
-        };
-        erase(out.tag_ids, 1);
-        erase(out.image_points, 4);
-        erase(out.object_points, 4);
-        erase(out.point_sigma_px, 4);
+      double side = 0.0, moved = 0.0;
+      bool agrees = true;
+      for (int k = 0; k < 4; ++k) side += 0.25 * cv::norm(refined[t][(k + 1) % 4] - refined[t][k]);
+      for (int k = 0; k < 4; ++k) {
+        const double d = cv::norm(r.corners_px[k] - fixed[k]);
+        moved = std::max(moved, d);
+        agrees =
+            agrees && d <= std::max({options.aprilgrid_refit_min_disagreement_px, 4.0 * out.point_sigma_px[4 * t + k],
+                                     options.aprilgrid_refit_disagreement_per_px * side});
       }
-      if (static_cast<int>(out.tag_ids.size()) < options.min_aprilgrid_tags) {
-        out.message = "aprilgrid: " + std::to_string(out.tag_ids.size()) + " usable tags after the refit through the "
-                      "corner squares, need " + std::to_string(options.min_aprilgrid_tags);
-        return out;
+      if (!agrees) {
+        char why[96];
+        std::snprintf(why, sizeof(why), "refitted through the corner squares, a corner moved %.2f px", moved);
+        out.tags_refused.emplace_back(out.tag_ids[t], why);
+        disagreeing.push_back(t);
+        continue;
+      }
+      for (int k = 0; k < 4; ++k) {
+        out.image_points[4 * t + k] =
+            cv::Point2f(static_cast<float>(r.corners_px[k].x), static_cast<float>(r.corners_px[k].y));
+        out.point_sigma_px[4 * t + k] = std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1)));
       }
     }
+    for (auto t = disagreeing.rbegin(); t != disagreeing.rend(); ++t) {
+      const auto erase = [t](auto& v, long per) {
+        const long first = per * static_cast<long>(*t);
+        v.erase(v.begin() + first, v.begin() + first + per);
+      };
+      erase(out.tag_ids, 1);
+      erase(out.image_points, 4);
+      erase(out.object_points, 4);
+      erase(out.point_sigma_px, 4);
+    }
+    if (static_cast<int>(out.tag_ids.size()) < options.min_aprilgrid_tags) {
+      out.message = "aprilgrid: " + std::to_string(out.tag_ids.size()) +
+                    " usable tags after the refit through the "
+                    "corner squares, need " +
+                    std::to_string(options.min_aprilgrid_tags);
+      return false;
+    }
+    return true;
   }
-  out.found = true;
-  return out;
+
+  const CalibrationBoard& board;
+  const BoardDetectionOptions& options;
+  const bool quick;
+  BoardDetection out;
+  cv::Mat gray, big;  // the image looked in (evened), and upsampled
+  int up = 1;
+  TagDetectorResult created;
+  CornerRefineOptions refine;
+  std::optional<CameraModel> lens_model;
+  const CameraModel* lens = nullptr;
+  // Every tag of the board is refined on the original image as soon as a
+  // pass finds it; a later pass retries a tag whose corners could not be
+  // refined (a thinned or painted image moves libapriltag's corners).
+  struct FoundTag {
+    CornerRefineResult refined;
+    std::array<cv::Matx22d, 4> cov;
+  };
+  std::map<int, FoundTag> tags;
+  std::map<int, int> ambiguous;  // ids seen more than once in one pass: how many times
+  cv::Mat paper;
+  std::vector<std::array<cv::Point2d, 4>> refined;  // per used tag, for the edge shift
+};
+
+BoardDetection DetectAprilgrid(const cv::Mat& image, const CalibrationBoard& board,
+                               const BoardDetectionOptions& options) {
+  return AprilgridSearch(board, options).Run(image);
 }
 
 void RefineCorners(const cv::Mat& gray, int half_window, std::vector<cv::Point2f>* points) {

@@ -175,42 +175,54 @@ json LensFromTheImages(const std::vector<std::string>& inputs, std::vector<Found
 
 }  // namespace
 
-void RunDetect(const DetectArgs& args) {
-  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  // 1. Everything the user typed, checked before any work.
-  if (args.tag.empty() == args.board.empty())
-    Fail(kDetect, kExitBadInput, "name exactly one of --tag SPEC or --board SPEC");
+namespace {
+
+// What the user asked for, checked before any work.
+struct DetectRequest {
   std::optional<vision::TagSpec> tag;
   std::optional<vision::CalibrationBoard> board;
   std::string family;
+  std::optional<vision::Intrinsics> intrinsics;  // --calibration's
+  std::optional<vision::CameraModel> camera;     // ... as a camera at the origin
+};
+
+DetectRequest ParseRequest(const DetectArgs& args) {
+  if (args.tag.empty() == args.board.empty())
+    Fail(kDetect, kExitBadInput, "name exactly one of --tag SPEC or --board SPEC");
+  DetectRequest r;
   if (!args.tag.empty()) {
-    tag = ParseTagOption(kDetect, "--tag", args.tag);
+    r.tag = ParseTagOption(kDetect, "--tag", args.tag);
     std::string why;
-    if (!tag->IsValid(&why)) Fail(kDetect, kExitBadInput, "--tag " + args.tag + ": " + why);
-    family = tag->family;
+    if (!r.tag->IsValid(&why)) Fail(kDetect, kExitBadInput, "--tag " + args.tag + ": " + why);
+    r.family = r.tag->family;
   } else {
-    board = ParseBoardOption(kDetect, "--board", args.board);
-    if (board->type != vision::CalibrationBoard::Type::kAprilgrid)
+    r.board = ParseBoardOption(kDetect, "--board", args.board);
+    if (r.board->type != vision::CalibrationBoard::Type::kAprilgrid)
       Fail(kDetect, kExitBadInput, "--board " + args.board + ": detect finds tags; name an aprilgrid (or its target.yaml)");
-    family = board->tag_family;
+    r.family = r.board->tag_family;
   }
-  std::optional<vision::Intrinsics> intrinsics;
   if (!args.calibration.empty()) {
     const auto file = config::ReadCameraFile(args.calibration);
     if (!file) Fail(kDetect, kExitBadInput, "--calibration: " + file.message);
-    intrinsics = file->intrinsics;
+    r.intrinsics = file->intrinsics;
+    r.camera.emplace(*r.intrinsics, vision::CameraMount{});
   }
+  return r;
+}
 
-  // 2. The inputs: every image read and every video opened now, so a bad one
-  // fails before any output; video frames are decoded one at a time below.
-  const auto check_size = [&](const std::string& path, const cv::Mat& grey) {
-    if (intrinsics && (grey.cols != intrinsics->width || grey.rows != intrinsics->height))
-      Fail(kDetect, kExitBadInput,
-           path + ": " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + ", but --calibration " +
-               args.calibration + " is for " + std::to_string(intrinsics->width) + "x" +
-               std::to_string(intrinsics->height));
-  };
-  // A directory stands for the images in it (a Kalibr data set's cam0/data).
+void CheckImageSize(const DetectArgs& args, const DetectRequest& request, const std::string& path,
+                    const cv::Mat& grey) {
+  const auto& in = request.intrinsics;
+  if (in && (grey.cols != in->width || grey.rows != in->height))
+    Fail(kDetect, kExitBadInput,
+         path + ": " + std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + ", but --calibration " +
+             args.calibration + " is for " + std::to_string(in->width) + "x" + std::to_string(in->height));
+}
+
+// The inputs: every image read and every video opened now, so a bad one
+// fails before any output; video frames are decoded one at a time later. A
+// directory stands for the images in it (a Kalibr data set's cam0/data).
+std::vector<std::string> CheckInputs(const DetectArgs& args, const DetectRequest& request) {
   const std::vector<std::string> inputs = ExpandDirectories(kDetect, args.inputs, ImageExtensions());
   for (const std::string& path : inputs) {
     if (!fs::is_regular_file(path))
@@ -222,208 +234,311 @@ void RunDetect(const DetectArgs& args) {
     } else {
       const cv::Mat grey = media::ReadGreyImage(path).grey;
       if (grey.empty()) Fail(kDetect, kExitBadInput, path + ": cannot be read as an image");
-      check_size(path, grey);
+      CheckImageSize(args, request, path, grey);
     }
   }
+  return inputs;
+}
 
-  // 3. Detection.
-  std::optional<vision::CameraModel> camera;
-  if (intrinsics) camera.emplace(*intrinsics, vision::CameraMount{});
+// The board's tags as DetectBoard measured them in place of the survey's,
+// the survey's for the rest; quads inside a board tag are not refusals.
+// Returns the board tags DetectBoard refused, with why.
+json MergeBoardTags(const vision::CalibrationBoard& board, const vision::BoardDetection& bd,
+                    vision::TagSurvey* survey) {
+  json board_refused = json::array();
+  std::vector<vision::SurveyedTag> merged;
+  for (size_t i = 0; i < bd.tag_ids.size(); ++i) {
+    vision::SurveyedTag t;
+    t.id = bd.tag_ids[i];
+    t.refined = true;
+    t.hamming = -1;
+    t.edge_shift_px = bd.edge_shift_px;  // the view's, taken out of every board tag
+    t.edge_shift_sigma_px = bd.edge_shift_sigma_px;
+    for (int k = 0; k < 4; ++k) {
+      t.corners_px[k] = bd.image_points[4 * i + k];
+      t.corner_sigma_px[k] = bd.point_sigma_px[4 * i + k];
+    }
+    merged.push_back(t);
+  }
+  for (const auto& [id, why] : bd.tags_refused) board_refused.push_back({{"id", id}, {"reason", why}});
+  for (const auto& t : survey->tags)
+    if (!board.AprilgridCorner(t.id, 0)) merged.push_back(t);
+  std::vector<vision::RejectedQuad> rejected;
+  for (const auto& q : survey->rejected) {
+    const cv::Point2f c(
+        static_cast<float>(0.25 * (q.corners_px[0].x + q.corners_px[1].x + q.corners_px[2].x + q.corners_px[3].x)),
+        static_cast<float>(0.25 * (q.corners_px[0].y + q.corners_px[1].y + q.corners_px[2].y + q.corners_px[3].y)));
+    bool inside = false;
+    for (const auto& t : merged) {
+      std::vector<cv::Point2f> poly;
+      for (const auto& p : t.corners_px) poly.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+      inside = inside || cv::pointPolygonTest(poly, c, false) >= 0;
+    }
+    if (!inside) rejected.push_back(q);
+  }
+  survey->tags = std::move(merged);
+  survey->rejected = std::move(rejected);
+  return board_refused;
+}
+
+// One tag's entry of detect.json; with --tag and a calibration, its pose.
+json TagJson(const DetectRequest& request, const vision::SurveyedTag& t) {
+  json j = {{"id", t.id},
+            {"corners_px", Corners(t.corners_px)},
+            {"refined", t.refined},
+            {"hamming", t.hamming >= 0 ? json(t.hamming) : json(nullptr)},
+            {"decision_margin", t.hamming >= 0 ? json(t.decision_margin) : json(nullptr)}};
+  if (t.refined) {
+    j["corner_sigma_px"] = t.corner_sigma_px;
+    j["edge_shift_px"] = std::isfinite(t.edge_shift_px) ? json(t.edge_shift_px) : json(nullptr);
+    j["edge_shift_sigma_px"] = std::isfinite(t.edge_shift_sigma_px) ? json(t.edge_shift_sigma_px) : json(nullptr);
+  } else {
+    j["corner_sigma_px"] = nullptr;
+    j["refine_message"] = t.refine_message;
+  }
+  if (request.tag && request.camera) {
+    std::vector<cv::Point3d> object;
+    for (const auto& c : vision::TagCornersInTag(request.tag->size_m())) object.emplace_back(c.x(), c.y(), 0.0);
+    const std::vector<cv::Point2d> pixels(t.corners_px.begin(), t.corners_px.end());
+    const vision::ObjectPose pose =
+        vision::EstimateObjectPose(*request.intrinsics, object, pixels, SigmasOrOne(t.corner_sigma_px));
+    if (pose.ok) {
+      j["pose_in_camera"] = PoseJson(pose);
+    } else {
+      j["pose_in_camera"] = nullptr;
+      j["pose_message"] = pose.message;
+    }
+  }
+  return j;
+}
+
+// The board's entry of an image (tags used, refused, with a calibration its
+// pose), each used tag's corner residuals added to `tags`.
+json BoardJson(const DetectRequest& request, const vision::TagSurvey& survey, json board_refused, json* tags) {
+  const vision::CalibrationBoard& board = *request.board;
+  std::vector<cv::Point3d> board_points;
+  std::vector<cv::Point2d> board_pixels;
+  std::vector<double> board_sigmas;
+  std::vector<size_t> board_tag_index;  // tags[] index of each board tag used
+  std::map<int, int> seen;
+  for (const auto& t : survey.tags) ++seen[t.id];
+  for (size_t n = 0; n < survey.tags.size(); ++n) {
+    const vision::SurveyedTag& t = survey.tags[n];
+    const bool on_board = board.AprilgridCorner(t.id, 0).has_value();
+    (*tags)[n]["on_board"] = on_board;
+    if (!(on_board && seen[t.id] == 1 && t.refined)) continue;
+    board_tag_index.push_back(n);
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point3f p = *board.AprilgridCorner(t.id, k);
+      board_points.emplace_back(p.x, p.y, p.z);
+      board_pixels.push_back(t.corners_px[k]);
+      board_sigmas.push_back(std::max(t.corner_sigma_px[k], 1e-3));
+    }
+  }
+  const int used = static_cast<int>(board_tag_index.size());
+  json b = {{"tags_used", used}, {"usable", used >= 4}, {"tags_refused", std::move(board_refused)}};
+  if (used < 4 || !request.camera) return b;
+  const vision::ObjectPose pose =
+      vision::EstimateObjectPose(*request.intrinsics, board_points, board_pixels, board_sigmas);
+  if (!pose.ok) {
+    b["pose_in_camera"] = nullptr;
+    b["pose_message"] = pose.message;
+    return b;
+  }
+  b["pose_in_camera"] = PoseJson(pose);
+  for (size_t i = 0; i < board_tag_index.size(); ++i) {
+    json res = json::array();
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point2d& e = pose.residuals_px[4 * i + k];
+      res.push_back({e.x, e.y});
+    }
+    (*tags)[board_tag_index[i]]["residuals_px"] = res;
+  }
+  return b;
+}
+
+// --annotate's picture of one image: what was found and what was refused.
+std::vector<uchar> AnnotationPng(const DetectRequest& request, const Frame& f, const vision::TagSurvey& survey) {
+  cv::Mat bgr;
+  cv::cvtColor(f.grey, bgr, cv::COLOR_GRAY2BGR);
+  for (const auto& q : survey.rejected) {
+    DrawQuad(&bgr, q.corners_px, cv::Scalar(0, 0, 255), 1);
+    if (q.decoded_id >= 0) {
+      // A tag refused for its border: say so beside it.
+      const double bottom = std::max({q.corners_px[0].y, q.corners_px[1].y, q.corners_px[2].y, q.corners_px[3].y});
+      const double left = std::min({q.corners_px[0].x, q.corners_px[1].x, q.corners_px[2].x, q.corners_px[3].x});
+      cv::putText(bgr, "id " + std::to_string(q.decoded_id) + ": wrong border width",
+                  cv::Point(cvRound(left), cvRound(bottom) + 14), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 255),
+                  1, cv::LINE_AA);
+    }
+  }
+  for (const auto& t : survey.tags) {
+    const bool counted = !request.board || request.board->AprilgridCorner(t.id, 0).has_value();
+    DrawQuad(&bgr, t.corners_px, counted ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 200, 255), 1);
+    cv::circle(bgr, cv::Point(cvRound(t.corners_px[0].x * 16), cvRound(t.corners_px[0].y * 16)), 3 * 16,
+               cv::Scalar(255, 128, 0), 1, cv::LINE_AA, 4);
+    const cv::Point2d c = 0.25 * (t.corners_px[0] + t.corners_px[1] + t.corners_px[2] + t.corners_px[3]);
+    cv::putText(bgr, std::to_string(t.id), cv::Point(cvRound(c.x) - 6, cvRound(c.y) + 4), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 255, 0), 1, cv::LINE_AA);
+  }
+  std::ostringstream legend;
+  legend << survey.tags.size() << " " << request.family << " found (green, blue dot = corner 0), "
+         << survey.rejected.size() << " quads refused (red)";
+  cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
+              cv::LINE_AA);
+  std::vector<uchar> png;
+  cv::imencode(".png", bgr, png);
+  return png;
+}
+
+// The annotation's file: the image's name, a video's frame number after it.
+std::string AnnotationPath(const std::string& dir, const Frame& f) {
+  std::string name = fs::path(f.file).stem().string();
+  if (f.frame >= 0) {
+    std::ostringstream n;
+    n << name << "_" << std::setw(6) << std::setfill('0') << f.frame;
+    name = n.str();
+  }
+  return (fs::path(dir) / (name + ".png")).string();
+}
+
+// Everything detect found, in the inputs' order.
+struct DetectOutput {
+  json images = json::array();
+  std::vector<std::pair<std::string, std::vector<uchar>>> annotations;
+  int frames = 0, tags = 0, rejected = 0, board_views = 0;
+};
+
+// One image's entry of detect.json (and its annotation).
+void AddImage(const DetectArgs& args, const DetectRequest& request, const Frame& f, Found found, DetectOutput* out) {
+  ++out->frames;
+  vision::TagSurvey& survey = found.survey;
+  if (!survey.ok) Fail(kDetect, kExitFailure, f.file + ": " + survey.message);
+  json board_refused = json::array();
+  if (request.board) board_refused = MergeBoardTags(*request.board, found.board, &survey);
+  json image = {{"file", f.file}, {"width", f.grey.cols}, {"height", f.grey.rows}};
+  if (f.frame >= 0) image["frame"] = f.frame;
+  if (!f.read_as.empty()) image["read_as"] = f.read_as;
+  json tags = json::array();
+  for (const vision::SurveyedTag& t : survey.tags) tags.push_back(TagJson(request, t));
+  if (request.board) {
+    image["board"] = BoardJson(request, survey, std::move(board_refused), &tags);
+    out->board_views += image["board"]["usable"].get<bool>() ? 1 : 0;
+  }
+  json rejected = json::array();
+  for (const auto& q : survey.rejected)
+    rejected.push_back({{"corners_px", Corners(q.corners_px)},
+                        {"reason", q.reason},
+                        {"decoded_id", q.decoded_id},
+                        {"contrast", q.contrast}});
+  image["tags"] = tags;
+  image["rejected_quads"] = rejected;
+  out->tags += static_cast<int>(survey.tags.size());
+  out->rejected += static_cast<int>(survey.rejected.size());
+  if (!args.annotate_dir.empty())
+    out->annotations.emplace_back(AnnotationPath(args.annotate_dir, f), AnnotationPng(request, f, survey));
+  out->images.push_back(image);
+}
+
+// The summary on stdout: a line per image.
+void PrintSummary(const DetectArgs& args, const DetectRequest& request, const DetectOutput& out) {
+  std::cout << out.frames << " image" << (out.frames == 1 ? "" : "s") << ", " << out.tags << " " << request.family
+            << " tag" << (out.tags == 1 ? "" : "s") << " found, " << out.rejected << " quad"
+            << (out.rejected == 1 ? "" : "s") << " refused\n";
+  for (const json& image : out.images) {
+    std::cout << "  " << image["file"].get<std::string>();
+    if (image.contains("frame")) std::cout << " #" << image["frame"].get<int>();
+    std::cout << ": ";
+    std::vector<int> ids;
+    for (const json& t : image["tags"]) ids.push_back(t["id"].get<int>());
+    if (ids.empty()) std::cout << "no tag";
+    for (size_t i = 0; i < ids.size(); ++i) std::cout << (i ? "," : "ids ") << ids[i];
+    std::cout << "; " << image["rejected_quads"].size() << " refused";
+    if (request.tag) {
+      const int id = request.tag->id;
+      const bool has = std::find(ids.begin(), ids.end(), id) != ids.end();
+      std::cout << (has ? "; tag " + std::to_string(id) + " found" : "; tag " + std::to_string(id) + " NOT found");
+    }
+    if (request.board) std::cout << "; board: " << image["board"]["tags_used"].get<int>() << " tags";
+    if (image.contains("read_as")) std::cout << " (" << image["read_as"].get<std::string>() << ")";
+    std::cout << "\n";
+  }
+  if (!args.json_out.empty()) std::cout << "  wrote " << args.json_out << "\n";
+  if (!args.annotate_dir.empty())
+    std::cout << "  wrote " << out.annotations.size() << " PNGs to " << args.annotate_dir << "\n";
+}
+
+// detect.json, the annotations, the summary: written only now that every
+// image has been read and searched.
+void WriteOutputs(const DetectArgs& args, const DetectRequest& request, const DetectOutput& out, const json& lens) {
+  json doc = {{"family", request.family}, {"images", out.images}};
+  if (request.tag)
+    doc["tag"] = {{"family", request.tag->family}, {"id", request.tag->id}, {"size_mm", request.tag->size_mm}};
+  if (const auto& board = request.board)
+    doc["board"] = {{"type", "aprilgrid"},       {"cols", board->cols},
+                    {"rows", board->rows},       {"tag_mm", board->square_m * kMToMm},
+                    {"spacing", board->spacing}, {"first_id", board->first_id}};
+  doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
+  doc["lens"] = lens;
+  if (!args.annotate_dir.empty()) {
+    if (const auto error = config::EnsureDirectory(args.annotate_dir))
+      Fail(kDetect, kExitFailure, "--annotate: " + *error);
+    for (const auto& [path, png] : out.annotations) {
+      if (const auto error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())))
+        Fail(kDetect, kExitFailure, *error);
+    }
+  }
+  if (args.json_out == "-") {
+    std::cout << doc.dump(2) << std::endl;
+    return;
+  }
+  if (!args.json_out.empty()) {
+    if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
+      Fail(kDetect, kExitFailure, *error);
+  }
+  PrintSummary(args, request, out);
+}
+
+// The survey of every image: the family's tags. A board's tags are refined
+// by DetectBoard: the survey's refinement of them (a third of an aprilgrid
+// frame's time) would be thrown away.
+vision::TagSurveyOptions SurveyOptions(const DetectRequest& request) {
+  vision::TagSurveyOptions options;
+  options.family = request.family;
+  if (const auto& board = request.board)
+    for (int id = board->first_id; id < board->first_id + board->cols * board->rows; ++id)
+      if (board->AprilgridCorner(id, 0)) options.not_refined.insert(id);
+  return options;
+}
+
+}  // namespace
+
+void RunDetect(const DetectArgs& args) {
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  const DetectRequest request = ParseRequest(args);
+  const std::vector<std::string> inputs = CheckInputs(args, request);
+  const std::optional<vision::CalibrationBoard>& board = request.board;
+
   // The lens the board's edges are refined through: --calibration's, else
   // (a board, 3 or more images showing it) one calibrated from the images
   // as calibrate-camera does; it bends a tag's edges (a fisheye's most) but
   // gives no poses, which need a calibration the user stands behind.
-  std::optional<vision::Intrinsics> refine_lens = intrinsics;
-  vision::TagSurveyOptions survey_options;
-  survey_options.family = family;
-  // A board's tags are refined by DetectBoard: the survey's refinement of
-  // them (a third of an aprilgrid frame's time) would be thrown away.
-  if (board)
-    for (int id = board->first_id; id < board->first_id + board->cols * board->rows; ++id)
-      if (board->AprilgridCorner(id, 0)) survey_options.not_refined.insert(id);
-  json images = json::array();
-  std::vector<std::pair<std::string, std::vector<uchar>>> annotations;
-  int total_tags = 0, total_rejected = 0, board_views = 0;
-  int frame_count = 0;
+  std::optional<vision::Intrinsics> refine_lens = request.intrinsics;
+  const vision::TagSurveyOptions survey_options = SurveyOptions(request);
   // The searches (most of the time: the edge models' fits) on their own
   // workers; what they found is reported in the inputs' order.
   const auto find = [&](const cv::Mat& grey) {
     Found found;
-    found.survey = SurveyTags(grey, camera ? &*camera : nullptr, survey_options);
+    found.survey = SurveyTags(grey, request.camera ? &*request.camera : nullptr, survey_options);
     if (board && found.survey.ok) {
       // The board's tags as calibrate-camera sees them (vision::DetectBoard:
       // upsampled decoding, the edge model sized for the aprilgrid, the
-      // edges through the lens when a calibration is given), the survey's
-      // for the rest; quads inside a board tag are not refusals.
+      // edges through the lens when a calibration is given).
       vision::BoardDetectionOptions board_options;
       if (refine_lens) board_options.lens = *refine_lens;
       found.board = vision::DetectBoard(grey, *board, board_options);
     }
     return found;
-  };
-  const auto process = [&](const Frame& f, Found found) {
-    ++frame_count;
-    vision::TagSurvey& survey = found.survey;
-    if (!survey.ok) Fail(kDetect, kExitFailure, f.file + ": " + survey.message);
-    json board_refused = json::array();
-    if (board) {
-      const vision::BoardDetection& bd = found.board;
-      std::vector<vision::SurveyedTag> merged;
-      for (size_t i = 0; i < bd.tag_ids.size(); ++i) {
-        vision::SurveyedTag t;
-        t.id = bd.tag_ids[i];
-        t.refined = true;
-        t.hamming = -1;
-        t.edge_shift_px = bd.edge_shift_px;  // the view's, taken out of every board tag
-        t.edge_shift_sigma_px = bd.edge_shift_sigma_px;
-        for (int k = 0; k < 4; ++k) {
-          t.corners_px[k] = bd.image_points[4 * i + k];
-          t.corner_sigma_px[k] = bd.point_sigma_px[4 * i + k];
-        }
-        merged.push_back(t);
-      }
-      for (const auto& [id, why] : bd.tags_refused) board_refused.push_back({{"id", id}, {"reason", why}});
-      for (const auto& t : survey.tags)
-        if (!board->AprilgridCorner(t.id, 0)) merged.push_back(t);
-      std::vector<vision::RejectedQuad> rejected;
-      for (const auto& q : survey.rejected) {
-        const cv::Point2f c(static_cast<float>(0.25 * (q.corners_px[0].x + q.corners_px[1].x + q.corners_px[2].x + q.corners_px[3].x)),
-                            static_cast<float>(0.25 * (q.corners_px[0].y + q.corners_px[1].y + q.corners_px[2].y + q.corners_px[3].y)));
-        bool inside = false;
-        for (const auto& t : merged) {
-          std::vector<cv::Point2f> poly;
-          for (const auto& p : t.corners_px) poly.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
-          inside = inside || cv::pointPolygonTest(poly, c, false) >= 0;
-        }
-        if (!inside) rejected.push_back(q);
-      }
-      survey.tags = std::move(merged);
-      survey.rejected = std::move(rejected);
-    }
-    json image = {{"file", f.file}, {"width", f.grey.cols}, {"height", f.grey.rows}};
-    if (f.frame >= 0) image["frame"] = f.frame;
-    if (!f.read_as.empty()) image["read_as"] = f.read_as;
-    json tags = json::array();
-    // The board's points, when a board is named.
-    std::vector<cv::Point3d> board_points;
-    std::vector<cv::Point2d> board_pixels;
-    std::vector<double> board_sigmas;
-    std::vector<size_t> board_tag_index;  // tags[] index of each board tag used
-    std::map<int, int> seen;
-    for (const auto& t : survey.tags) ++seen[t.id];
-    for (const vision::SurveyedTag& t : survey.tags) {
-      json j = {{"id", t.id},
-                {"corners_px", Corners(t.corners_px)},
-                {"refined", t.refined},
-                {"hamming", t.hamming >= 0 ? json(t.hamming) : json(nullptr)},
-                {"decision_margin", t.hamming >= 0 ? json(t.decision_margin) : json(nullptr)}};
-      if (t.refined) {
-        j["corner_sigma_px"] = t.corner_sigma_px;
-        j["edge_shift_px"] = std::isfinite(t.edge_shift_px) ? json(t.edge_shift_px) : json(nullptr);
-        j["edge_shift_sigma_px"] = std::isfinite(t.edge_shift_sigma_px) ? json(t.edge_shift_sigma_px) : json(nullptr);
-      } else {
-        j["corner_sigma_px"] = nullptr;
-        j["refine_message"] = t.refine_message;
-      }
-      if (tag && camera) {
-        std::vector<cv::Point3d> object;
-        for (const auto& c : vision::TagCornersInTag(tag->size_m())) object.emplace_back(c.x(), c.y(), 0.0);
-        const std::vector<cv::Point2d> pixels(t.corners_px.begin(), t.corners_px.end());
-        const vision::ObjectPose pose =
-            vision::EstimateObjectPose(*intrinsics, object, pixels, SigmasOrOne(t.corner_sigma_px));
-        if (pose.ok) {
-          j["pose_in_camera"] = PoseJson(pose);
-        } else {
-          j["pose_in_camera"] = nullptr;
-          j["pose_message"] = pose.message;
-        }
-      }
-      if (board) {
-        const bool on_board = board->AprilgridCorner(t.id, 0).has_value();
-        j["on_board"] = on_board;
-        if (on_board && seen[t.id] == 1 && t.refined) {
-          board_tag_index.push_back(tags.size());
-          for (int k = 0; k < 4; ++k) {
-            const cv::Point3f p = *board->AprilgridCorner(t.id, k);
-            board_points.emplace_back(p.x, p.y, p.z);
-            board_pixels.push_back(t.corners_px[k]);
-            board_sigmas.push_back(std::max(t.corner_sigma_px[k], 1e-3));
-          }
-        }
-      }
-      tags.push_back(j);
-    }
-    if (board) {
-      const int used = static_cast<int>(board_tag_index.size());
-      json b = {{"tags_used", used}, {"usable", used >= 4}, {"tags_refused", board_refused}};
-      board_views += used >= 4;
-      if (used >= 4 && camera) {
-        const vision::ObjectPose pose = vision::EstimateObjectPose(*intrinsics, board_points, board_pixels, board_sigmas);
-        if (pose.ok) {
-          b["pose_in_camera"] = PoseJson(pose);
-          for (size_t i = 0; i < board_tag_index.size(); ++i) {
-            json res = json::array();
-            for (int k = 0; k < 4; ++k) {
-              const cv::Point2d& e = pose.residuals_px[4 * i + k];
-              res.push_back({e.x, e.y});
-            }
-            tags[board_tag_index[i]]["residuals_px"] = res;
-          }
-        } else {
-          b["pose_in_camera"] = nullptr;
-          b["pose_message"] = pose.message;
-        }
-      }
-      image["board"] = b;
-    }
-    json rejected = json::array();
-    for (const auto& q : survey.rejected)
-      rejected.push_back({{"corners_px", Corners(q.corners_px)}, {"reason", q.reason}, {"decoded_id", q.decoded_id},
-                          {"contrast", q.contrast}});
-    image["tags"] = tags;
-    image["rejected_quads"] = rejected;
-    total_tags += static_cast<int>(survey.tags.size());
-    total_rejected += static_cast<int>(survey.rejected.size());
-
-    if (!args.annotate_dir.empty()) {
-      cv::Mat bgr;
-      cv::cvtColor(f.grey, bgr, cv::COLOR_GRAY2BGR);
-      for (const auto& q : survey.rejected) {
-        DrawQuad(&bgr, q.corners_px, cv::Scalar(0, 0, 255), 1);
-        if (q.decoded_id >= 0) {
-          // A tag refused for its border: say so beside it.
-          const double bottom = std::max({q.corners_px[0].y, q.corners_px[1].y, q.corners_px[2].y, q.corners_px[3].y});
-          const double left = std::min({q.corners_px[0].x, q.corners_px[1].x, q.corners_px[2].x, q.corners_px[3].x});
-          cv::putText(bgr, "id " + std::to_string(q.decoded_id) + ": wrong border width",
-                      cv::Point(cvRound(left), cvRound(bottom) + 14), cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                      cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
-        }
-      }
-      for (const auto& t : survey.tags) {
-        const bool counted = !board || board->AprilgridCorner(t.id, 0).has_value();
-        DrawQuad(&bgr, t.corners_px, counted ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 200, 255), 1);
-        cv::circle(bgr, cv::Point(cvRound(t.corners_px[0].x * 16), cvRound(t.corners_px[0].y * 16)), 3 * 16,
-                   cv::Scalar(255, 128, 0), 1, cv::LINE_AA, 4);
-        const cv::Point2d c = 0.25 * (t.corners_px[0] + t.corners_px[1] + t.corners_px[2] + t.corners_px[3]);
-        cv::putText(bgr, std::to_string(t.id), cv::Point(cvRound(c.x) - 6, cvRound(c.y) + 4),
-                    cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 255, 0), 1, cv::LINE_AA);
-      }
-      std::ostringstream legend;
-      legend << survey.tags.size() << " " << family << " found (green, blue dot = corner 0), "
-             << survey.rejected.size() << " quads refused (red)";
-      cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
-                  cv::LINE_AA);
-      std::string name = fs::path(f.file).stem().string();
-      if (f.frame >= 0) {
-        std::ostringstream n;
-        n << name << "_" << std::setw(6) << std::setfill('0') << f.frame;
-        name = n.str();
-      }
-      std::vector<uchar> png;
-      cv::imencode(".png", bgr, png);
-      annotations.emplace_back((fs::path(args.annotate_dir) / (name + ".png")).string(), std::move(png));
-    }
-    images.push_back(image);
   };
   std::vector<Found> found_in_image(inputs.size());
   ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
@@ -432,7 +547,7 @@ void RunDetect(const DetectArgs& args) {
   json lens = args.calibration.empty() ? json{{"source", "none"}, {"edges", "straight"}}
                                        : json{{"source", "calibration"}, {"file", args.calibration}};
   if (args.straight_edges && args.calibration.empty()) lens["why"] = "--straight-edges";
-  if (board && !intrinsics && !args.straight_edges) {
+  if (board && !request.intrinsics && !args.straight_edges) {
     std::vector<bool> done;
     lens = LensFromTheImages(inputs, &found_in_image, *board, args.threads, &refine_lens, &done);
     if (refine_lens) {
@@ -446,6 +561,7 @@ void RunDetect(const DetectArgs& args) {
       });
     }
   }
+  DetectOutput out;
   for (size_t n = 0; n < inputs.size(); ++n) {
     const std::string& path = inputs[n];
     if (IsVideo(path)) {
@@ -454,68 +570,23 @@ void RunDetect(const DetectArgs& args) {
       if (!opened.ok()) Fail(kDetect, kExitBadInput, path + ": " + opened.message);
       cv::Mat grey;
       for (int i = 0; reader.Read(&grey); ++i) {
-        if (i == 0) check_size(path, grey);
-        process(Frame{path, i, grey, {}}, find(grey));
+        if (i == 0) CheckImageSize(args, request, path, grey);
+        AddImage(args, request, Frame{path, i, grey, {}}, find(grey), &out);
       }
     } else {
       media::GreyImage image = media::ReadGreyImage(path);
-      process(Frame{path, -1, std::move(image.grey), std::move(image.conversion)}, std::move(found_in_image[n]));
+      AddImage(args, request, Frame{path, -1, std::move(image.grey), std::move(image.conversion)},
+               std::move(found_in_image[n]), &out);
     }
   }
-  if (frame_count == 0) Fail(kDetect, kExitBadInput, "no frames in " + inputs.front());
-  if (board && board_views == 0) {
+  if (out.frames == 0) Fail(kDetect, kExitBadInput, "no frames in " + inputs.front());
+  if (board && out.board_views == 0) {
     Fail(kDetect, kExitBadInput,
-         "--board " + args.board + ": no image of " + std::to_string(frame_count) + " shows 4 or more of its " +
-             family + " tags (ids " + std::to_string(board->first_id) + "-" +
+         "--board " + args.board + ": no image of " + std::to_string(out.frames) + " shows 4 or more of its " +
+             request.family + " tags (ids " + std::to_string(board->first_id) + "-" +
              std::to_string(board->first_id + board->cols * board->rows - 1) + "); nothing written");
   }
-
-  // 4. Output.
-  json doc = {{"family", family}, {"images", images}};
-  if (tag) doc["tag"] = {{"family", tag->family}, {"id", tag->id}, {"size_mm", tag->size_mm}};
-  if (board)
-    doc["board"] = {{"type", "aprilgrid"}, {"cols", board->cols}, {"rows", board->rows},
-                    {"tag_mm", board->square_m * kMToMm}, {"spacing", board->spacing}, {"first_id", board->first_id}};
-  doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
-  doc["lens"] = lens;
-  if (!args.annotate_dir.empty()) {
-    if (const auto error = config::EnsureDirectory(args.annotate_dir))
-      Fail(kDetect, kExitFailure, "--annotate: " + *error);
-    for (const auto& [path, png] : annotations) {
-      if (const auto error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())))
-        Fail(kDetect, kExitFailure, *error);
-    }
-  }
-  if (args.json_out == "-") {
-    std::cout << doc.dump(2) << std::endl;
-    return;
-  }
-  if (!args.json_out.empty()) {
-    if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
-      Fail(kDetect, kExitFailure, *error);
-  }
-  std::cout << frame_count << " image" << (frame_count == 1 ? "" : "s") << ", " << total_tags << " " << family
-            << " tag" << (total_tags == 1 ? "" : "s") << " found, " << total_rejected << " quad"
-            << (total_rejected == 1 ? "" : "s") << " refused\n";
-  for (const json& image : images) {
-    std::cout << "  " << image["file"].get<std::string>();
-    if (image.contains("frame")) std::cout << " #" << image["frame"].get<int>();
-    std::cout << ": ";
-    std::vector<int> ids;
-    for (const json& t : image["tags"]) ids.push_back(t["id"].get<int>());
-    if (ids.empty()) std::cout << "no tag";
-    for (size_t i = 0; i < ids.size(); ++i) std::cout << (i ? "," : "ids ") << ids[i];
-    std::cout << "; " << image["rejected_quads"].size() << " refused";
-    if (tag) {
-      const bool has = std::find(ids.begin(), ids.end(), tag->id) != ids.end();
-      std::cout << (has ? "; tag " + std::to_string(tag->id) + " found" : "; tag " + std::to_string(tag->id) + " NOT found");
-    }
-    if (board) std::cout << "; board: " << image["board"]["tags_used"].get<int>() << " tags";
-    if (image.contains("read_as")) std::cout << " (" << image["read_as"].get<std::string>() << ")";
-    std::cout << "\n";
-  }
-  if (!args.json_out.empty()) std::cout << "  wrote " << args.json_out << "\n";
-  if (!args.annotate_dir.empty()) std::cout << "  wrote " << annotations.size() << " PNGs to " << args.annotate_dir << "\n";
+  WriteOutputs(args, request, out, lens);
 }
 
 void RegisterDetectCommand(CLI::App& app) {

@@ -16,18 +16,12 @@
 #include "odocal/vision/board_shape.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
+#include "vision_fixtures.h"
 
 namespace odocal::vision {
 namespace {
 
-CalibrationBoard Aprilgrid() {
-  CalibrationBoard board;
-  board.type = CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
-  return board;
-}
+using testing::KalibrBoard;
 
 // `views` views of the board, its tag i lifted by lift_m(i) along +z, 0.7 to
 // 1.3 m away, tilted up to 35 degrees, corners with noise `noise_px` per
@@ -106,7 +100,7 @@ std::map<int, double> RandomLifts(const CalibrationBoard& board) {
 }
 
 TEST(BoardShape, AFlatBoardIsFlat) {
-  const CalibrationBoard board = Aprilgrid();
+  const CalibrationBoard board = KalibrBoard();
   const std::vector<BoardDetection> views = Views(board, kCamera, {}, 20, 0.05, 3);
   const CameraCalibrationResult cal = CalibrateCamera(views, cv::Size(640, 480));
   ASSERT_TRUE(cal.ok()) << cal.message;
@@ -122,7 +116,7 @@ TEST(BoardShape, AFlatBoardIsFlat) {
 }
 
 TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
-  const CalibrationBoard board = Aprilgrid();
+  const CalibrationBoard board = KalibrBoard();
   const std::map<int, double> lift_m = RandomLifts(board);
   const std::vector<BoardDetection> views = Views(board, kCamera, lift_m, 20, 0.05, 5);
   const CameraCalibrationResult cal = CalibrateCamera(views, cv::Size(640, 480));
@@ -159,7 +153,7 @@ TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
 // against the same views' calibration with the measured lifts, and the same
 // poses' views of a flat board (the noise alone), over four seeds.
 TEST(BoardShape, CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics) {
-  const CalibrationBoard board = Aprilgrid();
+  const CalibrationBoard board = KalibrBoard();
   const std::map<int, double> lift_m = RandomLifts(board);
   auto worst = [](const Intrinsics& in) {
     return std::max({std::abs(in.fx - kCamera.fx), std::abs(in.fy - kCamera.fy), std::abs(in.cx - kCamera.cx),
@@ -197,7 +191,7 @@ TEST(BoardShape, OtherBoardsAndBadOptionsAreRefusedByName) {
   const BoardShape shape = MeasureBoardShape({}, chess, kCamera);
   EXPECT_FALSE(shape.ok);
   EXPECT_NE(shape.message.find("aprilgrid"), std::string::npos) << shape.message;
-  const BoardShape none = MeasureBoardShape({}, Aprilgrid(), kCamera);
+  const BoardShape none = MeasureBoardShape({}, KalibrBoard(), kCamera);
   EXPECT_FALSE(none.ok);
   EXPECT_NE(none.message.find("fewer than 4 tags"), std::string::npos) << none.message;
   test_util::ExpectValidAndEachEditRejected<BoardShapeOptions>(

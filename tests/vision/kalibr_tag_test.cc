@@ -192,14 +192,7 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
 
 // The real frames' target (and the rendered ones'): Kalibr's 6 x 6
 // aprilgrid of 88 mm tag36h11b2 tags, gap 0.3 of a tag.
-CalibrationBoard KalibrBoard() {
-  CalibrationBoard board;
-  board.type = CalibrationBoard::Type::kAprilgrid;
-  board.cols = board.rows = 6;
-  board.square_m = 0.088;
-  board.spacing = 0.3;
-  return board;
-}
+using testing::KalibrBoard;
 
 // The rendered aprilgrid's scene: every tag corner of KalibrBoard() (id-major,
 // in the pattern's frame), a 640 x 480 camera like the real frames', and

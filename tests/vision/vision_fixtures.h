@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/renderer.h"
 #include "odocal/vision/tag.h"
@@ -29,6 +30,17 @@ inline TagSpec StandardTag() {
   tag.size_mm = 80.0;
   tag.height_mm = 150.0;
   return tag;
+}
+
+// Kalibr's own sample target: an aprilgrid of 6 x 6 tag36h11b2, 88 mm tags,
+// gaps 0.3 of a tag (the real D435i data set's board).
+inline CalibrationBoard KalibrBoard() {
+  CalibrationBoard board;
+  board.type = CalibrationBoard::Type::kAprilgrid;
+  board.cols = board.rows = 6;
+  board.square_m = 0.088;
+  board.spacing = 0.3;
+  return board;
 }
 
 inline RenderOptions StandardRender() {

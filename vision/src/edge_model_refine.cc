@@ -38,7 +38,8 @@ using EdgePixels = internal::EdgeBandSamples;
 using FittedLine = internal::EdgeLine;
 
 // Five parameters: 12 pixels leave 7 degrees of freedom for the residual
-// that scales the covariance (a 10 px tag's steep edge has 14-19).
+// that scales the covariance (a rendered 10 px tag's steep edge had 14-19;
+// real 10 px Kalibr tags, 1 px a cell, 7-11: FitEdge's shorter margin).
 constexpr size_t kMinEdgePixels = 12;
 
 std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,

@@ -168,36 +168,41 @@ cv::Point2d Apply(const cv::Matx33d& H, const cv::Point2d& p) {
 }
 
 // MeasureEdgeShift, and with `print_corners` RefineTagByPattern.
-EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px,
-                              const TagCells& cells, const CameraModel* camera, const EdgeShiftOptions& options,
-                              const cv::Point& origin, std::array<cv::Point2d, 4>* print_corners) {
-  EdgeShiftResult result;
-  if (!options.IsValid(&result.message)) return result;
-  if (grey.empty() || grey.type() != CV_8UC1) {
-    result.message = "edge shift needs an 8-bit grey image";
-    return result;
+// The black cells within reach of the blur of a pixel at `u` (cells, y up):
+// col = floor(x + half), row = floor(half - y). Two cells each way are at
+// least one cell away, 2 sigma at the largest blur allowed (half a cell): 2 %
+// of a level there, < 0.1 % at the blur of a focused camera.
+std::vector<ShiftPixel::Cell> BlackCellsNear(const TagCells& cells, const cv::Point2d& u) {
+  const double half = 0.5 * cells.n;
+  std::vector<ShiftPixel::Cell> near;
+  const int col = static_cast<int>(std::floor(u.x + half)), row = static_cast<int>(std::floor(half - u.y));
+  const int r = 2;
+  for (int rr = row - r; rr <= row + r; ++rr) {
+    for (int cc = col - r; cc <= col + r; ++cc) {
+      if (!cells.Black(rr, cc)) continue;
+      ShiftPixel::Cell c;
+      c.x0 = cc - half;
+      c.x1 = c.x0 + 1.0;
+      c.y1 = half - rr;
+      c.y0 = c.y1 - 1.0;
+      c.wl = !cells.Black(rr, cc - 1);
+      c.wr = !cells.Black(rr, cc + 1);
+      c.wt = !cells.Black(rr - 1, cc);
+      c.wb = !cells.Black(rr + 1, cc);
+      near.push_back(c);
+    }
   }
-  const int n = cells.n;
-  if (n < 3 || cells.black.size() != static_cast<size_t>(n * n)) {
-    result.message = "tag cells missing";
-    return result;
-  }
-  double perimeter = 0.0;
-  for (int k = 0; k < 4; ++k) perimeter += cv::norm(corners_px[(k + 1) % 4] - corners_px[k]);
-  result.side_px = perimeter / 4.0;
-  result.cell_px = result.side_px / n;
-  if (result.cell_px < options.min_cell_px) {
-    result.message = "cells too small to measure the edge shift";
-    return result;
-  }
-  const double half = 0.5 * n;
-  const std::vector<cv::Point2d> und =
-      Undistort({corners_px[0], corners_px[1], corners_px[2], corners_px[3]}, camera);
-  const cv::Matx33d H = SquareHomography({und[0], und[1], und[2], und[3]}, half);
-  const cv::Matx33d Hinv = H.inv();
+  return near;
+}
 
-  // The pixels: centres whose u lies within the margin of the black square,
-  // away from its corners, and inside the crop.
+// The pixels the pattern is fitted to: centres whose u lies within the
+// margin of the black square, away from its corners, and inside the crop,
+// each with the black cells near it. False when the tag is outside the image.
+bool CollectPatternPixels(const cv::Mat& grey, const cv::Point& origin, const cv::Matx33d& H, const TagCells& cells,
+                          const CameraModel* camera, const EdgeShiftOptions& options, std::vector<ShiftPixel>* out,
+                          double* dark_out, double* light_out) {
+  const double half = 0.5 * cells.n;
+  const cv::Matx33d Hinv = H.inv();
   const double reach = half + options.margin_cells;
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
   for (int k = 0; k < 4; ++k) {
@@ -211,10 +216,7 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
   const int iy0 = std::max(origin.y, static_cast<int>(std::floor(y0)) - 1);
   const int ix1 = std::min(origin.x + grey.cols - 1, static_cast<int>(std::ceil(x1)) + 1);
   const int iy1 = std::min(origin.y + grey.rows - 1, static_cast<int>(std::ceil(y1)) + 1);
-  if (ix1 <= ix0 || iy1 <= iy0) {
-    result.message = "tag outside the image";
-    return result;
-  }
+  if (ix1 <= ix0 || iy1 <= iy0) return false;
   // A large tag's pixels one in stride x stride: the fit's cost grows with
   // the tag's area, its information with its edges' length.
   const double area = static_cast<double>(ix1 - ix0 + 1) * (iy1 - iy0 + 1);
@@ -252,43 +254,26 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
     p.cells_per_px = std::sqrt(det);
     p.value = grey.at<std::uint8_t>(static_cast<int>(centres[i].y) - origin.y,
                                     static_cast<int>(centres[i].x) - origin.x);
-    // Black cells within reach of the blur: col = floor(x + half),
-    // row = floor(half - y). Two cells each way are at least one cell away,
-    // 2 sigma at the largest blur allowed (half a cell): 2 % of a level there,
-    // < 0.1 % at the blur of a focused camera.
-    const int col = static_cast<int>(std::floor(u.x + half)), row = static_cast<int>(std::floor(half - u.y));
-    const int r = 2;
-    for (int rr = row - r; rr <= row + r; ++rr) {
-      for (int cc = col - r; cc <= col + r; ++cc) {
-        if (!cells.Black(rr, cc)) continue;
-        ShiftPixel::Cell c;
-        c.x0 = cc - half;
-        c.x1 = c.x0 + 1.0;
-        c.y1 = half - rr;
-        c.y0 = c.y1 - 1.0;
-        c.wl = !cells.Black(rr, cc - 1);
-        c.wr = !cells.Black(rr, cc + 1);
-        c.wt = !cells.Black(rr - 1, cc);
-        c.wb = !cells.Black(rr + 1, cc);
-        p.cells.push_back(c);
-      }
-    }
+    p.cells = BlackCellsNear(cells, u);
     dark = std::min(dark, p.value);
     light = std::max(light, p.value);
     pixels.push_back(std::move(p));
   }
-  if (pixels.size() < 50 || light - dark < 20.0) {
-    result.message = pixels.size() < 50 ? "too few pixels on the tag" : "too little contrast";
-    return result;
-  }
-  double p[4] = {0.0, std::log(0.7), dark, light - dark};
-  double c8[8];
-  for (int k = 0; k < 4; ++k) {
-    c8[2 * k] = und[k].x;
-    c8[2 * k + 1] = und[k].y;
-  }
+  *out = std::move(pixels);
+  *dark_out = dark;
+  *light_out = light;
+  return true;
+}
+
+// The pattern fitted (the shift alone, or with the corners free when
+// `c8` is given: the undistorted corners, x y x y ...) from `p`'s start
+// (shift cells, log blur, dark, light - dark); into `result`: the shift, its
+// sigma, the blur, the residual. False (result->message says why) when the
+// fit fails or the shift runs to its bound.
+bool SolvePattern(const std::vector<ShiftPixel>& pixels, int n, const EdgeShiftOptions& options, double* c8, double* p,
+                  EdgeShiftResult* result) {
   ceres::Problem problem;
-  if (print_corners) {
+  if (c8) {
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TagPatternCost, ceres::DYNAMIC, 8, 4>(
                                  new TagPatternCost(&pixels, n), static_cast<int>(pixels.size())),
                              nullptr, c8, p);
@@ -299,19 +284,19 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
   problem.SetParameterLowerBound(p, 0, -0.3);
   problem.SetParameterUpperBound(p, 0, 0.3);
   problem.SetParameterLowerBound(p, 1, std::log(0.05));
-  problem.SetParameterUpperBound(p, 1, std::log(std::max(0.1, options.max_blur_cells * result.cell_px)));
+  problem.SetParameterUpperBound(p, 1, std::log(std::max(0.1, options.max_blur_cells * result->cell_px)));
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
   ApplyTo(options.solver, &solver);
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) {
-    result.message = "the tag's pattern could not be fitted";
-    return result;
+    result->message = "the tag's pattern could not be fitted";
+    return false;
   }
-  result.pixels = static_cast<int>(pixels.size());
-  result.rms_grey = std::sqrt(2.0 * summary.final_cost / pixels.size());
-  result.blur_px = std::exp(p[1]);
+  result->pixels = static_cast<int>(pixels.size());
+  result->rms_grey = std::sqrt(2.0 * summary.final_cost / pixels.size());
+  result->blur_px = std::exp(p[1]);
   // Gauss-Newton covariance scaled by the residual variance.
   ceres::Covariance::Options cov_options;
   ceres::Covariance covariance(cov_options);
@@ -323,12 +308,58 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
     const double dof = std::max<double>(1.0, static_cast<double>(pixels.size()) - 4.0);
     sigma_cells = std::sqrt(std::max(0.0, c[0]) * 2.0 * summary.final_cost / dof);
   }
-  result.shift_px = p[0] * result.cell_px;
-  result.sigma_px = sigma_cells * result.cell_px;
+  result->shift_px = p[0] * result->cell_px;
+  result->sigma_px = sigma_cells * result->cell_px;
   if (std::abs(p[0]) > 0.299) {
-    result.message = "the edge shift ran to its bound (" + std::to_string(result.shift_px) + " px)";
+    result->message = "the edge shift ran to its bound (" + std::to_string(result->shift_px) + " px)";
+    return false;
+  }
+  return true;
+}
+
+EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d, 4>& corners_px, const TagCells& cells,
+                              const CameraModel* camera, const EdgeShiftOptions& options, const cv::Point& origin,
+                              std::array<cv::Point2d, 4>* print_corners) {
+  EdgeShiftResult result;
+  if (!options.IsValid(&result.message)) return result;
+  if (grey.empty() || grey.type() != CV_8UC1) {
+    result.message = "edge shift needs an 8-bit grey image";
     return result;
   }
+  const int n = cells.n;
+  if (n < 3 || cells.black.size() != static_cast<size_t>(n * n)) {
+    result.message = "tag cells missing";
+    return result;
+  }
+  double perimeter = 0.0;
+  for (int k = 0; k < 4; ++k) perimeter += cv::norm(corners_px[(k + 1) % 4] - corners_px[k]);
+  result.side_px = perimeter / 4.0;
+  result.cell_px = result.side_px / n;
+  if (result.cell_px < options.min_cell_px) {
+    result.message = "cells too small to measure the edge shift";
+    return result;
+  }
+  const double half = 0.5 * n;
+  const std::vector<cv::Point2d> und = Undistort({corners_px[0], corners_px[1], corners_px[2], corners_px[3]}, camera);
+  const cv::Matx33d H = SquareHomography({und[0], und[1], und[2], und[3]}, half);
+
+  std::vector<ShiftPixel> pixels;
+  double dark = 255.0, light = 0.0;
+  if (!CollectPatternPixels(grey, origin, H, cells, camera, options, &pixels, &dark, &light)) {
+    result.message = "tag outside the image";
+    return result;
+  }
+  if (pixels.size() < 50 || light - dark < 20.0) {
+    result.message = pixels.size() < 50 ? "too few pixels on the tag" : "too little contrast";
+    return result;
+  }
+  double p[4] = {0.0, std::log(0.7), dark, light - dark};
+  double c8[8];
+  for (int k = 0; k < 4; ++k) {
+    c8[2 * k] = und[k].x;
+    c8[2 * k + 1] = und[k].y;
+  }
+  if (!SolvePattern(pixels, n, options, print_corners ? c8 : nullptr, p, &result)) return result;
   if (print_corners) {
     // The print's square, +-lambda n/2 in u, through the fitted corners.
     std::array<cv::Point2d, 4> fitted;

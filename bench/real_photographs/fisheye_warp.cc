@@ -3,6 +3,10 @@
 // from the same place, with the peer's corners carried along.
 //
 //   real_fisheye_warp DATA_DIR OUT_DIR [--focal PX] [--size PX] [--k1 K] [--vignette V]
+//                     [--turn-deg X,Y]
+//
+// --turn-deg turns the fisheye camera about the source's x and y axes (a
+// Rodrigues vector in degrees): the board then lands towards the image's rim.
 //
 // Every figure odocal has on a fisheye is from rendered frames; the real
 // frames have a rectilinear lens. Their light is real (blur, noise, JPEG,
@@ -15,7 +19,7 @@
 // OUT_DIR gets the data set's layout (cam0/data/*.png, cam0/data.csv,
 // grid0/cam0/data/<frame>.csv with the peer's corners mapped through the same
 // two cameras, corners that leave the image dropped), the target file with
-// `dist_model: equi4`, and truth.yaml: the fisheye camera's intrinsics.
+// `dist_model: equi4`, and truth.yaml: the fisheye camera (ROS camera_info).
 // docs/vision.md ("Real photographs through a fisheye") runs calibrate-camera,
 // detect and real_photographs_bench on it.
 #include <cmath>
@@ -73,11 +77,13 @@ std::vector<PeerCorner> ReadPeer(const fs::path& csv) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s DATA_DIR OUT_DIR [--focal PX] [--size PX] [--k1 K] [--vignette V]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s DATA_DIR OUT_DIR [--focal PX] [--size PX] [--k1 K] [--vignette V] [--turn-deg X,Y]\n",
+                 argv[0]);
     return 2;
   }
   const fs::path dir = argv[1], out = argv[2];
   double focal = 300, k1 = 0, vignette = 0;
+  cv::Vec3d turn(0, 0, 0);
   int size = 416;
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -89,6 +95,8 @@ int main(int argc, char** argv) {
       k1 = std::stod(argv[i + 1]);
     else if (a == "--vignette")
       vignette = std::stod(argv[i + 1]);
+    else if (a == "--turn-deg" && std::sscanf(argv[i + 1], "%lf,%lf", &turn[0], &turn[1]) == 2)
+      turn *= M_PI / 180.0;
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -131,16 +139,20 @@ int main(int argc, char** argv) {
       }()
           .c_str());
 
-  const odocal::testing::FisheyeResample fisheye(K, D, source_size, focal, size, k1, vignette);
+  const odocal::testing::FisheyeResample fisheye(K, D, source_size, focal, size, k1, vignette, turn);
   const double c = fisheye.centre_px();
-  std::printf("fisheye camera: %dx%d, f %.3f, c %.3f, k1 %.4f; the source's corners at %.1f deg; vignette %.2f\n", size,
-              size, focal, c, k1, fisheye.source_corner_theta_rad() * 180 / M_PI, vignette);
+  std::printf(
+      "fisheye camera: %dx%d, f %.3f, c %.3f, k1 %.4f; the source's corners at %.1f deg; vignette %.2f; turned %.1f, "
+      "%.1f deg\n",
+      size, size, focal, c, k1, fisheye.source_corner_theta_rad() * 180 / M_PI, vignette, turn[0] * 180 / M_PI,
+      turn[1] * 180 / M_PI);
 
   fs::create_directories(out / "cam0" / "data");
   fs::create_directories(out / "grid0" / "cam0" / "data");
   std::ofstream index(out / "cam0" / "data.csv");
   index << "timestamp [ns],filename\n";
   size_t n_corners = 0, n_kept = 0;
+  double theta_min = M_PI, theta_max = 0;
   for (const auto& [stem, path] : frames) {
     cv::imwrite((out / "cam0" / "data" / (stem + ".png")).string(),
                 fisheye.Image(cv::imread(path.string(), cv::IMREAD_GRAYSCALE)));
@@ -159,11 +171,14 @@ int main(int argc, char** argv) {
       const double x = mapped[i].x, y = mapped[i].y;
       if (x < 2 || y < 2 || x > size - 3 || y > size - 3) continue;
       ++n_kept;
+      const double theta = std::hypot(x - c, y - c) / focal;  // k1 = 0: the angle off the axis
+      theta_min = std::min(theta_min, theta);
+      theta_max = std::max(theta_max, theta);
       csv << corners[i].line_head << "," << x << "," << y << "," << corners[i].line_tail << "\n";
     }
   }
-  std::printf("%zu frames; the peer's corners: %zu of %zu inside the fisheye image\n", frames.size(), n_kept,
-              n_corners);
+  std::printf("%zu frames; the peer's corners: %zu of %zu inside the fisheye image, %.0f-%.0f deg off its axis\n",
+              frames.size(), n_kept, n_corners, theta_min * 180 / M_PI, theta_max * 180 / M_PI);
 
   // The target (the first *.yaml with calib_target), marked equi4, and the truth.
   for (const auto& e : fs::directory_iterator(dir)) {
@@ -188,11 +203,14 @@ int main(int argc, char** argv) {
     std::ofstream(out / e.path().filename()) << t;
     break;
   }
+  // ROS camera_info, which calibrate-camera's --calibration and detect read as it is.
   std::ofstream truth(out / "truth.yaml");
   truth.precision(10);
-  truth << "# The fisheye camera real_fisheye_warp formed these frames with (OpenCV's pixel convention).\n"
-        << "distortion_model: equidistant\nimage_width: " << size << "\nimage_height: " << size << "\nfx: " << focal
-        << "\nfy: " << focal << "\ncx: " << c << "\ncy: " << c << "\nk: [" << k1 << ", 0, 0, 0]\n"
-        << "source_rms_px: " << rms << "\n";
+  truth << "# The fisheye camera real_fisheye_warp formed these frames with (OpenCV's pixel convention);\n"
+        << "# the source camera's calibration RMS (its error carries into this truth): " << rms << " px.\n"
+        << "image_width: " << size << "\nimage_height: " << size << "\ndistortion_model: equidistant\n"
+        << "camera_matrix: {rows: 3, cols: 3, data: [" << focal << ", 0, " << c << ", 0, " << focal << ", " << c
+        << ", 0, 0, 1]}\n"
+        << "distortion_coefficients: {rows: 1, cols: 4, data: [" << k1 << ", 0, 0, 0]}\n";
   return 0;
 }

@@ -12,7 +12,10 @@
 // supersampling and averaged (no aliasing where it shrinks the source);
 // outside the source's view it is black, as outside a fisheye's image circle.
 // `vignette` V darkens it towards the source's corners by up to 1 - V
-// ((theta / theta_corner)^4), re-quantised to 8 bits.
+// ((theta / theta_corner)^4), re-quantised to 8 bits. `rotation` (a Rodrigues
+// vector) turns the fisheye camera away from the source's axis: a ray r in the
+// fisheye camera's frame is R r in the source's. Turned by 40-60 degrees, what
+// the source saw lands towards the fisheye image's rim, where its edges bend most.
 #ifndef ODOCAL_TESTS_VISION_FISHEYE_RESAMPLE_H_
 #define ODOCAL_TESTS_VISION_FISHEYE_RESAMPLE_H_
 
@@ -29,8 +32,9 @@ namespace odocal::testing {
 class FisheyeResample {
  public:
   FisheyeResample(cv::Mat K, cv::Mat D, cv::Size source_size, double focal_px, int size_px, double k1 = 0.0,
-                  double vignette = 0.0)
+                  double vignette = 0.0, cv::Vec3d rotation = {0, 0, 0})
       : K_(std::move(K)), D_(std::move(D)), focal_(focal_px), k1_(k1), size_(size_px), centre_((size_px - 1) / 2.0) {
+    cv::Rodrigues(rotation, R_);
     const int n = size_ * kSub;
     map_x_.create(n, n, CV_32F);
     map_y_.create(n, n, CV_32F);
@@ -42,12 +46,13 @@ class FisheyeResample {
         const double x = (u + 0.5) / kSub - 0.5 - centre_, y = (v + 0.5) / kSub - 0.5 - centre_;
         const double r = std::hypot(x, y);
         const double theta = Undistort(r / focal_);
-        if (theta >= 1.4) {  // ~80 degrees: far outside any rectilinear source's view
+        const double s = r > 0 ? std::sin(theta) / r : 1.0 / focal_;
+        const cv::Vec3d ray = R_ * cv::Vec3d(x * s, y * s, std::cos(theta));
+        if (theta >= M_PI || ray[2] <= std::cos(1.4)) {  // ~80 degrees: far outside any rectilinear source's view
           rays.emplace_back(0.f, 0.f, -1.f);
           continue;
         }
-        const double s = r > 0 ? std::sin(theta) / r : 1.0 / focal_;
-        rays.emplace_back(static_cast<float>(x * s), static_cast<float>(y * s), static_cast<float>(std::cos(theta)));
+        rays.emplace_back(static_cast<float>(ray[0]), static_cast<float>(ray[1]), static_cast<float>(ray[2]));
       }
     }
     std::vector<cv::Point2f> src;
@@ -88,9 +93,10 @@ class FisheyeResample {
     cv::undistortPoints(source_px, normal, K_, D_, cv::noArray(), cv::noArray(),
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
     for (const auto& q : normal) {
-      const double rn = std::hypot(q.x, q.y);
-      const double r = focal_ * Distort(std::atan(rn));
-      out.emplace_back(centre_ + (rn > 0 ? q.x / rn * r : 0.0), centre_ + (rn > 0 ? q.y / rn * r : 0.0));
+      const cv::Vec3d ray = R_.t() * cv::Vec3d(q.x, q.y, 1.0);  // the fisheye camera's frame
+      const double rn = std::hypot(ray[0], ray[1]);
+      const double r = focal_ * Distort(std::atan2(rn, ray[2]));
+      out.emplace_back(centre_ + (rn > 0 ? ray[0] / rn * r : 0.0), centre_ + (rn > 0 ? ray[1] / rn * r : 0.0));
     }
     return out;
   }
@@ -111,6 +117,7 @@ class FisheyeResample {
   }
 
   cv::Mat K_, D_;
+  cv::Matx33d R_;
   double focal_, k1_;
   int size_;
   double centre_;

@@ -77,7 +77,8 @@ std::vector<PeerCorner> ReadPeer(const fs::path& csv) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s DATA_DIR OUT_DIR [--focal PX] [--size PX] [--k1 K] [--vignette V] [--turn-deg X,Y]\n",
+    std::fprintf(stderr,
+                 "usage: %s DATA_DIR OUT_DIR [--focal PX] [--size PX] [--k1 K] [--vignette V] [--turn-deg X,Y]\n",
                  argv[0]);
     return 2;
   }

@@ -14,6 +14,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libceres-dev
   libopencv-dev libapriltag-dev
+  libjpeg-dev  # the camera simulator's MJPEG (vision), without OpenCV's image codecs
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libboost-dev
   libcpp-httplib-dev  # the live view's HTTP server (rig/live)
   libsqlite3-dev libpq-dev libssl-dev  # the record store (rig/records): SQLite, PostgreSQL's client, SHA-256

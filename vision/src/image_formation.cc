@@ -5,8 +5,6 @@
 #include <cstdio>
 #include <random>
 
-
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "raster.h"
@@ -278,9 +276,7 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
   cv::Mat grey;
   linear.convertTo(grey, CV_8U);  // rounds and saturates
   if (options.codec.kind == CodecOptions::Kind::kMjpeg) {
-    std::vector<uchar> bytes;
-    cv::imencode(".jpg", grey, bytes, {cv::IMWRITE_JPEG_QUALITY, options.codec.quality});
-    grey = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+    grey = JpegRoundTrip(grey, options.codec.quality);
   }
   return grey;
 }

@@ -101,6 +101,17 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
                      const std::vector<float>& unit_normals, size_t offset,
                      const cv::Rect& fresh_noise_roi, cv::RNG* rng);
 
+// The MJPEG stage: an 8-bit grey frame (CV_8UC1) coded as a baseline JPEG at
+// `quality` (1-100) and decoded again, in memory. libjpeg directly, as
+// OpenCV's cv::imencode / cv::imdecode call it (the same library and
+// settings: jpeg_set_defaults, jpeg_set_quality(q, baseline), the slow
+// integer DCT both ways), so the frames are the same bit for bit
+// (JpegRoundTrip.IsOpenCvsImencodeAndImdecode), without OpenCV's image
+// codecs: they bring 140 shared libraries (GDAL, GDCM, OpenEXR, ...) into
+// every process that links them, a fifth of a second at each start (media
+// loads them when a file is first read or written: rig/media/src/codecs.h).
+// An empty Mat when libjpeg reports an error (it says why on stderr).
+cv::Mat JpegRoundTrip(const cv::Mat& grey, int quality);
 
 }  // namespace odocal::vision
 

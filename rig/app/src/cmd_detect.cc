@@ -19,7 +19,6 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utils/logger.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "cli_util.h"
@@ -386,9 +385,8 @@ std::vector<uchar> AnnotationPng(const DetectRequest& request, const Frame& f, c
          << survey.rejected.size() << " quads refused (red)";
   cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
               cv::LINE_AA);
-  std::vector<uchar> png;
-  cv::imencode(".png", bgr, png);
-  return png;
+  std::string why;
+  return media::EncodePng(bgr, &why).value_or(std::vector<uchar>());
 }
 
 // The annotation's file: the image's name, a video's frame number after it.

@@ -17,7 +17,6 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "cli_util.h"
@@ -27,6 +26,7 @@
 #include "odocal/config/files.h"
 #include "odocal/measure/setup_check.h"
 #include "odocal/media/frame_source.h"
+#include "odocal/media/image_file.h"
 #include "odocal/media/video.h"
 
 namespace odocal::app {
@@ -118,7 +118,8 @@ void WritePng(const measure::SetupCheckResult& r, const measure::SetupCheckOptio
     cv::putText(image, line, cv::Point(10, y), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1);
     y += 22;
   }
-  if (!cv::imwrite(path, image)) Fail(kSetupCheck, kExitFailure, path + ": cannot write");
+  if (const Status written = media::WriteImage(path, image); !written.ok())
+    Fail(kSetupCheck, kExitFailure, written.message);
 }
 
 nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCheckOptions& o,

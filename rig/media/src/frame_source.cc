@@ -6,6 +6,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "codecs.h"
+
 namespace odocal::media {
 namespace {
 
@@ -15,12 +17,21 @@ double Seconds(std::chrono::steady_clock::duration d) {
 
 }  // namespace
 
+CaptureSource::CaptureSource(std::string device) : device_(std::move(device)) {}
+CaptureSource::~CaptureSource() = default;
+
 std::unique_ptr<CaptureSource> CaptureSource::Open(const std::string& device, std::string* error) {
   std::unique_ptr<CaptureSource> source(new CaptureSource(device));
   const bool is_index = !device.empty() && std::all_of(device.begin(), device.end(),
                                                       [](unsigned char c) { return std::isdigit(c); });
-  const bool opened = is_index ? source->capture_.open(std::stoi(device)) : source->capture_.open(device);
-  if (!opened || !source->capture_.isOpened()) {
+  std::string why;
+  const internal::Codecs* codecs = internal::LoadCodecs(&why);
+  if (!codecs) {
+    if (error) *error = "cannot open camera '" + device + "': " + why;
+    return nullptr;
+  }
+  source->capture_ = codecs->OpenCamera(is_index ? std::stoi(device) : -1, device);
+  if (!source->capture_) {
     if (error)
       *error = "cannot open camera '" + device + "'" +
                (is_index ? " (no such video device, or busy)" : " (no such stream or file, or no backend reads it)");
@@ -31,14 +42,14 @@ std::unique_ptr<CaptureSource> CaptureSource::Open(const std::string& device, st
 }
 
 std::optional<double> CaptureSource::NominalFps() const {
-  const double fps = capture_.get(cv::CAP_PROP_FPS);
+  const double fps = capture_->Fps();
   if (fps > 0.0 && std::isfinite(fps)) return fps;
   return std::nullopt;
 }
 
 std::optional<CameraFrame> CaptureSource::Grab(std::string* error) {
   cv::Mat frame;
-  if (!capture_.read(frame) || frame.empty()) {
+  if (!capture_->Read(&frame) || frame.empty()) {
     if (error) *error = "camera '" + device_ + "' delivered no frame (unplugged, or the stream ended)";
     return std::nullopt;
   }

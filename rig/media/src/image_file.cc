@@ -4,13 +4,15 @@
 #include <cmath>
 #include <cstdio>
 
-#include <opencv2/imgcodecs.hpp>
+#include "codecs.h"
 
 namespace odocal::media {
 
 GreyImage ReadGreyImage(const std::string& path) {
   GreyImage out;
-  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+  const internal::Codecs* codecs = internal::LoadCodecs(&out.error);
+  if (!codecs) return out;
+  cv::Mat image = codecs->ReadGreyAnyDepth(path);
   if (image.empty() || image.depth() == CV_8U) {
     out.grey = image;
     return out;
@@ -32,6 +34,38 @@ GreyImage ReadGreyImage(const std::string& path) {
   image.convertTo(out.grey, CV_8U, scale);
   out.conversion = what;
   return out;
+}
+
+Status WriteImage(const std::string& path, const cv::Mat& image) {
+  std::string why;
+  const internal::Codecs* codecs = internal::LoadCodecs(&why);
+  if (!codecs) return Status::Error(StatusCode::kFailed, path + ": cannot write: " + why);
+  if (!codecs->WriteImage(path, image))
+    return Status::Error(StatusCode::kIoError,
+                         path + ": cannot write (not writable, or no image format has that extension)");
+  return Status::Ok();
+}
+
+std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error) {
+  const internal::Codecs* codecs = internal::LoadCodecs(error);
+  std::vector<unsigned char> bytes;
+  if (!codecs) return std::nullopt;
+  if (!codecs->EncodePng(image, &bytes)) {
+    if (error) *error = "the image cannot be coded as PNG";
+    return std::nullopt;
+  }
+  return bytes;
+}
+
+std::optional<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality, std::string* error) {
+  const internal::Codecs* codecs = internal::LoadCodecs(error);
+  std::vector<unsigned char> bytes;
+  if (!codecs) return std::nullopt;
+  if (!codecs->EncodeJpeg(image, quality, &bytes)) {
+    if (error) *error = "the image cannot be coded as JPEG";
+    return std::nullopt;
+  }
+  return bytes;
 }
 
 }  // namespace odocal::media

@@ -12,9 +12,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
+
+#include "codecs.h"
 
 extern "C" char** environ;
 
@@ -50,12 +50,12 @@ bool Mp4WriterOptions::IsValid(std::string* why) const {
 
 struct Mp4Writer::Impl {
   Mp4WriterOptions options;
-  cv::VideoWriter writer;
+  std::unique_ptr<internal::VideoOutput> writer;  // kOpenCv
   cv::Mat bgr;
   // kFfmpegCli: the child process and the pipe to its stdin.
   pid_t child = -1;
   int pipe_fd = -1;
-  bool IsOpen() const { return writer.isOpened() || pipe_fd >= 0; }
+  bool IsOpen() const { return writer || pipe_fd >= 0; }
 };
 
 Mp4Writer::Mp4Writer() : impl_(std::make_unique<Impl>()) {}
@@ -77,8 +77,11 @@ Status Mp4Writer::Open(const std::string& path, double fps, cv::Size frame_size,
   size_ = frame_size;
   timestamps_s_.clear();
   if (options.backend == Mp4WriterOptions::Backend::kOpenCv) {
-    const int fourcc = cv::VideoWriter::fourcc('a', 'v', 'c', '1');
-    if (!impl_->writer.open(path, cv::CAP_FFMPEG, fourcc, fps, frame_size, true)) {
+    std::string why;
+    const internal::Codecs* codecs = internal::LoadCodecs(&why);
+    if (!codecs) return Status::Error(StatusCode::kFailed, "cannot write '" + path + "': " + why);
+    impl_->writer = codecs->OpenH264File(path, fps, frame_size);
+    if (!impl_->writer) {
       return Status::Error(
           StatusCode::kIoError,
           "cannot open '" + path +
@@ -155,7 +158,7 @@ Status Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
     }
   } else {
     cv::cvtColor(grey_frame, impl_->bgr, cv::COLOR_GRAY2BGR);
-    impl_->writer.write(impl_->bgr);
+    impl_->writer->Write(impl_->bgr);
   }
   timestamps_s_.push_back(timestamp_s);
   return Status::Ok();
@@ -163,7 +166,7 @@ Status Mp4Writer::Write(const cv::Mat& grey_frame, double timestamp_s) {
 
 Status Mp4Writer::Close() {
   if (!impl_) return Status::Ok();
-  if (impl_->writer.isOpened()) impl_->writer.release();
+  impl_->writer.reset();  // finishes the file
   if (impl_->pipe_fd >= 0) {
     close(impl_->pipe_fd);
     impl_->pipe_fd = -1;
@@ -189,7 +192,7 @@ Status Mp4Writer::WriteTimestamps(const std::string& path) const {
 }
 
 struct VideoReader::Impl {
-  cv::VideoCapture capture;
+  std::unique_ptr<internal::VideoInput> capture;
   cv::Mat pending;  // the first frame, decoded by Open() to prove the file is readable
   cv::Mat bgr;
 };
@@ -206,13 +209,17 @@ Status VideoReader::Open(const std::string& path) {
   if (std::filesystem::file_size(path, ec) == 0 || ec) {
     return Status::Error(StatusCode::kBadFile, "video file '" + path + "' is empty");
   }
-  if (!impl_->capture.open(path, cv::CAP_FFMPEG)) {
+  std::string why;
+  const internal::Codecs* codecs = internal::LoadCodecs(&why);
+  if (!codecs) return Status::Error(StatusCode::kFailed, "cannot read video '" + path + "': " + why);
+  impl_->capture = codecs->OpenVideoFile(path);
+  if (!impl_->capture) {
     return Status::Error(StatusCode::kBadFile, "cannot open video '" + path +
                                                    "': not a video FFmpeg can read (corrupt?)");
   }
   cv::Mat first;
-  if (!impl_->capture.read(first) || first.empty()) {
-    impl_->capture.release();
+  if (!impl_->capture->Read(&first) || first.empty()) {
+    impl_->capture.reset();
     return Status::Error(StatusCode::kBadFile,
                          "video '" + path + "' has no decodable frame (corrupt or truncated?)");
   }
@@ -225,7 +232,7 @@ bool VideoReader::Read(cv::Mat* grey_frame) {
   if (!impl_->pending.empty()) {
     frame = impl_->pending;
     impl_->pending.release();
-  } else if (!impl_->capture.isOpened() || !impl_->capture.read(frame) || frame.empty()) {
+  } else if (!impl_->capture || !impl_->capture->Read(&frame) || frame.empty()) {
     return false;
   }
   if (frame.channels() == 3) {
@@ -238,10 +245,8 @@ bool VideoReader::Read(cv::Mat* grey_frame) {
   return true;
 }
 
-double VideoReader::fps() const { return impl_->capture.get(cv::CAP_PROP_FPS); }
-int VideoReader::frame_count() const {
-  return static_cast<int>(impl_->capture.get(cv::CAP_PROP_FRAME_COUNT));
-}
+double VideoReader::fps() const { return impl_->capture ? impl_->capture->Fps() : 0.0; }
+int VideoReader::frame_count() const { return impl_->capture ? static_cast<int>(impl_->capture->FrameCount()) : -1; }
 
 Result<std::vector<double>> ReadTimestamps(const std::string& path) {
   using Stamps = Result<std::vector<double>>;
@@ -275,11 +280,7 @@ std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& f
   if (codec.kind != vision::CodecOptions::Kind::kH264 || frames.empty()) {
     if (codec.kind == vision::CodecOptions::Kind::kMjpeg) {
       std::vector<cv::Mat> out;
-      for (const cv::Mat& f : frames) {
-        std::vector<uchar> bytes;
-        cv::imencode(".jpg", f, bytes, {cv::IMWRITE_JPEG_QUALITY, codec.quality});
-        out.push_back(cv::imdecode(bytes, cv::IMREAD_GRAYSCALE));
-      }
+      for (const cv::Mat& f : frames) out.push_back(vision::JpegRoundTrip(f, codec.quality));
       return out;
     }
     return frames;

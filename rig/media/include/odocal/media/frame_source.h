@@ -10,9 +10,12 @@
 #include <string>
 
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
 
 namespace odocal::media {
+
+namespace internal {
+class VideoInput;
+}  // namespace internal
 
 // A camera frame as the station receives it: 8-bit grey, with its time.
 struct CameraFrame {
@@ -42,11 +45,12 @@ class CaptureSource final : public FrameSource {
   std::optional<CameraFrame> Grab(std::string* error) override;
   std::string Describe() const override { return "camera " + device_; }
   std::optional<double> NominalFps() const override;
+  ~CaptureSource() override;
 
  private:
-  explicit CaptureSource(std::string device) : device_(std::move(device)) {}
+  explicit CaptureSource(std::string device);
   std::string device_;
-  cv::VideoCapture capture_;
+  std::unique_ptr<internal::VideoInput> capture_;  // OpenCV's, through the codecs (src/codecs.h)
   std::chrono::steady_clock::time_point opened_at_;
 };
 

@@ -6,14 +6,21 @@
 #ifndef ODOCAL_MEDIA_IMAGE_FILE_H_
 #define ODOCAL_MEDIA_IMAGE_FILE_H_
 
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "odocal/base/status.h"
 
 namespace odocal::media {
 
 struct GreyImage {
   cv::Mat grey;  // CV_8UC1; empty when the file cannot be read as an image
+  // Why not, when that is not the file's fault (the codecs could not be
+  // loaded: src/codecs.h); empty otherwise.
+  std::string error;
   // How a deeper image was brought to 8 bits ("16-bit file, values up to
   // 4095: read as a 12-bit sensor"); empty for an 8-bit file.
   std::string conversion;
@@ -25,6 +32,15 @@ struct GreyImage {
 // stays linear; a floating-point image by 255 when its values lie in [0, 1],
 // else by its largest value.
 GreyImage ReadGreyImage(const std::string& path);
+
+// An 8-bit grey or BGR image as the format its extension names (.png, .jpg,
+// ...); an error naming the file when it cannot be written.
+Status WriteImage(const std::string& path, const cv::Mat& image);
+
+// The bytes of a PNG, or a JPEG at `quality` (1-100), of an 8-bit grey or
+// BGR image; nullopt with `*error` when it cannot be coded.
+std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error);
+std::optional<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality, std::string* error);
 
 }  // namespace odocal::media
 

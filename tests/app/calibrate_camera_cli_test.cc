@@ -132,6 +132,39 @@ TEST(CliCalibrateCamera, RecoversTheRenderedCameraAndSkipsAnImageWithoutBoard) {
   EXPECT_NEAR(doc["rms_reprojection_error_px"].get<double>(), *file->rms_reprojection_error_px, 1e-12);
   ASSERT_EQ(file->per_view_reprojection_errors_px.size(), 12u);
   EXPECT_NEAR(doc["images"][6]["rms_px"].get<double>(), file->per_view_reprojection_errors_px[5], 1e-12);
+  // Views spread over the image: the lens is measured, not extrapolated.
+  EXPECT_GT(doc["coverage"]["fraction"].get<double>(), 0.5) << doc["coverage"].dump();
+  EXPECT_FALSE(doc["coverage"]["extrapolated"].get<bool>());
+}
+
+// The same camera with a sensor twice as wide and high, the views in its top
+// left quarter (each pixel where it was: the same intrinsics). The corners
+// then reach a quarter of the image at most, and calibrate-camera says that
+// the lens is extrapolated over the rest, in the text and in the JSON.
+TEST(CliCalibrateCamera, ViewsInOneQuarterOfTheImageAreNamedAsExtrapolated) {
+  const std::string dir = test_util::MakeTempDir("odocal_calcam_quarter_");
+  std::vector<std::string> images;
+  for (const std::string& small : WriteViews(dir, 8, 3)) {
+    cv::Mat big(960, 1280, CV_8U, cv::Scalar(110));
+    cv::imread(small, cv::IMREAD_GRAYSCALE).copyTo(big(cv::Rect(0, 0, 640, 480)));
+    images.push_back(small.substr(0, small.size() - 4) + "_big.png");
+    ASSERT_TRUE(cv::imwrite(images.back(), big));
+  }
+  const std::string common = " calibrate-camera" + Join(images) + " --board chessboard:9x6:25 --model plumb_bob --out ";
+  const CommandResult json = RunCommand(test_util::OdocalBinary() + common + dir + "/a.yaml --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const nlohmann::json c = nlohmann::json::parse(json.out)["coverage"];
+  EXPECT_EQ(c["grid"], 8);
+  EXPECT_LE(c["cells_covered"].get<int>(), 16) << c.dump();
+  EXPECT_GE(c["cells_covered"].get<int>(), 8) << c.dump();
+  EXPECT_LE(c["x_span"][1].get<double>(), 0.5);
+  EXPECT_LE(c["y_span"][1].get<double>(), 0.5);
+  EXPECT_TRUE(c["extrapolated"].get<bool>());
+  const CommandResult text = RunCommand(test_util::OdocalBinary() + common + dir + "/b.yaml");
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, ::testing::HasSubstr("coverage: the corners reach " +
+                                             std::to_string(c["cells_covered"].get<int>()) + " of 64 cells"));
+  EXPECT_THAT(text.out, ::testing::HasSubstr("and extrapolated elsewhere"));
 }
 
 TEST(CliCalibrateCamera, FewerThanThreeUsableImagesFailWithoutWritingAFile) {

@@ -337,6 +337,9 @@ TEST(CliCalibrateCamera, RealAprilgridFromKalibrTargetFile) {
   EXPECT_NEAR(doc["fy"].get<double>(), 610.0, 0.01 * 610.0);
   EXPECT_NEAR(doc["cx"].get<double>(), 320.0, 25.0);
   EXPECT_NEAR(doc["cy"].get<double>(), 240.0, 25.0);
+  // The frames hold the board all over the image: 55 of 64 cells.
+  EXPECT_GE(doc["coverage"]["cells_covered"].get<int>(), 50) << doc["coverage"].dump();
+  EXPECT_FALSE(doc["coverage"]["extrapolated"].get<bool>());
 }
 
 TEST(CliCalibrateCamera, AprilgridNotInViewIsBadInput) {

@@ -351,3 +351,37 @@ TEST(CameraCalibration, RecoversIntrinsicsFromRenderedCharucoBoards) {
 
 }  // namespace
 }  // namespace odocal::vision
+
+namespace odocal::vision {
+namespace {
+
+// MeasureCoverage on corners placed by hand: which cells, how much, and what
+// is not a corner of the image.
+TEST(ImageCoverage, CountsTheCellsTheCornersReach) {
+  const cv::Size size(800, 600);  // cells of 100 x 75 px on the 8 x 8 grid
+  BoardDetection a, b;
+  a.image_points = {{10.f, 10.f}, {150.f, 10.f}, {10.f, 100.f}};  // cells (0,0), (1,0), (0,1)
+  b.image_points = {{799.f, 599.f},                               // the last pixel: cell (7,7)
+                    {150.f, 10.f},                                // (1,0) again
+                    {-5.f, 300.f},
+                    {400.f, 700.f}};  // outside the image: not counted
+  const ImageCoverage c = MeasureCoverage({a, b}, size);
+  EXPECT_EQ(c.grid, 8);
+  EXPECT_EQ(c.cells_covered, 4);
+  EXPECT_NEAR(c.fraction, 4.0 / 64.0, 1e-12);
+  EXPECT_NEAR(c.x_min, 10.5 / 800.0, 1e-9);
+  EXPECT_NEAR(c.x_max, 799.5 / 800.0, 1e-9);
+  EXPECT_NEAR(c.y_min, 10.5 / 600.0, 1e-9);
+  EXPECT_NEAR(c.y_max, 599.5 / 600.0, 1e-9);
+  EXPECT_LT(c.fraction, ImageCoverage::kWarnBelow);
+
+  // A corner in every cell: all of it.
+  BoardDetection all;
+  for (int j = 0; j < 8; ++j)
+    for (int i = 0; i < 8; ++i) all.image_points.emplace_back(100.f * i + 50.f, 75.f * j + 30.f);
+  EXPECT_NEAR(MeasureCoverage({all}, size).fraction, 1.0, 1e-12);
+  EXPECT_EQ(MeasureCoverage({}, size).cells_covered, 0);
+}
+
+}  // namespace
+}  // namespace odocal::vision

@@ -1101,6 +1101,28 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
   return result;
 }
 
+ImageCoverage MeasureCoverage(const std::vector<BoardDetection>& views, cv::Size image_size, int grid) {
+  ImageCoverage c;
+  c.grid = grid;
+  if (grid <= 0 || image_size.width <= 0 || image_size.height <= 0) return c;
+  std::vector<char> covered(static_cast<size_t>(grid) * grid, 0);
+  double x0 = 1.0, x1 = 0.0, y0 = 1.0, y1 = 0.0;
+  for (const BoardDetection& view : views) {
+    for (const cv::Point2f& p : view.image_points) {
+      // Pixel centres at integers: the image spans [-0.5, size - 0.5].
+      const double x = (p.x + 0.5) / image_size.width, y = (p.y + 0.5) / image_size.height;
+      if (!(x >= 0.0 && x <= 1.0 && y >= 0.0 && y <= 1.0)) continue;
+      const int i = std::min(grid - 1, static_cast<int>(x * grid)), j = std::min(grid - 1, static_cast<int>(y * grid));
+      covered[static_cast<size_t>(j) * grid + i] = 1;
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  }
+  for (char k : covered) c.cells_covered += k;
+  c.fraction = static_cast<double>(c.cells_covered) / (static_cast<double>(grid) * grid);
+  if (c.cells_covered > 0) c.x_min = x0, c.x_max = x1, c.y_min = y0, c.y_max = y1;
+  return c;
+}
+
 LensModelChoice CompareLensModels(const std::vector<BoardDetection>& views, const CameraCalibrationResult& plumb_bob,
                                   const CameraCalibrationResult& fisheye) {
   LensModelChoice c;

@@ -300,6 +300,7 @@ struct Calibrated {
   double fisheye_rms_px = NAN;  // a plumb_bob fit that a fisheye fits twice as well
   std::optional<vision::BoardShape> shape;
   double rms_as_flat_px = NAN;  // --board-shape fit: the RMS as flat
+  vision::ImageCoverage coverage;  // of the views calibrated
 };
 
 // An aprilgrid's flatness, as these views see it (vision/board_shape.h);
@@ -373,6 +374,7 @@ Calibrated Calibrate(const CalibrateCameraArgs& args, const CalibrateRequest& re
       c.fisheye_rms_px = f.rms_reprojection_error_px;
   }
   BoardShapeOf(args, board, lens_fit.views, v->size, options, &c);
+  c.coverage = vision::MeasureCoverage(lens_fit.views, v->size);
   for (size_t i = 0; i < v->views.size(); ++i) v->outcomes[v->view_image[i]].rms_px = c.result.per_view_rms_px[i];
   for (int i : c.result.views_left_out) v->outcomes[v->view_image[i]].left_out = true;
   return c;
@@ -382,6 +384,30 @@ Calibrated Calibrate(const CalibrateCameraArgs& args, const CalibrateRequest& re
 std::vector<std::string> CoefficientNames(const vision::Intrinsics& in) {
   return in.lens == vision::LensModel::kEquidistant ? std::vector<std::string>{"k1", "k2", "k3", "k4"}
                                                     : std::vector<std::string>{"k1", "k2", "p1", "p2", "k3"};
+}
+
+nlohmann::json CoverageJson(const vision::ImageCoverage& c) {
+  return {{"grid", c.grid},
+          {"cells_covered", c.cells_covered},
+          {"fraction", c.fraction},
+          {"x_span", {c.x_min, c.x_max}},
+          {"y_span", {c.y_min, c.y_max}},
+          {"extrapolated", c.fraction < vision::ImageCoverage::kWarnBelow}};
+}
+
+// How much of the image the corners reach, and a warning when the lens is
+// mostly extrapolated.
+std::string CoverageLines(const vision::ImageCoverage& c) {
+  const auto percent = [](double f) { return std::to_string(static_cast<int>(std::lround(100.0 * f))); };
+  std::string text = "  coverage: the corners reach " + std::to_string(c.cells_covered) + " of " +
+                     std::to_string(c.grid * c.grid) + " cells (" + std::to_string(c.grid) + " x " +
+                     std::to_string(c.grid) + ") of the image (" + percent(c.fraction) + " %), x " + percent(c.x_min) +
+                     "-" + percent(c.x_max) + " %, y " + percent(c.y_min) + "-" + percent(c.y_max) + " %\n";
+  if (c.fraction < vision::ImageCoverage::kWarnBelow)
+    text += "  warning: the lens is measured on " + percent(c.fraction) +
+            " % of the image and extrapolated elsewhere, an error the sigmas above do not include; add views with "
+            "the board near the image's edges and corners\n";
+  return text;
 }
 
 // --json: the camera, how it was found, and every image's outcome.
@@ -432,6 +458,7 @@ void PrintJson(const CalibrateCameraArgs& args, const CalibrateRequest& request,
                                                 {"chosen", static_cast<int>(v.chosen_count)}}
                                : nlohmann::json()},
       {"corners_used", result.corners},
+      {"coverage", CoverageJson(c.coverage)},
       {"board_shape", c.shape ? BoardShapeJson(*c.shape, c.rms_as_flat_px) : nlohmann::json()},
       {"images", images},
   };
@@ -464,7 +491,7 @@ void PrintText(const CalibrateCameraArgs& args, const CalibrateRequest& request,
   if (std::isfinite(c.first_pass_rms_px))
     std::cout << " (the tags' edges refined through the lens; " << Fixed(c.first_pass_rms_px, 4)
               << " px as straight lines)";
-  std::cout << "\n";
+  std::cout << "\n" << CoverageLines(c.coverage);
   if (std::isfinite(c.fisheye_rms_px))
     std::cout << "  warning: the same views fit the fisheye (equidistant) model with RMS " << Fixed(c.fisheye_rms_px, 4)
               << " px: this looks like a fisheye lens; calibrate again with --model fisheye\n";

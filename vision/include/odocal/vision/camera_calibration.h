@@ -275,6 +275,25 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
                                         const cv::Size& image_size,
                                         const CameraCalibrationOptions& options = {});
 
+// Where a calibration's corners fall in the image. The lens is measured where
+// they are and extrapolated elsewhere: views that all hold the board in one
+// part of the image leave the centre and the focal length to the model's
+// form, an error the sigmas (OpenCV's covariance, the jackknife over views)
+// do not see, since every view shares it. Real D435i frames through a fisheye
+// turned 35 degrees, the board in one corner (21 of 64 cells): fx 2.6 and cy
+// 3.5 sigma off the truth, from odocal's corners and from yac's alike
+// (docs/vision.md, "Towards a wide fisheye's rim").
+struct ImageCoverage {
+  int grid = 0;           // cells per side of the image
+  int cells_covered = 0;  // of grid * grid, holding at least one corner
+  double fraction = 0.0;  // cells_covered / (grid * grid)
+  // The corners' extent as fractions of the image's width and height.
+  double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;
+  // Below this the calibration says its lens is extrapolated (calibrate-camera's warning).
+  static constexpr double kWarnBelow = 0.5;
+};
+ImageCoverage MeasureCoverage(const std::vector<BoardDetection>& views, cv::Size image_size, int grid = 8);
+
 // calibrate-camera's --model auto: plumb_bob and the fisheye fitted to the
 // same views, compared by their RMS over the views both posed (each view
 // weighted by its corners). The fisheye is chosen when its RMS is under 95 %

@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
+#include "effects/effects.h"
 #include "odocal/base/format.h"
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/effect_registry.h"
@@ -22,37 +23,13 @@ namespace odocal::calibration {
 namespace internal {
 namespace {
 
-inline double Scalar(double v) { return v; }
-template <typename T, int N>
-double Scalar(const ceres::Jet<T, N>& j) {
-  return Scalar(j.a);
-}
-
-// encoder_backlash: the ticks of a step of `step_ticks` that moved the wheel.
-template <typename T>
-T MovingTicks(std::int64_t step_ticks, int* direction, T* dead_ticks, const T& backlash_ticks) {
-  if (step_ticks == 0) return T(0.0);
-  const int s = step_ticks > 0 ? 1 : -1;
-  if (s != *direction) {
-    *direction = s;
-    *dead_ticks = backlash_ticks;
-  }
-  const double magnitude = static_cast<double>(step_ticks > 0 ? step_ticks : -step_ticks);
-  const T consumed = Scalar(*dead_ticks) < magnitude ? *dead_ticks : T(magnitude);
-  *dead_ticks -= consumed;
-  return T(static_cast<double>(step_ticks)) - double(s) * consumed;
-}
-
 // The dead-reckoned poses of a run at its telemetry times, from `start`
 // (x_m, y_m, heading_rad), with `base_scales` (r_left, r_right, Eb) and the
-// effect block `effect_values` (EffectParams order).
+// effect block `effect_values` (EffectParams order). Each effect's term is in
+// its own file (effects/<name>.h); this is the order they act in.
 template <typename T>
-void DeadReckon(const RunData& run, const ModelConstants& constants, const T* base_scales,
-                const T* start, const T* effect_values, std::vector<T>* xs_m,
-                std::vector<T>* ys_m, std::vector<T>* headings_rad) {
-  using std::abs;
-  using std::cos;
-  using std::sin;
+void DeadReckon(const RunData& run, const ModelConstants& constants, const T* base_scales, const T* start,
+                const T* effect_values, std::vector<T>* xs_m, std::vector<T>* ys_m, std::vector<T>* headings_rad) {
   const size_t n = run.t_s.size();
   xs_m->resize(n);
   ys_m->resize(n);
@@ -73,34 +50,13 @@ void DeadReckon(const RunData& run, const ModelConstants& constants, const T* ba
                  constants.left_m_per_tick * base_scales[0];
       T right_m = MovingTicks(right_ticks, &right_direction, &right_dead_ticks, backlash_ticks) *
                   constants.right_m_per_tick * base_scales[1];
-      // speed_slip: each wheel loses k |v| of its travel, v its speed over the step.
-      left_m *= 1.0 - effect_values[EffectParams::kSpeedSlip] * abs(left_m) / dt_s;
-      right_m *= 1.0 - effect_values[EffectParams::kSpeedSlip] * abs(right_m) / dt_s;
-      // arc_scale: on an arc both wheels lose c |kappa| of their travel.
-      if (run.curvature_per_m[k] != 0.0) {
-        const T scale =
-            1.0 - effect_values[EffectParams::kArcScale] * std::abs(run.curvature_per_m[k]);
-        left_m *= scale;
-        right_m *= scale;
-      }
+      SpeedSlip(effect_values, dt_s, &left_m, &right_m);
+      ArcScale(effect_values, run.curvature_per_m[k], &left_m, &right_m);
       const T ds_m = (left_m + right_m) / 2.0;
-      if (run.kind[k] == MotionKind::kTurn) {
-        const T dtheta_rad = (right_m - left_m) / track_m;
-        const T achieved_rad =
-            dtheta_rad * (1.0 - effect_values[EffectParams::kSlip] * abs(dtheta_rad) / dt_s);
-        left_m = ds_m - achieved_rad * track_m / 2.0;
-        right_m = ds_m + achieved_rad * track_m / 2.0;
-      }
+      if (run.kind[k] == MotionKind::kTurn) TurnSlip(effect_values, dt_s, track_m, &left_m, &right_m);
       const T h0 = h;
       AdvanceArc(left_m, right_m, track_m, &x, &y, &h);
-      if (run.kind[k] == MotionKind::kStraight) {
-        const T mid_rad = (h0 + h) / 2.0;
-        const T lateral_m = (effect_values[EffectParams::kDriftA] * cos(mid_rad) +
-                             effect_values[EffectParams::kDriftB] * sin(mid_rad)) *
-                            ds_m;
-        x -= lateral_m * sin(mid_rad);
-        y += lateral_m * cos(mid_rad);
-      }
+      if (run.kind[k] == MotionKind::kStraight) CarpetDrift(effect_values, h0, ds_m, &x, &y, &h);
     }
     (*xs_m)[k] = x;
     (*ys_m)[k] = y;
@@ -115,22 +71,20 @@ double RowOffsetOf(const RunData& run, size_t j) {
 
 // The telemetry time frame j of `run` shows (camera_latency, rolling_shutter).
 double FrameTelemetryTime(const RunData& run, size_t j, const EffectParams& effects) {
-  return run.frame_t_s[j] + effects.latency_s() + RowOffsetOf(run, j) * effects.readout_s();
+  return RollingShutter(effects.values.data(), RowOffsetOf(run, j),
+                        CameraLatency(effects.values.data(), run.frame_t_s[j]));
 }
 
 // The measured pose predicted for a camera frame stamped `stamp_s` whose tag
-// is `row_offset` (image row fraction - 1/2) from the middle row.
+// is `row_offset` (image row fraction - 1/2) from the middle row: the frame's
+// telemetry time, the dead-reckoned pose there, and what the measurement
+// makes of it, each effect's term from its file (effects/<name>.h).
 template <typename T>
 void PredictFrame(const RunData& run, const ModelConstants& constants, const std::vector<T>& xs_m,
                   const std::vector<T>& ys_m, const std::vector<T>& headings_rad,
                   const T* effect_values, double stamp_s, double row_offset, T* px_m, T* py_m,
                   T* ph_rad) {
-  using std::cos;
-  using std::sin;
-  // camera_latency: a clock offset; rolling_shutter: the tag's row is
-  // exposed (f - 1/2) T after the middle row, whose time the stamp is.
-  const T t = stamp_s + effect_values[EffectParams::kLatency] +
-              row_offset * effect_values[EffectParams::kReadout];
+  const T t = RollingShutter(effect_values, row_offset, CameraLatency(effect_values, stamp_s));
   const double ts = Scalar(t);
   const size_t n = run.t_s.size();
   if (ts <= run.t_s.front()) {
@@ -147,20 +101,9 @@ void PredictFrame(const RunData& run, const ModelConstants& constants, const std
     *py_m = ys_m[k] + u * (ys_m[k1] - ys_m[k]);
     *ph_rad = headings_rad[k] + u * (headings_rad[k1] - headings_rad[k]);
   }
-  // tag_offset: the camera measures the tag, taken to be at the axle midpoint.
-  const T tag_x_m = effect_values[EffectParams::kTagX], tag_y_m = effect_values[EffectParams::kTagY];
-  const T ch = cos(*ph_rad), sh = sin(*ph_rad);
-  *px_m += ch * tag_x_m - sh * tag_y_m;
-  *py_m += sh * tag_x_m + ch * tag_y_m;
-  // tracker_yaw: the tracked body's heading is off the robot's by a constant.
-  *ph_rad += effect_values[EffectParams::kTrackerYaw];
-  // lens_distortion: where the pipeline measures the tag through a lens whose k1 is off.
-  if (constants.camera) {
-    const T x = *px_m, y = *py_m;
-    SeenThroughLens(*constants.camera, x, y, effect_values[EffectParams::kK1],
-                    effect_values[EffectParams::kTiltX], effect_values[EffectParams::kTiltY], px_m,
-                    py_m);
-  }
+  TagOffset(effect_values, *ph_rad, px_m, py_m);
+  TrackerYaw(effect_values, ph_rad);
+  LensDistortion(effect_values, constants.camera, px_m, py_m);
 }
 
 // One run's frames against the model, whitened and robust-weighted: one cost

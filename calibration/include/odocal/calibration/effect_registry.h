@@ -1,6 +1,7 @@
-// The candidate effects of the trajectory fit and explain, each described in
-// one place: calibration/src/effects/<name>.cc, registered once in
-// calibration/src/effect_registry.cc (docs/architecture.md, "Add an effect").
+// The candidate effects of the trajectory fit and explain, each in one place:
+// calibration/src/effects/<name>.h, its descriptor and its term of the model,
+// registered once in calibration/src/effect_registry.cc (docs/architecture.md,
+// "Add an effect").
 //
 // A descriptor says what an effect is called, which parameters of the effect
 // block (trajectory_fit.h's EffectParams) are its own and how reports spell
@@ -10,9 +11,9 @@
 // explain finds it, and the simulator's hidden effect of the same name
 // (sim/effects.h). The trajectory fit, explain, the station's findings and
 // the reports read these; nothing else switches on an effect. Its term of the
-// model (and so its Jacobian, by automatic differentiation) is in
-// trajectory_fit.cc's DeadReckon / PredictFrame, where the effect block is
-// applied.
+// model (and so its Jacobian, by automatic differentiation) is a template in
+// the same file, which trajectory_fit.cc's DeadReckon / PredictFrame call in
+// the order the effects act.
 #ifndef ODOCAL_CALIBRATION_EFFECT_REGISTRY_H_
 #define ODOCAL_CALIBRATION_EFFECT_REGISTRY_H_
 

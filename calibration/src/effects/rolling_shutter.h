@@ -1,26 +1,27 @@
 // rolling_shutter: a frame whose tag centre is at image row fraction f shows the robot at telemetry
 // time s + latency + (f - 1/2) T, T the rows' readout time; it needs each frame's
 // image row, which only video measured by odocal has.
-// The model's term: trajectory_fit.cc (DeadReckon, PredictFrame); the simulator's:
-// sim/effects.h ({name: rolling_shutter, ...}).
-#include "effects.h"
+// The simulator's term: sim/effects.h ({name: rolling_shutter, ...}).
+//
+// Its descriptor (what it is, what it needs, what to do about it: effect_registry.h)
+// and its term in the model, one file (docs/architecture.md, "Add an effect").
+#ifndef ODOCAL_CALIBRATION_SRC_EFFECTS_ROLLING_SHUTTER_H_
+#define ODOCAL_CALIBRATION_SRC_EFFECTS_ROLLING_SHUTTER_H_
 
+#include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/measured_session.h"
+#include "odocal/calibration/trajectory_fit.h"
 
 namespace odocal::calibration::internal {
-namespace {
-
 // A readout shows only where frames carry their tag's image row.
-std::string RowsMissingInput(const MeasuredSession& session) {
+inline std::string RowsMissingInput(const MeasuredSession& session) {
   for (const MeasuredRun& run : session.runs)
     for (const CameraRecord& f : run.camera)
       if (f.valid && f.has_image_row()) return "";
   return "each frame's image row (video measured by odocal; a pose log has none)";
 }
 
-}  // namespace
-
-EffectDescriptor RollingShutterEffect() {
+inline EffectDescriptor RollingShutterEffect() {
   EffectDescriptor d;
   d.effect = Effect::kRollingShutter;
   d.name = "rolling_shutter";
@@ -36,4 +37,14 @@ EffectDescriptor RollingShutterEffect() {
   return d;
 }
 
+// The model's term (PredictFrame, and the frames' telemetry times): the tag's
+// row, `row_offset` (image row fraction - 1/2) from the middle row whose time
+// `t` is, was exposed that many readouts later.
+template <typename T>
+T RollingShutter(const T* effect_values, double row_offset, const T& t) {
+  return t + row_offset * effect_values[EffectParams::kReadout];
+}
+
 }  // namespace odocal::calibration::internal
+
+#endif  // ODOCAL_CALIBRATION_SRC_EFFECTS_ROLLING_SHUTTER_H_

@@ -1072,6 +1072,11 @@ double EffectParams::drift_rate_m_per_m() const {
 }
 double EffectParams::drift_grain_rad() const { return std::atan2(values[kDriftB], values[kDriftA]); }
 
+double EffectParams::TelemetryTimeOf(double stamp_s, double image_row_fraction) const {
+  return internal::RollingShutter(values.data(), RowOffset(image_row_fraction),
+                                  internal::CameraLatency(values.data(), stamp_s));
+}
+
 std::vector<int> EffectParamIndices(Effect effect) { return Describe(effect).params; }
 
 std::vector<int> EffectTestedIndices(Effect effect) { return Describe(effect).tested; }

@@ -117,10 +117,9 @@ struct EffectParams {
   double arc_scale_at_1_per_m() const { return values[kArcScale]; }
   double readout_s() const { return values[kReadout]; }
   // The telemetry time a frame shows: its stamp + latency, and for a rolling
-  // shutter + (row fraction - 1/2) readout (no shift when the row is unknown).
-  double TelemetryTimeOf(double stamp_s, double image_row_fraction) const {
-    return stamp_s + latency_s() + RowOffset(image_row_fraction) * readout_s();
-  }
+  // shutter + (row fraction - 1/2) readout (no shift when the row is unknown);
+  // the effects' own terms (calibration/src/effects/camera_latency.h, rolling_shutter.h).
+  double TelemetryTimeOf(double stamp_s, double image_row_fraction) const;
   // f - 1/2 for a known row fraction f, else 0.
   static double RowOffset(double image_row_fraction) {
     return std::isnan(image_row_fraction) ? 0.0 : image_row_fraction - 0.5;

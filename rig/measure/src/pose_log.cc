@@ -310,15 +310,19 @@ bool PoseLogOptions::IsValid(std::string* why) const {
   return true;
 }
 
-bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
-                       const calibration::WheelParams& nominal, const PoseLogOptions& options,
-                       calibration::MeasuredRun* m, PoseLogStats* stats, std::string* error) {
-  m->name = run.name;
-  m->spec = run.spec;
+namespace {
+
+// MeasurePoseLogRun's steps, in order.
+
+// The run's telemetry and its span of the pose log (the tracker's clock),
+// which must overlap; the log's rows and period in `stats`.
+std::optional<std::vector<PoseLogRow>> ReadRunSpan(const config::SessionRun& run,
+                                                   const calibration::WheelParams& nominal, calibration::MeasuredRun* m,
+                                                   PoseLogStats* stats, std::string* error) {
   const auto rows = ReadPoseLog(run.poses, error);
-  if (!rows) return false;
+  if (!rows) return std::nullopt;
   const auto telemetry = ReadTelemetryCsv(run.telemetry, nominal, error);
-  if (!telemetry) return false;
+  if (!telemetry) return std::nullopt;
   m->telemetry = *telemetry;
   // A telemetry file shared by several runs: the run's span of it (the two
   // clocks share an origin, as below; 0.1 s either side for a small offset).
@@ -335,49 +339,49 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     if (r.t_s >= run.start_s - 1e-9 && r.t_s <= run.end_s + 1e-9) frames.push_back(r);
   if (frames.empty()) {
     *error = run.poses + ": no rows within the run's start_s..end_s";
-    return false;
+    return std::nullopt;
   }
   const double tel0 = m->telemetry.front().t_s, tel1 = m->telemetry.back().t_s;
   if (frames.back().t_s < tel0 || frames.front().t_s > tel1) {
     char span[160];
-    std::snprintf(span, sizeof(span), " (poses %.3f..%.3f s, telemetry %.3f..%.3f s)",
-                  frames.front().t_s, frames.back().t_s, tel0, tel1);
+    std::snprintf(span, sizeof(span), " (poses %.3f..%.3f s, telemetry %.3f..%.3f s)", frames.front().t_s,
+                  frames.back().t_s, tel0, tel1);
     *error = run.poses + " and " + run.telemetry + ": never overlap in time" + span +
              "; the two clocks must share an origin";
-    return false;
+    return std::nullopt;
   }
   stats->rows = static_cast<int>(frames.size());
   std::vector<double> periods;
   for (size_t i = 1; i < frames.size(); ++i) periods.push_back(frames[i].t_s - frames[i - 1].t_s);
   stats->pose_period_s = calibration::Median(periods);
+  return frames;
+}
 
-  // The robot's pose from the body's: T_world_robot = T_world_body * T_robot_body^-1.
-  const Pose2 T_robot_body = Pose2::FromXYHeading(tracker.offset_x_mm * kMmToM,
-                                                  tracker.offset_y_mm * kMmToM,
-                                                  tracker.yaw_deg * kDegToRad);
-  const Pose2 T_body_robot = T_robot_body.inverse();
-
+// Which frames are the robot: those the file says are valid, less the
+// tracker's jumps. Which side of a jump is the tracker's error? The longest
+// stretch of mutually consistent frames is taken as the robot; from it,
+// forwards and backwards, each frame must be reachable from the last good
+// one, at up to the ticks' top speed and turn rate (nominal) times
+// jump_speed_factor. A swapped marker at the very first frame is then
+// rejected, not the run.
+std::vector<bool> FramesWithoutJumps(const std::vector<PoseLogRow>& frames,
+                                     const std::vector<calibration::TelemetryRecord>& telemetry,
+                                     const calibration::WheelParams& nominal, const PoseLogOptions& options) {
   // Top speeds by the ticks (nominal), for the jump test.
   double top_speed = 0.0, top_turn = 0.0;
-  for (size_t i = 1; i < m->telemetry.size(); ++i) {
-    const auto& a = m->telemetry[i - 1];
-    const auto& b = m->telemetry[i];
+  for (size_t i = 1; i < telemetry.size(); ++i) {
+    const auto& a = telemetry[i - 1];
+    const auto& b = telemetry[i];
     const double dt = b.t_s - a.t_s;
     const double l = (b.left_ticks - a.left_ticks) * nominal.LeftMetresPerTick();
     const double r = (b.right_ticks - a.right_ticks) * nominal.RightMetresPerTick();
     top_speed = std::max({top_speed, std::abs(l) / dt, std::abs(r) / dt});
     top_turn = std::max(top_turn, std::abs(r - l) / nominal.track_m / dt);
   }
-  const double max_speed =
-      std::max(options.jump_speed_factor * top_speed, options.jump_speed_floor_m_s);
+  const double max_speed = std::max(options.jump_speed_factor * top_speed, options.jump_speed_floor_m_s);
   // A heading step likewise: the turn rate of wheels at max_speed, or 3x the top one.
-  const double max_turn = std::max(options.jump_speed_factor * top_turn,
-                                   2.0 * options.jump_speed_floor_m_s / nominal.track_m);
-
-  // Jumps. Which side of a jump is the tracker's error? The longest stretch
-  // of mutually consistent frames is taken as the robot; from it, forwards
-  // and backwards, each frame must be reachable from the last good one. A
-  // swapped marker at the very first frame is then rejected, not the run.
+  const double max_turn =
+      std::max(options.jump_speed_factor * top_turn, 2.0 * options.jump_speed_floor_m_s / nominal.track_m);
   const auto reachable = [&](const PoseLogRow& a, const PoseLogRow& b) {
     const double dt = std::abs(b.t_s - a.t_s);
     const double step = (b.T_world_body.translation() - a.T_world_body.translation()).norm();
@@ -407,6 +411,13 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     for (size_t k = best_begin; k-- > 0;)
       if (reachable(frames[last], frames[candidates[k]])) good[last = candidates[k]] = true;
   }
+  return good;
+}
+
+// The frames as the run's camera records (robot poses), counted in `stats`
+// and flagged.
+void AddFrames(const std::vector<PoseLogRow>& frames, const std::vector<bool>& good, const Pose2& T_body_robot,
+               calibration::MeasuredRun* m, PoseLogStats* stats) {
   for (size_t i = 0; i < frames.size(); ++i) {
     const PoseLogRow& f = frames[i];
     calibration::CameraRecord c;
@@ -420,16 +431,53 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
     }
     m->camera.push_back(c);
   }
-  if (stats->nan_rows > 0)
-    m->flags.push_back(RunFlag::Of(RunFlagKind::kNanFrames, std::to_string(stats->nan_rows)));
+  if (stats->nan_rows > 0) m->flags.push_back(RunFlag::Of(RunFlagKind::kNanFrames, std::to_string(stats->nan_rows)));
   if (stats->jump_frames > 0)
     m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerJump, std::to_string(stats->jump_frames)));
-  if (stats->valid < 2) {
-    m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerNeverValid));
-    return true;
-  }
+}
 
-  // Units: path length and heading change, against the ticks'.
+// The path and heading change of the tracked body as logged, within the
+// telemetry's span; `pose_heading` gets the valid frames' unwrapped heading.
+std::pair<double, double> LoggedPathAndTurn(const calibration::MeasuredRun& run, const Pose2& T_robot_body,
+                                            double heading_step_rad, Series* pose_heading) {
+  const double tel0 = run.telemetry.front().t_s, tel1 = run.telemetry.back().t_s;
+  // The path of the tracked body as logged, before any lever arm is undone:
+  // it checks the file's unit (a body off the axle adds its lever arm's
+  // sweep in the turns, well inside the bounds). It accumulates in steps of
+  // 10 mm so that frame noise does not add up to a path of its own.
+  const auto Body = [&](const calibration::CameraRecord& c) { return c.T_world_robot * T_robot_body; };
+  double pose_path = 0.0, pose_turn = 0.0;
+  {
+    const calibration::CameraRecord* anchor = nullptr;
+    const calibration::CameraRecord* prev = nullptr;
+    double unwrapped = 0.0;
+    std::vector<double> overlap_heading;
+    for (const calibration::CameraRecord& c : run.camera) {
+      if (!c.valid) continue;
+      if (prev) unwrapped += calibration::WrapAngle(c.T_world_robot.heading() - prev->T_world_robot.heading());
+      prev = &c;
+      pose_heading->t.push_back(c.t_s);
+      pose_heading->v.push_back(unwrapped);
+      if (c.t_s < tel0 || c.t_s > tel1) continue;
+      overlap_heading.push_back(unwrapped);
+      if (!anchor) anchor = &c;
+      const double d = (Body(c).translation() - Body(*anchor).translation()).norm();
+      if (d > 0.010) {
+        pose_path += d;
+        anchor = &c;
+      }
+    }
+    pose_turn = Variation(overlap_heading, heading_step_rad);
+  }
+  return {pose_path, pose_turn};
+}
+
+// The log's units against the ticks' (path length and heading change), then
+// the clock offset from the heading rates (reported, not applied). false
+// with `error` naming the column when a unit is off.
+bool CheckUnitsAndClock(const config::SessionRun& run, const calibration::WheelParams& nominal,
+                        const PoseLogOptions& options, const Pose2& T_robot_body, calibration::MeasuredRun* m,
+                        PoseLogStats* stats, std::string* error) {
   double tick_path = 0.0;
   for (size_t i = 1; i < m->telemetry.size(); ++i) {
     const auto& a = m->telemetry[i - 1];
@@ -445,56 +493,25 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   const Series ticks_heading = TicksHeading(m->telemetry, nominal);
   const double tick_turn = Variation(ticks_heading.v, kHeadingStep);
   Series pose_heading;  // unwrapped, valid frames
-  // The path of the tracked body as logged, before any lever arm is undone:
-  // it checks the file's unit (a body off the axle adds its lever arm's
-  // sweep in the turns, well inside the bounds). It accumulates in steps of
-  // 10 mm so that frame noise does not add up to a path of its own.
-  const auto Body = [&](const calibration::CameraRecord& c) { return c.T_world_robot * T_robot_body; };
-  double pose_path = 0.0, pose_turn = 0.0;
-  {
-    const calibration::CameraRecord* anchor = nullptr;
-    const calibration::CameraRecord* prev = nullptr;
-    double unwrapped = 0.0;
-    std::vector<double> overlap_heading;
-    for (const calibration::CameraRecord& c : m->camera) {
-      if (!c.valid) continue;
-      if (prev) unwrapped += calibration::WrapAngle(c.T_world_robot.heading() - prev->T_world_robot.heading());
-      prev = &c;
-      pose_heading.t.push_back(c.t_s);
-      pose_heading.v.push_back(unwrapped);
-      if (c.t_s < tel0 || c.t_s > tel1) continue;
-      overlap_heading.push_back(unwrapped);
-      if (!anchor) anchor = &c;
-      const double d = (Body(c).translation() - Body(*anchor).translation()).norm();
-      if (d > 0.010) {
-        pose_path += d;
-        anchor = &c;
-      }
-    }
-    pose_turn = Variation(overlap_heading, kHeadingStep);
-  }
+  const auto [pose_path, pose_turn] = LoggedPathAndTurn(*m, T_robot_body, kHeadingStep, &pose_heading);
   if (tick_path >= options.min_path_for_unit_check_m) {
     stats->path_ratio = pose_path / tick_path;
     if (stats->path_ratio < options.min_unit_ratio || stats->path_ratio > options.max_unit_ratio) {
-      *error = run.poses + ": columns x_mm,y_mm: the logged path is " +
-               Format("%.4g", stats->path_ratio) +
-               " times the ticks' (" + Format("%.0f", tick_path * kMToMm) +
-               " mm by " + run.telemetry + ", nominal parameters)" +
-               (stats->path_ratio < 0.01 ? ": metres where millimetres are expected?"
-                                         : ": wrong unit or wrong telemetry?");
+      *error =
+          run.poses + ": columns x_mm,y_mm: the logged path is " + Format("%.4g", stats->path_ratio) +
+          " times the ticks' (" + Format("%.0f", tick_path * kMToMm) + " mm by " + run.telemetry +
+          ", nominal parameters)" +
+          (stats->path_ratio < 0.01 ? ": metres where millimetres are expected?" : ": wrong unit or wrong telemetry?");
       return false;
     }
   }
   if (tick_turn >= options.min_turn_for_unit_check_rad) {
     stats->heading_ratio = pose_turn / tick_turn;
-    if (stats->heading_ratio < options.min_unit_ratio ||
-        stats->heading_ratio > options.max_unit_ratio) {
-      *error = run.poses + ": column heading_deg: the logged heading change is " +
-               Format("%.4g", stats->heading_ratio) + " times the ticks' (" +
-               Format("%.0f", tick_turn * kRadToDeg) + " deg by " +
-               run.telemetry + ")" +
-               (stats->heading_ratio < 0.05 ? ": radians where degrees are expected?"
-                                            : ": wrong unit or wrong telemetry?");
+    if (stats->heading_ratio < options.min_unit_ratio || stats->heading_ratio > options.max_unit_ratio) {
+      *error =
+          run.poses + ": column heading_deg: the logged heading change is " + Format("%.4g", stats->heading_ratio) +
+          " times the ticks' (" + Format("%.0f", tick_turn * kRadToDeg) + " deg by " + run.telemetry + ")" +
+          (stats->heading_ratio < 0.05 ? ": radians where degrees are expected?" : ": wrong unit or wrong telemetry?");
       return false;
     }
   }
@@ -502,17 +519,20 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   // The clock offset, from the heading rates (reported, not applied).
   {
     if (tick_turn >= options.min_turn_for_unit_check_rad) {
-      stats->clock_offset_s = EstimateClockOffset(pose_heading, ticks_heading, stats->pose_period_s,
-                                                  options.max_clock_offset_s);
+      stats->clock_offset_s =
+          EstimateClockOffset(pose_heading, ticks_heading, stats->pose_period_s, options.max_clock_offset_s);
     }
     if (stats->clock_offset_s && std::abs(*stats->clock_offset_s) > 2.0 * stats->pose_period_s) {
       m->flags.push_back(RunFlag::Of(RunFlagKind::kClockOffset, Format("%+.3fs", *stats->clock_offset_s)));
     }
   }
+  return true;
+}
 
-  // Rests: as for video (FindRests on the frames of the run's span)...
-  std::vector<calibration::PoseSample> samples;
-  for (const calibration::CameraRecord& c : m->camera) samples.push_back({c.t_s, c.T_world_robot, c.valid});
+// The start and end rests FindRests finds in the frames, as for video: the
+// first and last rests within rest_search_fraction of the run's ends.
+void RestsByThePoses(const PoseLogOptions& options, const std::vector<calibration::PoseSample>& samples,
+                     calibration::MeasuredRun* m) {
   const calibration::RestSummary rests = calibration::FindRests(samples, options.rest);
   const double t0 = samples.front().t_s, t1 = samples.back().t_s;
   const double span = t1 - t0;
@@ -521,6 +541,16 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   if (!rests.rests.empty() && rests.rests.back().t_end_s >= t1 - options.rest_search_fraction * span &&
       (!m->start_rest || rests.rests.size() >= 2))
     m->end_rest = rests.rests.back();
+}
+
+// The start and end rests: as for video (FindRests on the frames of the
+// run's span), each clipped to where the wheels were still; failing that,
+// the still wheels' frames, or the first / last valid frame, flagged.
+void FindPoseLogRests(const PoseLogOptions& options, const PoseLogStats& stats, calibration::MeasuredRun* m) {
+  // Rests: as for video (FindRests on the frames of the run's span)...
+  std::vector<calibration::PoseSample> samples;
+  for (const calibration::CameraRecord& c : m->camera) samples.push_back({c.t_s, c.T_world_robot, c.valid});
+  RestsByThePoses(options, samples, m);
   // ...and when a log has only a short still window at an end, the frames
   // while the wheels are still by the telemetry (ticks unchanged) before the
   // first / after the last wheel motion; failing that, the first / last
@@ -545,19 +575,16 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   // errors 20 mm off). The ticks say exactly when the wheels moved: clip each
   // rest to the still-wheel span, with two pose periods of margin for the
   // clocks' offset.
-  const double margin = 2.0 * stats->pose_period_s +
-                        (stats->clock_offset_s ? std::abs(*stats->clock_offset_s) : 0.0);
+  const double margin = 2.0 * stats.pose_period_s + (stats.clock_offset_s ? std::abs(*stats.clock_offset_s) : 0.0);
   if (first_move < tel.size()) {
     const double still_until = tel[first_move - 1].t_s - margin;
     const double still_from = tel[last_move].t_s + margin;
     if (m->start_rest && m->start_rest->t_end_s > still_until) {
-      m->start_rest = m->start_rest->t_begin_s < still_until
-                          ? window(m->start_rest->t_begin_s, still_until)
-                          : std::nullopt;
+      m->start_rest =
+          m->start_rest->t_begin_s < still_until ? window(m->start_rest->t_begin_s, still_until) : std::nullopt;
     }
     if (m->end_rest && m->end_rest->t_begin_s < still_from) {
-      m->end_rest = m->end_rest->t_end_s > still_from ? window(still_from, m->end_rest->t_end_s)
-                                                      : std::nullopt;
+      m->end_rest = m->end_rest->t_end_s > still_from ? window(still_from, m->end_rest->t_end_s) : std::nullopt;
     }
   }
   if (!m->start_rest) {
@@ -592,6 +619,27 @@ bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount
   }
   if (m->start_rest && m->start_rest->n < 10) m->flags.push_back(RunFlag::Of(RunFlagKind::kShortStartRest));
   if (m->end_rest && m->end_rest->n < 10) m->flags.push_back(RunFlag::Of(RunFlagKind::kShortEndRest));
+}
+
+}  // namespace
+
+bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
+                       const calibration::WheelParams& nominal, const PoseLogOptions& options,
+                       calibration::MeasuredRun* m, PoseLogStats* stats, std::string* error) {
+  m->name = run.name;
+  m->spec = run.spec;
+  const std::optional<std::vector<PoseLogRow>> frames = ReadRunSpan(run, nominal, m, stats, error);
+  if (!frames) return false;
+  // The robot's pose from the body's: T_world_robot = T_world_body * T_robot_body^-1.
+  const Pose2 T_robot_body =
+      Pose2::FromXYHeading(tracker.offset_x_mm * kMmToM, tracker.offset_y_mm * kMmToM, tracker.yaw_deg * kDegToRad);
+  AddFrames(*frames, FramesWithoutJumps(*frames, m->telemetry, nominal, options), T_robot_body.inverse(), m, stats);
+  if (stats->valid < 2) {
+    m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerNeverValid));
+    return true;
+  }
+  if (!CheckUnitsAndClock(run, nominal, options, T_robot_body, m, stats, error)) return false;
+  FindPoseLogRests(options, *stats, m);
   return true;
 }
 

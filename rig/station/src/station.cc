@@ -118,6 +118,17 @@ class Station {
     int wrong_id = 0;
   };
 
+  // Run's steps, in order (each a failure or nothing).
+  std::optional<Failure> CheckInputs(StationResult* result);
+  std::optional<Failure> ConnectAndPlan(StationResult* result, RestFrames* rest);
+  std::optional<Failure> RunRounds(StationResult* result, RestFrames* rest);
+  void LogRound(int round, const StationIteration& iteration) const;
+  void Decide(const StationIteration& previous, StationIteration* iteration) const;
+  std::optional<Failure> ApplyCorrected(int round, StationIteration* iteration);
+  void ExplainFirstRound(StationResult* result);
+  std::optional<Failure> ReadFinalParams(StationResult* result);
+  StationResult Finish(std::optional<Failure> failure, Clock::time_point t0, StationResult result);
+
   void Log(const std::string& line) const {
     if (setup_.progress) setup_.progress(line);
   }
@@ -671,96 +682,160 @@ void Station::Cleanup(StationResult* result) {
   result->cleanup = joined;
 }
 
-StationResult Station::Run() {
-  StationResult result;
-  const Clock::time_point t0 = Clock::now();
-  auto finish = [&](std::optional<Failure> failure) {
-    if (failure) {
-      result.status = failure->status;
-      result.message = failure->message;
-      Log("stopping: " + failure->message);
-      if (setup_.live) setup_.live->SetWarning("station", "stopped: " + failure->message);
-      if (result.params_initial) {
-        Cleanup(&result);
-        Log(result.cleanup);
-      }
-    } else {
-      result.status = StationStatus::kOk;
+// The result as it ends, with or without a failure (which cleans up a
+// robot left with a set the station applied).
+StationResult Station::Finish(std::optional<Failure> failure, Clock::time_point t0, StationResult result) {
+  if (failure) {
+    result.status = failure->status;
+    result.message = failure->message;
+    Log("stopping: " + failure->message);
+    if (setup_.live) setup_.live->SetWarning("station", "stopped: " + failure->message);
+    if (result.params_initial) {
+      Cleanup(&result);
+      Log(result.cleanup);
     }
-    result.plane = plane_;
-    result.plane_estimated = plane_estimated_;
-    result.camera_scale = camera_scale_;
-    result.flags = flags_;
-    result.plan_summary = plan_summary_;
-    if (result.iterations.size() >= 2 && result.iterations.front().estimate.ok() &&
-        result.iterations.back().estimate.ok() && result.iterations.back().estimate.emax_syst_m > 0.0) {
-      result.improvement =
-          result.iterations.front().estimate.emax_syst_m / result.iterations.back().estimate.emax_syst_m;
-    }
-    result.wall_s = Seconds(Clock::now() - t0);
-    return result;
-  };
+  } else {
+    result.status = StationStatus::kOk;
+  }
+  result.plane = plane_;
+  result.plane_estimated = plane_estimated_;
+  result.camera_scale = camera_scale_;
+  result.flags = flags_;
+  result.plan_summary = plan_summary_;
+  if (result.iterations.size() >= 2 && result.iterations.front().estimate.ok() &&
+      result.iterations.back().estimate.ok() && result.iterations.back().estimate.emax_syst_m > 0.0) {
+    result.improvement = result.iterations.front().estimate.emax_syst_m / result.iterations.back().estimate.emax_syst_m;
+  }
+  result.wall_s = Seconds(Clock::now() - t0);
+  return result;
+}
 
+// The options, the plan and the tag detector, before the robot is touched.
+std::optional<Station::Failure> Station::CheckInputs(StationResult* result) {
   std::string why;
-  if (!options_.IsValid(&why)) return finish(Failure{StationStatus::kInvalidInput, "options: " + why});
+  if (!options_.IsValid(&why)) return Failure{StationStatus::kInvalidInput, "options: " + why};
   if (setup_.floor_reference && !setup_.floor_reference->IsValid(&why))
-    return finish(Failure{StationStatus::kInvalidInput, "floor reference: " + why});
-  if (!driver_ || !setup_.camera)
-    return finish(Failure{StationStatus::kInvalidInput, "no robot driver or no camera"});
-  result.driver = driver_->Describe();
-  if (setup_.plan.empty() && !setup_.default_plan)
-    return finish(Failure{StationStatus::kInvalidInput, "the plan is empty"});
+    return Failure{StationStatus::kInvalidInput, "floor reference: " + why};
+  if (!driver_ || !setup_.camera) return Failure{StationStatus::kInvalidInput, "no robot driver or no camera"};
+  result->driver = driver_->Describe();
+  if (setup_.plan.empty() && !setup_.default_plan) return Failure{StationStatus::kInvalidInput, "the plan is empty"};
   int cw = 0, ccw = 0;
   for (const calibration::RunSpec& spec : setup_.plan) {
     using calibration::Procedure;
     if (spec.procedure != Procedure::kUmbmark && spec.procedure != Procedure::kStraight &&
         spec.procedure != Procedure::kSpin && spec.procedure != Procedure::kOutAndBack) {
-      return finish(Failure{StationStatus::kInvalidInput,
-                            "the plan's " + std::string(calibration::ToString(spec.procedure)) +
-                                " run: the station drives umbmark, straight, spin and out_and_back"});
+      return Failure{StationStatus::kInvalidInput,
+                     "the plan's " + std::string(calibration::ToString(spec.procedure)) +
+                         " run: the station drives umbmark, straight, spin and out_and_back"};
     }
-    if (!spec.IsValid(&why)) return finish(Failure{StationStatus::kInvalidInput, "the plan: " + why});
+    if (!spec.IsValid(&why)) return Failure{StationStatus::kInvalidInput, "the plan: " + why};
     if (spec.procedure != Procedure::kUmbmark) continue;
     (spec.direction == calibration::Direction::kCw ? cw : ccw)++;
   }
   if ((cw == 0) != (ccw == 0))
-    return finish(Failure{StationStatus::kInvalidInput, "the plan's UMBMark squares need both cw and ccw runs"});
+    return Failure{StationStatus::kInvalidInput, "the plan's UMBMark squares need both cw and ccw runs"};
   if (!driver_->CanApply() && options_.max_rounds > 1)
     Log("the driver cannot apply parameters: one round, then the corrected set is written for you to load");
   observer_ = vision::TagObserver::Create(setup_.tag, setup_.intrinsics, options_.track, &why);
-  if (!observer_) return finish(Failure{StationStatus::kInvalidInput, "tag detector: " + why});
+  if (!observer_) return Failure{StationStatus::kInvalidInput, "tag detector: " + why};
   guess_camera_.emplace(setup_.intrinsics, setup_.mount_guess);
+  return std::nullopt;
+}
 
+// The robot connected, the tag found at rest at the start, the plan made
+// (the default plan from where the robot stands when none was given).
+std::optional<Station::Failure> Station::ConnectAndPlan(StationResult* result, RestFrames* rest) {
   if (auto e = driver_->Connect(&initial_, [this](const std::string& l) { Log(l); }))
-    return finish(Failure{StatusOf(e->fault), e->message});
+    return Failure{StatusOf(e->fault), e->message};
   current_ = initial_;
-  result.params_initial = initial_;
-  result.robot = driver_->Info();
+  result->params_initial = initial_;
+  result->robot = driver_->Info();
   {
     std::ostringstream ps;
     ps << "robot parameters: " << initial_;
     Log(ps.str());
   }
 
-  RestFrames rest;
-  if (auto f = CaptureRest(&rest, setup_.floor_reference ? &floor_frames_ : nullptr)) return finish(f);
-  const int need = static_cast<int>(std::ceil(options_.min_rest_found_fraction * rest.grabbed));
-  if (static_cast<int>(rest.found.size()) < std::max(1, need)) {
-    return finish(Failure{
-        StationStatus::kTagNotFound,
-        Format("tag %s id %d not found at the start: seen in %zu of %d frames%s (is the robot in view, "
-               "the tag family and id right?)",
-               setup_.tag.family.c_str(), setup_.tag.id, rest.found.size(), rest.grabbed,
-               rest.wrong_id > 0 ? ", other tag ids seen" : "")});
+  if (auto f = CaptureRest(rest, setup_.floor_reference ? &floor_frames_ : nullptr)) return f;
+  const int need = static_cast<int>(std::ceil(options_.min_rest_found_fraction * rest->grabbed));
+  if (static_cast<int>(rest->found.size()) < std::max(1, need)) {
+    return Failure{StationStatus::kTagNotFound,
+                   Format("tag %s id %d not found at the start: seen in %zu of %d frames%s (is the robot in view, "
+                          "the tag family and id right?)",
+                          setup_.tag.family.c_str(), setup_.tag.id, rest->found.size(), rest->grabbed,
+                          rest->wrong_id > 0 ? ", other tag ids seen" : "")};
   }
-  Log(Format("tag %d found at the start in %zu/%d frames", setup_.tag.id, rest.found.size(), rest.grabbed));
+  Log(Format("tag %d found at the start in %zu/%d frames", setup_.tag.id, rest->found.size(), rest->grabbed));
   plan_ = setup_.plan;
   if (plan_.empty()) {
-    plan_ = MakeDefaultPlan(rest, &plan_summary_);
-    if (plan_.empty()) return finish(Failure{StationStatus::kInvalidInput, plan_summary_});
+    plan_ = MakeDefaultPlan(*rest, &plan_summary_);
+    if (plan_.empty()) return Failure{StationStatus::kInvalidInput, plan_summary_};
     Log(plan_summary_);
   }
+  return std::nullopt;
+}
 
+// A round's estimates, in one line of the log.
+void Station::LogRound(int round, const StationIteration& iteration) const {
+  const calibration::UmbmarkSummary& s = iteration.estimate;
+  const measure::SessionEstimate& e = iteration.session_estimate;
+  std::string line = Format("round %d:", round);
+  if (s.ok())
+    line += Format(" E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f;", s.emax_syst_m * kMToMm,
+                   iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * kMToMm).c_str() : "",
+                   s.coupled.Ed, s.coupled.Eb);
+  for (const auto& [label, pooled] :
+       {std::pair{"ratio", &e.ratio}, std::pair{"scale", &e.scale}, std::pair{"track", &e.track}})
+    if (*pooled)
+      line += Format(" %s %.6f%s;", label, (*pooled)->mean,
+                     (*pooled)->standard_error ? Format(" ± %.6f", *(*pooled)->standard_error).c_str() : "");
+  Log(line);
+  if (!iteration.turn_slip.advice.empty()) Log(iteration.turn_slip.advice);
+}
+
+// Done? What is left is within the measurement's uncertainty of the
+// previous round, or no better than it.
+void Station::Decide(const StationIteration& previous, StationIteration* iteration) const {
+  const calibration::UmbmarkSummary& s = iteration->estimate;
+  if (const std::optional<std::string> within = WithinUncertainty(*iteration, previous, options_.converge_sigmas)) {
+    iteration->converged = true;
+    iteration->note = "converged: what is left is within the measurement uncertainty (" + *within + ")";
+  } else if (s.ok() && previous.estimate.ok() && s.emax_syst_m >= previous.estimate.emax_syst_m) {
+    iteration->converged = true;
+    iteration->note = "stopped: no improvement on the previous round";
+  }
+}
+
+// The corrected set applied (pushed, read back and verified where the
+// driver can), for the next round to verify.
+std::optional<Station::Failure> Station::ApplyCorrected(int round, StationIteration* iteration) {
+  std::string why;
+  const ParamSet target = *iteration->corrected;
+  if (!target.IsValid(&why)) {
+    return Failure{StationStatus::kEstimateFailed, "corrected parameters out of range: " + why};
+  }
+  // The last point where Ctrl-C is honoured before the apply; the apply
+  // itself runs to its end (a push: staged, read back, committed, verified).
+  if (StopRequested()) {
+    return Failure{StationStatus::kInterrupted, "interrupted before the push"};
+  }
+  std::ostringstream os;
+  os << (driver_->CanReadBack() ? "pushing " : "applying ") << target;
+  Log(os.str());
+  ParamSet active;
+  if (const auto e = driver_->Apply(target, round, &active)) {
+    return Failure{StatusOf(e->fault), e->message};
+  }
+  applied_since_start_ = !active.SameBits(initial_);
+  current_ = active;
+  iteration->pushed = target;
+  Log(driver_->CanReadBack() ? "pushed and verified (read back)" : "applied (the next round verifies it)");
+  return std::nullopt;
+}
+
+// Rounds until the estimate converges: drive the plan, measure, estimate,
+// decide, apply.
+std::optional<Station::Failure> Station::RunRounds(StationResult* result, RestFrames* rest) {
   const int max_rounds = driver_->CanApply() ? options_.max_rounds : 1;
   for (int round = 1; round <= max_rounds; ++round) {
     StationIteration iteration;
@@ -769,90 +844,51 @@ StationResult Station::Run() {
     Log(Format("round %d of at most %d", round, max_rounds));
     std::vector<std::pair<RestFrames, RestFrames>> rests;
     for (size_t i = 0; i < plan_.size(); ++i) {
-      if (StopRequested()) return finish(Failure{StationStatus::kInterrupted, "interrupted"});
+      if (StopRequested()) return Failure{StationStatus::kInterrupted, "interrupted"};
       StationRun run;
-      RestFrames start = rest;
-      if (auto f = DriveRun(plan_[i], static_cast<int>(i) + 1, static_cast<int>(plan_.size()), &run, &rest)) {
+      RestFrames start = *rest;
+      if (auto f = DriveRun(plan_[i], static_cast<int>(i) + 1, static_cast<int>(plan_.size()), &run, rest)) {
         iteration.runs.push_back(run);
-        result.iterations.push_back(std::move(iteration));
-        return finish(f);
+        result->iterations.push_back(std::move(iteration));
+        return f;
       }
-      rests.emplace_back(std::move(start), rest);
+      rests.emplace_back(std::move(start), *rest);
       iteration.runs.push_back(run);
     }
     if (auto f = MeasureRound(&iteration, rests)) {
-      result.iterations.push_back(std::move(iteration));
-      return finish(f);
+      result->iterations.push_back(std::move(iteration));
+      return f;
     }
     ShowEstimates(iteration);
-    const calibration::UmbmarkSummary& s = iteration.estimate;
-    const measure::SessionEstimate& e = iteration.session_estimate;
-    std::string line = Format("round %d:", round);
-    if (s.ok())
-      line += Format(" E_max,syst %.3f mm%s, Ed %.7f, Eb %.7f;", s.emax_syst_m * kMToMm,
-                     iteration.emax_sigma_m ? Format(" (sigma %.3f mm)", *iteration.emax_sigma_m * kMToMm).c_str() : "",
-                     s.coupled.Ed, s.coupled.Eb);
-    for (const auto& [label, pooled] : {std::pair{"ratio", &e.ratio}, std::pair{"scale", &e.scale},
-                                        std::pair{"track", &e.track}})
-      if (*pooled)
-        line += Format(" %s %.6f%s;", label, (*pooled)->mean,
-                       (*pooled)->standard_error ? Format(" ± %.6f", *(*pooled)->standard_error).c_str() : "");
-    Log(line);
-    if (!iteration.turn_slip.advice.empty()) Log(iteration.turn_slip.advice);
-    if (round >= 2) {
-      const StationIteration& previous = result.iterations.back();
-      if (const std::optional<std::string> within = WithinUncertainty(iteration, previous, options_.converge_sigmas)) {
-        iteration.converged = true;
-        iteration.note = "converged: what is left is within the measurement uncertainty (" + *within + ")";
-      } else if (s.ok() && previous.estimate.ok() && s.emax_syst_m >= previous.estimate.emax_syst_m) {
-        iteration.converged = true;
-        iteration.note = "stopped: no improvement on the previous round";
-      }
-    }
+    LogRound(round, iteration);
+    if (round >= 2) Decide(result->iterations.back(), &iteration);
     if (!driver_->CanApply()) {
       iteration.note = "not applied: the driver has no apply command; load the corrected set and run the "
                        "station again to verify it";
-      result.params_recommended = iteration.corrected;
+      result->params_recommended = iteration.corrected;
       Log(iteration.note);
-      result.iterations.push_back(std::move(iteration));
+      result->iterations.push_back(std::move(iteration));
       break;
     }
     if (!iteration.converged && round == max_rounds) iteration.note = "maximum number of rounds reached";
     if (iteration.converged || round == max_rounds) {
       Log(iteration.note);
-      result.iterations.push_back(std::move(iteration));
+      result->iterations.push_back(std::move(iteration));
       break;
     }
-    const ParamSet target = *iteration.corrected;
-    if (!target.IsValid(&why)) {
-      result.iterations.push_back(std::move(iteration));
-      return finish(Failure{StationStatus::kEstimateFailed, "corrected parameters out of range: " + why});
-    }
-    // The last point where Ctrl-C is honoured before the apply; the apply
-    // itself runs to its end (a push: staged, read back, committed, verified).
-    if (StopRequested()) {
-      result.iterations.push_back(std::move(iteration));
-      return finish(Failure{StationStatus::kInterrupted, "interrupted before the push"});
-    }
-    std::ostringstream os;
-    os << (driver_->CanReadBack() ? "pushing " : "applying ") << target;
-    Log(os.str());
-    ParamSet active;
-    if (const auto e = driver_->Apply(target, round, &active)) {
-      result.iterations.push_back(std::move(iteration));
-      return finish(Failure{StatusOf(e->fault), e->message});
-    }
-    applied_since_start_ = !active.SameBits(initial_);
-    current_ = active;
-    iteration.pushed = target;
-    Log(driver_->CanReadBack() ? "pushed and verified (read back)" : "applied (the next round verifies it)");
-    result.iterations.push_back(std::move(iteration));
+    std::optional<Failure> failure = ApplyCorrected(round, &iteration);
+    result->iterations.push_back(std::move(iteration));
+    if (failure) return failure;
   }
   // What the last round found, for the user.
-  for (const StationIteration& it : result.iterations)
-    if (!it.turn_slip.advice.empty()) result.findings = {it.turn_slip.advice};
-  // Explain on the first round as recorded (the robot as it came), when
-  // the driver gave its ticks.
+  for (const StationIteration& it : result->iterations)
+    if (!it.turn_slip.advice.empty()) result->findings = {it.turn_slip.advice};
+  return std::nullopt;
+}
+
+// Explain on the first round as recorded (the robot as it came), when the
+// driver gave its ticks; its findings and advice for the user.
+void Station::ExplainFirstRound(StationResult* result) {
   int with_telemetry = 0;
   if (recorded_)
     for (const calibration::MeasuredRun& m : recorded_->runs) with_telemetry += m.telemetry.size() >= 2 ? 1 : 0;
@@ -870,23 +906,44 @@ StationResult Station::Run() {
         text += Format(" explains %.3f mm of the camera's gap: ",
                        std::sqrt(std::max(0.0, gap_before * gap_before - step.gap_after_m * step.gap_after_m)) * kMToMm);
         gap_before = step.gap_after_m;
-        result.findings.push_back(text + std::string(calibration::Describe(step.effect).advice));
+        result->findings.push_back(text + std::string(calibration::Describe(step.effect).advice));
       }
     }
-    result.explain = std::move(explain);
+    result->explain = std::move(explain);
   } else if (options_.explain) {
     Log("explain: no telemetry from the driver; only the camera's estimators ran");
   }
-  result.recorded = std::move(recorded_);
+  result->recorded = std::move(recorded_);
+}
+
+// The parameters the robot ends with: read back, or as applied.
+std::optional<Station::Failure> Station::ReadFinalParams(StationResult* result) {
   if (driver_->CanReadBack()) {
     const auto back = driver_->ReadBack();
-    if (!back) return finish(Failure{StationStatus::kRobotLink, "reading the final parameters failed"});
-    result.params_final = *back;
+    if (!back) return Failure{StationStatus::kRobotLink, "reading the final parameters failed"};
+    result->params_final = *back;
   } else {
-    result.params_final = current_;
+    result->params_final = current_;
   }
-  return finish(std::nullopt);
+  return std::nullopt;
 }
+
+// The procedure: check the inputs, connect and plan, the rounds, explain the
+// first, read the final set back.
+StationResult Station::Run() {
+  StationResult result;
+  const Clock::time_point t0 = Clock::now();
+  RestFrames rest;
+  std::optional<Failure> failure = CheckInputs(&result);
+  if (!failure) failure = ConnectAndPlan(&result, &rest);
+  if (!failure) failure = RunRounds(&result, &rest);
+  if (!failure) {
+    ExplainFirstRound(&result);
+    failure = ReadFinalParams(&result);
+  }
+  return Finish(std::move(failure), t0, std::move(result));
+}
+
 }  // namespace
 
 std::optional<double> EmaxSystSigma(const calibration::UmbmarkSummary& s, const std::vector<StationRun>& runs) {

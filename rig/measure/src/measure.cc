@@ -546,29 +546,34 @@ calibration::MeasuredSession SessionMeasurement::ToMeasuredSession() const {
   return s;
 }
 
-Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config::Session>& sessions,
-                                                        const MeasureOptions& options,
-                                                        const ProgressFn& progress) {
-  using Measured = Result<std::vector<SessionMeasurement>>;
-  std::string why;
-  if (!options.IsValid(&why)) return Measured::Error(StatusCode::kInvalidArgument, "measure options: " + why);
-  std::vector<SessionMeasurement> out(sessions.size());
-  // Phase 1: every run of every session, in parallel.
-  struct Job {
-    size_t session;
-    size_t run;
-  };
+namespace {
+
+// MeasureSessions' steps. The runs whose video is decoded, one job each;
+// runs sharing one video share its track.
+struct Job {
+  size_t session;
+  size_t run;
+};
+struct TrackingPlan {
   std::vector<Job> jobs;
+  std::vector<std::pair<Job, Job>> shared_tracks;  // (run, the run whose track it shares)
   long expected_frames = 0;
-  // Runs sharing one video are tracked once: (session, run) -> the run
-  // whose track it shares.
-  std::vector<std::pair<Job, Job>> shared_tracks;
+};
+
+// Every session's runs laid out in `out`, pose-log runs sharing one log
+// found in it (segment_runs.h), and the videos to decode.
+Status PlanTracking(const std::vector<config::Session>& sessions, const MeasureOptions& options,
+                    std::vector<SessionMeasurement>* measurements, TrackingPlan* plan) {
+  std::vector<SessionMeasurement>& out = *measurements;
+  std::vector<Job>& jobs = plan->jobs;
+  std::vector<std::pair<Job, Job>>& shared_tracks = plan->shared_tracks;
+  long& expected_frames = plan->expected_frames;
   for (size_t s = 0; s < sessions.size(); ++s) {
     out[s].session = sessions[s];
     // Pose-log runs sharing one log: found in it (segment_runs.h).
     std::string error;
     if (!AssignPoseLogSpans(&out[s].session, options.pose_log.rest, &out[s].segments, &error))
-      return Measured::Error(StatusCode::kBadFile, error);
+      return Status::Error(StatusCode::kBadFile, error);
     out[s].runs.resize(out[s].session.runs.size());
     std::map<std::pair<std::string, std::string>, size_t> tracked;  // (video, timestamps) -> run
     for (size_t r = 0; r < out[s].session.runs.size(); ++r) {
@@ -585,6 +590,15 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
       if (std::isfinite(run.end_s)) expected_frames += static_cast<long>((run.end_s - run.start_s) * 30.0) + 1;
     }
   }
+  return Status::Ok();
+}
+
+// Every video decoded and its tag tracked, in parallel (phase 1).
+void TrackVideos(const std::vector<config::Session>& sessions, const TrackingPlan& plan, const MeasureOptions& options,
+                 const ProgressFn& progress, std::vector<SessionMeasurement>* measurements) {
+  std::vector<SessionMeasurement>& out = *measurements;
+  const std::vector<Job>& jobs = plan.jobs;
+  const long expected_frames = plan.expected_frames;
   std::atomic<long> frames_done{0};
   ParallelFor(jobs.size(), static_cast<unsigned>(std::max(0, options.threads)), [&](size_t j) {
     const config::Session& session = sessions[jobs[j].session];
@@ -605,141 +619,184 @@ Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config
                                });
   });
   if (progress) progress(frames_done, frames_done);
-  for (const auto& [to, from] : shared_tracks) out[to.session].runs[to.run].track = out[from.session].runs[from.run].track;
+  for (const auto& [to, from] : plan.shared_tracks)
+    out[to.session].runs[to.run].track = out[from.session].runs[from.run].track;
+}
 
+// The session's pose-log runs (a bad log is an error, not a flag); whether
+// it has video runs too.
+Status MeasurePoseLogRuns(const MeasureOptions& options, SessionMeasurement* session_measurement, bool* any_video_run) {
+  SessionMeasurement& sm = *session_measurement;
+  // Pose-log runs first: a bad log is an error, not a flag.
+  std::vector<calibration::MeasuredRun*> pose_runs;
+  bool& any_video = *any_video_run;
+  any_video = false;
+  for (RunMeasurement& rm : sm.runs) {
+    if (rm.run.poses.empty()) {
+      any_video = true;
+      continue;
+    }
+    rm.pose_log.emplace();
+    std::string error;
+    if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log, &rm.measured,
+                           &*rm.pose_log, &error))
+      return Status::Error(StatusCode::kBadFile, error);
+    pose_runs.push_back(&rm.measured);
+  }
+  if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
+  return Status::Ok();
+}
+
+// The camera over the session's tag plane: its views' plane (or the
+// operator's guess) and its scale (the tag's size, the floor reference).
+vision::CameraModel SessionCamera(const MeasureOptions& options, SessionMeasurement* session_measurement) {
+  SessionMeasurement& sm = *session_measurement;
+  const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
+  std::vector<vision::CornerVelocities> velocities;
+  const std::vector<vision::TagCorners> views =
+      PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only, options.border_margin_px,
+                options.exact_plane_refinement, &velocities, sm.session.tag, options.edge_shift_views, &sm.edge_shift);
+  const CameraPlaneOrGuess fit = EstimateCameraPlaneOrGuess(sm.session.intrinsics, sm.session.tag, views,
+                                                            sm.session.camera_mount_guess, options.plane, &velocities);
+  vision::CameraMount mount = fit.mount;
+  sm.plane = fit.plane;
+  sm.plane_estimated = fit.estimated();
+  if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
+  {
+    const config::Session& session = sm.session;
+    const std::vector<cv::Mat> floor_frames =
+        session.floor_reference ? FloorFrames(sm, options) : std::vector<cv::Mat>{};
+    sm.camera_scale = EstimateCameraScale(
+        session.intrinsics, session.tag, session.tag_size_sigma_mm, sm.plane_estimated ? &sm.plane : nullptr,
+        session.floor_reference ? &*session.floor_reference : nullptr, floor_frames,
+        {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags,
+        sm.edge_shift.ok ? &sm.edge_shift : nullptr);
+  }
+  sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
+  return vision::CameraModel(sm.session.intrinsics, mount);
+}
+
+// Video runs sharing one video with no spans of their own: found in it (a
+// lone `procedure: auto` run: every run it holds).
+Status FindRunsInSharedVideos(const vision::CameraModel& camera, const MeasureOptions& options,
+                              SessionMeasurement* session_measurement) {
+  SessionMeasurement& sm = *session_measurement;
+  std::map<std::string, std::vector<size_t>> groups;
+  std::vector<std::string> order;
+  for (size_t i = 0; i < sm.runs.size(); ++i) {
+    if (sm.runs[i].pose_log) continue;
+    if (!groups.count(sm.runs[i].run.video)) order.push_back(sm.runs[i].run.video);
+    groups[sm.runs[i].run.video].push_back(i);
+  }
+  std::map<size_t, std::vector<config::SessionRun>> expanded;  // run index -> its runs
+  for (const std::string& video : order) {
+    const std::vector<size_t>& group = groups[video];
+    std::vector<config::SessionRun*> runs;
+    for (size_t i : group) runs.push_back(&sm.runs[i].run);
+    const bool lone_auto = IsLoneAutoRun(runs);
+    if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok) continue;
+    std::vector<calibration::PoseSample> samples;
+    for (const vision::FrameObservation& f : sm.runs[group.front()].track.frames) {
+      const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
+      samples.push_back({f.t_s, pose.value_or(calibration::Pose2()), pose.has_value()});
+    }
+    std::string error;
+    const bool ok = lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest, &expanded[group.front()],
+                                              &sm.segments, &error)
+                              : AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error);
+    if (!ok) return Status::Error(StatusCode::kBadFile, error);
+  }
+  if (!expanded.empty()) {
+    std::vector<RunMeasurement> all;
+    for (size_t i = 0; i < sm.runs.size(); ++i) {
+      const auto it = expanded.find(i);
+      if (it == expanded.end()) {
+        all.push_back(std::move(sm.runs[i]));
+        continue;
+      }
+      for (const config::SessionRun& run : it->second) {
+        RunMeasurement copy = sm.runs[i];
+        copy.run = run;
+        all.push_back(std::move(copy));
+      }
+    }
+    sm.runs = std::move(all);
+    sm.session.runs.clear();
+    for (const RunMeasurement& rm : sm.runs) sm.session.runs.push_back(rm.run);
+  }
+  return Status::Ok();
+}
+
+// One video run's frames as poses on the floor, its flags, its rests and
+// return error.
+void MeasureVideoRun(const vision::CameraModel& camera, const MeasureOptions& options, const config::Session& session,
+                     RunMeasurement* run_measurement) {
+  RunMeasurement& rm = *run_measurement;
+  calibration::MeasuredRun& m = rm.measured;
+  m.name = rm.run.name;
+  m.spec = rm.run.spec;
+  m.telemetry = ReadTelemetry(rm.run.telemetry, session.nominal, &m.flags);
+  if (!rm.track.ok) {
+    m.flags.push_back(RunFlag::Of(RunFlagKind::kVideoUnreadable, rm.track.message));
+    return;
+  }
+  if (rm.track.duplicate_frames > 0) {
+    m.flags.push_back(
+        RunFlag::Of(RunFlagKind::kDuplicateTagId, "id " + std::to_string(session.tag.id) + " seen twice in " +
+                                                      std::to_string(rm.track.duplicate_frames) + " frames"));
+  }
+  if (rm.track.found == 0) {
+    if (rm.track.duplicate_frames == 0) {
+      m.flags.push_back(
+          rm.track.wrong_id_frames > 0
+              ? RunFlag::Of(RunFlagKind::kWrongTagId, "tags seen, never id " + std::to_string(session.tag.id))
+              : RunFlag::Of(RunFlagKind::kTagNeverSeen));
+    }
+    return;
+  }
+  for (const vision::FrameObservation& f : rm.track.frames) {
+    // The run's span of its video (a video may hold several runs).
+    if (f.t_s < rm.run.start_s - 1e-6 || f.t_s > rm.run.end_s + 1e-6) continue;
+    calibration::CameraRecord c;
+    c.t_s = f.t_s;
+    const auto pose = FramePose(camera, session.tag, f, options.border_margin_px);
+    c.valid = pose.has_value();
+    if (pose) {
+      c.T_world_robot = *pose;
+      // The tag centre's image row, v / (H - 1), for the rolling_shutter candidate.
+      const vision::TagCorners& q = *f.corners_px;
+      c.image_row_fraction = (q[0].y + q[1].y + q[2].y + q[3].y) / 4.0 / (session.intrinsics.height - 1);
+    }
+    m.camera.push_back(c);
+  }
+  if (rm.track.duplicate_frames > 0) return;
+  MeasureRestsAndReturnError(options, camera, session.tag, &rm);
+}
+
+}  // namespace
+
+Result<std::vector<SessionMeasurement>> MeasureSessions(const std::vector<config::Session>& sessions,
+                                                        const MeasureOptions& options, const ProgressFn& progress) {
+  using Measured = Result<std::vector<SessionMeasurement>>;
+  std::string why;
+  if (!options.IsValid(&why)) return Measured::Error(StatusCode::kInvalidArgument, "measure options: " + why);
+  std::vector<SessionMeasurement> out(sessions.size());
+  // Phase 1: every run of every session, in parallel.
+  TrackingPlan plan;
+  if (const Status planned = PlanTracking(sessions, options, &out, &plan); !planned.ok())
+    return Measured::Error(planned.status, planned.message);
+  TrackVideos(sessions, plan, options, progress, &out);
   // Phase 2, per session: the plane, the poses, the rests.
   for (SessionMeasurement& sm : out) {
-    // Pose-log runs first: a bad log is an error, not a flag.
-    std::vector<calibration::MeasuredRun*> pose_runs;
     bool any_video = false;
-    for (RunMeasurement& rm : sm.runs) {
-      if (rm.run.poses.empty()) {
-        any_video = true;
-        continue;
-      }
-      rm.pose_log.emplace();
-      std::string error;
-      if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log,
-                             &rm.measured, &*rm.pose_log, &error))
-        return Measured::Error(StatusCode::kBadFile, error);
-      pose_runs.push_back(&rm.measured);
-    }
-    if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);
+    if (const Status poses = MeasurePoseLogRuns(options, &sm, &any_video); !poses.ok())
+      return Measured::Error(poses.status, poses.message);
     if (!any_video) continue;
-    const vision::CameraModel lens_only(sm.session.intrinsics, sm.session.camera_mount_guess);
-    std::vector<vision::CornerVelocities> velocities;
-    const std::vector<vision::TagCorners> views =
-        PickViews(sm.runs, options.min_view_separation_px, options.max_plane_views, lens_only,
-                  options.border_margin_px, options.exact_plane_refinement, &velocities,
-                  sm.session.tag, options.edge_shift_views, &sm.edge_shift);
-    const CameraPlaneOrGuess fit = EstimateCameraPlaneOrGuess(
-        sm.session.intrinsics, sm.session.tag, views, sm.session.camera_mount_guess, options.plane, &velocities);
-    vision::CameraMount mount = fit.mount;
-    sm.plane = fit.plane;
-    sm.plane_estimated = fit.estimated();
-    if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
-    {
-      const config::Session& session = sm.session;
-      const std::vector<cv::Mat> floor_frames =
-          session.floor_reference ? FloorFrames(sm, options) : std::vector<cv::Mat>{};
-      sm.camera_scale = EstimateCameraScale(
-          session.intrinsics, session.tag, session.tag_size_sigma_mm, sm.plane_estimated ? &sm.plane : nullptr,
-          session.floor_reference ? &*session.floor_reference : nullptr, floor_frames,
-          {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags,
-          sm.edge_shift.ok ? &sm.edge_shift : nullptr);
-    }
-    sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
-    const vision::CameraModel camera(sm.session.intrinsics, mount);
-    // Video runs sharing one video with no spans of their own: found in it
-    // (a lone `procedure: auto` run: every run it holds).
-    {
-      std::map<std::string, std::vector<size_t>> groups;
-      std::vector<std::string> order;
-      for (size_t i = 0; i < sm.runs.size(); ++i) {
-        if (sm.runs[i].pose_log) continue;
-        if (!groups.count(sm.runs[i].run.video)) order.push_back(sm.runs[i].run.video);
-        groups[sm.runs[i].run.video].push_back(i);
-      }
-      std::map<size_t, std::vector<config::SessionRun>> expanded;  // run index -> its runs
-      for (const std::string& video : order) {
-        const std::vector<size_t>& group = groups[video];
-        std::vector<config::SessionRun*> runs;
-        for (size_t i : group) runs.push_back(&sm.runs[i].run);
-        const bool lone_auto = IsLoneAutoRun(runs);
-        if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok) continue;
-        std::vector<calibration::PoseSample> samples;
-        for (const vision::FrameObservation& f : sm.runs[group.front()].track.frames) {
-          const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
-          samples.push_back({f.t_s, pose.value_or(calibration::Pose2()), pose.has_value()});
-        }
-        std::string error;
-        const bool ok = lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest,
-                                                  &expanded[group.front()], &sm.segments, &error)
-                                  : AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error);
-        if (!ok) return Measured::Error(StatusCode::kBadFile, error);
-      }
-      if (!expanded.empty()) {
-        std::vector<RunMeasurement> all;
-        for (size_t i = 0; i < sm.runs.size(); ++i) {
-          const auto it = expanded.find(i);
-          if (it == expanded.end()) {
-            all.push_back(std::move(sm.runs[i]));
-            continue;
-          }
-          for (const config::SessionRun& run : it->second) {
-            RunMeasurement copy = sm.runs[i];
-            copy.run = run;
-            all.push_back(std::move(copy));
-          }
-        }
-        sm.runs = std::move(all);
-        sm.session.runs.clear();
-        for (const RunMeasurement& rm : sm.runs) sm.session.runs.push_back(rm.run);
-      }
-    }
-    for (RunMeasurement& rm : sm.runs) {
-      if (rm.pose_log) continue;
-      calibration::MeasuredRun& m = rm.measured;
-      m.name = rm.run.name;
-      m.spec = rm.run.spec;
-      m.telemetry = ReadTelemetry(rm.run.telemetry, sm.session.nominal, &m.flags);
-      if (!rm.track.ok) {
-        m.flags.push_back(RunFlag::Of(RunFlagKind::kVideoUnreadable, rm.track.message));
-        continue;
-      }
-      if (rm.track.duplicate_frames > 0) {
-        m.flags.push_back(RunFlag::Of(RunFlagKind::kDuplicateTagId,
-                                      "id " + std::to_string(sm.session.tag.id) + " seen twice in " +
-                                          std::to_string(rm.track.duplicate_frames) + " frames"));
-      }
-      if (rm.track.found == 0) {
-        if (rm.track.duplicate_frames == 0) {
-          m.flags.push_back(rm.track.wrong_id_frames > 0
-                                ? RunFlag::Of(RunFlagKind::kWrongTagId,
-                                              "tags seen, never id " + std::to_string(sm.session.tag.id))
-                                : RunFlag::Of(RunFlagKind::kTagNeverSeen));
-        }
-        continue;
-      }
-      for (const vision::FrameObservation& f : rm.track.frames) {
-        // The run's span of its video (a video may hold several runs).
-        if (f.t_s < rm.run.start_s - 1e-6 || f.t_s > rm.run.end_s + 1e-6) continue;
-        calibration::CameraRecord c;
-        c.t_s = f.t_s;
-        const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
-        c.valid = pose.has_value();
-        if (pose) {
-          c.T_world_robot = *pose;
-          // The tag centre's image row, v / (H - 1), for the rolling_shutter candidate.
-          const vision::TagCorners& q = *f.corners_px;
-          c.image_row_fraction = (q[0].y + q[1].y + q[2].y + q[3].y) / 4.0 /
-                                 (sm.session.intrinsics.height - 1);
-        }
-        m.camera.push_back(c);
-      }
-      if (rm.track.duplicate_frames > 0) continue;
-      MeasureRestsAndReturnError(options, camera, sm.session.tag, &rm);
-    }
+    const vision::CameraModel camera = SessionCamera(options, &sm);
+    if (const Status found = FindRunsInSharedVideos(camera, options, &sm); !found.ok())
+      return Measured::Error(found.status, found.message);
+    for (RunMeasurement& rm : sm.runs)
+      if (!rm.pose_log) MeasureVideoRun(camera, options, sm.session, &rm);
   }
   return Measured::Ok(std::move(out));
 }

@@ -149,6 +149,34 @@ class Station {
   // Drives one run; its end rest (the next run's start rest) goes to `rest`.
   std::optional<Failure> DriveRun(const calibration::RunSpec& spec, int index, int total, StationRun* run,
                                   RestFrames* rest);
+  // DriveRun's steps, and what the camera saw between them.
+  struct Recording;
+  struct RunWatch {
+    std::string what;                  // "run 2/6 (...)"
+    vision::TagCorners start_corners;  // where the tag stood: the start rest's last corners
+    Recording* recording = nullptr;    // the first round's, for explain
+    Clock::time_point t0;
+    bool moved = false;
+    // Stillness (operator): the frame stillness started at, and its corners.
+    std::optional<std::pair<double, vision::TagCorners>> still_since;
+    std::vector<calibration::HeadingSighting> sightings;  // judged against the plan at the end
+    // Frames the camera should have delivered but the station did not get
+    // (a busy machine): gaps between frames beyond its frame interval.
+    std::optional<double> fps;
+    std::optional<double> last_frame_t;
+    // Whether the tag was out of sight for at least three frames in a row and
+    // half a second (camera clock): a robot that leaves the view has moved; a
+    // frame or two missed tells nothing.
+    double last_found_t = 0.0;
+    int lost_streak = 0;
+    bool out_of_view = false;
+  };
+  std::optional<Failure> StartRun(const calibration::RunSpec& spec, int index, int total, const RestFrames& rest,
+                                  StationRun* run, RunWatch* watch);
+  bool SeeMovingFrame(const media::CameraFrame& frame, StationRun* run, RunWatch* watch);
+  std::optional<Failure> WatchRun(StationRun* run, RunWatch* watch);
+  std::optional<Failure> FinishRun(const calibration::RunSpec& spec, StationRun* run, RunWatch* watch,
+                                   RestFrames* rest);
   std::optional<Failure> MeasureRound(StationIteration* iteration,
                                       const std::vector<std::pair<RestFrames, RestFrames>>& rests);
   void Cleanup(StationResult* result);
@@ -280,12 +308,14 @@ std::vector<calibration::RunSpec> Station::MakeDefaultPlan(const RestFrames& res
   return DefaultPlan(in_view, pose.T_world_robot, T_robot_tag, *setup_.default_plan, why);
 }
 
-std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& spec, int index, int total,
-                                                  StationRun* run, RestFrames* rest) {
+// DriveRun's steps: the run started, each frame while it drives seen, the
+// run finished and judged against the plan.
+std::optional<Station::Failure> Station::StartRun(const calibration::RunSpec& spec, int index, int total,
+                                                  const RestFrames& rest, StationRun* run, RunWatch* watch) {
   run->spec = spec;
   run->name = config::RunName(index - 1, spec);
   run->run_id = static_cast<uint16_t>(index);
-  const std::string what = Format("run %d/%d (%s)", index, total, calibration::Describe(spec).c_str());
+  watch->what = Format("run %d/%d (%s)", index, total, calibration::Describe(spec).c_str());
   RunRequest request{spec, index, total, run->name, "", ""};
   if (!setup_.run_log_dir.empty()) {
     const std::string dir = setup_.run_log_dir + "/round" + std::to_string(round_);
@@ -296,110 +326,116 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     run->log_path = request.log_path;
   }
   // Where the tag stood: the start rest's last corners.
-  const vision::TagCorners start_corners = *rest->found.back().corners_px;
-  if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), what + ": " + e->message};
+  watch->start_corners = *rest.found.back().corners_px;
+  if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), watch->what + ": " + e->message};
   run_in_progress_ = true;
   if (setup_.live) {
     if (index == 1) setup_.live->ClearTrajectory();  // the round's path
     setup_.live->SetProgress(index, total, calibration::Describe(spec),
                              Format("round %d; %s", round_, driver_->Describe().c_str()));
   }
-  Recording* recording = nullptr;
-  if (round_ == 1) recording = &recording_.emplace_back();
-  Log(what + ": started (" + driver_->Describe() + ")");
-  const Clock::time_point t0 = Clock::now();
-  std::string error;
-  bool moved = false, driver_done = false;
-  // Stillness (operator): the frame stillness started at, and its corners.
-  std::optional<std::pair<double, vision::TagCorners>> still_since;
+  if (round_ == 1) watch->recording = &recording_.emplace_back();
+  Log(watch->what + ": started (" + driver_->Describe() + ")");
+  watch->t0 = Clock::now();
   // The headings seen (seen_turning.h judges them against the plan at
   // the end), from the start rest's last frame on.
-  std::vector<calibration::HeadingSighting> sightings;
-  if (const auto h = HeadingOf(start_corners)) sightings.push_back({rest->found.back().t_s, *h});
-  // Frames the camera should have delivered but the station did not get
-  // (a busy machine): gaps between frames beyond its frame interval.
-  const std::optional<double> fps = setup_.camera->NominalFps();
-  std::optional<double> last_frame_t;
-  // Whether the tag was out of sight for at least three frames in a row and
-  // half a second (camera clock): a robot that leaves the view has moved; a
-  // frame or two missed tells nothing.
-  double last_found_t = rest->found.back().t_s;
-  int lost_streak = 0;
-  bool out_of_view = false;
+  if (const auto h = HeadingOf(watch->start_corners)) watch->sightings.push_back({rest.found.back().t_s, *h});
+  watch->fps = setup_.camera->NominalFps();
+  watch->last_found_t = rest.found.back().t_s;
+  return std::nullopt;
+}
+
+// A frame while the robot moves: keeps the track, adds views for the
+// plane, watches the motion. True when the camera saw the robot stop (a run
+// the camera ends).
+bool Station::SeeMovingFrame(const media::CameraFrame& frame, StationRun* run, RunWatch* watch) {
+  if (watch->recording) watch->recording->clock.emplace_back(Clock::now(), frame.t_s);
+  if (watch->fps && watch->last_frame_t)
+    run->frames_dropped += std::max(0L, std::lround((frame.t_s - *watch->last_frame_t) * *watch->fps) - 1);
+  watch->last_frame_t = frame.t_s;
+  vision::FrameObservation obs = observer_->Observe(frame.grey, frame.t_s);
+  ShowLive(frame, obs);
+  if (watch->recording && obs.corners_px) {
+    vision::FrameObservation kept;
+    kept.t_s = obs.t_s;
+    kept.corners_px = obs.corners_px;
+    watch->recording->frames.push_back(std::move(kept));
+  }
+  ++run->moving_frames;
+  watch->lost_streak = obs.corners_px ? 0 : watch->lost_streak + 1;
+  watch->out_of_view = watch->out_of_view || (watch->lost_streak >= 3 && frame.t_s - watch->last_found_t >= 0.5);
+  if (obs.corners_px) {
+    watch->last_found_t = frame.t_s;
+    ++run->moving_found;
+    view_candidates_.push_back(*obs.corners_px);
+    const double d = MaxCornerDistance(*obs.corners_px, watch->start_corners);
+    run->max_motion_px = std::max(run->max_motion_px, d);
+    watch->moved = watch->moved || d > options_.motion_threshold_px;
+    if (const auto h = HeadingOf(*obs.corners_px)) watch->sightings.push_back({frame.t_s, *h});
+    if (driver_->EndsByCamera() && (watch->moved || watch->out_of_view)) {
+      if (!watch->still_since || MaxCornerDistance(*obs.corners_px, watch->still_since->second) > options_.still_px) {
+        watch->still_since.emplace(frame.t_s, *obs.corners_px);
+      } else if (frame.t_s - watch->still_since->first >= options_.still_s) {
+        return true;  // the robot stopped
+      }
+    }
+  } else {
+    watch->still_since.reset();
+  }
+  return false;
+}
+
+// Frames while the run drives, until the driver reports it done or the
+// camera sees the robot stop; a failure when it takes too long, shows no
+// motion, or the camera or the link is lost.
+std::optional<Station::Failure> Station::WatchRun(StationRun* run, RunWatch* watch) {
+  std::string error;
   for (;;) {
-    if (StopRequested()) return Failure{StationStatus::kInterrupted, what + ": interrupted"};
+    if (StopRequested()) return Failure{StationStatus::kInterrupted, watch->what + ": interrupted"};
     if (!driver_->EndsByCamera()) {
       const auto progress = driver_->Poll();
       if (const DriverError* e = std::get_if<DriverError>(&progress)) {
         run_in_progress_ = false;
-        return Failure{StatusOf(e->fault), what + ": " + e->message};
+        return Failure{StatusOf(e->fault), watch->what + ": " + e->message};
       }
-      driver_done = std::get<RunProgress>(progress) == RunProgress::kDone;
-      if (driver_done) break;
+      if (std::get<RunProgress>(progress) == RunProgress::kDone) return std::nullopt;
     }
-    const Clock::duration elapsed = Clock::now() - t0;
+    const Clock::duration elapsed = Clock::now() - watch->t0;
     if (elapsed > options_.run_timeout) {
       return Failure{StationStatus::kRunNotCompleted,
-                     what + Format(": not completed within %.0f s", Seconds(options_.run_timeout))};
+                     watch->what + Format(": not completed within %.0f s", Seconds(options_.run_timeout))};
     }
-    if (!moved && !out_of_view && driver_->EndsByCamera() && elapsed > options_.start_timeout) {
+    if (!watch->moved && !watch->out_of_view && driver_->EndsByCamera() && elapsed > options_.start_timeout) {
       return Failure{StationStatus::kRunNotCompleted,
-                     what + Format(": the camera saw no motion within %.0f s", Seconds(options_.start_timeout))};
+                     watch->what + Format(": the camera saw no motion within %.0f s", Seconds(options_.start_timeout))};
     }
-    // A frame while moving: keeps the track, adds views for the plane,
-    // watches the motion.
     const auto frame = setup_.camera->Grab(&error);
     if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
-    if (recording) recording->clock.emplace_back(Clock::now(), frame->t_s);
-    if (fps && last_frame_t)
-      run->frames_dropped += std::max(0L, std::lround((frame->t_s - *last_frame_t) * *fps) - 1);
-    last_frame_t = frame->t_s;
-    vision::FrameObservation obs = observer_->Observe(frame->grey, frame->t_s);
-    ShowLive(*frame, obs);
-    if (recording && obs.corners_px) {
-      vision::FrameObservation kept;
-      kept.t_s = obs.t_s;
-      kept.corners_px = obs.corners_px;
-      recording->frames.push_back(std::move(kept));
-    }
-    ++run->moving_frames;
-    lost_streak = obs.corners_px ? 0 : lost_streak + 1;
-    out_of_view = out_of_view || (lost_streak >= 3 && frame->t_s - last_found_t >= 0.5);
-    if (obs.corners_px) {
-      last_found_t = frame->t_s;
-      ++run->moving_found;
-      view_candidates_.push_back(*obs.corners_px);
-      const double d = MaxCornerDistance(*obs.corners_px, start_corners);
-      run->max_motion_px = std::max(run->max_motion_px, d);
-      moved = moved || d > options_.motion_threshold_px;
-      if (const auto h = HeadingOf(*obs.corners_px)) sightings.push_back({frame->t_s, *h});
-      if (driver_->EndsByCamera() && (moved || out_of_view)) {
-        if (!still_since || MaxCornerDistance(*obs.corners_px, still_since->second) > options_.still_px) {
-          still_since.emplace(frame->t_s, *obs.corners_px);
-        } else if (frame->t_s - still_since->first >= options_.still_s) {
-          break;  // the robot stopped
-        }
-      }
-    } else {
-      still_since.reset();
-    }
+    if (SeeMovingFrame(*frame, run, watch)) return std::nullopt;
     std::this_thread::sleep_for(options_.poll_interval);
   }
+}
+
+// The run's end: its telemetry taken, its end rest found (the next run's
+// start rest, to `rest`), and the turning seen judged against the plan.
+std::optional<Station::Failure> Station::FinishRun(const calibration::RunSpec& spec, StationRun* run, RunWatch* watch,
+                                                   RestFrames* rest) {
   run_in_progress_ = false;
-  if (recording) {
+  if (watch->recording) {
     std::string note;
-    recording->telemetry = driver_->TakeTelemetry(&note);
-    if (!note.empty()) Log(what + ": " + note);
+    watch->recording->telemetry = driver_->TakeTelemetry(&note);
+    if (!note.empty()) Log(watch->what + ": " + note);
   }
   // No motion: the tag seen, in place, in every frame while the run lasted.
   // (A tag lost in a frame may have moved: a square larger than the view
   // leaves it.)
-  if (!moved && run->moving_found == run->moving_frames) {
-    return Failure{StationStatus::kRunNotCompleted,
-                   what + Format(": %s, but the camera saw the tag move at most %.1f px (tag in %d of %d frames "
-                                 "while it ran): the robot did not move",
-                                 driver_->EndsByCamera() ? "the operator finished" : "the driver reports the run done",
-                                 run->max_motion_px, run->moving_found, run->moving_frames)};
+  if (!watch->moved && run->moving_found == run->moving_frames) {
+    return Failure{
+        StationStatus::kRunNotCompleted,
+        watch->what + Format(": %s, but the camera saw the tag move at most %.1f px (tag in %d of %d frames "
+                             "while it ran): the robot did not move",
+                             driver_->EndsByCamera() ? "the operator finished" : "the driver reports the run done",
+                             run->max_motion_px, run->moving_found, run->moving_frames)};
   }
   RestFrames end_rest;
   if (auto f = CaptureRest(&end_rest)) return f;
@@ -408,39 +444,49 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
     return Failure{StationStatus::kCameraLost,
                    Format("camera lost the tag: id %d seen in %zu of %d frames after %s "
                           "(robot out of view, or the camera blocked or moved)",
-                          setup_.tag.id, end_rest.found.size(), end_rest.grabbed, what.c_str())};
+                          setup_.tag.id, end_rest.found.size(), end_rest.grabbed, watch->what.c_str())};
   }
   // The heading change, closed on the end rest's first frame, judged
   // against the plan as far as the sightings tell it: the total only when
   // no gap was too long to unwrap (at the robot's fastest turn), always
   // the end heading modulo a turn and the turning seen in view.
   const vision::FrameObservation& end_first = end_rest.found.front();
-  if (const auto h = HeadingOf(*end_first.corners_px)) sightings.push_back({end_first.t_s, *h});
+  if (const auto h = HeadingOf(*end_first.corners_px)) watch->sightings.push_back({end_first.t_s, *h});
   calibration::SeenTurningOptions turning;
   turning.max_turn_rate_rad_s = spec.turn_rate_rad_s ? 1.25 * *spec.turn_rate_rad_s : options_.max_turn_rate_rad_s;
-  const calibration::SeenTurning seen = calibration::TrackSeenTurning(sightings, turning);
+  const calibration::SeenTurning seen = calibration::TrackSeenTurning(watch->sightings, turning);
   run->turned_rad = seen.total_rad();
   run->unseen_s = seen.unseen_s;
-  if (sightings.size() >= 2) {
+  if (watch->sightings.size() >= 2) {
     const std::vector<calibration::Primitive> plan = calibration::PlanPrimitives(spec);
     if (const auto why = calibration::ContradictsPlan(seen, plan, options_.heading_check_rad))
-      return Failure{StationStatus::kRunNotCompleted,
-                     what + ": " + *why + ": was another run driven (the wrong direction, the wrong number of turns)?"};
+      return Failure{
+          StationStatus::kRunNotCompleted,
+          watch->what + ": " + *why + ": was another run driven (the wrong direction, the wrong number of turns)?"};
   }
   if (!run->turned_rad)
-    Log(what + Format(": total heading change not checked (no sighting for %.1f s of the run: the tag out of view, "
-                      "or frames too far apart to unwrap at %.0f deg/s); the end heading and the turning in view agree "
-                      "with the plan",
-                      seen.unseen_s, RadToDeg(turning.max_turn_rate_rad_s)));
+    Log(watch->what +
+        Format(": total heading change not checked (no sighting for %.1f s of the run: the tag out of view, "
+               "or frames too far apart to unwrap at %.0f deg/s); the end heading and the turning in view agree "
+               "with the plan",
+               seen.unseen_s, RadToDeg(turning.max_turn_rate_rad_s)));
   if (run->frames_dropped > 0)
-    Log(what + Format(": %d frames dropped while it ran (the machine busy, or the camera slower than %.0f fps)",
-                      run->frames_dropped, fps.value_or(0.0)));
+    Log(watch->what + Format(": %d frames dropped while it ran (the machine busy, or the camera slower than %.0f fps)",
+                             run->frames_dropped, watch->fps.value_or(0.0)));
   Log(Format("%s: completed in %.1f s, tag in %d/%d frames while moving (%.0f px), %zu/%d rest frames%s",
-             what.c_str(), Seconds(Clock::now() - t0), run->moving_found, run->moving_frames, run->max_motion_px,
-             end_rest.found.size(), end_rest.grabbed,
+             watch->what.c_str(), Seconds(Clock::now() - watch->t0), run->moving_found, run->moving_frames,
+             run->max_motion_px, end_rest.found.size(), end_rest.grabbed,
              run->turned_rad ? Format(", turned %+.1f deg", RadToDeg(*run->turned_rad)).c_str() : ""));
   *rest = std::move(end_rest);
   return std::nullopt;
+}
+
+std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& spec, int index, int total,
+                                                  StationRun* run, RestFrames* rest) {
+  RunWatch watch;
+  if (auto f = StartRun(spec, index, total, *rest, run, &watch)) return f;
+  if (auto f = WatchRun(run, &watch)) return f;
+  return FinishRun(spec, run, &watch, rest);
 }
 
 std::optional<Station::Failure> Station::MeasureRound(

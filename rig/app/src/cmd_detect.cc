@@ -386,7 +386,9 @@ std::vector<uchar> AnnotationPng(const DetectRequest& request, const Frame& f, c
   cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
               cv::LINE_AA);
   std::string why;
-  return media::EncodePng(bgr, &why).value_or(std::vector<uchar>());
+  std::optional<std::vector<uchar>> png = media::EncodePng(bgr, &why);
+  if (!png) Fail(kDetect, kExitFailure, f.file + ": the annotation: " + why + " (nothing written)");
+  return std::move(*png);
 }
 
 // The annotation's file: the image's name, a video's frame number after it.

@@ -1,7 +1,6 @@
 #include "codecs.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -34,21 +33,22 @@ const Codecs* LoadCodecs(std::string* error) {
   static std::string why;
   std::call_once(once, [] {
     std::string tried;
+    const auto failed = [&tried](const std::string& reason) { tried += (tried.empty() ? "" : "; ") + reason; };
     for (const std::string& path : Candidates()) {
       if (!std::filesystem::exists(path)) {
-        tried += std::string(tried.empty() ? "" : "; ") + path + ": no such file";
+        failed(path + ": no such file");
         continue;
       }
       // Never closed: the codecs' objects live as long as the process.
       void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!handle) {
-        tried += std::string(tried.empty() ? "" : "; ") + dlerror();
+        failed(dlerror());  // names the file
         continue;
       }
       using Entry = const Codecs* (*)();
       auto entry = reinterpret_cast<Entry>(dlsym(handle, "odocal_media_codecs_v1"));
       if (!entry) {
-        tried += std::string(tried.empty() ? "" : "; ") + path + ": not odocal's codec plugin";
+        failed(path + ": not odocal's codec plugin");
         continue;
       }
       codecs = entry();

@@ -46,26 +46,34 @@ Status WriteImage(const std::string& path, const cv::Mat& image) {
   return Status::Ok();
 }
 
-std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error) {
+namespace {
+
+// An image coded by `code` (the codecs' PNG or JPEG), or nullopt with why.
+template <typename Code>
+std::optional<std::vector<unsigned char>> Encode(const char* format, const Code& code, std::string* error) {
   const internal::Codecs* codecs = internal::LoadCodecs(error);
-  std::vector<unsigned char> bytes;
   if (!codecs) return std::nullopt;
-  if (!codecs->EncodePng(image, &bytes)) {
-    if (error) *error = "the image cannot be coded as PNG";
+  std::vector<unsigned char> bytes;
+  if (!code(*codecs, &bytes)) {
+    if (error) *error = std::string("the image cannot be coded as ") + format;
     return std::nullopt;
   }
   return bytes;
 }
 
+}  // namespace
+
+std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error) {
+  return Encode(
+      "PNG", [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) { return c.EncodePng(image, bytes); },
+      error);
+}
+
 std::optional<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality, std::string* error) {
-  const internal::Codecs* codecs = internal::LoadCodecs(error);
-  std::vector<unsigned char> bytes;
-  if (!codecs) return std::nullopt;
-  if (!codecs->EncodeJpeg(image, quality, &bytes)) {
-    if (error) *error = "the image cannot be coded as JPEG";
-    return std::nullopt;
-  }
-  return bytes;
+  return Encode(
+      "JPEG",
+      [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) { return c.EncodeJpeg(image, quality, bytes); },
+      error);
 }
 
 }  // namespace odocal::media

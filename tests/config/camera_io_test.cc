@@ -284,6 +284,48 @@ TEST(CameraIo, ReadsAndWritesFisheyeLensesInEveryLayout) {
   EXPECT_EQ(error.rfind("camchain.yaml: cam0.distortion_coeffs: expected a list of 4 numbers", 0), 0u) << error;
 }
 
+// The ASL/EuRoC sensor.yaml, as EuRoC's mav0/cam0/sensor.yaml holds it.
+TEST(CameraIo, ReadsTheEurocSensorYaml) {
+  const std::string sensor = R"(# General sensor definitions.
+sensor_type: camera
+comment: VI-Sensor cam0 (MT9M034)
+T_BS:
+  cols: 4
+  rows: 4
+  data: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+rate_hz: 20
+resolution: [752, 480]
+camera_model: pinhole
+intrinsics: [458.654, 457.296, 367.215, 248.375] #fu, fv, cu, cv
+distortion_model: radial-tangential
+distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
+)";
+  std::string error;
+  const auto file = config::ParseCameraFile(sensor, "sensor.yaml", &error);
+  ASSERT_TRUE(file) << error;
+  const Intrinsics& in = file->intrinsics;
+  EXPECT_EQ(in.lens, vision::LensModel::kPlumbBob);
+  EXPECT_EQ(in.width, 752);
+  EXPECT_EQ(in.height, 480);
+  EXPECT_NEAR(in.fx, 458.654, 1e-12);
+  EXPECT_NEAR(in.fy, 457.296, 1e-12);
+  EXPECT_NEAR(in.cx, 367.215, 1e-12);
+  EXPECT_NEAR(in.cy, 248.375, 1e-12);
+  EXPECT_NEAR(in.distortion[0], -0.28340811, 1e-15);
+  EXPECT_NEAR(in.distortion[3], 1.76187114e-05, 1e-18);  // radtan's r2 is OpenCV's p2
+  EXPECT_NEAR(in.distortion[4], 0.0, 1e-18);
+  const auto equi = config::ParseCameraFile(Replace(sensor, "radial-tangential", "equidistant"), "sensor.yaml", &error);
+  ASSERT_TRUE(equi) << error;
+  EXPECT_EQ(equi->intrinsics.lens, vision::LensModel::kEquidistant);
+  // Bad input names the key.
+  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, "[752, 480]", "[752]"), "sensor.yaml", &error));
+  EXPECT_EQ(error, "sensor.yaml: camera.resolution: expected [width, height]");
+  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, ", 1.76187114e-05]", "]"), "sensor.yaml", &error));
+  EXPECT_EQ(error.rfind("sensor.yaml: camera.distortion_coefficients: expected a list of 4 numbers", 0), 0u) << error;
+  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, "radial-tangential", "omni"), "sensor.yaml", &error));
+  EXPECT_EQ(error.rfind("sensor.yaml: camera.distortion_model: 'omni' is not supported", 0), 0u) << error;
+}
+
 TEST(CameraIo, RefusesToWriteInvalidIntrinsicsAndLeavesNoPartialFile) {
   const std::string dir = test_util::MakeTempDir("odocal_camio_");
   config::CameraFile file;  // all zero: invalid

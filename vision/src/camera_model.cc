@@ -39,7 +39,8 @@ const char* LensModelName(LensModel lens) {
 }
 
 std::optional<LensModel> ParseLensModel(const std::string& name) {
-  if (name == "plumb_bob" || name == "radtan" || name == "pinhole-radtan") return LensModel::kPlumbBob;
+  if (name == "plumb_bob" || name == "radtan" || name == "pinhole-radtan" || name == "radial-tangential")
+    return LensModel::kPlumbBob;
   if (name == "equidistant" || name == "fisheye" || name == "equi" || name == "pinhole-equi")
     return LensModel::kEquidistant;
   return std::nullopt;

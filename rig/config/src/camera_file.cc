@@ -135,6 +135,9 @@ std::vector<double> ReadNumbers(const YAML::Node& node, const std::string& key, 
 // A Kalibr camchain (camchain.yaml, or its camera file): cam0 {camera_model:
 // pinhole, distortion_model: equidistant | radtan, intrinsics: [fu, fv, pu,
 // pv], distortion_coeffs, resolution: [w, h]}. The first camera is read.
+// The ASL/EuRoC sensor.yaml (EuRoC, TUM-VI's export, OKVIS, maplab) is the
+// same at its top level, with `distortion_coefficients` and
+// `radial-tangential`.
 CameraFile ParseKalibr(const YAML::Node& cam, const std::string& name) {
   const std::string key = name + ".";
   if (const YAML::Node model = cam["camera_model"]) {
@@ -147,10 +150,12 @@ CameraFile ParseKalibr(const YAML::Node& cam, const std::string& name) {
   const auto lens = vision::ParseLensModel(model_name);
   if (!lens) Throw(key + "distortion_model", "'" + model_name + "' is not supported (radtan, equidistant)");
   if (!cam["intrinsics"]) Throw(key + "intrinsics", "missing");
-  if (!cam["distortion_coeffs"]) Throw(key + "distortion_coeffs", "missing");
+  std::string d_key = "distortion_coeffs";
+  const auto d_node = Find(cam, {"distortion_coeffs", "distortion_coefficients"}, &d_key);
+  if (!d_node) Throw(key + "distortion_coeffs", "missing");
   if (!cam["resolution"]) Throw(key + "resolution", "missing");
   const std::vector<double> k = ReadNumbers(cam["intrinsics"], key + "intrinsics", 4);
-  const std::vector<double> d = ReadNumbers(cam["distortion_coeffs"], key + "distortion_coeffs", 4);
+  const std::vector<double> d = ReadNumbers(*d_node, key + d_key, 4);
   const YAML::Node res = cam["resolution"];
   if (!res.IsSequence() || res.size() != 2) Throw(key + "resolution", "expected [width, height]");
   const int width = ReadInt(res[0], key + "resolution[0]"), height = ReadInt(res[1], key + "resolution[1]");
@@ -173,7 +178,8 @@ CameraFile ParseRoot(const YAML::Node& root) {
   for (const char* cam : {"cam0"}) {
     if (const YAML::Node node = root[cam]; node && node.IsMap() && node["intrinsics"]) return ParseKalibr(node, cam);
   }
-  if (root["intrinsics"] && root["distortion_coeffs"]) return ParseKalibr(root, "camera");
+  if (root["intrinsics"] && (root["distortion_coeffs"] || root["distortion_coefficients"]))
+    return ParseKalibr(root, "camera");
   CameraFile file;
   bool ros = false;
   for (const char* key : kRosOnlyKeys) ros |= static_cast<bool>(root[key]);

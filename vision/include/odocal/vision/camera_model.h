@@ -47,7 +47,8 @@ namespace odocal::vision {
 enum class LensModel { kPlumbBob, kEquidistant };
 // "plumb_bob", "equidistant": the names camera files and scenarios use.
 const char* LensModelName(LensModel lens);
-// Also the other programs' spellings: radtan (Kalibr), fisheye, equi.
+// Also the other programs' spellings: radtan (Kalibr), radial-tangential
+// (ASL/EuRoC sensor.yaml), fisheye, equi.
 std::optional<LensModel> ParseLensModel(const std::string& name);
 
 struct Intrinsics {

@@ -40,6 +40,7 @@ void DeadReckon(const RunData& run, const ModelConstants& constants, const T* ba
   (*headings_rad)[0] = h;
   int left_direction = run.left_direction0, right_direction = run.right_direction0;
   T left_dead_ticks(0.0), right_dead_ticks(0.0);
+  std::int64_t left_count = run.left_count0, right_count = run.right_count0;
   const T track_m = base_scales[2] * constants.track_m;
   const T& backlash_ticks = effect_values[EffectParams::kBacklash];
   for (size_t k = 1; k < n; ++k) {
@@ -58,6 +59,8 @@ void DeadReckon(const RunData& run, const ModelConstants& constants, const T* ba
       AdvanceArc(left_m, right_m, track_m, &x, &y, &h);
       if (run.kind[k] == MotionKind::kStraight) CarpetDrift(effect_values, h0, ds_m, &x, &y, &h);
     }
+    left_count += left_ticks;
+    right_count += right_ticks;
     (*xs_m)[k] = x;
     (*ys_m)[k] = y;
     (*headings_rad)[k] = h;
@@ -206,6 +209,10 @@ RunData ExtractTelemetry(const MeasuredRun& run, int index, int* left_direction,
   rd.left_direction0 = *left_direction;
   rd.right_direction0 = *right_direction;
   const std::vector<TelemetryRecord>& telemetry = run.telemetry;
+  if (!telemetry.empty()) {
+    rd.left_count0 = telemetry.front().left_ticks;
+    rd.right_count0 = telemetry.front().right_ticks;
+  }
   for (size_t k = 0; k < telemetry.size(); ++k) {
     rd.t_s.push_back(telemetry[k].t_s);
     const std::int64_t left_ticks = k == 0 ? 0 : telemetry[k].left_ticks - telemetry[k - 1].left_ticks;
@@ -259,6 +266,7 @@ ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<Floo
   c.left_m_per_tick = believed.LeftMetresPerTick();
   c.right_m_per_tick = believed.RightMetresPerTick();
   c.track_m = believed.track_m;
+  c.ticks_per_rev = believed.ticks_per_rev;
   c.camera = camera;
   return c;
 }

@@ -56,6 +56,9 @@ struct RunData {
   std::vector<MotionKind> kind;               // of step k
   std::vector<double> curvature_per_m;        // of step k on arcs, else 0 (arc_scale)
   int left_direction0 = 1, right_direction0 = 1;  // shaft directions before the run
+  // The encoder counts at t_s[0]: with the step deltas, each wheel's count
+  // (its angle, when the counts run on from run to run) at every step.
+  std::int64_t left_count0 = 0, right_count0 = 0;
   // The used (valid) camera frames.
   std::vector<double> frame_t_s;
   // Each frame's image row fraction - 1/2 (rolling_shutter), 0 when unknown.
@@ -74,6 +77,7 @@ struct ModelConstants {
   double left_m_per_tick = 0.0;
   double right_m_per_tick = 0.0;
   double track_m = 0.0;
+  double ticks_per_rev = 0.0;  // a wheel's counts per turn (its angle)
   std::optional<FloorCamera> camera;
 };
 ModelConstants ConstantsOf(const WheelParams& believed, const std::optional<FloorCamera>& camera);

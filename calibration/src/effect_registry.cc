@@ -13,7 +13,7 @@ const std::vector<EffectDescriptor>& Effects() {
       internal::TagOffsetEffect(),      internal::CameraLatencyEffect(),   internal::TurnSlipEffect(),
       internal::LensDistortionEffect(), internal::EncoderBacklashEffect(), internal::CarpetDriftEffect(),
       internal::TrackerYawEffect(),     internal::SpeedSlipEffect(),       internal::ArcScaleEffect(),
-      internal::RollingShutterEffect(),
+      internal::RollingShutterEffect(), internal::EccentricWheelEffect(),
   };
   return registry;
 }

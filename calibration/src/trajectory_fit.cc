@@ -51,6 +51,8 @@ void DeadReckon(const RunData& run, const ModelConstants& constants, const T* ba
                  constants.left_m_per_tick * base_scales[0];
       T right_m = MovingTicks(right_ticks, &right_direction, &right_dead_ticks, backlash_ticks) *
                   constants.right_m_per_tick * base_scales[1];
+      EccentricWheel(effect_values, constants.ticks_per_rev, left_count, left_ticks, right_count, right_ticks, &left_m,
+                     &right_m);
       SpeedSlip(effect_values, dt_s, &left_m, &right_m);
       ArcScale(effect_values, run.curvature_per_m[k], &left_m, &right_m);
       const T ds_m = (left_m + right_m) / 2.0;
@@ -139,7 +141,7 @@ struct RunResidual {
 };
 
 // The solve's cost of a run. RunResidual's Jets carry a derivative for each
-// of its 20 parameters (base, start pose, the 14 of the effect block) whatever
+// of its 24 parameters (base, start pose, the 18 of the effect block) whatever
 // is fitted, and a fit of the base model, or of the base and one candidate,
 // spent most of its time differentiating effect parameters held at zero. Here
 // the effect block is cut to `slots`, the (at most kSolveSlots) effect

@@ -15,6 +15,7 @@ std::vector<std::string> Effects::Names() const {
   if (arc_scale) names.push_back("arc_scale");
   if (rolling_shutter) names.push_back("rolling_shutter");
   if (eccentric_wheel) names.push_back("eccentric_wheel");
+  if (oval_wheel) names.push_back("oval_wheel");
   return names;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <utility>
 
 namespace odocal::sim {
 namespace {
@@ -240,14 +241,16 @@ bool VirtualRobot::Step() {
                          true_left_per_tick;
       double true_right = GroundTicks(right_ticks, &right_direction_, &right_dead_ticks_) *
                           true_right_per_tick;
-      if (config_.effects.eccentric_wheel) {
-        // eccentric_wheel: the rolling radius at the wheel's angle mid-step
-        // (the shaft angle; backlash is ignored here).
-        const EccentricWheelEffect& e = *config_.effects.eccentric_wheel;
+      // eccentric_wheel (once a turn), oval_wheel (twice): the rolling radius
+      // at the wheel's angle mid-step (the shaft angle; backlash is ignored here).
+      for (const auto& [wheel_effect, cycles] :
+           {std::pair{&config_.effects.eccentric_wheel, 1.0}, std::pair{&config_.effects.oval_wheel, 2.0}}) {
+        if (!*wheel_effect) continue;
+        const EccentricWheelEffect& e = **wheel_effect;
         const double shaft = e.left ? left_shaft_ticks_ + 0.5 * left_ticks
                                     : right_shaft_ticks_ + 0.5 * right_ticks;
         const double phi = 2.0 * M_PI * shaft / config_.truth.ticks_per_rev;
-        (e.left ? true_left : true_right) *= 1.0 + e.amplitude * std::sin(phi + e.phase_rad);
+        (e.left ? true_left : true_right) *= 1.0 + e.amplitude * std::sin(cycles * phi + e.phase_rad);
       }
       if (config_.effects.speed_slip) {
         // speed_slip: each wheel loses k |v| of its travel.

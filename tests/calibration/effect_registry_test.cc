@@ -67,6 +67,7 @@ TEST(EffectRegistry, WhatASessionLacksIsSaidOnlyWhenItLacksIt) {
   frame.valid = true;
   frame.image_row_fraction = 0.4;
   run.camera.push_back(frame);
+  run.telemetry.push_back({0.0, 1234, 5678, {}});  // counts from power-on: the wheels' angle
   seen.runs.push_back(run);
   for (const EffectDescriptor& d : Effects()) {
     const std::string lacks = MissingInput(bare, d.effect);
@@ -79,6 +80,12 @@ TEST(EffectRegistry, WhatASessionLacksIsSaidOnlyWhenItLacksIt) {
   }
   EXPECT_NE(MissingInput(bare, Effect::kLensDistortion).find("floor geometry"), std::string::npos);
   EXPECT_NE(MissingInput(bare, Effect::kRollingShutter).find("image row"), std::string::npos);
+  // Counts that restart at every run (odocal's link) give no wheel angle.
+  MeasuredSession restarted = seen;
+  restarted.runs[0].telemetry[0].left_ticks = restarted.runs[0].telemetry[0].right_ticks = 0;
+  EXPECT_EQ(MissingInput(restarted, Effect::kEccentricWheel), "") << "one run: its counts since power-on";
+  restarted.runs.push_back(restarted.runs[0]);
+  EXPECT_NE(MissingInput(restarted, Effect::kEccentricWheel).find("start at 0"), std::string::npos);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "arc_scale.h"
 #include "camera_latency.h"
 #include "carpet_drift.h"
+#include "eccentric_wheel.h"
 #include "encoder_backlash.h"
 #include "lens_distortion.h"
 #include "rolling_shutter.h"

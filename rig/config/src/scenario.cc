@@ -312,22 +312,26 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
       const double ms = RequiredNumber(e, path, "ms");
       if (!(ms >= 0.0 && ms <= 1000.0)) Fail(e["ms"], Join(path, "ms"), "must be in [0, 1000]");
       out.rolling_shutter = sim::RollingShutterEffect{ms * 1e-3};
-    } else if (name == "eccentric_wheel") {
+    } else if (name == "eccentric_wheel" || name == "oval_wheel") {
+      // One wheel's radius r (1 + a sin(k phi + phase)): once a turn
+      // (eccentric), or twice (oval, simulator only).
+      std::optional<sim::EccentricWheelEffect>& wheel_effect =
+          name == "eccentric_wheel" ? out.eccentric_wheel : out.oval_wheel;
       CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
-      twice(out.eccentric_wheel.has_value());
+      twice(wheel_effect.has_value());
       if (!e["wheel"]) Fail(e, Join(path, "wheel"), "missing (required: left or right)");
       const std::string wheel = String(e["wheel"], Join(path, "wheel"));
       if (wheel != "left" && wheel != "right") Fail(e["wheel"], Join(path, "wheel"), "must be left or right");
       const double a = RequiredNumber(e, path, "amplitude");
       if (a < 0.0 || a >= 0.2) Fail(e["amplitude"], Join(path, "amplitude"), "must be in [0, 0.2)");
-      out.eccentric_wheel = sim::EccentricWheelEffect{
-          wheel == "left", a, OptionalNumber(e, path, "phase_deg", 0.0) * kDegToRad};
+      wheel_effect =
+          sim::EccentricWheelEffect{wheel == "left", a, OptionalNumber(e, path, "phase_deg", 0.0) * kDegToRad};
     } else {
       Fail(e["name"], Join(path, "name"),
            "unknown effect '" + name +
                "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
                "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, arc_scale, "
-               "rolling_shutter, eccentric_wheel)");
+               "rolling_shutter, eccentric_wheel, oval_wheel)");
     }
   }
   return out;

@@ -88,21 +88,48 @@
 namespace odocal::calibration {
 
 // The candidate effects, named as scenario files name them.
-enum class Effect { kTagOffset, kCameraLatency, kTurnSlip, kLensDistortion, kEncoderBacklash,
-                    kCarpetDrift, kTrackerYaw, kSpeedSlip, kArcScale, kRollingShutter };
-inline constexpr std::array<Effect, 10> kAllEffects = {
-    Effect::kTagOffset,      Effect::kCameraLatency,   Effect::kTurnSlip,
-    Effect::kLensDistortion, Effect::kEncoderBacklash, Effect::kCarpetDrift,
-    Effect::kTrackerYaw,     Effect::kSpeedSlip,       Effect::kArcScale,
-    Effect::kRollingShutter};
+enum class Effect {
+  kTagOffset,
+  kCameraLatency,
+  kTurnSlip,
+  kLensDistortion,
+  kEncoderBacklash,
+  kCarpetDrift,
+  kTrackerYaw,
+  kSpeedSlip,
+  kArcScale,
+  kRollingShutter,
+  kEccentricWheel
+};
+inline constexpr std::array<Effect, 11> kAllEffects = {
+    Effect::kTagOffset,       Effect::kCameraLatency,  Effect::kTurnSlip,      Effect::kLensDistortion,
+    Effect::kEncoderBacklash, Effect::kCarpetDrift,    Effect::kTrackerYaw,    Effect::kSpeedSlip,
+    Effect::kArcScale,        Effect::kRollingShutter, Effect::kEccentricWheel};
 std::string_view ToString(Effect effect);
 
 // The effect parameter block. Indices into `values` are fixed; a disabled
 // effect's values are held at zero.
 struct EffectParams {
   enum Index {
-    kTagX = 0, kTagY, kLatency, kSlip, kK1, kBacklash, kDriftA, kDriftB, kTiltX, kTiltY,
-    kTrackerYaw, kSpeedSlip, kArcScale, kReadout, kSize
+    kTagX = 0,
+    kTagY,
+    kLatency,
+    kSlip,
+    kK1,
+    kBacklash,
+    kDriftA,
+    kDriftB,
+    kTiltX,
+    kTiltY,
+    kTrackerYaw,
+    kSpeedSlip,
+    kArcScale,
+    kReadout,
+    kEccLeftSin,
+    kEccLeftCos,
+    kEccRightSin,
+    kEccRightCos,
+    kSize
   };
   std::array<double, kSize> values{};
 

@@ -89,9 +89,11 @@ struct RollingShutterEffect {
 };
 
 // {name: eccentric_wheel, wheel, amplitude, phase_deg}: one wheel's rolling
-// radius varies with its angle phi as r (1 + amplitude sin(phi + phase)).
-// Simulator only — not a candidate of explain's model library, so that
-// explain must report it as unexplained rather than name a candidate.
+// radius varies with its angle phi as r (1 + amplitude sin(phi + phase)),
+// phi = 2 pi shaft ticks / ticks_per_rev (0 when the robot is made).
+// {name: oval_wheel, ...} the same twice a turn, sin(2 phi + phase):
+// simulator only, in no candidate's family, so that explain must report it
+// as unexplained rather than name the nearest candidate.
 struct EccentricWheelEffect {
   bool left = true;  // which wheel
   double amplitude = 0.0;
@@ -110,6 +112,7 @@ struct Effects {
   std::optional<ArcScaleEffect> arc_scale;
   std::optional<RollingShutterEffect> rolling_shutter;
   std::optional<EccentricWheelEffect> eccentric_wheel;
+  std::optional<EccentricWheelEffect> oval_wheel;
 
   // The names of the effects that are on, in the order above.
   std::vector<std::string> Names() const;

@@ -15,8 +15,8 @@ using ::testing::HasSubstr;
 TEST(CalibTarget, KalibrAprilgrid) {
   std::string error;
   const auto board = ParseCalibrationTarget(
-      "target_type: 'aprilgrid' #gridtype\ntagCols: 6\ntagRows: 5\ntagSize: 0.088\ntagSpacing: 0.3\n", "t.yaml", &error);
-  ASSERT_TRUE(board) << error;
+      "target_type: 'aprilgrid' #gridtype\ntagCols: 6\ntagRows: 5\ntagSize: 0.088\ntagSpacing: 0.3\n", "t.yaml");
+  ASSERT_TRUE(board) << board.message;
   EXPECT_EQ(board->type, vision::CalibrationBoard::Type::kAprilgrid);
   EXPECT_EQ(board->cols, 6);
   EXPECT_EQ(board->rows, 5);
@@ -37,27 +37,29 @@ TEST(CalibTarget, YacCalibTargetBlockWithOtherSections) {
   const auto board = ParseCalibrationTarget(
       "settings:\n  fix_intrinsics: true\ncalib_target:\n  target_type: 'aprilgrid'\n  tag_rows: 6\n"
       "  tag_cols: 6\n  tag_size: 0.088\n  tag_spacing: 0.3\ncam0:\n  resolution: [640, 480]\n",
-      "yac.yaml", &error);
-  ASSERT_TRUE(board) << error;
+      "yac.yaml");
+  ASSERT_TRUE(board) << board.message;
   EXPECT_EQ(board->cols * board->rows, 36);
 }
 
 TEST(CalibTarget, OtherTargetsAndBadKeysNameTheLine) {
   std::string error;
-  EXPECT_FALSE(ParseCalibrationTarget("target_type: 'checkerboard'\ntargetCols: 6\ntargetRows: 7\n"
-                                      "rowSpacingMeters: 0.06\ncolSpacingMeters: 0.06\n",
-                                      "c.yaml", &error));
+  error =
+      test_util::ErrorOf(ParseCalibrationTarget("target_type: 'checkerboard'\ntargetCols: 6\ntargetRows: 7\n"
+                                                "rowSpacingMeters: 0.06\ncolSpacingMeters: 0.06\n",
+                                                "c.yaml"));
   EXPECT_THAT(error, HasSubstr("c.yaml:1: target_type: 'checkerboard': only aprilgrid targets"));
-  EXPECT_FALSE(ParseCalibrationTarget("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: 0.088\n", "m.yaml",
-                                      &error));
+  error = test_util::ErrorOf(
+      ParseCalibrationTarget("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: 0.088\n", "m.yaml"));
   EXPECT_THAT(error, HasSubstr("m.yaml:")) << error;
   EXPECT_THAT(error, HasSubstr("tagSpacing")) << error;
-  EXPECT_FALSE(ParseCalibrationTarget("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: -1\ntagSpacing: 0.3\n",
-                                      "n.yaml", &error));
+  error = test_util::ErrorOf(ParseCalibrationTarget(
+      "target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: -1\ntagSpacing: 0.3\n", "n.yaml"));
   EXPECT_THAT(error, HasSubstr("n.yaml:4: tagSize")) << error;
-  EXPECT_FALSE(ParseCalibrationTarget("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: 0.1\ntagSpacing: 0.3\n"
-                                      "tagFamily: t36h11\n",
-                                      "k.yaml", &error));
+  error = test_util::ErrorOf(
+      ParseCalibrationTarget("target_type: aprilgrid\ntagCols: 6\ntagRows: 6\ntagSize: 0.1\ntagSpacing: 0.3\n"
+                             "tagFamily: t36h11\n",
+                             "k.yaml"));
   EXPECT_THAT(error, HasSubstr("tagFamily")) << error;
   EXPECT_FALSE(ReadCalibrationTarget("/nonexistent/target.yaml"));
 }

@@ -195,7 +195,7 @@ std::string Replace(std::string text, const std::string& from, const std::string
 TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
   const std::string dir = test_util::MakeTempDir("odocal_camio_");
   std::string error;
-  ASSERT_TRUE(config::ParseCameraFile(kGood, "camera.yaml", &error)) << error;
+  ASSERT_TRUE(config::ParseCameraFile(kGood, "camera.yaml"));
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"", "camera.yaml: empty file"},
       {"  \n# nothing\n", "camera.yaml: empty file"},
@@ -220,7 +220,7 @@ TEST(CameraIo, MalformedFilesGiveOneLineNamingTheKey) {
   };
   for (const auto& [text, expected] : cases) {
     const std::string path = WriteText(dir, "camera.yaml", text);
-    EXPECT_FALSE(config::ParseCameraFile(text, "camera.yaml", &error)) << text;
+    error = test_util::ErrorOf(config::ParseCameraFile(text, "camera.yaml"));
     EXPECT_EQ(error.rfind(expected, 0), 0u) << "got: " << error << "\nfor:\n" << text;
     EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr("\n"))) << error;
     // The same through the file reader, which names the path it was given.
@@ -243,7 +243,7 @@ TEST(CameraIo, ReadsAndWritesFisheyeLensesInEveryLayout) {
     file.intrinsics = fisheye;
     const std::string text = config::FormatCameraFile(file, format);
     std::string error;
-    const auto back = config::ParseCameraFile(text, "fisheye.yaml", &error);
+    const auto back = config::ParseCameraFile(text, "fisheye.yaml");
     ASSERT_TRUE(back) << error << "\n" << text;
     EXPECT_EQ(back->intrinsics.lens, vision::LensModel::kEquidistant) << text;
     ExpectSameIntrinsics(back->intrinsics, fisheye);
@@ -253,8 +253,8 @@ TEST(CameraIo, ReadsAndWritesFisheyeLensesInEveryLayout) {
   fs << "image_width" << 1280 << "image_height" << 800 << "camera_matrix" << fisheye.CameraMatrix()
      << "distortion_coefficients" << fisheye.DistortionCoeffs() << "fisheye_model" << 1;
   std::string error;
-  auto opencv = config::ParseCameraFile(fs.releaseAndGetString(), "opencv.yaml", &error);
-  ASSERT_TRUE(opencv) << error;
+  auto opencv = config::ParseCameraFile(fs.releaseAndGetString(), "opencv.yaml");
+  ASSERT_TRUE(opencv) << opencv.message;
   EXPECT_EQ(opencv->intrinsics.lens, vision::LensModel::kEquidistant);
   ExpectSameIntrinsics(opencv->intrinsics, fisheye);
   // Kalibr's camchain.yaml, as kalibr_calibrate_cameras writes it.
@@ -267,20 +267,20 @@ TEST(CameraIo, ReadsAndWritesFisheyeLensesInEveryLayout) {
   resolution: [1280, 800]
   rostopic: /cam0/image_raw
 )";
-  auto kalibr = config::ParseCameraFile(camchain, "camchain.yaml", &error);
-  ASSERT_TRUE(kalibr) << error;
+  auto kalibr = config::ParseCameraFile(camchain, "camchain.yaml");
+  ASSERT_TRUE(kalibr) << kalibr.message;
   EXPECT_EQ(kalibr->intrinsics.lens, vision::LensModel::kEquidistant);
   ExpectSameIntrinsics(kalibr->intrinsics, fisheye);
-  auto radtan = config::ParseCameraFile(Replace(camchain, "equidistant", "radtan"), "camchain.yaml", &error);
-  ASSERT_TRUE(radtan) << error;
+  auto radtan = config::ParseCameraFile(Replace(camchain, "equidistant", "radtan"), "camchain.yaml");
+  ASSERT_TRUE(radtan) << radtan.message;
   EXPECT_EQ(radtan->intrinsics.lens, vision::LensModel::kPlumbBob);
   EXPECT_DOUBLE_EQ(radtan->intrinsics.distortion[2], -0.0015);  // Kalibr's r1 is OpenCV's p1
   // Bad input names the key.
-  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, "pinhole", "omni"), "camchain.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(camchain, "pinhole", "omni"), "camchain.yaml"));
   EXPECT_EQ(error.rfind("camchain.yaml: cam0.camera_model: 'omni' is not supported", 0), 0u) << error;
-  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, "equidistant", "fov"), "camchain.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(camchain, "equidistant", "fov"), "camchain.yaml"));
   EXPECT_EQ(error.rfind("camchain.yaml: cam0.distortion_model: 'fov' is not supported", 0), 0u) << error;
-  EXPECT_FALSE(config::ParseCameraFile(Replace(camchain, ", 0.0002]", "]"), "camchain.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(camchain, ", 0.0002]", "]"), "camchain.yaml"));
   EXPECT_EQ(error.rfind("camchain.yaml: cam0.distortion_coeffs: expected a list of 4 numbers", 0), 0u) << error;
 }
 
@@ -301,8 +301,8 @@ distortion_model: radial-tangential
 distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
 )";
   std::string error;
-  const auto file = config::ParseCameraFile(sensor, "sensor.yaml", &error);
-  ASSERT_TRUE(file) << error;
+  const auto file = config::ParseCameraFile(sensor, "sensor.yaml");
+  ASSERT_TRUE(file) << file.message;
   const Intrinsics& in = file->intrinsics;
   EXPECT_EQ(in.lens, vision::LensModel::kPlumbBob);
   EXPECT_EQ(in.width, 752);
@@ -314,15 +314,15 @@ distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
   EXPECT_NEAR(in.distortion[0], -0.28340811, 1e-15);
   EXPECT_NEAR(in.distortion[3], 1.76187114e-05, 1e-18);  // radtan's r2 is OpenCV's p2
   EXPECT_NEAR(in.distortion[4], 0.0, 1e-18);
-  const auto equi = config::ParseCameraFile(Replace(sensor, "radial-tangential", "equidistant"), "sensor.yaml", &error);
-  ASSERT_TRUE(equi) << error;
+  const auto equi = config::ParseCameraFile(Replace(sensor, "radial-tangential", "equidistant"), "sensor.yaml");
+  ASSERT_TRUE(equi) << equi.message;
   EXPECT_EQ(equi->intrinsics.lens, vision::LensModel::kEquidistant);
   // Bad input names the key.
-  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, "[752, 480]", "[752]"), "sensor.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(sensor, "[752, 480]", "[752]"), "sensor.yaml"));
   EXPECT_EQ(error, "sensor.yaml: camera.resolution: expected [width, height]");
-  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, ", 1.76187114e-05]", "]"), "sensor.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(sensor, ", 1.76187114e-05]", "]"), "sensor.yaml"));
   EXPECT_EQ(error.rfind("sensor.yaml: camera.distortion_coefficients: expected a list of 4 numbers", 0), 0u) << error;
-  EXPECT_FALSE(config::ParseCameraFile(Replace(sensor, "radial-tangential", "omni"), "sensor.yaml", &error));
+  error = test_util::ErrorOf(config::ParseCameraFile(Replace(sensor, "radial-tangential", "omni"), "sensor.yaml"));
   EXPECT_EQ(error.rfind("sensor.yaml: camera.distortion_model: 'omni' is not supported", 0), 0u) << error;
 }
 

@@ -46,8 +46,11 @@ std::string Write(const std::string& name, const std::string& text) {
 
 std::optional<config::ReplaySet> Read(const std::string& path, std::string* error,
                              const WheelParams& believed = Nominal()) {
-  const std::optional<config::ParamSpec> spec = config::ParseParamSpec(path, error);
-  if (!spec) return std::nullopt;
+  const Result<config::ParamSpec> spec = config::ParseParamSpec(path);
+  if (!spec) {
+    *error = spec.message;
+    return std::nullopt;
+  }
   Result<config::ReplaySet> set = config::ReadReplaySet(*spec, believed);
   if (!set) {
     *error = set.message;
@@ -197,16 +200,16 @@ TEST(ParamFiles, ExplainJsonFromOtherBeliefsGivesTheSamePhysicalRobot) {
 TEST(ParamFiles, NameEqualsFileNamesTheSet) {
   std::string error;
   const std::string path = Write("firmware2.yaml", report::FirmwareExportYaml(Corrected()));
-  const auto spec = config::ParseParamSpec("corrected=" + path, &error);
-  ASSERT_TRUE(spec) << error;
+  const auto spec = config::ParseParamSpec("corrected=" + path);
+  ASSERT_TRUE(spec) << spec.message;
   EXPECT_EQ(spec->name, "corrected");
   EXPECT_EQ(spec->path, path);
   // A path with '=' after a directory is a path, named by its stem.
-  const auto plain = config::ParseParamSpec("out/a=b/set.yaml", &error);
+  const auto plain = config::ParseParamSpec("out/a=b/set.yaml");
   ASSERT_TRUE(plain);
   EXPECT_EQ(plain->path, "out/a=b/set.yaml");
   EXPECT_EQ(plain->name, "set");
-  EXPECT_FALSE(config::ParseParamSpec("name=", &error));
+  error = test_util::ErrorOf(config::ParseParamSpec("name="));
   EXPECT_THAT(error, ::testing::HasSubstr("name=")) << error;
 }
 

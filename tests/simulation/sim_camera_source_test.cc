@@ -86,8 +86,7 @@ TEST(SimCameraSource, FramesAreStampedWithTimesTheRobotsClockHadAFramePeriodApar
 TEST(SimCameraSource, AClockThatStandsStillDoesNotHangTheCamera) {
   VirtualCamera v;
   ASSERT_TRUE(v.camera) << v.error;
-  sim::SimMotionBackend& backend = *v.backend;
-  auto& camera = v.camera;
+  auto& camera = v.camera;  // the robot (v.backend) is never stepped
   std::string error;
   const auto first = camera->Grab(&error);
   ASSERT_TRUE(first) << error;

@@ -39,8 +39,8 @@ void RunCheck(const CheckArgs& args) {
   std::vector<config::ParamSpec> specs;
   std::set<std::string> names = {"nominal"};
   for (const std::string& text : args.params) {
-    std::optional<config::ParamSpec> spec = config::ParseParamSpec(text, &error);
-    if (!spec) Fail("check", kExitBadInput, error);
+    const Result<config::ParamSpec> spec = config::ParseParamSpec(text);
+    if (!spec) Fail("check", kExitBadInput, spec.message);
     if (!names.insert(spec->name).second)
       Fail("check", kExitBadInput,
            "--params " + text + ": a set named '" + spec->name +

@@ -51,12 +51,11 @@ void RunImport(const ImportArgs& args) {
       continue;
     }
     const fs::path out = one ? fs::path(args.out) : fs::path(args.out) / category / set.filename();
-    std::string error;
-    const auto runs = config::ImportOptiodomSet(set, category, out, &error);
+    const Result<int> runs = config::ImportOptiodomSet(set, category, out);
     if (!runs) {
-      if (one) Fail(name, kExitBadInput, error);
-      std::fprintf(stderr, "odocal import optiodom: %s/%s not imported: %s\n", category.c_str(),
-                   set.filename().c_str(), error.c_str());
+      if (one) Fail(name, runs.status == StatusCode::kIoError ? kExitFailure : kExitBadInput, runs.message);
+      std::fprintf(stderr, "odocal import optiodom: %s/%s not imported: %s\n", category.c_str(), set.filename().c_str(),
+                   runs.message.c_str());
       failed.push_back(category + "/" + set.filename().string());
       continue;
     }

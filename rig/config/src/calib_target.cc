@@ -12,8 +12,11 @@
 
 namespace odocal::config {
 
-std::optional<vision::CalibrationBoard> ParseCalibrationTarget(const std::string& text, const std::string& name,
-                                                               std::string* error) {
+namespace {
+
+// The parser: the board, or nullopt with one error line.
+std::optional<vision::CalibrationBoard> ParseTargetText(const std::string& text, const std::string& name,
+                                                        std::string* error) {
   using namespace yaml_util;
   YAML::Node root;
   try {
@@ -70,6 +73,15 @@ std::optional<vision::CalibrationBoard> ParseCalibrationTarget(const std::string
   }
 }
 
+}  // namespace
+
+Result<vision::CalibrationBoard> ParseCalibrationTarget(const std::string& text, const std::string& name) {
+  std::string error;
+  std::optional<vision::CalibrationBoard> board = ParseTargetText(text, name, &error);
+  if (!board) return Result<vision::CalibrationBoard>::Error(StatusCode::kBadFile, error);
+  return Result<vision::CalibrationBoard>::Ok(std::move(*board));
+}
+
 Result<vision::CalibrationBoard> ReadCalibrationTarget(const std::string& path) {
   return ReadFileAs<vision::CalibrationBoard>(path, [&](std::string* error) -> std::optional<vision::CalibrationBoard> {
     std::ifstream in(path, std::ios::binary);
@@ -79,7 +91,7 @@ Result<vision::CalibrationBoard> ReadCalibrationTarget(const std::string& path) 
     }
     std::stringstream buffer;
     buffer << in.rdbuf();
-    return ParseCalibrationTarget(buffer.str(), path, error);
+    return ParseTargetText(buffer.str(), path, error);
   });
 }
 

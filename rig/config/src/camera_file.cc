@@ -292,8 +292,10 @@ std::optional<CameraFileFormat> ParseCameraFileFormat(const std::string& name) {
   return std::nullopt;
 }
 
-std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::string& name,
-                                          std::string* error) {
+namespace {
+
+// The parser: the value, or nullopt with one error line.
+std::optional<CameraFile> ParseCameraText(const std::string& text, const std::string& name, std::string* error) {
   auto fail = [&](const std::string& message) -> std::optional<CameraFile> {
     if (error) *error = name + ": " + message;
     return std::nullopt;
@@ -320,9 +322,7 @@ std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::st
   }
 }
 
-namespace {
-
-// The parser; the public function wraps its error line in a Result.
+// The reader; the public function wraps its error line in a Result.
 std::optional<CameraFile> ReadCameraFileOrError(const std::string& path, std::string* error) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
@@ -331,10 +331,17 @@ std::optional<CameraFile> ReadCameraFileOrError(const std::string& path, std::st
   }
   std::stringstream buffer;
   buffer << in.rdbuf();
-  return ParseCameraFile(buffer.str(), path, error);
+  return ParseCameraText(buffer.str(), path, error);
 }
 
 }  // namespace
+
+Result<CameraFile> ParseCameraFile(const std::string& text, const std::string& name) {
+  std::string error;
+  std::optional<CameraFile> file = ParseCameraText(text, name, &error);
+  if (!file) return Result<CameraFile>::Error(StatusCode::kBadFile, error);
+  return Result<CameraFile>::Ok(std::move(*file));
+}
 
 std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
   const vision::Intrinsics& in = file.intrinsics;

@@ -175,8 +175,13 @@ std::optional<ConvertedRun> ConvertRun(const std::string& path, const std::strin
 
 }  // namespace
 
-std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string& category,
-                                     const fs::path& out_dir, std::string* error) {
+namespace {
+
+// The import: the number of runs, or nullopt with one error line and its
+// code (kBadFile unless the output could not be written).
+std::optional<int> ImportSet(const fs::path& set_dir, const std::string& category, const fs::path& out_dir,
+                             std::string* error, StatusCode* code) {
+  *code = StatusCode::kBadFile;
   const std::string set = set_dir.filename().string();
   const auto meta = ReadMetadata((set_dir / (set + "_metadata.csv")).string(), error);
   if (!meta || meta->type != "diff") return std::nullopt;
@@ -193,6 +198,7 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
   }
   if (auto e = EnsureDirectory(out_dir.string())) {
     *error = *e;
+    *code = StatusCode::kIoError;
     return std::nullopt;
   }
   Session session;
@@ -211,11 +217,6 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
     char nn[16];
     std::snprintf(nn, sizeof(nn), "%02d", k);
     const fs::path source = set_dir / (set + "_run-" + nn + ".csv");
-    if (!fs::exists(source)) {
-      *error = source.string() + ": no such file (the metadata says N = " +
-               std::to_string(meta->runs) + ")";
-      return std::nullopt;
-    }
     SessionRun run;
     run.name = category + "_run" + nn;
     run.poses = (out_dir / (std::string("run") + nn + ".poses.csv")).string();
@@ -238,6 +239,7 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
           " (see SOURCE.md)"};
   if (auto e = WriteSession(session, session.path, comment)) {
     *error = *e;
+    *code = StatusCode::kIoError;
     return std::nullopt;
   }
   const std::string source_md =
@@ -250,9 +252,20 @@ std::optional<int> ImportOptiodomSet(const fs::path& set_dir, const std::string&
       "parameters from `" + set + "_metadata.csv` (Di right, left; Li; encRes x ngear).\n";
   if (auto e = WriteFileAtomically((out_dir / "SOURCE.md").string(), source_md)) {
     *error = *e;
+    *code = StatusCode::kIoError;
     return std::nullopt;
   }
   return meta->runs;
+}
+
+}  // namespace
+
+Result<int> ImportOptiodomSet(const fs::path& set_dir, const std::string& category, const fs::path& out_dir) {
+  std::string error;
+  StatusCode code = StatusCode::kBadFile;
+  const std::optional<int> runs = ImportSet(set_dir, category, out_dir, &error, &code);
+  if (!runs) return Result<int>::Error(code, error);
+  return Result<int>::Ok(*runs);
 }
 
 std::string OptiodomRobotType(const fs::path& set_dir) {

@@ -166,10 +166,9 @@ calibration::WheelParams ReplaySet::Equivalent(const calibration::WheelParams& b
   return p;
 }
 
-std::optional<ParamSpec> ParseParamSpec(const std::string& text, std::string* error) {
-  auto fail = [&](const std::string& m) -> std::optional<ParamSpec> {
-    if (error) *error = "--params " + text + ": " + m;
-    return std::nullopt;
+Result<ParamSpec> ParseParamSpec(const std::string& text) {
+  auto fail = [&](const std::string& m) {
+    return Result<ParamSpec>::Error(StatusCode::kInvalidArgument, "--params " + text + ": " + m);
   };
   ParamSpec spec;
   const size_t eq = text.find('=');
@@ -184,7 +183,7 @@ std::optional<ParamSpec> ParseParamSpec(const std::string& text, std::string* er
   }
   if (spec.path.empty()) return fail("no file (NAME=FILE or FILE)");
   if (spec.name.empty()) return fail("no name; write NAME=FILE");
-  return spec;
+  return Result<ParamSpec>::Ok(std::move(spec));
 }
 
 ReplaySet NominalReplaySet() {

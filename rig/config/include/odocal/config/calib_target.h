@@ -25,9 +25,8 @@
 
 namespace odocal::config {
 
-// `name` prefixes the error line ("FILE:LINE: key: what").
-std::optional<vision::CalibrationBoard> ParseCalibrationTarget(const std::string& text, const std::string& name,
-                                                               std::string* error);
+// `name` prefixes the error line ("FILE:LINE: key: what"); kBadFile when it does not parse.
+Result<vision::CalibrationBoard> ParseCalibrationTarget(const std::string& text, const std::string& name);
 Result<vision::CalibrationBoard> ReadCalibrationTarget(const std::string& path);
 
 // One corner of yac's aprilgrid detections, the per-frame CSV yac writes

@@ -62,9 +62,8 @@ struct CameraFile {
 };
 
 // Parses the text of a camera file; `name` is the path used in messages.
-// An error (kNotFound, or kBadFile with one line naming the file and key) otherwise.
-std::optional<CameraFile> ParseCameraFile(const std::string& text, const std::string& name,
-                                          std::string* error);
+// kBadFile with one line naming the file and key when it does not parse.
+Result<CameraFile> ParseCameraFile(const std::string& text, const std::string& name);
 // Reads and parses `path`.
 Result<CameraFile> ReadCameraFile(const std::string& path);
 

@@ -23,6 +23,8 @@
 #include <optional>
 #include <string>
 
+#include "odocal/base/status.h"
+
 namespace odocal::config {
 
 // Whether `dir` is one OptiOdom set (a folder <set> holding <set>_metadata.csv).
@@ -35,10 +37,11 @@ std::string OptiodomRobotType(const std::filesystem::path& set_dir);
 
 // Converts the set in `set_dir` (of `category`: square, circular, ...) into a
 // pose-log session in `out_dir` (session.yaml, poses and telemetry per run,
-// SOURCE.md with the attribution). The number of runs, or nullopt with one
-// error line naming the file (also for a set of another robot type).
-std::optional<int> ImportOptiodomSet(const std::filesystem::path& set_dir, const std::string& category,
-                                     const std::filesystem::path& out_dir, std::string* error);
+// SOURCE.md with the attribution). The number of runs, or kBadFile with one
+// line naming the file (also for a set of another robot type; kIoError when
+// the output cannot be written).
+Result<int> ImportOptiodomSet(const std::filesystem::path& set_dir, const std::string& category,
+                              const std::filesystem::path& out_dir);
 
 }  // namespace odocal::config
 

@@ -58,9 +58,10 @@ struct ParamSpec {
   std::string path;
 };
 
-// nullopt + error for an empty name or path. A NAME is letters, digits, '_',
-// '-' and '.'; text whose part before the first '=' is not one is a path.
-std::optional<ParamSpec> ParseParamSpec(const std::string& text, std::string* error);
+// kInvalidArgument naming `--params TEXT` for an empty name or path. A NAME is
+// letters, digits, '_', '-' and '.'; text whose part before the first '=' is
+// not one is a path.
+Result<ParamSpec> ParseParamSpec(const std::string& text);
 
 // The session's own parameters: scales 1, no effect.
 ReplaySet NominalReplaySet();

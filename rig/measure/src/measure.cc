@@ -31,11 +31,11 @@ std::vector<calibration::TelemetryRecord> ReadTelemetry(const std::string& path,
                                                         const calibration::WheelParams& nominal,
                                                         std::vector<RunFlag>* flags) {
   if (path.empty()) return {};
-  std::string error;
-  auto records = ReadTelemetryCsv(path, nominal, &error);
-  if (records) return *records;
+  auto records = ReadTelemetryCsv(path, nominal);
+  if (records) return std::move(*records);
   flags->push_back(RunFlag::Of(
-      std::ifstream(path) ? RunFlagKind::kTelemetryMalformed : RunFlagKind::kTelemetryUnreadable, error));
+      records.status == StatusCode::kNotFound ? RunFlagKind::kTelemetryUnreadable : RunFlagKind::kTelemetryMalformed,
+      records.message));
   return {};
 }
 

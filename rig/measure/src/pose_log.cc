@@ -159,21 +159,19 @@ double Variation(const std::vector<double>& values, double step) {
 
 }  // namespace
 
-std::optional<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path, std::string* error) {
+Result<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path) {
+  using Rows = Result<std::vector<PoseLogRow>>;
+  const auto fail = [](std::string message) { return Rows::Error(StatusCode::kBadFile, std::move(message)); };
   std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot read the pose log";
-    return std::nullopt;
-  }
+  if (!in) return Rows::Error(StatusCode::kNotFound, path + ": cannot read the pose log");
   std::string line;
   if (!std::getline(in, line)) {
-    *error = path + ": empty pose log (expected a header t_s,x_mm,y_mm,heading_deg[,valid])";
-    return std::nullopt;
+    return fail(path + ": empty pose log (expected a header t_s,x_mm,y_mm,heading_deg[,valid])");
   }
   std::vector<std::string> columns;
-  if (!CheckHeader(path, line, {"t_s", "x_mm", "y_mm", "heading_deg"}, {"valid"}, false, &columns,
-                   error))
-    return std::nullopt;
+  std::string header_error;
+  if (!CheckHeader(path, line, {"t_s", "x_mm", "y_mm", "heading_deg"}, {"valid"}, false, &columns, &header_error))
+    return fail(header_error);
   const size_t n_columns = columns.size();
   std::vector<PoseLogRow> rows;
   int line_no = 1;
@@ -182,64 +180,57 @@ std::optional<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path, std:
     if (Trim(line).empty()) continue;
     const std::vector<std::string> fields = SplitFields(line);
     if (fields.size() != n_columns) {
-      *error = Where(path, line_no) + ": expected " + std::to_string(n_columns) + " fields (" +
-               JoinNames(columns) + "), got " + std::to_string(fields.size());
-      return std::nullopt;
+      return fail(Where(path, line_no) + ": expected " + std::to_string(n_columns) + " fields (" + JoinNames(columns) +
+                  "), got " + std::to_string(fields.size()));
     }
     double v[5] = {0.0, 0.0, 0.0, 0.0, 1.0};
     for (size_t i = 0; i < n_columns; ++i) {
       if (!ParseNumber(fields[i], &v[i])) {
-        *error = Where(path, line_no, static_cast<int>(i) + 1) + ": column " + columns[i] +
-                 ": not a number: '" + fields[i] + "'";
-        return std::nullopt;
+        return fail(Where(path, line_no, static_cast<int>(i) + 1) + ": column " + columns[i] + ": not a number: '" +
+                    fields[i] + "'");
       }
     }
     PoseLogRow row;
     row.line = line_no;
     row.t_s = v[0];
     if (!std::isfinite(row.t_s)) {
-      *error = Where(path, line_no, 1) + ": column t_s: not a finite time: '" + fields[0] + "'";
-      return std::nullopt;
+      return fail(Where(path, line_no, 1) + ": column t_s: not a finite time: '" + fields[0] + "'");
     }
     if (n_columns == 5 && v[4] != 0.0 && v[4] != 1.0) {
-      *error = Where(path, line_no, 5) + ": column valid: expected 0 or 1, got '" + fields[4] + "'";
-      return std::nullopt;
+      return fail(Where(path, line_no, 5) + ": column valid: expected 0 or 1, got '" + fields[4] + "'");
     }
     row.nan = !std::isfinite(v[1]) || !std::isfinite(v[2]) || !std::isfinite(v[3]);
     row.valid = v[4] != 0.0 && !row.nan;
     if (!row.nan)
       row.T_world_body = Pose2::FromXYHeading(v[1] * kMmToM, v[2] * kMmToM, v[3] * kDegToRad);
     if (!rows.empty() && !(row.t_s > rows.back().t_s)) {
-      *error = Where(path, line_no, 1) + ": t_s " + fields[0] +
-               (row.t_s == rows.back().t_s ? " duplicates" : " is before") + " line " +
-               std::to_string(rows.back().line) + "'s (timestamps must increase strictly)";
-      return std::nullopt;
+      return fail(Where(path, line_no, 1) + ": t_s " + fields[0] +
+                  (row.t_s == rows.back().t_s ? " duplicates" : " is before") + " line " +
+                  std::to_string(rows.back().line) + "'s (timestamps must increase strictly)");
     }
     rows.push_back(row);
   }
   if (rows.empty()) {
-    *error = path + ": no rows after the header";
-    return std::nullopt;
+    return fail(path + ": no rows after the header");
   }
-  return rows;
+  return Rows::Ok(std::move(rows));
 }
 
-std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
-    const std::string& path, const calibration::WheelParams& nominal, std::string* error) {
+Result<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(const std::string& path,
+                                                                   const calibration::WheelParams& nominal) {
+  using Records = Result<std::vector<calibration::TelemetryRecord>>;
+  const auto fail = [](std::string message) { return Records::Error(StatusCode::kBadFile, std::move(message)); };
   std::ifstream in(path);
-  if (!in) {
-    *error = path + ": cannot read the telemetry";
-    return std::nullopt;
-  }
+  if (!in) return Records::Error(StatusCode::kNotFound, path + ": cannot read the telemetry");
   std::string line;
   if (!std::getline(in, line)) {
-    *error = path + ": empty telemetry (expected a header t_s,left_ticks,right_ticks,...)";
-    return std::nullopt;
+    return fail(path + ": empty telemetry (expected a header t_s,left_ticks,right_ticks,...)");
   }
   std::vector<std::string> columns;
-  if (!CheckHeader(path, line, {"t_s", "left_ticks", "right_ticks"},
-                   {"x_mm", "y_mm", "heading_deg"}, true, &columns, error))
-    return std::nullopt;
+  std::string header_error;
+  if (!CheckHeader(path, line, {"t_s", "left_ticks", "right_ticks"}, {"x_mm", "y_mm", "heading_deg"}, true, &columns,
+                   &header_error))
+    return fail(header_error);
   const bool has_odometry = columns.size() >= 6 && columns[3] == "x_mm" && columns[4] == "y_mm" &&
                             columns[5] == "heading_deg";
   const size_t used = has_odometry ? 6 : 3;
@@ -251,16 +242,14 @@ std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
     if (Trim(line).empty()) continue;
     const std::vector<std::string> fields = SplitFields(line);
     if (fields.size() != columns.size()) {
-      *error = Where(path, line_no) + ": expected " + std::to_string(columns.size()) +
-               " fields (" + JoinNames(columns) + "), got " + std::to_string(fields.size());
-      return std::nullopt;
+      return fail(Where(path, line_no) + ": expected " + std::to_string(columns.size()) + " fields (" +
+                  JoinNames(columns) + "), got " + std::to_string(fields.size()));
     }
     double v[6] = {};
     for (size_t i = 0; i < used; ++i) {
       if (!ParseNumber(fields[i], &v[i]) || !std::isfinite(v[i])) {
-        *error = Where(path, line_no, static_cast<int>(i) + 1) + ": column " + columns[i] +
-                 ": not a number: '" + fields[i] + "'";
-        return std::nullopt;
+        return fail(Where(path, line_no, static_cast<int>(i) + 1) + ": column " + columns[i] + ": not a number: '" +
+                    fields[i] + "'");
       }
     }
     calibration::TelemetryRecord r;
@@ -268,9 +257,8 @@ std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
     r.left_ticks = std::llround(v[1]);
     r.right_ticks = std::llround(v[2]);
     if (!records.empty() && !(r.t_s > records.back().t_s)) {
-      *error = Where(path, line_no, 1) + ": t_s " + fields[0] +
-               " is not after the previous row's (timestamps must increase strictly)";
-      return std::nullopt;
+      return fail(Where(path, line_no, 1) + ": t_s " + fields[0] +
+                  " is not after the previous row's (timestamps must increase strictly)");
     }
     if (has_odometry) {
       r.odometry = Pose2::FromXYHeading(v[3] * kMmToM, v[4] * kMmToM, v[5] * kDegToRad);
@@ -286,10 +274,9 @@ std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
     records.push_back(r);
   }
   if (records.size() < 2) {
-    *error = path + ": fewer than two telemetry rows";
-    return std::nullopt;
+    return fail(path + ": fewer than two telemetry rows");
   }
-  return records;
+  return Records::Ok(std::move(records));
 }
 
 bool PoseLogOptions::IsValid(std::string* why) const {
@@ -319,10 +306,16 @@ namespace {
 std::optional<std::vector<PoseLogRow>> ReadRunSpan(const config::SessionRun& run,
                                                    const calibration::WheelParams& nominal, calibration::MeasuredRun* m,
                                                    PoseLogStats* stats, std::string* error) {
-  const auto rows = ReadPoseLog(run.poses, error);
-  if (!rows) return std::nullopt;
-  const auto telemetry = ReadTelemetryCsv(run.telemetry, nominal, error);
-  if (!telemetry) return std::nullopt;
+  const auto rows = ReadPoseLog(run.poses);
+  if (!rows) {
+    *error = rows.message;
+    return std::nullopt;
+  }
+  const auto telemetry = ReadTelemetryCsv(run.telemetry, nominal);
+  if (!telemetry) {
+    *error = telemetry.message;
+    return std::nullopt;
+  }
   m->telemetry = *telemetry;
   // A telemetry file shared by several runs: the run's span of it (the two
   // clocks share an origin, as below; 0.1 s either side for a small offset).

@@ -171,8 +171,11 @@ bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions
     const std::vector<config::SessionRun*>& runs = groups[path];
     const bool lone_auto = IsLoneAutoRun(runs);
     if (runs.size() < 2 && !lone_auto) continue;
-    const auto rows = ReadPoseLog(path, error);
-    if (!rows) return false;
+    const auto rows = ReadPoseLog(path);
+    if (!rows) {
+      *error = rows.message;
+      return false;
+    }
     std::vector<calibration::PoseSample> samples;
     samples.reserve(rows->size());
     for (const PoseLogRow& r : *rows) samples.push_back({r.t_s, r.T_world_body, r.valid});

@@ -290,10 +290,9 @@ class CommandDriver final : public ExternalDriver {
   std::vector<DriverTelemetry> TakeTelemetry(std::string* note) override {
     std::vector<DriverTelemetry> out;
     if (telemetry_path_.empty() || !std::filesystem::exists(telemetry_path_)) return out;
-    std::string error;
-    const auto records = measure::ReadTelemetryCsv(telemetry_path_, robot_link::ToWheelParams(options_.params), &error);
+    const auto records = measure::ReadTelemetryCsv(telemetry_path_, robot_link::ToWheelParams(options_.params));
     if (!records) {
-      if (note) *note = "telemetry not used: " + error;
+      if (note) *note = "telemetry not used: " + records.message;
       return out;
     }
     for (const calibration::TelemetryRecord& r : *records)

@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
@@ -50,18 +51,19 @@ struct PoseLogRow {
   bool nan = false;  // a NaN (or infinite) field made the frame invalid
 };
 
-// Reads a pose log. nullopt with `error` = "FILE:LINE[:COLUMN]: what" on any
-// malformed header or row, or out-of-order / duplicate timestamps.
-std::optional<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path, std::string* error);
+// Reads a pose log. kBadFile with "FILE:LINE[:COLUMN]: what" on any malformed
+// header or row, or out-of-order / duplicate timestamps; kNotFound when it
+// cannot be opened.
+Result<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path);
 
 // Reads a telemetry CSV: header starting `t_s,left_ticks,right_ticks`, then
 // optionally `x_mm,y_mm,heading_deg` (the robot's believed odometry) and any
 // further columns (ignored). Cumulative ticks, robot clock. Without the
 // odometry columns the odometry is dead reckoned from the ticks with
 // `nominal` along exact arcs (calibration/arc.h), starting at the origin.
-// nullopt with `error` naming file and line.
-std::optional<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(
-    const std::string& path, const calibration::WheelParams& nominal, std::string* error);
+// kBadFile naming file and line (kNotFound when it cannot be opened).
+Result<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(const std::string& path,
+                                                                   const calibration::WheelParams& nominal);
 
 struct PoseLogOptions {
   calibration::RestOptions rest;

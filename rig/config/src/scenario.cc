@@ -66,77 +66,83 @@ sim::RobotConfig ParseRobot(const YAML::Node& node) {
   return c;
 }
 
-CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
+// camera: its image size, focal lengths, principal point and lens.
+void ParseCameraLens(const YAML::Node& node, CameraScenario* c) {
   const std::string path = "camera";
-  CheckKeys(node, path,
-            {"width", "height", "fx", "fy", "cx", "cy", "distortion", "distortion_model", "pose", "fps", "noise_sigma",
-             "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
-             "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag",
-             "floor_tags", "one_video"});
-  CameraScenario c;
-  if (node["one_video"]) c.one_video = Bool(node["one_video"], "camera.one_video");
   auto whole = [&](const char* key) {
     if (!node[key]) Fail(node, Join(path, key), "missing (required)");
     const long long v = Integer(node[key], Join(path, key));
     if (v <= 0 || v > 20000) Fail(node[key], Join(path, key), "must be a positive pixel count");
     return static_cast<int>(v);
   };
-  c.intrinsics.width = whole("width");
-  c.intrinsics.height = whole("height");
-  c.intrinsics.fx = Positive(RequiredNumber(node, path, "fx"), node["fx"], "camera.fx");
-  c.intrinsics.fy = Positive(RequiredNumber(node, path, "fy"), node["fy"], "camera.fy");
-  c.intrinsics.cx = RequiredNumber(node, path, "cx");
-  c.intrinsics.cy = RequiredNumber(node, path, "cy");
+  c->intrinsics.width = whole("width");
+  c->intrinsics.height = whole("height");
+  c->intrinsics.fx = Positive(RequiredNumber(node, path, "fx"), node["fx"], "camera.fx");
+  c->intrinsics.fy = Positive(RequiredNumber(node, path, "fy"), node["fy"], "camera.fy");
+  c->intrinsics.cx = RequiredNumber(node, path, "cx");
+  c->intrinsics.cy = RequiredNumber(node, path, "cy");
   if (const YAML::Node m = node["distortion_model"]) {
     const auto lens = vision::ParseLensModel(m.IsScalar() ? m.Scalar() : "");
     if (!lens) Fail(m, "camera.distortion_model", "expected plumb_bob or equidistant");
-    c.intrinsics.lens = *lens;
+    c->intrinsics.lens = *lens;
   }
-  const bool equidistant = c.intrinsics.lens == vision::LensModel::kEquidistant;
+  const bool equidistant = c->intrinsics.lens == vision::LensModel::kEquidistant;
   if (const YAML::Node d = node["distortion"]) {
     if (equidistant && (!d.IsSequence() || d.size() != 4))
       Fail(d, "camera.distortion", "expected a list of 4 numbers [k1, k2, k3, k4] (equidistant)");
     if (!d.IsSequence() || d.size() < 4 || d.size() > 5)
       Fail(d, "camera.distortion", "expected a list of 4 or 5 numbers [k1, k2, p1, p2, k3]");
     for (size_t i = 0; i < d.size(); ++i)
-      c.intrinsics.distortion[i] = Number(d[i], "camera.distortion[" + std::to_string(i) + "]");
+      c->intrinsics.distortion[i] = Number(d[i], "camera.distortion[" + std::to_string(i) + "]");
   }
   std::string why;
-  if (!c.intrinsics.IsValid(&why)) Fail(node, path, why);
+  if (!c->intrinsics.IsValid(&why)) Fail(node, path, why);
+}
+
+// camera.pose: where the camera hangs and how it is turned.
+void ParseCameraPose(const YAML::Node& node, CameraScenario* c) {
   if (!node["pose"]) Fail(node, "camera.pose", "missing (required)");
   const YAML::Node pose = node["pose"];
   CheckKeys(pose, "camera.pose", {"x_mm", "y_mm", "height_mm", "roll_deg", "pitch_deg", "yaw_deg"});
-  c.mount.x_mm = OptionalNumber(pose, "camera.pose", "x_mm", 0.0);
-  c.mount.y_mm = OptionalNumber(pose, "camera.pose", "y_mm", 0.0);
-  c.mount.height_mm =
+  c->mount.x_mm = OptionalNumber(pose, "camera.pose", "x_mm", 0.0);
+  c->mount.y_mm = OptionalNumber(pose, "camera.pose", "y_mm", 0.0);
+  c->mount.height_mm =
       Positive(RequiredNumber(pose, "camera.pose", "height_mm"), pose["height_mm"], "camera.pose.height_mm");
-  c.mount.roll_deg = OptionalNumber(pose, "camera.pose", "roll_deg", 0.0);
-  c.mount.pitch_deg = OptionalNumber(pose, "camera.pose", "pitch_deg", 0.0);
-  c.mount.yaw_deg = OptionalNumber(pose, "camera.pose", "yaw_deg", 0.0);
-  c.fps = OptionalNumber(node, path, "fps", 30.0);
-  if (!(c.fps > 0.0) || c.fps > 1000.0) Fail(node["fps"], "camera.fps", "must be in (0, 1000]");
-  c.render.noise_sigma = OptionalNumber(node, path, "noise_sigma", 2.0);
-  if (c.render.noise_sigma < 0.0) Fail(node["noise_sigma"], "camera.noise_sigma", "must not be negative");
-  c.render.blur_sigma_px = OptionalNumber(node, path, "blur_sigma_px", 0.8);
-  if (c.render.blur_sigma_px < 0.0)
-    Fail(node["blur_sigma_px"], "camera.blur_sigma_px", "must not be negative");
-  c.render.exposure_s = OptionalNumber(node, path, "exposure_ms", 4.0) * 1e-3;
-  if (c.render.exposure_s < 0.0 || c.render.exposure_s * c.fps > 1.0)
+  c->mount.roll_deg = OptionalNumber(pose, "camera.pose", "roll_deg", 0.0);
+  c->mount.pitch_deg = OptionalNumber(pose, "camera.pose", "pitch_deg", 0.0);
+  c->mount.yaw_deg = OptionalNumber(pose, "camera.pose", "yaw_deg", 0.0);
+}
+
+// camera: frame rate, the renderer's noise, blur and exposure, and crf.
+void ParseCameraExposure(const YAML::Node& node, std::uint64_t seed, CameraScenario* c) {
+  const std::string path = "camera";
+  c->fps = OptionalNumber(node, path, "fps", 30.0);
+  if (!(c->fps > 0.0) || c->fps > 1000.0) Fail(node["fps"], "camera.fps", "must be in (0, 1000]");
+  c->render.noise_sigma = OptionalNumber(node, path, "noise_sigma", 2.0);
+  if (c->render.noise_sigma < 0.0) Fail(node["noise_sigma"], "camera.noise_sigma", "must not be negative");
+  c->render.blur_sigma_px = OptionalNumber(node, path, "blur_sigma_px", 0.8);
+  if (c->render.blur_sigma_px < 0.0) Fail(node["blur_sigma_px"], "camera.blur_sigma_px", "must not be negative");
+  c->render.exposure_s = OptionalNumber(node, path, "exposure_ms", 4.0) * 1e-3;
+  if (c->render.exposure_s < 0.0 || c->render.exposure_s * c->fps > 1.0)
     Fail(node["exposure_ms"], "camera.exposure_ms", "must be between 0 and one frame period");
-  c.render.seed = seed;
+  c->render.seed = seed;
   if (node["crf"]) {
     const long long crf = Integer(node["crf"], "camera.crf");
     if (crf < 0 || crf > 51) Fail(node["crf"], "camera.crf", "must be 0 to 51 (x264 CRF)");
-    c.crf = static_cast<int>(crf);
+    c->crf = static_cast<int>(crf);
     // A camera that records H.264 at this CRF: inter-coded, as cameras do
     // (the same as `codec: {h264: CRF}`).
-    c.x264_preset = "veryfast";
-    c.keyint = 0;
+    c->x264_preset = "veryfast";
+    c->keyint = 0;
   }
+}
+
+void ParseImageFormation(const YAML::Node& node, CameraScenario* c) {
+  const std::string path = "camera";
+  vision::ImageFormationOptions& f = c->render.formation;
   // Image formation of a real camera (vision/image_formation.h):
   // a named profile, then any part given here on top of it. Without any of
   // these keys the renderer and the video are exactly as before.
-  vision::ImageFormationOptions& f = c.render.formation;
   if (node["profile"]) {
     const std::string name = String(node["profile"], "camera.profile");
     const auto preset = vision::ImageFormationPreset(name);
@@ -188,25 +194,33 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   // The video file is H.264 either way: MJPEG is applied frame by frame in
   // the renderer and then stored losslessly (CRF 0), so it is not coded twice.
   if (f.codec.kind == vision::CodecOptions::Kind::kH264) {
-    c.crf = f.codec.crf;
-    c.x264_preset = "veryfast";
-    c.keyint = 0;
+    c->crf = f.codec.crf;
+    c->x264_preset = "veryfast";
+    c->keyint = 0;
   }
-  if (f.codec.kind == vision::CodecOptions::Kind::kMjpeg) c.crf = 0;
+  if (f.codec.kind == vision::CodecOptions::Kind::kMjpeg) c->crf = 0;
+}
+
+// camera.tag: the robot tag's print (scale, bow, black and white levels).
+void ParseCameraTag(const YAML::Node& node, CameraScenario* c) {
   if (const YAML::Node tag = node["tag"]) {
     CheckKeys(tag, "camera.tag", {"print_scale", "bow_mm", "black_level", "white_level"});
-    c.render.tag_bow_mm = OptionalNumber(tag, "camera.tag", "bow_mm", 0.0);
-    if (!(c.render.tag_bow_mm >= 0.0 && c.render.tag_bow_mm <= 50.0))
+    c->render.tag_bow_mm = OptionalNumber(tag, "camera.tag", "bow_mm", 0.0);
+    if (!(c->render.tag_bow_mm >= 0.0 && c->render.tag_bow_mm <= 50.0))
       Fail(tag["bow_mm"], "camera.tag.bow_mm", "must be in [0, 50] (mm the paper's middle rises)");
-    c.tag_print_scale = OptionalNumber(tag, "camera.tag", "print_scale", 1.0);
-    if (!(c.tag_print_scale > 0.5 && c.tag_print_scale < 2.0))
+    c->tag_print_scale = OptionalNumber(tag, "camera.tag", "print_scale", 1.0);
+    if (!(c->tag_print_scale > 0.5 && c->tag_print_scale < 2.0))
       Fail(tag["print_scale"], "camera.tag.print_scale", "must be in (0.5, 2)");
     // Reflectances, as fractions of the full-scale white (grey 255 at unit gain).
-    c.render.tag_black = 255.0 * OptionalNumber(tag, "camera.tag", "black_level", c.render.tag_black / 255.0);
-    c.render.tag_white = 255.0 * OptionalNumber(tag, "camera.tag", "white_level", c.render.tag_white / 255.0);
-    if (!(c.render.tag_black >= 0.0 && c.render.tag_black + 10.0 < c.render.tag_white))
+    c->render.tag_black = 255.0 * OptionalNumber(tag, "camera.tag", "black_level", c->render.tag_black / 255.0);
+    c->render.tag_white = 255.0 * OptionalNumber(tag, "camera.tag", "white_level", c->render.tag_white / 255.0);
+    if (!(c->render.tag_black >= 0.0 && c->render.tag_black + 10.0 < c->render.tag_white))
       Fail(tag, "camera.tag", "black_level must be >= 0 and well below white_level");
   }
+}
+
+// camera.floor_tags: tags taped to the floor, the station's floor reference.
+void ParseFloorTags(const YAML::Node& node, CameraScenario* c) {
   if (const YAML::Node floor = node["floor_tags"]) {
     const std::string fp = "camera.floor_tags";
     ExpectMap(floor, fp);
@@ -236,10 +250,51 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
         if (other.id == t.id) Fail(tags[i]["id"], Join(tp, "id"), "tag " + std::to_string(t.id) + " listed twice");
       ft.tags.push_back(t);
     }
-    c.floor_tags = ft;
+    c->floor_tags = ft;
   }
+}
+
+CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
+  const std::string path = "camera";
+  CheckKeys(node, path,
+            {"width",
+             "height",
+             "fx",
+             "fy",
+             "cx",
+             "cy",
+             "distortion",
+             "distortion_model",
+             "pose",
+             "fps",
+             "noise_sigma",
+             "blur_sigma_px",
+             "exposure_ms",
+             "crf",
+             "profile",
+             "psf",
+             "rolling_shutter_ms",
+             "bayer",
+             "gamma",
+             "vignetting",
+             "light_gradient",
+             "gain",
+             "sharpen",
+             "noise",
+             "codec",
+             "tag",
+             "floor_tags",
+             "one_video"});
+  CameraScenario c;
+  if (node["one_video"]) c.one_video = Bool(node["one_video"], "camera.one_video");
+  ParseCameraLens(node, &c);
+  ParseCameraPose(node, &c);
+  ParseCameraExposure(node, seed, &c);
+  ParseImageFormation(node, &c);
+  ParseCameraTag(node, &c);
+  ParseFloorTags(node, &c);
   std::string formation_why;
-  if (!f.IsValid(&formation_why)) Fail(node, path, formation_why);
+  if (!c.render.formation.IsValid(&formation_why)) Fail(node, path, formation_why);
   return c;
 }
 

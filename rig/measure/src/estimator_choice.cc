@@ -175,9 +175,157 @@ void ApplyChoiceRule(const EstimatorChoiceOptions& options, EstimatorChoice* cho
   }
 }
 
+namespace {
+
+// ChooseEstimator's steps, in order.
+
+// The pooled runs held out in turn: those with a measured pose to compare
+// the final pose with (the others are noted).
+std::vector<size_t> HeldOutRuns(const calibration::MeasuredSession& pooled, EstimatorChoice* choice) {
+  std::vector<size_t> folds;
+  for (size_t k = 0; k < pooled.runs.size(); ++k) {
+    const calibration::MeasuredRun& run = pooled.runs[k];
+    if (std::any_of(run.camera.begin(), run.camera.end(), [](const calibration::CameraRecord& c) { return c.valid; }))
+      folds.push_back(k);
+    else
+      choice->notes.push_back(run.name + ": no measured pose; not held out");
+  }
+  return folds;
+}
+
+// Fold by fold: each candidate fitted without the held-out run, which is
+// then replayed through it.
+struct Fold {
+  std::optional<calibration::WheelParams> params[kN];
+  std::string undefined[kN];
+  calibration::RunReplay replay[kN];
+};
+
+// Each fold's candidates, fitted without its run, and that run replayed
+// through each; in parallel within options.threads.
+std::vector<Fold> FitFolds(const std::vector<SessionMeasurement>& sessions, const calibration::MeasuredSession& pooled,
+                           const std::vector<std::pair<size_t, size_t>>& origin, const std::vector<size_t>& folds,
+                           const calibration::TrajectoryFitResult& full_fit, const EstimatorChoiceOptions& options,
+                           const std::vector<calibration::RunLeftOut>* left_out) {
+  const calibration::WheelParams& nominal = sessions.front().session.nominal;
+  std::vector<Fold> results(folds.size());
+  ParallelFor(folds.size(), static_cast<unsigned>(options.threads), [&](size_t i) {
+    const size_t k = folds[i];
+    Fold& f = results[i];
+    const auto [s, r] = origin[k];
+    f.params[0] = UmbmarkParams(Without(sessions, s, r));
+    if (!f.params[0]) f.undefined[0] = "UMBMark and CVRA give nothing";
+    if (left_out != nullptr && k < left_out->size() && (*left_out)[k].refitted) {
+      const calibration::RunLeftOut& o = (*left_out)[k];
+      if (o.determines_wheels)
+        f.params[1] = calibration::ApplyWheelScales(nominal, o.scales);
+      else
+        f.undefined[1] = "the trajectory fit: " + o.message;
+    } else {
+      const calibration::TrajectoryFitResult refit = RefitWithout(pooled, full_fit, k);
+      if (DeterminesWheels(refit))
+        f.params[1] = calibration::ApplyWheelScales(nominal, refit.scales);
+      else
+        f.undefined[1] = refit.ok() ? "the trajectory fit does not determine every wheel parameter"
+                                    : "the trajectory fit failed (" + refit.message + ")";
+    }
+    for (size_t c = 0; c < kN; ++c) {
+      if (!f.params[c]) continue;
+      const calibration::ReplayModel model{calibration::WheelScalesFrom(pooled.believed, *f.params[c]), {}};
+      f.replay[c] = calibration::ReplayRun(pooled.runs[k], pooled.believed, model, std::nullopt, options.replay);
+    }
+  });
+  return results;
+}
+
+// The replayed folds' errors, run by run, into the candidates' scores;
+// nullopt, or why leave-one-run-out cannot compare.
+std::optional<std::string> ScoreFolds(const calibration::MeasuredSession& pooled, const std::vector<size_t>& folds,
+                                      const std::vector<Fold>& results, EstimatorChoice* choice) {
+  for (size_t i = 0; i < folds.size(); ++i) {
+    const calibration::MeasuredRun& run = pooled.runs[folds[i]];
+    for (size_t c = 0; c < kN; ++c)
+      if (!results[i].params[c])
+        return std::string(ToString(kCandidates[c])) + " is undefined without run " + run.name + " (" +
+               results[i].undefined[c] + "), so leave-one-run-out cannot compare";
+  }
+  for (size_t i = 0; i < folds.size(); ++i) {
+    const calibration::MeasuredRun& run = pooled.runs[folds[i]];
+    const Fold& f = results[i];
+    std::string failed;
+    for (size_t c = 0; c < kN; ++c)
+      if (!f.replay[c].ok) failed = f.replay[c].message;
+    if (!failed.empty()) {
+      choice->notes.push_back(run.name + ": not scored (" + failed + ")");
+      continue;
+    }
+    choice->runs.push_back(run.name);
+    for (size_t c = 0; c < kN; ++c) {
+      choice->candidates[c].final_error_m.push_back(f.replay[c].final_position_error_m);
+      choice->candidates[c].rms_error_m.push_back(f.replay[c].rms_position_error_m);
+    }
+  }
+  return std::nullopt;
+}
+
+// Each candidate's mean, standard error and worst held-out error, and its
+// travel scale with the jackknife of it over every fold (scored or not:
+// each is the fit without one run).
+void SummariseCandidates(const calibration::WheelParams& nominal, const std::vector<Fold>& results,
+                         double camera_scale_sigma, EstimatorChoice* choice) {
+  for (CandidateScore& c : choice->candidates) {
+    c.mean_m = calibration::Mean(c.final_error_m);
+    c.sigma_m = calibration::StandardError(c.final_error_m).value_or(0.0);
+    c.max_m = *std::max_element(c.final_error_m.begin(), c.final_error_m.end());
+    c.rms_mean_m = calibration::Mean(c.rms_error_m);
+    c.rms_sigma_m = calibration::StandardError(c.rms_error_m).value_or(0.0);
+  }
+  // Step 2's evidence.
+  {
+    std::vector<double> fold_scale[kN], fold_difference;
+    for (const Fold& f : results) {
+      for (size_t c = 0; c < kN; ++c) fold_scale[c].push_back(TravelScale(nominal, *f.params[c]));
+      fold_difference.push_back(fold_scale[1].back() - fold_scale[0].back());
+    }
+    for (size_t c = 0; c < kN; ++c) {
+      choice->candidates[c].scale = TravelScale(nominal, *choice->candidates[c].params);
+      choice->candidates[c].scale_sigma = JackknifeSigma(fold_scale[c]);
+    }
+    // The camera's length scale moves every run's distances alike, which
+    // no fold shows; it moves the trajectory fit's scale 1:1.
+    choice->scale.difference = choice->candidates[1].scale - choice->candidates[0].scale;
+    choice->scale.sigma = std::hypot(JackknifeSigma(fold_difference), camera_scale_sigma * choice->candidates[1].scale);
+  }
+}
+
+// The choice in words: what decided, with the figures.
+std::string WhyChosen(const EstimatorChoiceOptions& options, const EstimatorChoice& choice) {
+  const std::string over = " (leave-one-run-out over " + std::to_string(choice.runs.size()) +
+                           " runs, mean final position error +/- its standard error)";
+  const std::string paired = "trajectory - umbmark " + Mm(choice.paired_difference_m) + " +/- " +
+                             Mm(choice.paired_sigma_m) + " mm paired run by run";
+  const std::string scales = "the trajectory fit's travel scale " + Fixed(choice.candidates[1].scale, 5) +
+                             ", umbmark's " + Fixed(choice.candidates[0].scale, 5) + ": " +
+                             Fixed(choice.scale.z(), 1) + " sigma apart";
+  const std::string both = Score(choice.candidates[0]) + ", " + Score(choice.candidates[1]);
+  switch (choice.basis) {
+    case ChoiceBasis::kHeldOutRuns:
+      return std::string(ToString(choice.chosen)) + " predicts the held-out runs best: " + both + "; " + paired +
+             ", beyond " + Fixed(options.tell_apart_z, 2) + " standard errors" + over;
+    case ChoiceBasis::kDistanceScale:
+      return "trajectory: the held-out runs cannot tell the candidates apart (" + both + "; " + paired +
+             "), but they disagree on the distance scale, which UMBMark does not measure and these runs " +
+             "barely see (" + scales + ")" + over;
+    default:
+      return "umbmark, the simpler: the held-out runs cannot tell the candidates apart (" + both + "; " + paired +
+             ") and their distance scales agree (" + scales + ")" + over;
+  }
+}
+
+}  // namespace
+
 EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
-                                const calibration::TrajectoryFitResult* full_fit,
-                                const EstimatorChoiceOptions& options,
+                                const calibration::TrajectoryFitResult* full_fit, const EstimatorChoiceOptions& options,
                                 const std::vector<calibration::RunLeftOut>* left_out) {
   EstimatorChoice choice;
   for (Estimator e : kCandidates) {
@@ -198,17 +346,10 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
   std::vector<std::pair<size_t, size_t>> origin;
   const calibration::MeasuredSession pooled = PoolTrajectoryRuns(sessions, &pool_notes, &origin);
   if (!pool_notes.empty())
-    choice.notes.push_back("the runs of sessions recorded with other believed parameters are not held out "
-                           "(the trajectory fit leaves them out)");
-  // Held out: pooled runs with a measured pose to compare the final pose with.
-  std::vector<size_t> folds;
-  for (size_t k = 0; k < pooled.runs.size(); ++k) {
-    const calibration::MeasuredRun& run = pooled.runs[k];
-    if (std::any_of(run.camera.begin(), run.camera.end(), [](const calibration::CameraRecord& c) { return c.valid; }))
-      folds.push_back(k);
-    else
-      choice.notes.push_back(run.name + ": no measured pose; not held out");
-  }
+    choice.notes.push_back(
+        "the runs of sessions recorded with other believed parameters are not held out "
+        "(the trajectory fit leaves them out)");
+  const std::vector<size_t> folds = HeldOutRuns(pooled, &choice);
   if (pooled.runs.empty())
     return FallBack(choice, "no run has telemetry, and held-out runs are predicted by replaying their ticks");
   if (!choice.candidates[0].params)
@@ -219,121 +360,21 @@ EstimatorChoice ChooseEstimator(const std::vector<SessionMeasurement>& sessions,
                                                                         : "does not determine every wheel parameter") +
                                 " on these runs, so there is nothing to compare with");
   if (static_cast<int>(folds.size()) < options.min_runs)
-    return FallBack(choice, std::to_string(folds.size()) + " runs with telemetry and measured poses; cross-validation needs " +
+    return FallBack(choice, std::to_string(folds.size()) +
+                                " runs with telemetry and measured poses; cross-validation needs " +
                                 std::to_string(options.min_runs));
 
-  // Fold by fold: each candidate fitted without the held-out run, which is
-  // then replayed through it.
-  struct Fold {
-    std::optional<calibration::WheelParams> params[kN];
-    std::string undefined[kN];
-    calibration::RunReplay replay[kN];
-  };
-  std::vector<Fold> results(folds.size());
-  ParallelFor(folds.size(), static_cast<unsigned>(options.threads), [&](size_t i) {
-    const size_t k = folds[i];
-    Fold& f = results[i];
-    const auto [s, r] = origin[k];
-    f.params[0] = UmbmarkParams(Without(sessions, s, r));
-    if (!f.params[0]) f.undefined[0] = "UMBMark and CVRA give nothing";
-    if (left_out != nullptr && k < left_out->size() && (*left_out)[k].refitted) {
-      const calibration::RunLeftOut& o = (*left_out)[k];
-      if (o.determines_wheels)
-        f.params[1] = calibration::ApplyWheelScales(nominal, o.scales);
-      else
-        f.undefined[1] = "the trajectory fit: " + o.message;
-    } else {
-      const calibration::TrajectoryFitResult refit = RefitWithout(pooled, *full_fit, k);
-      if (DeterminesWheels(refit))
-        f.params[1] = calibration::ApplyWheelScales(nominal, refit.scales);
-      else
-        f.undefined[1] = refit.ok() ? "the trajectory fit does not determine every wheel parameter"
-                                    : "the trajectory fit failed (" + refit.message + ")";
-    }
-    for (size_t c = 0; c < kN; ++c) {
-      if (!f.params[c]) continue;
-      const calibration::ReplayModel model{calibration::WheelScalesFrom(pooled.believed, *f.params[c]), {}};
-      f.replay[c] = calibration::ReplayRun(pooled.runs[k], pooled.believed, model, std::nullopt, options.replay);
-    }
-  });
-
-  for (size_t i = 0; i < folds.size(); ++i) {
-    const calibration::MeasuredRun& run = pooled.runs[folds[i]];
-    for (size_t c = 0; c < kN; ++c)
-      if (!results[i].params[c])
-        return FallBack(choice, std::string(ToString(kCandidates[c])) + " is undefined without run " + run.name +
-                                    " (" + results[i].undefined[c] + "), so leave-one-run-out cannot compare");
-  }
-  for (size_t i = 0; i < folds.size(); ++i) {
-    const calibration::MeasuredRun& run = pooled.runs[folds[i]];
-    const Fold& f = results[i];
-    std::string failed;
-    for (size_t c = 0; c < kN; ++c)
-      if (!f.replay[c].ok) failed = f.replay[c].message;
-    if (!failed.empty()) {
-      choice.notes.push_back(run.name + ": not scored (" + failed + ")");
-      continue;
-    }
-    choice.runs.push_back(run.name);
-    for (size_t c = 0; c < kN; ++c) {
-      choice.candidates[c].final_error_m.push_back(f.replay[c].final_position_error_m);
-      choice.candidates[c].rms_error_m.push_back(f.replay[c].rms_position_error_m);
-    }
-  }
+  const std::vector<Fold> results = FitFolds(sessions, pooled, origin, folds, *full_fit, options, left_out);
+  if (const auto cannot = ScoreFolds(pooled, folds, results, &choice)) return FallBack(choice, *cannot);
   if (static_cast<int>(choice.runs.size()) < options.min_runs)
-    return FallBack(choice, std::to_string(choice.runs.size()) + " held-out runs could be replayed; cross-validation needs " +
+    return FallBack(choice, std::to_string(choice.runs.size()) +
+                                " held-out runs could be replayed; cross-validation needs " +
                                 std::to_string(options.min_runs));
 
-  for (CandidateScore& c : choice.candidates) {
-    c.mean_m = calibration::Mean(c.final_error_m);
-    c.sigma_m = calibration::StandardError(c.final_error_m).value_or(0.0);
-    c.max_m = *std::max_element(c.final_error_m.begin(), c.final_error_m.end());
-    c.rms_mean_m = calibration::Mean(c.rms_error_m);
-    c.rms_sigma_m = calibration::StandardError(c.rms_error_m).value_or(0.0);
-  }
-  // Step 2's evidence: each candidate's travel scale and the jackknife of
-  // it over every fold (scored or not: each is the fit without one run).
-  {
-    std::vector<double> fold_scale[kN], fold_difference;
-    for (const Fold& f : results) {
-      for (size_t c = 0; c < kN; ++c) fold_scale[c].push_back(TravelScale(nominal, *f.params[c]));
-      fold_difference.push_back(fold_scale[1].back() - fold_scale[0].back());
-    }
-    for (size_t c = 0; c < kN; ++c) {
-      choice.candidates[c].scale = TravelScale(nominal, *choice.candidates[c].params);
-      choice.candidates[c].scale_sigma = JackknifeSigma(fold_scale[c]);
-    }
-    // The camera's length scale moves every run's distances alike, which
-    // no fold shows; it moves the trajectory fit's scale 1:1.
-    choice.scale.difference = choice.candidates[1].scale - choice.candidates[0].scale;
-    choice.scale.sigma = std::hypot(JackknifeSigma(fold_difference),
-                                    pooled.camera_scale_sigma * choice.candidates[1].scale);
-  }
+  SummariseCandidates(nominal, results, pooled.camera_scale_sigma, &choice);
   ApplyChoiceRule(options, &choice);
   choice.cross_validated = true;
-  const std::string over = " (leave-one-run-out over " + std::to_string(choice.runs.size()) +
-                           " runs, mean final position error +/- its standard error)";
-  const std::string paired = "trajectory - umbmark " + Mm(choice.paired_difference_m) + " +/- " +
-                             Mm(choice.paired_sigma_m) + " mm paired run by run";
-  const std::string scales = "the trajectory fit's travel scale " + Fixed(choice.candidates[1].scale, 5) +
-                             ", umbmark's " + Fixed(choice.candidates[0].scale, 5) + ": " +
-                             Fixed(choice.scale.z(), 1) + " sigma apart";
-  const std::string both = Score(choice.candidates[0]) + ", " + Score(choice.candidates[1]);
-  switch (choice.basis) {
-    case ChoiceBasis::kHeldOutRuns:
-      choice.why = std::string(ToString(choice.chosen)) + " predicts the held-out runs best: " + both + "; " +
-                   paired + ", beyond " + Fixed(options.tell_apart_z, 2) + " standard errors" + over;
-      break;
-    case ChoiceBasis::kDistanceScale:
-      choice.why = "trajectory: the held-out runs cannot tell the candidates apart (" + both + "; " + paired +
-                   "), but they disagree on the distance scale, which UMBMark does not measure and these runs " +
-                   "barely see (" + scales + ")" + over;
-      break;
-    default:
-      choice.why = "umbmark, the simpler: the held-out runs cannot tell the candidates apart (" + both + "; " +
-                   paired + ") and their distance scales agree (" + scales + ")" + over;
-      break;
-  }
+  choice.why = WhyChosen(options, choice);
   return choice;
 }
 

@@ -333,6 +333,124 @@ std::string ExplainResult::BriefReport() const {
   return os.str();
 }
 
+namespace {
+
+// Explain's steps, in order.
+
+// What the model says of candidate `e` beside `current`: aliased with it, or
+// without signal when the session lacks the input it needs (MissingInput).
+AliasReport AliasOrMissing(const MeasuredSession& session, const TrajectoryFitResult& current, Effect e,
+                           double alias_tolerance) {
+  AliasReport a;
+  if (const std::string missing = MissingInput(session, e); !missing.empty()) {
+    a.effect = e;
+    a.aliased = a.no_signal = true;
+    a.distinguishing_runs = missing;
+    return a;
+  }
+  return CheckAliasing(current, e, alias_tolerance);
+}
+
+// The candidates not yet in `current`, in order, each with its aliasing;
+// `to_fit` gets the indices of those that can be fitted.
+std::vector<CandidateTrial> FormTrials(const MeasuredSession& session, const TrajectoryFitResult& current,
+                                       const ExplainOptions& options, std::vector<size_t>* to_fit) {
+  std::vector<CandidateTrial> trials;
+  for (Effect e : options.candidates) {
+    if (Contains(current.options.effects, e)) continue;
+    CandidateTrial trial;
+    trial.effect = e;
+    trial.alias = AliasOrMissing(session, current, e, options.alias_tolerance);
+    if (!trial.alias.aliased) to_fit->push_back(trials.size());
+    trials.push_back(trial);
+  }
+  return trials;
+}
+
+// The fittable trials refitted with `current`'s effects and theirs (in
+// parallel), each scored: BIC, the gap it explains, its Wald statistic.
+std::vector<TrajectoryFitResult> FitTrials(const MeasuredSession& session, const TrajectoryFitResult& current,
+                                           const TrajectoryFitOptions& fit_options, const ExplainOptions& options,
+                                           const std::vector<size_t>& to_fit, std::vector<CandidateTrial>* trials) {
+  std::vector<TrajectoryFitResult> fits(to_fit.size());
+  ParallelFor(to_fit.size(), Threads(options), [&](size_t k) {
+    TrajectoryFitOptions o = fit_options;
+    o.effects = current.options.effects;
+    o.effects.push_back((*trials)[to_fit[k]].effect);
+    fits[k] = FitTrajectory(session, o, &current);
+  });
+  for (size_t k = 0; k < to_fit.size(); ++k) {
+    CandidateTrial& trial = (*trials)[to_fit[k]];
+    const Effect e = trial.effect;
+    const TrajectoryFitResult& f = fits[k];
+    trial.fitted = f.ok();
+    if (f.ok()) {
+      trial.score = BicScore(current, f);
+      trial.gap_m = f.gap_m;
+      trial.explained_m = std::sqrt(std::max(0.0, current.gap_m * current.gap_m - f.gap_m * f.gap_m));
+      trial.wald = f.Wald(e);
+      const int dof = static_cast<int>(EffectTestedIndices(e).size());
+      trial.wald_threshold =
+          boost::math::quantile(boost::math::complement(boost::math::chi_squared(dof), options.wald_alpha));
+    }
+  }
+  return fits;
+}
+
+// The trial to name: of those that pass the three gates, best score first,
+// the first that also predicts held-out runs better; its fit, or nullptr.
+const TrajectoryFitResult* ChooseTrial(const MeasuredSession& session, const TrajectoryFitResult& current,
+                                       const ExplainOptions& options, const std::vector<TrajectoryFitResult>& fits,
+                                       std::vector<CandidateTrial>* trials, ExplainStep* step) {
+  std::vector<size_t> passing;
+  for (size_t i = 0; i < trials->size(); ++i) {
+    const CandidateTrial& t = (*trials)[i];
+    if (t.fitted && t.wald > t.wald_threshold && t.explained_m >= options.min_explained_m &&
+        t.score >= options.min_score)
+      passing.push_back(i);
+  }
+  std::sort(passing.begin(), passing.end(),
+            [&](size_t a, size_t b) { return (*trials)[a].score > (*trials)[b].score; });
+  std::optional<FoldFits> folds;
+  for (size_t i : passing) {
+    CandidateTrial& t = (*trials)[i];
+    CrossValidation cv;
+    if (options.cross_validate) {
+      if (!folds) folds = PrepareFolds(session, current, options);
+      t.cross_validation = CrossValidate(session, current, t.effect, options, &*folds);
+      if (t.cross_validation->possible() && !t.cross_validation->improved) continue;
+      cv = *t.cross_validation;
+    } else {
+      cv.note = "cross-validation turned off";
+    }
+    const TrajectoryFitResult* best = nullptr;
+    for (const TrajectoryFitResult& f : fits)
+      if (f.ok() && f.options.effects.back() == t.effect) best = &f;
+    step->effect = t.effect;
+    step->score = t.score;
+    step->cross_validation = cv;
+    return best;
+  }
+  return nullptr;
+}
+
+// Every step's parameters from the final fit (they were refitted together
+// as effects were added), and how far the runs' disagreement keeps each from
+// zero.
+void RefreshSteps(const TrajectoryFitResult& final_fit, std::vector<ExplainStep>* steps) {
+  for (ExplainStep& s : *steps) {
+    s.params = ParamsOf(final_fit, s.effect);
+    const auto& not_compared = Describe(s.effect).not_compared_across_runs;
+    for (const ParameterEstimate& p : s.params) {
+      if (std::find(not_compared.begin(), not_compared.end(), p.name) != not_compared.end()) continue;
+      if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)  // fmax: NaN loses
+        s.between_runs_z = std::fmax(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
+    }
+  }
+}
+
+}  // namespace
+
 ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& options) {
   ExplainResult result;
   std::string why;
@@ -353,122 +471,31 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   result.base_residuals = SummariseResiduals(session, result.base);
   TrajectoryFitResult current = result.base;
 
-  // The lens candidate needs the camera's geometry, rolling_shutter the
-  // frames' image rows; without them they cannot be formed and are reported
-  // as without signal (MissingInput).
-  const std::vector<Effect>& candidates = options.candidates;
+  // Round by round: form the candidates, fit them, name the best that passes
+  // every gate, until none does.
   while (static_cast<int>(current.options.effects.size()) < options.max_effects) {
-    std::vector<CandidateTrial> trials;
-    const TrajectoryFitResult* best = nullptr;
-    double best_score = -INFINITY;
-    Effect best_effect = Effect::kTagOffset;
-    // The candidates that can be fitted, in order; then their fits, in parallel.
     std::vector<size_t> to_fit;  // indices into trials
-    for (Effect e : candidates) {
-      if (Contains(current.options.effects, e)) continue;
-      CandidateTrial trial;
-      trial.effect = e;
-      if (const std::string missing = MissingInput(session, e); !missing.empty()) {
-        trial.alias.effect = e;
-        trial.alias.no_signal = true;
-        trial.alias.aliased = true;
-        trial.alias.distinguishing_runs = missing;
-        trials.push_back(trial);
-        continue;
-      }
-      trial.alias = CheckAliasing(current, e, options.alias_tolerance);
-      if (!trial.alias.aliased) to_fit.push_back(trials.size());
-      trials.push_back(trial);
-    }
-    std::vector<TrajectoryFitResult> fits(to_fit.size());
-    ParallelFor(to_fit.size(), Threads(options), [&](size_t k) {
-      TrajectoryFitOptions o = fit_options;
-      o.effects = current.options.effects;
-      o.effects.push_back(trials[to_fit[k]].effect);
-      fits[k] = FitTrajectory(session, o, &current);
-    });
-    for (size_t k = 0; k < to_fit.size(); ++k) {
-      CandidateTrial& trial = trials[to_fit[k]];
-      const Effect e = trial.effect;
-      const TrajectoryFitResult& f = fits[k];
-      trial.fitted = f.ok();
-      if (f.ok()) {
-        trial.score = BicScore(current, f);
-        trial.gap_m = f.gap_m;
-        trial.explained_m = std::sqrt(std::max(0.0, current.gap_m * current.gap_m - f.gap_m * f.gap_m));
-        trial.wald = f.Wald(e);
-        const int dof = static_cast<int>(EffectTestedIndices(e).size());
-        trial.wald_threshold = boost::math::quantile(
-            boost::math::complement(boost::math::chi_squared(dof), options.wald_alpha));
-      }
-    }
-    // The candidates that pass the three gates, best score first; the first
-    // that also predicts held-out runs better is named.
-    std::vector<size_t> passing;
-    for (size_t i = 0; i < trials.size(); ++i) {
-      const CandidateTrial& t = trials[i];
-      if (t.fitted && t.wald > t.wald_threshold && t.explained_m >= options.min_explained_m &&
-          t.score >= options.min_score)
-        passing.push_back(i);
-    }
-    std::sort(passing.begin(), passing.end(),
-              [&](size_t a, size_t b) { return trials[a].score > trials[b].score; });
-    std::optional<FoldFits> folds;
-    CrossValidation chosen_cv;
-    for (size_t i : passing) {
-      CandidateTrial& t = trials[i];
-      if (options.cross_validate) {
-        if (!folds) folds = PrepareFolds(session, current, options);
-        t.cross_validation = CrossValidate(session, current, t.effect, options, &*folds);
-        if (t.cross_validation->possible() && !t.cross_validation->improved) continue;
-        chosen_cv = *t.cross_validation;
-      } else {
-        chosen_cv.note = "cross-validation turned off";
-      }
-      for (const TrajectoryFitResult& f : fits)
-        if (f.ok() && f.options.effects.back() == t.effect) best = &f;
-      best_effect = t.effect;
-      best_score = t.score;
-      break;
-    }
+    std::vector<CandidateTrial> trials = FormTrials(session, current, options, &to_fit);
+    const std::vector<TrajectoryFitResult> fits = FitTrials(session, current, fit_options, options, to_fit, &trials);
+    ExplainStep step;
+    const TrajectoryFitResult* best = ChooseTrial(session, current, options, fits, &trials, &step);
     if (!best) {
       result.rejected = trials;
       break;
     }
-    ExplainStep step;
-    step.effect = best_effect;
-    step.score = best_score;
     step.gap_after_m = best->gap_m;
-    step.cross_validation = chosen_cv;
     step.trials = trials;
     current = *best;
-    step.params = ParamsOf(current, best_effect);
+    step.params = ParamsOf(current, step.effect);
     result.steps.push_back(step);
   }
   if (options.jackknife_final) AddRunJackknife(session, &current, options.threads);
-  // Refresh the parameters of every step from the final fit (they were
-  // refitted together as effects were added).
-  for (ExplainStep& s : result.steps) {
-    s.params = ParamsOf(current, s.effect);
-    const auto& not_compared = Describe(s.effect).not_compared_across_runs;
-    for (const ParameterEstimate& p : s.params) {
-      if (std::find(not_compared.begin(), not_compared.end(), p.name) != not_compared.end()) continue;
-      if (std::isfinite(p.sigma_between_runs) && p.sigma_between_runs > 0.0)  // fmax: NaN loses
-        s.between_runs_z = std::fmax(s.between_runs_z, std::abs(p.value) / p.sigma_between_runs);
-    }
-  }
+  RefreshSteps(current, &result.steps);
   result.final_fit = current;
   result.final_residuals = SummariseResiduals(session, current);
-  for (Effect e : candidates) {
+  for (Effect e : options.candidates) {
     if (Contains(current.options.effects, e)) continue;
-    AliasReport a;
-    if (const std::string missing = MissingInput(session, e); !missing.empty()) {
-      a.effect = e;
-      a.aliased = a.no_signal = true;
-      a.distinguishing_runs = missing;
-    } else {
-      a = CheckAliasing(current, e, options.alias_tolerance);
-    }
+    const AliasReport a = AliasOrMissing(session, current, e, options.alias_tolerance);
     if (a.aliased) result.aliased.push_back(a);
   }
   result.unexplained = FindUnexplained(session, current, options);

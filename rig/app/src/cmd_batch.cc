@@ -82,28 +82,14 @@ struct BatchArgs {
   bool each = false;
 };
 
-// One calibration from `session_paths` (pooled: the same robot's sessions) into `out`. Fails
-// the command (Fail) on bad input or no result; returns 0, or kExitOutsideLimits when the
-// record fails the limits.
-int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_paths, const std::string& out,
-              const std::string& robot) {
-  const std::string name = "batch";
-  const records::Limits limits = LimitsOrFail(name, args.record);
-  const std::vector<config::Session> sessions = LoadSessionsOrFail(name, session_paths);
-  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
-  measure::MeasureOptions options;
-  options.threads = args.threads;
-  options.edge_shift_views = args.edge_shift_views;
-  const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
-  // A malformed pose log (or its telemetry) is the one way measuring fails.
-  if (!measured) Fail(name, kExitBadInput, measured.message);
-  if (auto e = config::EnsureDirectory(out)) Fail(name, kExitFailure, *e);
-
+// The report's measurements: each session's camera plane and scale, its
+// runs and their trajectories.
+nlohmann::json BatchMeasuredJson(const std::vector<measure::SessionMeasurement>& measured) {
   nlohmann::json report = {{"command", "batch"},
                            {"sessions", nlohmann::json::array()},
                            {"runs", nlohmann::json::array()},
                            {"trajectories", nlohmann::json::array()}};
-  for (const measure::SessionMeasurement& sm : *measured) {
+  for (const measure::SessionMeasurement& sm : measured) {
     report["sessions"].push_back(
         {{"session", sm.session.path},
          {"camera_plane", report::PlaneJson(sm)},
@@ -123,6 +109,94 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
       report["trajectories"].push_back(report::TrajectoryJson(rm));
     }
   }
+  return report;
+}
+
+// The record's identity of this batch: its robot, time, odometer and the
+// digest of every input file.
+RunIdentity BatchRunIdentity(const std::string& name, const std::string& out, const std::string& robot,
+                             const std::vector<config::Session>& sessions) {
+  RunIdentity run;
+  run.kind = records::RunKind::kBatch;
+  run.folder = out;
+  run.robot = robot.empty() ? sessions.front().robot_id : robot;
+  run.time_utc = sessions.front().recorded_utc;
+  run.odometer_km = sessions.front().odometer_km;
+  std::vector<std::string> inputs;
+  for (const config::Session& session : sessions)
+    for (const std::string& f : config::SessionFiles(session)) inputs.push_back(f);
+  const Result<std::string> digest = records::DigestFiles("batch", inputs);
+  if (!digest) Fail(name, kExitBadInput, digest.message);
+  run.digest = *digest;
+  return run;
+}
+
+// auto's choice: the candidates' held-out errors, the rule's evidence, notes.
+void PrintBatchEstimatorChoice(const std::string& estimator, const measure::EstimatorChoice& choice) {
+  std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice.why.c_str());
+  if (choice.cross_validated) {
+    std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
+                "(RMS over the path [mm])");
+    for (const measure::CandidateScore& c : choice.candidates)
+      std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
+                  c.mean_m * kMToMm, c.sigma_m * kMToMm, c.max_m * kMToMm, c.rms_mean_m * kMToMm,
+                  c.rms_sigma_m * kMToMm, c.estimator == choice.chosen ? "  <- chosen" : "");
+    std::printf(
+        "  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
+        "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
+        choice.paired_difference_m * kMToMm, choice.paired_sigma_m * kMToMm, choice.candidates[1].scale,
+        choice.candidates[1].scale_sigma, choice.candidates[0].scale, choice.scale.z(),
+        measure::ToString(choice.basis));
+  }
+  for (const std::string& note : choice.notes) std::printf("note: estimator_choice: %s\n", note.c_str());
+}
+
+// What batch prints: the segments found, the runs, the camera scales, the
+// estimates and auto's choice.
+void PrintBatchResults(const std::vector<measure::SessionMeasurement>& measured,
+                       const measure::SessionEstimate& estimates,
+                       const std::optional<calibration::TrajectoryFitResult>& fit,
+                       const std::optional<measure::EstimatorChoice>& choice, const std::string& estimator) {
+  for (const measure::SessionMeasurement& sm : measured)
+    for (const measure::SegmentAssignment& a : sm.segments)
+      std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
+                  a.found.c_str());
+  PrintRuns(measured);
+  for (const measure::SessionMeasurement& sm : measured)
+    if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
+  if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
+  if (fit) std::printf("\n%s", fit->BriefReport().c_str());
+  if (choice) PrintBatchEstimatorChoice(estimator, *choice);
+}
+
+// Why `--estimator trajectory` exported nothing.
+std::string NothingExported(const std::optional<calibration::TrajectoryFitResult>& fit, const std::string& out) {
+  return "--estimator trajectory: nothing exported: " +
+         (fit ? "these runs do not determine " +
+                    std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
+                    " (a plan with straights and turns both ways does)"
+              : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
+         "; " + out + "/report.json has the runs and the notes";
+}
+
+// One calibration from `session_paths` (pooled: the same robot's sessions) into `out`. Fails
+// the command (Fail) on bad input or no result; returns 0, or kExitOutsideLimits when the
+// record fails the limits.
+int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_paths, const std::string& out,
+              const std::string& robot) {
+  const std::string name = "batch";
+  const records::Limits limits = LimitsOrFail(name, args.record);
+  const std::vector<config::Session> sessions = LoadSessionsOrFail(name, session_paths);
+  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
+  measure::MeasureOptions options;
+  options.threads = args.threads;
+  options.edge_shift_views = args.edge_shift_views;
+  const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
+  // A malformed pose log (or its telemetry) is the one way measuring fails.
+  if (!measured) Fail(name, kExitBadInput, measured.message);
+  if (auto e = config::EnsureDirectory(out)) Fail(name, kExitFailure, *e);
+
+  nlohmann::json report = BatchMeasuredJson(*measured);
   const measure::SessionEstimate estimates = measure::EstimateSession(*measured);
   if (estimates.umbmark) report["umbmark"] = report::SessionUmbmarkJson(estimates);
   if (const nlohmann::json cvra = report::CvraJson(estimates); !cvra.empty()) report["cvra"] = cvra;
@@ -167,18 +241,7 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
   const int usable = measure::CountUsableRuns(*measured);
   report["quality"] = {{"runs", report["runs"].size()}, {"runs_measured", usable}};
   report["nominal"] = report::WheelParamsJson(nominal);
-  RunIdentity run;
-  run.kind = records::RunKind::kBatch;
-  run.folder = out;
-  run.robot = robot.empty() ? sessions.front().robot_id : robot;
-  run.time_utc = sessions.front().recorded_utc;
-  run.odometer_km = sessions.front().odometer_km;
-  std::vector<std::string> inputs;
-  for (const config::Session& session : sessions)
-    for (const std::string& f : config::SessionFiles(session)) inputs.push_back(f);
-  const Result<std::string> digest = records::DigestFiles("batch", inputs);
-  if (!digest) Fail(name, kExitBadInput, digest.message);
-  run.digest = *digest;
+  const RunIdentity run = BatchRunIdentity(name, out, robot, sessions);
   if (!run.robot.empty()) report["robot_id"] = run.robot;
   if (auto e = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n"))
     Fail(name, kExitFailure, *e);
@@ -190,43 +253,11 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
   const records::Record record =
       usable > 0 && !trajectory_missing ? KeepRecord(name, report, run, args.record, limits) : records::Record{};
 
-  for (const measure::SessionMeasurement& sm : *measured)
-    for (const measure::SegmentAssignment& a : sm.segments)
-      std::printf("found %s at %.1f-%.1f s in %s: %s\n", a.run.c_str(), a.begin_s, a.end_s, a.source.c_str(),
-                  a.found.c_str());
-  PrintRuns(*measured);
-  for (const measure::SessionMeasurement& sm : *measured)
-    if (sm.session.has_camera) std::printf("camera scale: %s\n", sm.camera_scale.explanation.c_str());
-  if (estimates.umbmark) std::printf("\n%s\n", estimates.umbmark->BriefReport().c_str());
-  if (fit) std::printf("\n%s", fit->BriefReport().c_str());
-  if (choice) {
-    std::printf("\nestimator: %s (auto). %s\n", estimator.c_str(), choice->why.c_str());
-    if (choice->cross_validated) {
-      std::printf("  %-12s %36s %10s %26s\n", "candidate", "held-out final error mean [mm]", "max [mm]",
-                  "(RMS over the path [mm])");
-      for (const measure::CandidateScore& c : choice->candidates)
-        std::printf("  %-12s %25.2f +/- %6.2f %10.2f %15.2f +/- %6.2f%s\n", measure::ToString(c.estimator),
-                    c.mean_m * kMToMm, c.sigma_m * kMToMm, c.max_m * kMToMm, c.rms_mean_m * kMToMm, c.rms_sigma_m * kMToMm,
-                    c.estimator == choice->chosen ? "  <- chosen" : "");
-      std::printf("  paired run by run, trajectory - umbmark: %.2f +/- %.2f mm; travel scale: trajectory %.5f "
-                  "+/- %.5f, umbmark %.5f (%.1f sigma apart); decided by: %s\n",
-                  choice->paired_difference_m * kMToMm, choice->paired_sigma_m * kMToMm, choice->candidates[1].scale,
-                  choice->candidates[1].scale_sigma, choice->candidates[0].scale, choice->scale.z(),
-                  measure::ToString(choice->basis));
-    }
-    for (const std::string& note : choice->notes) std::printf("note: estimator_choice: %s\n", note.c_str());
-  }
+  PrintBatchResults(*measured, estimates, fit, choice, estimator);
   for (const std::string& note : notes) std::printf("note: %s\n", note.c_str());
   std::printf("report: %s/report.json, %s/report.html\n", out.c_str(), out.c_str());
   if (usable == 0) Fail(name, kExitFailure, "no run could be measured (see the flags above)");
-  if (trajectory_missing)
-    Fail(name, kExitFailure,
-         "--estimator trajectory: nothing exported: " +
-             (fit ? "these runs do not determine " +
-                        std::string(fit->unidentifiable.empty() ? "Ed, Es and Eb" : fit->unidentifiable.front()) +
-                        " (a plan with straights and turns both ways does)"
-                  : std::string("no trajectory fit (the runs need telemetry and measured poses)")) +
-             "; " + out + "/report.json has the runs and the notes");
+  if (trajectory_missing) Fail(name, kExitFailure, NothingExported(fit, out));
   if (const std::string line = VerdictLine(record, limits); !line.empty()) std::printf("%s\n", line.c_str());
   return record.verdict == records::Verdict::kFail ? kExitOutsideLimits : 0;
 }

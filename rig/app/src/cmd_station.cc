@@ -221,105 +221,124 @@ struct StationArgs {
   RecordArgs record;
 };
 
-void RunStation(const StationArgs& args) {
-  if (auto e = report::CheckExports(args.exports)) Fail("station", kExitBadInput, *e);
-  const std::string name = "station";
-  if (args.scenario.empty() == args.config.empty())
-    Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
-  records::Limits limits = LimitsOrFail(name, args.record);
-  std::signal(SIGINT, OnStationSignal);
-  std::signal(SIGTERM, OnStationSignal);
-  station::StationOptions options;
-  options.max_rounds = args.max_rounds;
-  options.rest_frames = args.rest_frames;
-  station::StationSetup setup;
-  setup.stop_requested = &g_station_stop;
-  setup.progress = Progress;
-  std::string error;
+// The scenario's true robot in the report's terms (Ed, Eb, Es, turn gain,
+// and its turn slip when hidden).
+nlohmann::json StationScenarioTruth(const config::Scenario& s) {
+  const calibration::WheelParams& t = s.robot.truth;
+  const calibration::WheelParams& n = s.robot.nominal;
+  const double Ed =
+      (t.right_wheel_diameter_m / t.left_wheel_diameter_m) / (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
+  const double Eb = t.track_m / n.track_m;
+  const double Es =
+      (t.left_wheel_diameter_m + t.right_wheel_diameter_m) / (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
+  nlohmann::json truth = {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}};
+  if (s.robot.effects.turn_slip) truth["turn_slip_at_1rad_s"] = s.robot.effects.turn_slip->fraction_at_1rad_s;
+  return truth;
+}
 
-  if (!args.scenario.empty()) {
-    const auto s = config::LoadScenario(args.scenario);
-    if (!s) Fail(name, kExitBadInput, s.message);
-    if (!s->camera || !s->tag)
-      Fail(name, kExitBadInput, args.scenario + ": the station needs the scenario's camera: and tag:");
-    if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
-      Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
-    if (args.plan == "default") {
-      setup.default_plan = station::DefaultPlanOptions{};
-    } else {
-      for (const calibration::RunSpec& spec : s->runs) {
-        const bool drivable = spec.procedure == calibration::Procedure::kUmbmark ||
-                              spec.procedure == calibration::Procedure::kStraight ||
-                              spec.procedure == calibration::Procedure::kSpin ||
-                              spec.procedure == calibration::Procedure::kOutAndBack;
-        if (drivable) setup.plan.push_back(spec);
-      }
-      if (setup.plan.size() != s->runs.size())
-        Progress("the scenario's recorded and circle runs are not driven by the station; they are skipped");
+// The scenario's runs the station drives (`--plan default`: the default plan).
+void StationPlanFromScenario(const std::string& plan, const config::Scenario& s, station::StationSetup* setup) {
+  if (plan == "default") {
+    setup->default_plan = station::DefaultPlanOptions{};
+  } else {
+    for (const calibration::RunSpec& spec : s.runs) {
+      const bool drivable =
+          spec.procedure == calibration::Procedure::kUmbmark || spec.procedure == calibration::Procedure::kStraight ||
+          spec.procedure == calibration::Procedure::kSpin || spec.procedure == calibration::Procedure::kOutAndBack;
+      if (drivable) setup->plan.push_back(spec);
     }
-    options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * 1e3));
-    // The virtual robot's fastest turn is known: the heading check unwraps
-    // every gap it could not turn 120 deg in.
-    options.max_turn_rate_rad_s = 1.25 * s->robot.limits.turn_rate_rad_s;
-    sim::SimMotionBackend backend(s->robot);
-    robot_link::FirmwareHostOptions host_options;
-    host_options.time_scale = args.time_scale;
-    const std::optional<robot_link::ParamSet> defaults =
-        robot_link::ToParamSet(s->robot.nominal, &error);
-    if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
-    host_options.robot.defaults = *defaults;
-    const calibration::WheelParams& n = s->robot.nominal;
-    auto host = robot_link::FirmwareHost::Start(host_options, backend);
-    if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);
-    auto port = robot_link::SerialTransport::Open((*host.value)->device_path());
-    if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
-    auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
-    if (!camera) Fail(name, kExitFailure, error);
-    char scale[64];
-    std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args.time_scale);
-    Progress("virtual robot on " + (*host.value)->device_path() + scale);
-    std::unique_ptr<station::RobotDriver> driver;
-    if (args.driver == "link") {
-      if (!args.run_command.empty() || !args.apply_command.empty() || !args.stop_command.empty())
-        Fail(name, kExitBadInput, "--run-command, --stop-command and --apply-command need --driver command or operator");
-      setup.transport = port.value->get();
-    } else {
-      // The commands reach the virtual robot through its device; the
-      // station's own connection is closed so they have it alone.
-      port.value->reset();
-      station::ExternalDriverOptions o = ExternalOptions(args.run_command, args.stop_command, args.apply_command,
-                                                         60.0, s->robot.nominal, args.out);
-      o.environment = {{"ODOCAL_ROBOT_PORT", (*host.value)->device_path()}, {"ODOCAL", SelfPath()}};
-      driver = MakeExternalDriver(args.driver == "command", o);
-      setup.driver = driver.get();
-    }
-    setup.camera = camera.get();
-    setup.camera_on_robot_clock = true;  // the virtual camera renders robot time
-    setup.intrinsics = s->camera->intrinsics;
-    // The operator's guess is where the camera was hung; the station
-    // refines its tilt and height from the views.
-    setup.mount_guess = s->camera->mount;
-    setup.tag = *s->tag;
-    // Floor tags in the scenario: the virtual camera draws them, and the
-    // station gets the tape's readings, as simulate writes them into session.yaml.
-    if (s->camera->floor_tags) {
-      setup.floor_reference = simulation::TapedFloorReference(*s->camera->floor_tags);
-      Progress("floor reference: " + std::to_string(setup.floor_reference->tags.size()) + " floor tags, " +
-               std::to_string(setup.floor_reference->distances.size()) + " taped distances");
-    }
-    const calibration::WheelParams& t = s->robot.truth;
-    const double Ed = (t.right_wheel_diameter_m / t.left_wheel_diameter_m) /
-                      (n.right_wheel_diameter_m / n.left_wheel_diameter_m);
-    const double Eb = t.track_m / n.track_m;
-    const double Es = (t.left_wheel_diameter_m + t.right_wheel_diameter_m) /
-                      (n.left_wheel_diameter_m + n.right_wheel_diameter_m);
-    nlohmann::json truth = {{"Ed", Ed}, {"Eb", Eb}, {"Es", Es}, {"turn_gain", Eb / Es}};
-    if (s->robot.effects.turn_slip) truth["turn_slip_at_1rad_s"] = s->robot.effects.turn_slip->fraction_at_1rad_s;
-    Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports, args.live_bind,
-           args.live_port, args.record, limits);
-    return;
+    if (setup->plan.size() != s.runs.size())
+      Progress("the scenario's recorded and circle runs are not driven by the station; they are skipped");
   }
+}
 
+// The station file's plan: the default plan, its runs, or squares both ways.
+void StationPlanFromConfig(const config::StationConfig& c, station::StationSetup* setup) {
+  if (c.default_plan) {
+    station::DefaultPlanOptions d;
+    if (c.slow_turn_rate_deg_s) d.slow_turn_rate_rad_s = DegToRad(*c.slow_turn_rate_deg_s);
+    if (c.fast_turn_rate_deg_s) d.fast_turn_rate_rad_s = DegToRad(*c.fast_turn_rate_deg_s);
+    setup->default_plan = d;
+  } else if (!c.runs.empty()) {
+    setup->plan = c.runs;
+  } else {
+    for (int i = 0; i < c.runs_per_direction; ++i) {
+      setup->plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c.side_mm * kMmToM));
+      setup->plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c.side_mm * kMmToM));
+    }
+  }
+}
+
+// The built-in virtual robot behind a pty and its rendered camera.
+void RunVirtualStation(const StationArgs& args, const records::Limits& limits, station::StationOptions options,
+                       station::StationSetup setup) {
+  const std::string name = "station";
+  std::string error;
+  const auto s = config::LoadScenario(args.scenario);
+  if (!s) Fail(name, kExitBadInput, s.message);
+  if (!s->camera || !s->tag)
+    Fail(name, kExitBadInput, args.scenario + ": the station needs the scenario's camera: and tag:");
+  if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
+    Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
+  StationPlanFromScenario(args.plan, *s, &setup);
+  options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * 1e3));
+  // The virtual robot's fastest turn is known: the heading check unwraps
+  // every gap it could not turn 120 deg in.
+  options.max_turn_rate_rad_s = 1.25 * s->robot.limits.turn_rate_rad_s;
+  sim::SimMotionBackend backend(s->robot);
+  robot_link::FirmwareHostOptions host_options;
+  host_options.time_scale = args.time_scale;
+  const std::optional<robot_link::ParamSet> defaults = robot_link::ToParamSet(s->robot.nominal, &error);
+  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
+  host_options.robot.defaults = *defaults;
+  auto host = robot_link::FirmwareHost::Start(host_options, backend);
+  if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);
+  auto port = robot_link::SerialTransport::Open((*host.value)->device_path());
+  if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
+  auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
+  if (!camera) Fail(name, kExitFailure, error);
+  char scale[64];
+  std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args.time_scale);
+  Progress("virtual robot on " + (*host.value)->device_path() + scale);
+  std::unique_ptr<station::RobotDriver> driver;
+  if (args.driver == "link") {
+    if (!args.run_command.empty() || !args.apply_command.empty() || !args.stop_command.empty())
+      Fail(name, kExitBadInput, "--run-command, --stop-command and --apply-command need --driver command or operator");
+    setup.transport = port.value->get();
+  } else {
+    // The commands reach the virtual robot through its device; the
+    // station's own connection is closed so they have it alone.
+    port.value->reset();
+    station::ExternalDriverOptions o =
+        ExternalOptions(args.run_command, args.stop_command, args.apply_command, 60.0, s->robot.nominal, args.out);
+    o.environment = {{"ODOCAL_ROBOT_PORT", (*host.value)->device_path()}, {"ODOCAL", SelfPath()}};
+    driver = MakeExternalDriver(args.driver == "command", o);
+    setup.driver = driver.get();
+  }
+  setup.camera = camera.get();
+  setup.camera_on_robot_clock = true;  // the virtual camera renders robot time
+  setup.intrinsics = s->camera->intrinsics;
+  // The operator's guess is where the camera was hung; the station
+  // refines its tilt and height from the views.
+  setup.mount_guess = s->camera->mount;
+  setup.tag = *s->tag;
+  // Floor tags in the scenario: the virtual camera draws them, and the
+  // station gets the tape's readings, as simulate writes them into session.yaml.
+  if (s->camera->floor_tags) {
+    setup.floor_reference = simulation::TapedFloorReference(*s->camera->floor_tags);
+    Progress("floor reference: " + std::to_string(setup.floor_reference->tags.size()) + " floor tags, " +
+             std::to_string(setup.floor_reference->distances.size()) + " taped distances");
+  }
+  const nlohmann::json truth = StationScenarioTruth(*s);
+  Finish(setup, options, args.out, {{"scenario", args.scenario}, {"truth", truth}}, args.exports, args.live_bind,
+         args.live_port, args.record, limits);
+}
+
+// A real robot (link, command or operator driver) and camera, from the station file.
+void RunRealStation(const StationArgs& args, records::Limits limits, station::StationOptions options,
+                    station::StationSetup setup) {
+  const std::string name = "station";
+  std::string error;
   const auto c = config::LoadStationConfig(args.config);
   if (!c) Fail(name, kExitBadInput, c.message);
   limits = LimitsOrFail(name, args.record, c->limits);
@@ -347,19 +366,7 @@ void RunStation(const StationArgs& args) {
   options.run_timeout = std::chrono::milliseconds(static_cast<long>(c->run_timeout_s * 1e3));
   auto camera = media::CaptureSource::Open(c->camera_device, &error);
   if (!camera) Fail(name, kExitBadInput, error);
-  if (c->default_plan) {
-    station::DefaultPlanOptions d;
-    if (c->slow_turn_rate_deg_s) d.slow_turn_rate_rad_s = DegToRad(*c->slow_turn_rate_deg_s);
-    if (c->fast_turn_rate_deg_s) d.fast_turn_rate_rad_s = DegToRad(*c->fast_turn_rate_deg_s);
-    setup.default_plan = d;
-  } else if (!c->runs.empty()) {
-    setup.plan = c->runs;
-  } else {
-    for (int i = 0; i < c->runs_per_direction; ++i) {
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCw, c->side_mm * kMmToM));
-      setup.plan.push_back(calibration::RunSpec::Umbmark(calibration::Direction::kCcw, c->side_mm * kMmToM));
-    }
-  }
+  StationPlanFromConfig(*c, &setup);
   setup.camera = camera.get();
   setup.intrinsics = camera_file->intrinsics;
   setup.mount_guess = c->mount_guess;
@@ -368,6 +375,27 @@ void RunStation(const StationArgs& args) {
   setup.floor_reference = c->floor_reference;
   Finish(setup, options, args.out, {{"config", args.config}}, args.exports, args.live_bind, args.live_port, args.record,
          limits);
+}
+
+void RunStation(const StationArgs& args) {
+  if (auto e = report::CheckExports(args.exports)) Fail("station", kExitBadInput, *e);
+  const std::string name = "station";
+  if (args.scenario.empty() == args.config.empty())
+    Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");
+  records::Limits limits = LimitsOrFail(name, args.record);
+  std::signal(SIGINT, OnStationSignal);
+  std::signal(SIGTERM, OnStationSignal);
+  station::StationOptions options;
+  options.max_rounds = args.max_rounds;
+  options.rest_frames = args.rest_frames;
+  station::StationSetup setup;
+  setup.stop_requested = &g_station_stop;
+  setup.progress = Progress;
+  if (!args.scenario.empty()) {
+    RunVirtualStation(args, limits, options, setup);
+    return;
+  }
+  RunRealStation(args, limits, options, setup);
 }
 
 void RegisterStationCommand(CLI::App& app) {

@@ -219,6 +219,101 @@ std::string CameraPlaneResult::BriefReport() const {
   return os.str();
 }
 
+namespace {
+
+// EstimateCameraOverTagPlane's steps, in order.
+
+// Each view's corners undistorted (`normalized`), and the camera's start:
+// roll, pitch and distance to the tag plane, the medians of the views' IPPE
+// planes; nullopt when fewer than `min_views` give a pose.
+std::optional<std::array<double, 3>> StartingPlane(const CameraModel& nominal, const std::vector<cv::Point3d>& model3d,
+                                                   const std::vector<TagCorners>& views_corners_px, int min_views,
+                                                   std::vector<std::vector<cv::Point2d>>* normalized) {
+  std::vector<double> nx, ny, nz, dist;
+  for (const auto& corners : views_corners_px) {
+    normalized->push_back(nominal.UndistortToNormalized({corners.begin(), corners.end()}));
+    cv::Mat rvec, tvec;
+    if (!cv::solvePnP(model3d, normalized->back(), cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec, false,
+                      cv::SOLVEPNP_IPPE)) {
+      continue;
+    }
+    cv::Mat rmat;
+    cv::Rodrigues(rvec, rmat);
+    Eigen::Vector3d n(rmat.at<double>(0, 2), rmat.at<double>(1, 2), rmat.at<double>(2, 2));
+    const Eigen::Vector3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+    if (n.z() > 0) n = -n;  // the plane's up normal points back at the camera
+    nx.push_back(n.x());
+    ny.push_back(n.y());
+    nz.push_back(n.z());
+    dist.push_back(std::abs(n.dot(t)));
+  }
+  if (static_cast<int>(nx.size()) < min_views) return std::nullopt;
+  const Eigen::Vector3d n0 =
+      Eigen::Vector3d(calibration::Median(nx), calibration::Median(ny), calibration::Median(nz)).normalized();
+  return std::array<double, 3>{std::atan2(-n0.y(), -n0.z()), std::asin(std::clamp(-n0.x(), -1.0, 1.0)),
+                               calibration::Median(dist)};
+}
+
+// The rolling shutter: each used view's corners' shear (normalized velocity
+// times its row's offset from the middle row); `fit_readout` when the views
+// move enough for the readout to be fitted.
+std::vector<std::array<cv::Point2d, 4>> CornerShears(const Intrinsics& intrinsics, const CameraModel& nominal,
+                                                     const std::vector<TagCorners>& views_corners_px,
+                                                     const std::vector<size_t>& view_index,
+                                                     const std::vector<CornerVelocities>* views_velocities,
+                                                     const CameraPlaneOptions& options, bool* fit_readout) {
+  const double f = std::sqrt(intrinsics.fx * intrinsics.fy);
+  const bool have_velocities = views_velocities && views_velocities->size() == views_corners_px.size();
+  std::vector<std::array<cv::Point2d, 4>> shear(view_index.size());
+  double shear_sq = 0.0;
+  for (size_t v = 0; v < view_index.size() && have_velocities; ++v) {
+    const TagCorners& c = views_corners_px[view_index[v]];
+    const CornerVelocities& vel = (*views_velocities)[view_index[v]];
+    // The velocity in normalized coordinates through the lens (a central
+    // difference over 1 ms of motion).
+    constexpr double kDt = 1e-3;
+    std::vector<cv::Point2d> ahead, behind;
+    for (int k = 0; k < 4; ++k) {
+      ahead.push_back(c[k] + vel[k] * kDt);
+      behind.push_back(c[k] - vel[k] * kDt);
+    }
+    const auto na = nominal.UndistortToNormalized(ahead), nb = nominal.UndistortToNormalized(behind);
+    for (int k = 0; k < 4; ++k) {
+      const double row = c[k].y / std::max(1, intrinsics.height - 1) - 0.5;
+      shear[v][k] = (na[k] - nb[k]) * (row / (2.0 * kDt));
+      shear_sq += std::pow(f * cv::norm(shear[v][k]) * options.rolling_shutter_probe_s, 2);
+    }
+  }
+  *fit_readout =
+      have_velocities && std::sqrt(shear_sq / (4.0 * view_index.size())) > options.rolling_shutter_min_shear_px;
+  return shear;
+}
+
+// The camera's sigmas (and the readout's), the covariance scaled by the
+// residual variance over `n_res` residuals.
+void PlaneSigmas(ceres::Problem& problem, double* camera, double* readout_s, bool fit_readout, double final_cost,
+                 int n_res, CameraPlaneResult* result) {
+  ceres::Covariance::Options cov_options;
+  ceres::Covariance covariance(cov_options);
+  std::vector<std::pair<const double*, const double*>> blocks = {{camera, camera}};
+  if (fit_readout) blocks.push_back({readout_s, readout_s});
+  if (!covariance.Compute(blocks, &problem)) return;
+  double cov[9];
+  covariance.GetCovarianceBlock(camera, camera, cov);
+  const int dof = std::max(1, n_res - 3 - 3 * result->views_used - (fit_readout ? 1 : 0));
+  const double s2 = 2.0 * final_cost / dof;
+  result->sigma_roll_deg = std::sqrt(cov[0] * s2) * kRadToDeg;
+  result->sigma_pitch_deg = std::sqrt(cov[4] * s2) * kRadToDeg;
+  result->sigma_height_mm = std::sqrt(cov[8] * s2) * kMToMm;
+  if (fit_readout) {
+    double t_cov = 0.0;
+    covariance.GetCovarianceBlock(readout_s, readout_s, &t_cov);
+    result->sigma_rolling_shutter_ms = std::sqrt(t_cov * s2) * 1e3;
+  }
+}
+
+}  // namespace
+
 CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const TagSpec& tag,
                                              const std::vector<TagCorners>& views_corners_px,
                                              const CameraMount& nominal_mount,
@@ -241,33 +336,14 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   std::vector<cv::Point3d> model3d;
   for (const auto& m : model) model3d.emplace_back(m.x(), m.y(), 0.0);
 
-  // Undistorted observations, and per-view planes from IPPE for the start.
+  // Undistorted observations, and the views' IPPE planes for the start.
   std::vector<std::vector<cv::Point2d>> normalized;
-  std::vector<double> nx, ny, nz, dist;
-  for (const auto& corners : views_corners_px) {
-    normalized.push_back(nominal.UndistortToNormalized({corners.begin(), corners.end()}));
-    cv::Mat rvec, tvec;
-    if (!cv::solvePnP(model3d, normalized.back(), cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec,
-                      tvec, false, cv::SOLVEPNP_IPPE)) {
-      continue;
-    }
-    cv::Mat rmat;
-    cv::Rodrigues(rvec, rmat);
-    Eigen::Vector3d n(rmat.at<double>(0, 2), rmat.at<double>(1, 2), rmat.at<double>(2, 2));
-    const Eigen::Vector3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
-    if (n.z() > 0) n = -n;  // the plane's up normal points back at the camera
-    nx.push_back(n.x());
-    ny.push_back(n.y());
-    nz.push_back(n.z());
-    dist.push_back(std::abs(n.dot(t)));
-  }
-  if (static_cast<int>(nx.size()) < options.min_views) {
+  const auto plane = StartingPlane(nominal, model3d, views_corners_px, options.min_views, &normalized);
+  if (!plane) {
     result.message = "too few views gave a pose for the starting estimate";
     return result;
   }
-  const Eigen::Vector3d n0 = Eigen::Vector3d(calibration::Median(nx), calibration::Median(ny), calibration::Median(nz)).normalized();
-  double camera[3] = {std::atan2(-n0.y(), -n0.z()), std::asin(std::clamp(-n0.x(), -1.0, 1.0)),
-                      calibration::Median(dist)};
+  double camera[3] = {(*plane)[0], (*plane)[1], (*plane)[2]};
   CameraMount start = nominal_mount;
   start.roll_deg = camera[0] * kRadToDeg;
   start.pitch_deg = camera[1] * kRadToDeg;
@@ -290,31 +366,9 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     result.message = "too few views fit the tag model";
     return result;
   }
-  // The rolling shutter: each corner's shear (normalized velocity times its
-  // row's offset from the middle row), and whether the views move enough.
-  const bool have_velocities = views_velocities && views_velocities->size() == views_corners_px.size();
-  std::vector<std::array<cv::Point2d, 4>> shear(views.size());
-  double shear_sq = 0.0;
-  for (size_t v = 0; v < views.size() && have_velocities; ++v) {
-    const TagCorners& c = views_corners_px[view_index[v]];
-    const CornerVelocities& vel = (*views_velocities)[view_index[v]];
-    // The velocity in normalized coordinates through the lens (a central
-    // difference over 1 ms of motion).
-    constexpr double kDt = 1e-3;
-    std::vector<cv::Point2d> ahead, behind;
-    for (int k = 0; k < 4; ++k) {
-      ahead.push_back(c[k] + vel[k] * kDt);
-      behind.push_back(c[k] - vel[k] * kDt);
-    }
-    const auto na = nominal.UndistortToNormalized(ahead), nb = nominal.UndistortToNormalized(behind);
-    for (int k = 0; k < 4; ++k) {
-      const double row = c[k].y / std::max(1, intrinsics.height - 1) - 0.5;
-      shear[v][k] = (na[k] - nb[k]) * (row / (2.0 * kDt));
-      shear_sq += std::pow(f * cv::norm(shear[v][k]) * options.rolling_shutter_probe_s, 2);
-    }
-  }
-  const bool fit_readout =
-      have_velocities && std::sqrt(shear_sq / (4.0 * views.size())) > options.rolling_shutter_min_shear_px;
+  bool fit_readout = false;
+  const std::vector<std::array<cv::Point2d, 4>> shear =
+      CornerShears(intrinsics, nominal, views_corners_px, view_index, views_velocities, options, &fit_readout);
   double readout_s[1] = {0.0};
   for (size_t v = 0; v < views.size(); ++v) {
     for (int k = 0; k < 4; ++k) {
@@ -357,25 +411,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   result.rolling_shutter_fitted = fit_readout;
   result.rolling_shutter_ms = readout_s[0] * 1e3;
 
-  // Uncertainty of the camera block, scaled by the residual variance.
-  ceres::Covariance::Options cov_options;
-  ceres::Covariance covariance(cov_options);
-  std::vector<std::pair<const double*, const double*>> blocks = {{camera, camera}};
-  if (fit_readout) blocks.push_back({readout_s, readout_s});
-  if (covariance.Compute(blocks, &problem)) {
-    double cov[9];
-    covariance.GetCovarianceBlock(camera, camera, cov);
-    const int dof = std::max(1, n_res - 3 - 3 * result.views_used - (fit_readout ? 1 : 0));
-    const double s2 = 2.0 * summary.final_cost / dof;
-    result.sigma_roll_deg = std::sqrt(cov[0] * s2) * kRadToDeg;
-    result.sigma_pitch_deg = std::sqrt(cov[4] * s2) * kRadToDeg;
-    result.sigma_height_mm = std::sqrt(cov[8] * s2) * kMToMm;
-    if (fit_readout) {
-      double t_cov = 0.0;
-      covariance.GetCovarianceBlock(readout_s, readout_s, &t_cov);
-      result.sigma_rolling_shutter_ms = std::sqrt(t_cov * s2) * 1e3;
-    }
-  }
+  PlaneSigmas(problem, camera, readout_s, fit_readout, summary.final_cost, n_res, &result);
   result.ok = true;
   return result;
 }

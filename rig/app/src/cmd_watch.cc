@@ -3,12 +3,9 @@
 //     [--seconds S] [--realtime] [--delay-s S] [--hold-s S]
 //
 // The live view (issue 13 §4, rig/live) on a camera or a video file without a
-// robot: every frame's tag found and tracked (vision::TagObserver), its pose
-// measured on the tag's plane, and both served as a web page. The camera's
-// mount starts as the --mount-guess, or a level camera at the height the
-// tag's apparent size implies (as setup-check does); its tilt and height are
-// fitted once to the first `kPlaneViews` views of the tag, and the path so
-// far is measured again on the fitted plane. Prints "live view: URL" first and a
+// robot: the frames go to live::TagWatch (the tag tracked, its pose on the
+// tag's plane, the camera's tilt and height fitted once: live/tag_watch.h)
+// and are served as a web page. Prints "live view: URL" first and a
 // summary line (frames, frames/s) at the end; exit 0 when the video ended
 // or Ctrl-C stopped it, 1 when a camera stopped delivering, 2 for bad input
 // (an option, a camera that cannot be opened, a port in use).
@@ -29,24 +26,17 @@
 #include "cli_util.h"
 #include "commands.h"
 #include "odocal/base/format.h"
-#include "odocal/base/units.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/live/live_server.h"
 #include "odocal/live/live_state.h"
-#include "odocal/measure/measure.h"
+#include "odocal/live/tag_watch.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/media/video.h"
-#include "odocal/vision/planar_pose.h"
-#include "odocal/vision/tag_observer.h"
 
 namespace odocal::app {
 namespace {
 
 constexpr const char* kWatch = "watch";
-// Views of the tag the camera's tilt and height are fitted to (evenly
-// thinned to kMaxPlaneViews): about a second of a 30 fps camera.
-constexpr int kPlaneViews = 30;
-constexpr int kMaxPlaneViews = 15;
 
 std::atomic<bool> g_watch_stop{false};
 void OnWatchSignal(int) { g_watch_stop = true; }
@@ -108,31 +98,6 @@ class Source {
   std::optional<double> t0_;
 };
 
-// The pose the page shows, with a one-frame sigma: the corners' closure of
-// this frame alone (vision::EstimateRestCornerError with one frame puts the
-// whole image error in the shared part).
-std::optional<live::LivePose> PoseOf(const vision::CameraModel& camera, const vision::TagSpec& tag,
-                                     const vision::TagCorners& corners) {
-  const vision::PlanarPoseResult m = vision::MeasureTagPose(camera, tag, corners);
-  if (!m.ok) return std::nullopt;
-  const double heading = m.T_world_robot.heading();
-  const vision::RestCornerError e = vision::EstimateRestCornerError({m.closure_mm}, tag, heading);
-  live::LivePose p;
-  p.x_mm = m.T_world_robot.x() * kMToMm;
-  p.y_mm = m.T_world_robot.y() * kMToMm;
-  p.heading_deg = heading * kRadToDeg;
-  p.sigma_x_mm = std::sqrt(e.shared_covariance(0, 0)) * kMToMm;
-  p.sigma_y_mm = std::sqrt(e.shared_covariance(1, 1)) * kMToMm;
-  p.sigma_heading_deg = std::sqrt(e.shared_covariance(2, 2)) * kRadToDeg;
-  return p;
-}
-
-double MeanSidePx(const vision::TagCorners& c) {
-  double sum = 0.0;
-  for (int i = 0; i < 4; ++i) sum += cv::norm(c[(i + 1) % 4] - c[i]);
-  return sum / 4.0;
-}
-
 void RunWatch(const WatchArgs& args) {
   const vision::TagSpec tag = ParseTagOption(kWatch, "--tag", args.tag);
   std::string why;
@@ -154,12 +119,10 @@ void RunWatch(const WatchArgs& args) {
   const vision::Intrinsics& intrinsics = file->intrinsics;
 
   Source source(args.camera);
-  vision::VideoTrackOptions track;
-  track.keep_crops = false;
-  std::unique_ptr<vision::TagObserver> observer = vision::TagObserver::Create(tag, intrinsics, track, &why);
-  if (!observer) Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": " + why);
-
   live::LiveState state;
+  auto watch = live::TagWatch::Create(tag, intrinsics, mount_guess, &state);
+  if (!watch) Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": " + watch.message);
+
   state.SetSource(source.Describe());
   state.SetProgress(0, 0, "", "watch: no plan, the camera only");
   auto server = live::LiveServer::Start(state, server_options);
@@ -177,11 +140,6 @@ void RunWatch(const WatchArgs& args) {
   const Clock::time_point delay_from = Clock::now();
   while (!g_watch_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 
-  std::optional<vision::CameraModel> camera;
-  vision::CameraMount mount;
-  std::vector<vision::TagCorners> plane_candidates;
-  bool plane_done = false;
-  long frames = 0, found = 0;
   std::string error, ended;
   const Clock::time_point t0 = Clock::now();
   while (!g_watch_stop) {
@@ -201,58 +159,10 @@ void RunWatch(const WatchArgs& args) {
       const double ahead = frame->t_s - Since(t0);
       if (ahead > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(ahead));
     }
-    ++frames;
-    const vision::FrameObservation obs = observer->Observe(frame->grey, frame->t_s);
-    if (obs.status == vision::DetectStatus::kWrongId) {
-      state.SetWarning("wrong_id", "tags seen, but not id " + std::to_string(tag.id) + " of " + tag.family +
-                                       ": check --tag");
-    } else if (obs.status == vision::DetectStatus::kDuplicateId) {
-      state.SetWarning("duplicate_id", "tag id " + std::to_string(tag.id) +
-                                           " seen twice: another tag with the same id is in view; remove it");
-    } else if (obs.corners_px) {
-      state.ClearWarning("wrong_id");
-      state.ClearWarning("duplicate_id");
-    }
-    std::optional<live::LivePose> pose;
-    if (obs.corners_px) {
-      ++found;
-      if (!camera) {
-        mount = mount_guess ? *mount_guess
-                            : measure::LevelMountFromTagSize(intrinsics, tag, MeanSidePx(*obs.corners_px));
-        state.SetEstimate("camera height", mount.height_mm, 0.0, "mm");
-        camera.emplace(intrinsics, mount);
-      }
-      if (!plane_done) {
-        plane_candidates.push_back(*obs.corners_px);
-        if (static_cast<int>(plane_candidates.size()) >= kPlaneViews) {
-          plane_done = true;
-          std::vector<vision::TagCorners> views;
-          const int step = std::max(1, static_cast<int>(plane_candidates.size()) / kMaxPlaneViews);
-          for (size_t k = 0; k < plane_candidates.size(); k += step) views.push_back(plane_candidates[k]);
-          const measure::CameraPlaneOrGuess fit = measure::EstimateCameraPlaneOrGuess(intrinsics, tag, views, mount);
-          const vision::CameraPlaneResult& plane = fit.plane;
-          if (fit.estimated()) {
-            mount = fit.mount;
-            camera.emplace(intrinsics, mount);
-            // The path so far, measured again on the fitted plane.
-            std::vector<cv::Point2d> path;
-            for (const vision::TagCorners& c : plane_candidates)
-              if (const auto p = PoseOf(*camera, tag, c)) path.emplace_back(p->x_mm, p->y_mm);
-            state.SetTrajectory(path);
-            state.SetEstimate("camera height", mount.height_mm, plane.sigma_height_mm, "mm");
-            state.SetEstimate("camera roll", mount.roll_deg, plane.sigma_roll_deg, "deg");
-            state.SetEstimate("camera pitch", mount.pitch_deg, plane.sigma_pitch_deg, "deg");
-          } else {
-            state.SetWarning("camera_plane", "the camera's tilt could not be fitted to the tag (" + plane.message +
-                                                 "): poses assume a level camera");
-          }
-        }
-      }
-      pose = PoseOf(*camera, tag, *obs.corners_px);
-    }
-    state.OnFrame(frame->grey, frame->t_s, obs.corners_px, pose);
+    (*watch)->OnFrame(frame->grey, frame->t_s);
   }
   const double elapsed = Since(t0);
+  const long frames = (*watch)->frames(), found = (*watch)->found();
   std::printf("watched %ld frames in %.2f s (%.1f frames/s), tag found in %ld\n", frames, elapsed,
               elapsed > 0.0 ? frames / elapsed : 0.0, found);
   if (g_watch_stop) {

@@ -385,9 +385,8 @@ std::vector<uchar> AnnotationPng(const DetectRequest& request, const Frame& f, c
          << survey.rejected.size() << " quads refused (red)";
   cv::putText(bgr, legend.str(), cv::Point(6, 16), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 255, 255), 1,
               cv::LINE_AA);
-  std::string why;
-  std::optional<std::vector<uchar>> png = media::EncodePng(bgr, &why);
-  if (!png) Fail(kDetect, kExitFailure, f.file + ": the annotation: " + why + " (nothing written)");
+  Result<std::vector<uchar>> png = media::EncodePng(bgr);
+  if (!png) Fail(kDetect, kExitFailure, f.file + ": the annotation: " + png.message + " (nothing written)");
   return std::move(*png);
 }
 

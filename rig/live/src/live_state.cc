@@ -343,9 +343,9 @@ std::optional<LiveJpeg> LiveState::FrameJpeg() const {
     // The first corner (the printed bitmap's bottom left) shows which way the tag is turned.
     cv::circle(bgr, outline[0], (2 * thickness) << kShift, kOutlineBgr, cv::FILLED, cv::LINE_AA, kShift);
   }
-  std::string why;  // the codecs not loaded: an empty picture, which the page shows as none
+  // The codecs not loaded: an empty picture, which the page shows as none.
   std::vector<unsigned char> bytes =
-      media::EncodeJpeg(bgr, options_.jpeg_quality, &why).value_or(std::vector<unsigned char>());
+      media::EncodeJpeg(bgr, options_.jpeg_quality).value.value_or(std::vector<unsigned char>());
   jpeg_ = LiveJpeg{std::make_shared<const std::vector<unsigned char>>(std::move(bytes)), frame->seq, bgr.cols,
                    bgr.rows};
   return jpeg_;

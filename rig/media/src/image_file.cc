@@ -48,32 +48,31 @@ Status WriteImage(const std::string& path, const cv::Mat& image) {
 
 namespace {
 
-// An image coded by `code` (the codecs' PNG or JPEG), or nullopt with why.
+// An image coded by `code` (the codecs' PNG or JPEG): kFailed when the
+// codecs cannot be loaded or the image cannot be coded.
 template <typename Code>
-std::optional<std::vector<unsigned char>> Encode(const char* format, const Code& code, std::string* error) {
-  const internal::Codecs* codecs = internal::LoadCodecs(error);
-  if (!codecs) return std::nullopt;
+Result<std::vector<unsigned char>> Encode(const char* format, const Code& code) {
+  using Bytes = Result<std::vector<unsigned char>>;
+  std::string why;
+  const internal::Codecs* codecs = internal::LoadCodecs(&why);
+  if (!codecs) return Bytes::Error(StatusCode::kFailed, why);
   std::vector<unsigned char> bytes;
-  if (!code(*codecs, &bytes)) {
-    if (error) *error = std::string("the image cannot be coded as ") + format;
-    return std::nullopt;
-  }
-  return bytes;
+  if (!code(*codecs, &bytes))
+    return Bytes::Error(StatusCode::kFailed, std::string("the image cannot be coded as ") + format);
+  return Bytes::Ok(std::move(bytes));
 }
 
 }  // namespace
 
-std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error) {
+Result<std::vector<unsigned char>> EncodePng(const cv::Mat& image) {
   return Encode(
-      "PNG", [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) { return c.EncodePng(image, bytes); },
-      error);
+      "PNG", [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) { return c.EncodePng(image, bytes); });
 }
 
-std::optional<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality, std::string* error) {
-  return Encode(
-      "JPEG",
-      [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) { return c.EncodeJpeg(image, quality, bytes); },
-      error);
+Result<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality) {
+  return Encode("JPEG", [&](const internal::Codecs& c, std::vector<unsigned char>* bytes) {
+    return c.EncodeJpeg(image, quality, bytes);
+  });
 }
 
 }  // namespace odocal::media

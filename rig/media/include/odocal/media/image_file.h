@@ -38,9 +38,10 @@ GreyImage ReadGreyImage(const std::string& path);
 Status WriteImage(const std::string& path, const cv::Mat& image);
 
 // The bytes of a PNG, or a JPEG at `quality` (1-100), of an 8-bit grey or
-// BGR image; nullopt with `*error` when it cannot be coded.
-std::optional<std::vector<unsigned char>> EncodePng(const cv::Mat& image, std::string* error);
-std::optional<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality, std::string* error);
+// BGR image; kFailed saying why when it cannot be coded (or the codecs
+// cannot be loaded).
+Result<std::vector<unsigned char>> EncodePng(const cv::Mat& image);
+Result<std::vector<unsigned char>> EncodeJpeg(const cv::Mat& image, int quality);
 
 }  // namespace odocal::media
 

@@ -83,16 +83,20 @@ TEST(TurnRates, RecoversASlipFromTwoRatesAndItsUncertainty) {
 }
 
 TEST(CommandTemplate, ExpandsKnownPlaceholdersAndNamesUnknownOnes) {
-  std::string why;
-  EXPECT_EQ(ExpandTemplate("drive --side {side_mm} --dir {direction}", {{"side_mm", "500"}, {"direction", "cw"}}, &why),
-            "drive --side 500 --dir cw");
-  EXPECT_FALSE(ExpandTemplate("drive {side}", {{"side_mm", "500"}}, &why));
-  EXPECT_THAT(why, ::testing::HasSubstr("unknown placeholder {side}"));
-  EXPECT_FALSE(ExpandTemplate("drive {side_mm", {{"side_mm", "500"}}, &why));
-  EXPECT_THAT(why, ::testing::HasSubstr("'{' without '}'"));
-  EXPECT_TRUE(CheckTemplate("x {procedure} {turn_rate_deg_s} {log}", "run", &why)) << why;
-  EXPECT_FALSE(CheckTemplate("x {file}", "run", &why));
-  EXPECT_TRUE(CheckTemplate("push {file} {track_mm}", "apply", &why)) << why;
+  const Result<std::string> drive =
+      ExpandTemplate("drive --side {side_mm} --dir {direction}", {{"side_mm", "500"}, {"direction", "cw"}});
+  ASSERT_TRUE(drive) << drive.message;
+  EXPECT_EQ(*drive, "drive --side 500 --dir cw");
+  const Result<std::string> unknown = ExpandTemplate("drive {side}", {{"side_mm", "500"}});
+  EXPECT_EQ(unknown.status, StatusCode::kInvalidArgument);
+  EXPECT_THAT(unknown.message, ::testing::HasSubstr("unknown placeholder {side}"));
+  EXPECT_THAT(ExpandTemplate("drive {side_mm", {{"side_mm", "500"}}).message, ::testing::HasSubstr("'{' without '}'"));
+  EXPECT_FALSE(ExpandTemplate("drive }", {}));
+  const Status run = CheckTemplate("x {procedure} {turn_rate_deg_s} {log}", "run");
+  EXPECT_TRUE(run) << run.message;
+  EXPECT_FALSE(CheckTemplate("x {file}", "run"));
+  const Status apply = CheckTemplate("push {file} {track_mm}", "apply");
+  EXPECT_TRUE(apply) << apply.message;
 }
 
 }  // namespace

@@ -184,7 +184,9 @@ station::ExternalDriverOptions ExternalOptions(const std::string& run, const std
   for (const auto& [text, kind, name] : {std::tuple{run, "run", "the run command"},
                                          std::tuple{stop, "run", "the stop command"},
                                          std::tuple{apply, "apply", "the apply command"}}) {
-    if (!text.empty() && !station::CheckTemplate(text, kind, &why)) Fail("station", kExitBadInput, std::string(name) + ": " + why);
+    if (text.empty()) continue;
+    if (const Status checked = station::CheckTemplate(text, kind); !checked)
+      Fail("station", kExitBadInput, std::string(name) + ": " + checked.message);
   }
   return o;
 }

@@ -193,17 +193,16 @@ class ExternalDriver : public RobotDriver {
           std::pair{ros2, report::Ros2ExportYaml(robot_link::ToWheelParams(options_.params), corrected)}}) {
       if (auto e = config::WriteFileAtomically(path, text)) return DriverError{DriverFault::kApplyFailed, *e};
     }
-    std::string why;
-    const auto command = ExpandTemplate(options_.apply_command,
-                                        {{"file", firmware},
-                                         {"ros2", ros2},
-                                         {"left_wheel_diameter_mm", Exact(target.left_wheel_diameter_mm)},
-                                         {"right_wheel_diameter_mm", Exact(target.right_wheel_diameter_mm)},
-                                         {"track_mm", Exact(target.track_mm)},
-                                         {"ticks_per_rev", std::to_string(target.ticks_per_rev)}},
-                                        &why);
-    if (!command) return DriverError{DriverFault::kApplyFailed, "apply: " + why};
+    const auto command =
+        ExpandTemplate(options_.apply_command, {{"file", firmware},
+                                                {"ros2", ros2},
+                                                {"left_wheel_diameter_mm", Exact(target.left_wheel_diameter_mm)},
+                                                {"right_wheel_diameter_mm", Exact(target.right_wheel_diameter_mm)},
+                                                {"track_mm", Exact(target.track_mm)},
+                                                {"ticks_per_rev", std::to_string(target.ticks_per_rev)}});
+    if (!command) return DriverError{DriverFault::kApplyFailed, "apply: " + command.message};
     Child child;
+    std::string why;
     if (!child.Spawn(*command, log, options_.environment, &why))
       return DriverError{DriverFault::kApplyFailed, "apply: " + why};
     const Clock::time_point until = Clock::now() + options_.apply_timeout;
@@ -253,9 +252,8 @@ class CommandDriver final : public ExternalDriver {
   std::string Describe() const override { return "command \"" + options_.run_command + "\""; }
 
   std::optional<DriverError> Start(const RunRequest& run) override {
-    std::string why;
-    const auto command = ExpandTemplate(options_.run_command, RunValues(run), &why);
-    if (!command) return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
+    const auto command = ExpandTemplate(options_.run_command, RunValues(run));
+    if (!command) return DriverError{DriverFault::kRunNotCompleted, "command: " + command.message};
     log_ = run.log_path;
     telemetry_path_ = run.telemetry_path;
     if (!telemetry_path_.empty()) std::filesystem::remove(telemetry_path_);
@@ -263,6 +261,7 @@ class CommandDriver final : public ExternalDriver {
       std::ofstream(log_, std::ios::app) << "$ " << *command << "\n";
     }
     child_ = std::make_unique<Child>();
+    std::string why;
     if (!child_->Spawn(*command, log_, options_.environment, &why))
       return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
     return std::nullopt;
@@ -365,39 +364,34 @@ std::string DescribeForOperator(const calibration::RunSpec& s) {
   return buffer;
 }
 
-std::optional<std::string> ExpandTemplate(const std::string& text, const std::map<std::string, std::string>& values,
-                                          std::string* why) {
+Result<std::string> ExpandTemplate(const std::string& text, const std::map<std::string, std::string>& values) {
+  const auto fail = [](std::string why) {
+    return Result<std::string>::Error(StatusCode::kInvalidArgument, std::move(why));
+  };
   std::string out;
   for (size_t i = 0; i < text.size(); ++i) {
-    if (text[i] == '}') {
-      *why = "'}' without '{' at character " + std::to_string(i + 1) + " of \"" + text + "\"";
-      return std::nullopt;
-    }
+    if (text[i] == '}') return fail("'}' without '{' at character " + std::to_string(i + 1) + " of \"" + text + "\"");
     if (text[i] != '{') {
       out += text[i];
       continue;
     }
     const size_t close = text.find('}', i);
-    if (close == std::string::npos) {
-      *why = "'{' without '}' in \"" + text + "\"";
-      return std::nullopt;
-    }
+    if (close == std::string::npos) return fail("'{' without '}' in \"" + text + "\"");
     const std::string key = text.substr(i + 1, close - i - 1);
     const auto it = values.find(key);
-    if (it == values.end()) {
-      *why = "unknown placeholder {" + key + "} in \"" + text + "\"";
-      return std::nullopt;
-    }
+    if (it == values.end()) return fail("unknown placeholder {" + key + "} in \"" + text + "\"");
     out += it->second;
     i = close;
   }
-  return out;
+  return Result<std::string>::Ok(std::move(out));
 }
 
-bool CheckTemplate(const std::string& text, const std::string& kind, std::string* why) {
+Status CheckTemplate(const std::string& text, const std::string& kind) {
   std::map<std::string, std::string> blanks;
   for (const std::string& k : kind == "apply" ? ApplyKeys() : RunKeys()) blanks[k] = "";
-  return ExpandTemplate(text, blanks, why).has_value();
+  const Result<std::string> expanded = ExpandTemplate(text, blanks);
+  if (!expanded) return Status::Error(expanded.status, expanded.message);
+  return Status::Ok();
 }
 
 std::unique_ptr<RobotDriver> MakeCommandDriver(const ExternalDriverOptions& options) {

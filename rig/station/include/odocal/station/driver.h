@@ -140,14 +140,12 @@ struct ExternalDriverOptions {
   std::ostream* prompt = nullptr;
 };
 
-// Template text with its placeholders replaced; nullopt with `why` naming an
+// Template text with its placeholders replaced; kInvalidArgument naming an
 // unknown placeholder or an unbalanced brace.
-std::optional<std::string> ExpandTemplate(const std::string& text,
-                                          const std::map<std::string, std::string>& values,
-                                          std::string* why);
+Result<std::string> ExpandTemplate(const std::string& text, const std::map<std::string, std::string>& values);
 // Whether `text` uses only the placeholders the driver fills for `kind`
-// ("run" or "apply"); `why` names the first unknown one.
-bool CheckTemplate(const std::string& text, const std::string& kind, std::string* why);
+// ("run" or "apply"); kInvalidArgument naming the first unknown one.
+Status CheckTemplate(const std::string& text, const std::string& kind);
 
 std::unique_ptr<RobotDriver> MakeCommandDriver(const ExternalDriverOptions& options);
 std::unique_ptr<RobotDriver> MakeOperatorDriver(const ExternalDriverOptions& options);

@@ -137,13 +137,12 @@ ParamSet ToParamSet(const calibration::WheelParams& w, uint32_t ticks_per_rev) {
                   ticks_per_rev};
 }
 
-std::optional<ParamSet> ToParamSet(const calibration::WheelParams& w, std::string* why) {
+Result<ParamSet> ToParamSet(const calibration::WheelParams& w) {
   if (!(w.ticks_per_rev >= 1.0 && w.ticks_per_rev <= 4294967295.0) ||
-      std::abs(w.ticks_per_rev - std::round(w.ticks_per_rev)) > 1e-9) {
-    if (why) *why = "ticks_per_rev: the robot link carries whole ticks per revolution";
-    return std::nullopt;
-  }
-  return ToParamSet(w, static_cast<uint32_t>(std::round(w.ticks_per_rev)));
+      std::abs(w.ticks_per_rev - std::round(w.ticks_per_rev)) > 1e-9)
+    return Result<ParamSet>::Error(StatusCode::kInvalidArgument,
+                                   "ticks_per_rev: the robot link carries whole ticks per revolution");
+  return Result<ParamSet>::Ok(ToParamSet(w, static_cast<uint32_t>(std::round(w.ticks_per_rev))));
 }
 
 }  // namespace odocal::robot_link

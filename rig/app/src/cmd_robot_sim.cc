@@ -44,9 +44,8 @@ void RunRobotSim(const RobotSimArgs& args) {
   robot_link::FirmwareHostOptions options;
   options.storage_path = args.storage;
   options.time_scale = args.time_scale;
-  const std::optional<robot_link::ParamSet> defaults =
-      robot_link::ToParamSet(scenario->robot.nominal, &error);
-  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
+  const Result<robot_link::ParamSet> defaults = robot_link::ToParamSet(scenario->robot.nominal);
+  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + defaults.message);
   options.robot.defaults = *defaults;
   auto host = robot_link::FirmwareHost::Start(options, backend);
   if (!host.ok()) Fail(name, kExitFailure, host.message);

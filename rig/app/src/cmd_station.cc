@@ -175,9 +175,8 @@ station::ExternalDriverOptions ExternalOptions(const std::string& run, const std
   o.stop_command = stop;
   o.apply_command = apply;
   o.apply_timeout = std::chrono::milliseconds(static_cast<long>(apply_timeout_s * 1e3));
-  std::string why;
-  const std::optional<robot_link::ParamSet> set = robot_link::ToParamSet(params, &why);
-  if (!set) Fail("station", kExitBadInput, "robot.params: " + why);
+  const Result<robot_link::ParamSet> set = robot_link::ToParamSet(params);
+  if (!set) Fail("station", kExitBadInput, "robot.params: " + set.message);
   o.params = *set;
   o.work_dir = out;
   o.prompt = &std::cout;
@@ -290,8 +289,8 @@ void RunVirtualStation(const StationArgs& args, const records::Limits& limits, s
   sim::SimMotionBackend backend(s->robot);
   robot_link::FirmwareHostOptions host_options;
   host_options.time_scale = args.time_scale;
-  const std::optional<robot_link::ParamSet> defaults = robot_link::ToParamSet(s->robot.nominal, &error);
-  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + error);
+  const Result<robot_link::ParamSet> defaults = robot_link::ToParamSet(s->robot.nominal);
+  if (!defaults) Fail(name, kExitBadInput, "robot.nominal." + defaults.message);
   host_options.robot.defaults = *defaults;
   auto host = robot_link::FirmwareHost::Start(host_options, backend);
   if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);

@@ -12,6 +12,7 @@
 #include <string_view>
 #include <variant>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/robot_link/codec.h"
 
@@ -64,8 +65,8 @@ std::optional<ParamValue> ParseValue(size_t index, std::string_view text);
 // calibration::WheelParams (metres): the one mapping between them.
 calibration::WheelParams ToWheelParams(const ParamSet& params);
 ParamSet ToParamSet(const calibration::WheelParams& params, uint32_t ticks_per_rev);
-// nullopt with `*why` when ticks_per_rev is not a whole number the link can carry.
-std::optional<ParamSet> ToParamSet(const calibration::WheelParams& params, std::string* why);
+// kInvalidArgument naming ticks_per_rev when it is not a whole number the link can carry.
+Result<ParamSet> ToParamSet(const calibration::WheelParams& params);
 
 }  // namespace odocal::robot_link
 

@@ -53,26 +53,19 @@ CentreOfGravity ComputeCentre(const std::vector<ReturnError>& runs) {
   return cg;
 }
 
-std::optional<FirstOrderEstimate> FromAlphaBeta(double alpha, double beta, double side_m,
-                                                double track_m, const char* axis,
-                                                std::string* why) {
+Result<FirstOrderEstimate> FromAlphaBeta(double alpha, double beta, double side_m, double track_m, const char* axis) {
+  const auto fail = [](std::string why) {
+    return Result<FirstOrderEstimate>::Error(StatusCode::kInvalidArgument, std::move(why));
+  };
   // (b/2)/R with R = (L/2)/sin(beta/2): finite for beta = 0.
   const double half_track_over_r = track_m * std::sin(beta / 2.0) / side_m;
-  if (std::abs(half_track_over_r) >= 1.0 || std::abs(beta) >= M_PI) {
-    if (why) {
-      *why = std::string("beta from ") + axis + " = " + Fixed(beta * kRadToDeg, 3) +
-             " deg per leg: the veer radius R is not larger than half the track, so Ed is "
-             "meaningless (are the return errors in mm and the side and track right?)";
-    }
-    return std::nullopt;
-  }
-  if (alpha >= M_PI / 2.0 || alpha <= -M_PI / 2.0) {
-    if (why) {
-      *why = std::string("alpha from ") + axis + " = " + Fixed(alpha * kRadToDeg, 3) +
-             " deg: the robot would not turn at all or turn twice; check the return errors";
-    }
-    return std::nullopt;
-  }
+  if (std::abs(half_track_over_r) >= 1.0 || std::abs(beta) >= M_PI)
+    return fail(std::string("beta from ") + axis + " = " + Fixed(beta * kRadToDeg, 3) +
+                " deg per leg: the veer radius R is not larger than half the track, so Ed is "
+                "meaningless (are the return errors in mm and the side and track right?)");
+  if (alpha >= M_PI / 2.0 || alpha <= -M_PI / 2.0)
+    return fail(std::string("alpha from ") + axis + " = " + Fixed(alpha * kRadToDeg, 3) +
+                " deg: the robot would not turn at all or turn twice; check the return errors");
   FirstOrderEstimate e;
   e.alpha_rad = alpha;
   e.beta_rad = beta;
@@ -82,7 +75,7 @@ std::optional<FirstOrderEstimate> FromAlphaBeta(double alpha, double beta, doubl
   e.Eb = (M_PI / 2.0) / (M_PI / 2.0 - alpha);
   e.c_left = CorrectionLeft(e.Ed);
   e.c_right = CorrectionRight(e.Ed);
-  return e;
+  return Result<FirstOrderEstimate>::Ok(e);
 }
 
 // The first-order alpha and beta (Borenstein & Feng 1996, eq. 11-12 and their
@@ -231,19 +224,14 @@ std::ostream& operator<<(std::ostream& os, const ReturnError& e) {
   return os << ")";
 }
 
-bool UmbmarkInput::AddRun(const RunSpec& spec, const Pose2& return_error, std::string* why) {
-  if (spec.procedure != Procedure::kUmbmark) {
-    if (why) *why = "not a UMBMark square";
-    return false;
-  }
+Status UmbmarkInput::AddRun(const RunSpec& spec, const Pose2& return_error) {
+  if (spec.procedure != Procedure::kUmbmark) return Status::Error(StatusCode::kInvalidArgument, "not a UMBMark square");
   if (side_m == 0.0) side_m = spec.side_m;
-  if (std::abs(spec.side_m - side_m) > 1e-9) {
-    if (why) *why = "a square of another side cannot be pooled";
-    return false;
-  }
+  if (std::abs(spec.side_m - side_m) > 1e-9)
+    return Status::Error(StatusCode::kInvalidArgument, "a square of another side cannot be pooled");
   const ReturnError e{return_error.x(), return_error.y(), return_error.heading()};
   (spec.direction == Direction::kCw ? cw : ccw).push_back(e);
-  return true;
+  return Status::Ok();
 }
 
 bool UmbmarkInput::IsValid(std::string* why) const {
@@ -287,16 +275,12 @@ double CentreOfGravity::radius_m() const { return std::hypot(x_m, y_m); }
 double CorrectionLeft(double Ed) { return 2.0 / (Ed + 1.0); }
 double CorrectionRight(double Ed) { return 2.0 / (1.0 / Ed + 1.0); }
 
-std::optional<FirstOrderEstimate> FirstOrderFromX(double x_cw_m, double x_ccw_m, double side_m,
-                                                  double track_m, std::string* why) {
-  return FromAlphaBeta(AlphaFromX(x_cw_m, x_ccw_m, side_m), BetaFromX(x_cw_m, x_ccw_m, side_m),
-                       side_m, track_m, "x", why);
+Result<FirstOrderEstimate> FirstOrderFromX(double x_cw_m, double x_ccw_m, double side_m, double track_m) {
+  return FromAlphaBeta(AlphaFromX(x_cw_m, x_ccw_m, side_m), BetaFromX(x_cw_m, x_ccw_m, side_m), side_m, track_m, "x");
 }
 
-std::optional<FirstOrderEstimate> FirstOrderFromY(double y_cw_m, double y_ccw_m, double side_m,
-                                                  double track_m, std::string* why) {
-  return FromAlphaBeta(AlphaFromY(y_cw_m, y_ccw_m, side_m), BetaFromY(y_cw_m, y_ccw_m, side_m),
-                       side_m, track_m, "y", why);
+Result<FirstOrderEstimate> FirstOrderFromY(double y_cw_m, double y_ccw_m, double side_m, double track_m) {
+  return FromAlphaBeta(AlphaFromY(y_cw_m, y_ccw_m, side_m), BetaFromY(y_cw_m, y_ccw_m, side_m), side_m, track_m, "y");
 }
 
 UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& options) {
@@ -313,18 +297,12 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
   summary.ccw = ComputeCentre(input.ccw);
   summary.emax_syst_m = std::max(summary.cw.radius_m(), summary.ccw.radius_m());
 
-  const std::optional<FirstOrderEstimate> from_x =
-      FirstOrderFromX(summary.cw.x_m, summary.ccw.x_m, L, b, &why);
-  if (!from_x) {
-    summary.status = StatusCode::kInvalidArgument;
-    summary.message = why;
-    return summary;
-  }
-  const std::optional<FirstOrderEstimate> from_y =
-      FirstOrderFromY(summary.cw.y_m, summary.ccw.y_m, L, b, &why);
-  if (!from_y) {
-    summary.status = StatusCode::kInvalidArgument;
-    summary.message = why;
+  const Result<FirstOrderEstimate> from_x = FirstOrderFromX(summary.cw.x_m, summary.ccw.x_m, L, b);
+  const Result<FirstOrderEstimate> from_y = FirstOrderFromY(summary.cw.y_m, summary.ccw.y_m, L, b);
+  for (const Result<FirstOrderEstimate>* r : {&from_x, &from_y}) {
+    if (r->ok()) continue;
+    summary.status = r->status;
+    summary.message = r->message;
     return summary;
   }
   summary.from_x = *from_x;

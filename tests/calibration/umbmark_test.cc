@@ -66,9 +66,8 @@ TEST(UmbmarkFirstOrder, SignsFollowTheDerivation) {
 
 TEST(UmbmarkFirstOrder, ReproducesTheTutorialFormulasInDegrees) {
   // The seed's x forms: alpha = -14.324 (Xcw + Xccw) / L, beta = -14.324 (Xcw - Xccw) / L.
-  std::string why;
-  const auto e = FirstOrderFromX(0.010, -0.030, kSide, kTrack, &why);
-  ASSERT_TRUE(e) << why;
+  const auto e = FirstOrderFromX(0.010, -0.030, kSide, kTrack);
+  ASSERT_TRUE(e) << e.message;
   EXPECT_NEAR(e->alpha_rad * 180.0 / M_PI, -14.324 * (0.010 - 0.030) / kSide, 1e-4);
   EXPECT_NEAR(e->beta_rad * 180.0 / M_PI, -14.324 * (0.010 + 0.030) / kSide, 1e-4);
   const double R = (kSide / 2.0) / std::sin(e->beta_rad / 2.0);
@@ -80,11 +79,11 @@ TEST(UmbmarkFirstOrder, ReproducesTheTutorialFormulasInDegrees) {
 }
 
 TEST(UmbmarkFirstOrder, BetaSoLargeThatRIsMeaninglessIsRejected) {
-  std::string why;
   // 3 m of x error on a 2 m square: beta ~ 0.75 rad, R ~ 2.7 m is fine; 40 m is not.
-  EXPECT_TRUE(FirstOrderFromX(-3.0, 3.0, kSide, kTrack, &why));
-  EXPECT_FALSE(FirstOrderFromX(-40.0, 40.0, kSide, kTrack, &why));
-  EXPECT_THAT(why, ::testing::HasSubstr("beta")) << why;
+  EXPECT_TRUE(FirstOrderFromX(-3.0, 3.0, kSide, kTrack));
+  const auto rejected = FirstOrderFromX(-40.0, 40.0, kSide, kTrack);
+  EXPECT_FALSE(rejected);
+  EXPECT_THAT(rejected.message, ::testing::HasSubstr("beta")) << rejected.message;
 }
 
 // The acceptance: random Ed in [0.995, 1.005], Eb in [0.97, 1.03],

@@ -34,7 +34,7 @@ std::optional<calibration::UmbmarkInput> UmbmarkFrom(const simulation::Simulatio
   input.track_m = track_m;
   for (const sim::RunRecord& run : result.runs) {
     if (run.spec.procedure != calibration::Procedure::kUmbmark) continue;
-    if (!input.AddRun(run.spec, run.TrueEndInStartFrame(), why)) {
+    if (!input.AddRun(run.spec, run.TrueEndInStartFrame())) {
       *why = "runs: UMBMark squares of different sides cannot be pooled";
       return std::nullopt;
     }

@@ -61,9 +61,7 @@ SessionEstimate EstimateSession(const std::vector<SessionMeasurement>& sessions)
       const calibration::RunSpec& spec = m.spec;
       switch (spec.procedure) {
         case calibration::Procedure::kUmbmark: {
-          std::string why;
-          if (!input.AddRun(spec, error, &why))
-            e.notes.push_back(m.name + ": square of another side, not pooled");
+          if (!input.AddRun(spec, error)) e.notes.push_back(m.name + ": square of another side, not pooled");
           break;
         }
         case calibration::Procedure::kOutAndBack: {

@@ -53,9 +53,9 @@ struct UmbmarkInput {
   bool IsValid(std::string* why) const;
 
   // Pools one square: its return error (true - odometry in its start frame)
-  // under its direction; the first square sets side_m. False with `why` when
+  // under its direction; the first square sets side_m. kInvalidArgument when
   // the run is not a UMBMark square or its side differs from the pooled ones.
-  bool AddRun(const RunSpec& spec, const Pose2& return_error, std::string* why);
+  Status AddRun(const RunSpec& spec, const Pose2& return_error);
 };
 
 struct UmbmarkOptions {
@@ -149,12 +149,11 @@ struct UmbmarkSummary {
 
 UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& options = {});
 
-// The first-order forms alone, for one axis; nullopt with `why` when beta is
-// so large that R is not larger than half the track (Ed would be meaningless).
-std::optional<FirstOrderEstimate> FirstOrderFromX(double x_cw_m, double x_ccw_m, double side_m,
-                                                  double track_m, std::string* why);
-std::optional<FirstOrderEstimate> FirstOrderFromY(double y_cw_m, double y_ccw_m, double side_m,
-                                                  double track_m, std::string* why);
+// The first-order forms alone, for one axis; kInvalidArgument when beta is
+// so large that R is not larger than half the track (Ed would be meaningless)
+// or alpha a quarter turn.
+Result<FirstOrderEstimate> FirstOrderFromX(double x_cw_m, double x_ccw_m, double side_m, double track_m);
+Result<FirstOrderEstimate> FirstOrderFromY(double y_cw_m, double y_ccw_m, double side_m, double track_m);
 
 // Borenstein's correction factors for a wheel-diameter ratio Ed: multiply each
 // wheel's travel per tick (its diameter) by these; they keep the mean.

@@ -571,9 +571,8 @@ Status PlanTracking(const std::vector<config::Session>& sessions, const MeasureO
   for (size_t s = 0; s < sessions.size(); ++s) {
     out[s].session = sessions[s];
     // Pose-log runs sharing one log: found in it (segment_runs.h).
-    std::string error;
-    if (!AssignPoseLogSpans(&out[s].session, options.pose_log.rest, &out[s].segments, &error))
-      return Status::Error(StatusCode::kBadFile, error);
+    if (const Status spans = AssignPoseLogSpans(&out[s].session, options.pose_log.rest, &out[s].segments); !spans)
+      return spans;
     out[s].runs.resize(out[s].session.runs.size());
     std::map<std::pair<std::string, std::string>, size_t> tracked;  // (video, timestamps) -> run
     for (size_t r = 0; r < out[s].session.runs.size(); ++r) {
@@ -700,11 +699,10 @@ Status FindRunsInSharedVideos(const vision::CameraModel& camera, const MeasureOp
       const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
       samples.push_back({f.t_s, pose.value_or(calibration::Pose2()), pose.has_value()});
     }
-    std::string error;
-    const bool ok = lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest, &expanded[group.front()],
-                                              &sm.segments, &error)
-                              : AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments, &error);
-    if (!ok) return Status::Error(StatusCode::kBadFile, error);
+    const Status assigned =
+        lone_auto ? ExpandAutoRun(*runs.front(), video, samples, options.rest, &expanded[group.front()], &sm.segments)
+                  : AssignSpansFromRecording(video, samples, runs, options.rest, &sm.segments);
+    if (!assigned) return assigned;
   }
   if (!expanded.empty()) {
     std::vector<RunMeasurement> all;

@@ -36,11 +36,11 @@ std::vector<std::pair<double, double>> RunSpans(const std::vector<calibration::M
 
 bool HasOwnSpan(const config::SessionRun& run) { return run.start_s != 0.0 || std::isfinite(run.end_s); }
 
-bool AssignSpansFromRecording(const std::string& source, const std::vector<calibration::PoseSample>& samples,
-                              const std::vector<config::SessionRun*>& runs,
-                              const calibration::RestOptions& rest_options,
-                              std::vector<SegmentAssignment>* assignments, std::string* error) {
-  if (runs.size() < 2) return true;
+Status AssignSpansFromRecording(const std::string& source, const std::vector<calibration::PoseSample>& samples,
+                                const std::vector<config::SessionRun*>& runs,
+                                const calibration::RestOptions& rest_options,
+                                std::vector<SegmentAssignment>* assignments) {
+  if (runs.size() < 2) return Status::Ok();
   std::vector<config::SessionRun*> open;
   std::vector<std::pair<double, double>> fixed;  // the overrides' spans
   for (config::SessionRun* run : runs) {
@@ -49,7 +49,7 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
     else
       open.push_back(run);
   }
-  if (open.empty()) return true;
+  if (open.empty()) return Status::Ok();
   std::vector<calibration::MotionSegment> segments;
   for (const calibration::MotionSegment& s : calibration::SegmentMotion(samples, rest_options)) {
     // The motion (between the rests) inside an override's span is that run's.
@@ -83,8 +83,7 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
       text += line;
     }
     text += "\n  (give a run start_s/end_s to place it by hand)";
-    *error = text;
-    return false;
+    return Status::Error(StatusCode::kFailed, text);
   }
   const std::vector<std::pair<double, double>> spans = RunSpans(segments);
   for (size_t k = 0; k < open.size(); ++k) {
@@ -108,22 +107,21 @@ bool AssignSpansFromRecording(const std::string& source, const std::vector<calib
       assignments->push_back(a);
     }
   }
-  return true;
+  return Status::Ok();
 }
 
 bool IsLoneAutoRun(const std::vector<config::SessionRun*>& group) {
   return group.size() == 1 && group.front()->infer_procedure && !HasOwnSpan(*group.front());
 }
 
-bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
-                   const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
-                   std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments,
-                   std::string* error) {
+Status ExpandAutoRun(const config::SessionRun& run, const std::string& source,
+                     const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
+                     std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments) {
   const std::vector<calibration::MotionSegment> segments = calibration::SegmentMotion(samples, rest_options);
   if (segments.empty()) {
-    *error = source + ": run '" + run.name + "' (procedure auto): no motion between two rests found in it" +
-             " (a run needs a still second before and after)";
-    return false;
+    return Status::Error(StatusCode::kFailed, source + ": run '" + run.name +
+                                                  "' (procedure auto): no motion between two rests found in it" +
+                                                  " (a run needs a still second before and after)");
   }
   const std::vector<std::pair<double, double>> spans = RunSpans(segments);
   // The squares of one recording were planned alike: read from the poses
@@ -154,11 +152,11 @@ bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
     if (assignments)
       assignments->push_back({r.name, source, r.start_s, r.end_s, calibration::Describe(r.spec)});
   }
-  return true;
+  return Status::Ok();
 }
 
-bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
-                        std::vector<SegmentAssignment>* assignments, std::string* error) {
+Status AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
+                          std::vector<SegmentAssignment>* assignments) {
   std::map<std::string, std::vector<config::SessionRun*>> groups;
   std::vector<std::string> order;
   for (config::SessionRun& run : session->runs) {
@@ -173,18 +171,15 @@ bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions
     if (runs.size() < 2 && !lone_auto) continue;
     const auto rows = ReadPoseLog(path);
     if (!rows) {
-      *error = rows.message;
-      return false;
+      return Status::Error(StatusCode::kFailed, rows.message);
     }
     std::vector<calibration::PoseSample> samples;
     samples.reserve(rows->size());
     for (const PoseLogRow& r : *rows) samples.push_back({r.t_s, r.T_world_body, r.valid});
-    if (lone_auto) {
-      if (!ExpandAutoRun(*runs.front(), path, samples, rest_options, &expanded[path], assignments, error))
-        return false;
-    } else if (!AssignSpansFromRecording(path, samples, runs, rest_options, assignments, error)) {
-      return false;
-    }
+    const Status assigned =
+        lone_auto ? ExpandAutoRun(*runs.front(), path, samples, rest_options, &expanded[path], assignments)
+                  : AssignSpansFromRecording(path, samples, runs, rest_options, assignments);
+    if (!assigned) return assigned;
   }
   if (!expanded.empty()) {
     std::vector<config::SessionRun> all;
@@ -198,7 +193,7 @@ bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions
     }
     session->runs = std::move(all);
   }
-  return true;
+  return Status::Ok();
 }
 
 }  // namespace odocal::measure

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/segment.h"
 #include "odocal/config/session.h"
@@ -42,11 +43,11 @@ bool HasOwnSpan(const config::SessionRun& run);
 // recording `source`, whose poses are `samples`: assigns each run without a
 // span of its own the span of its matched segment. Only a group of two or
 // more runs is segmented (one run takes the whole recording, as before).
-// False with `error` naming the source and every disagreement.
-bool AssignSpansFromRecording(const std::string& source, const std::vector<calibration::PoseSample>& samples,
-                              const std::vector<config::SessionRun*>& runs,
-                              const calibration::RestOptions& rest_options,
-                              std::vector<SegmentAssignment>* assignments, std::string* error);
+// kFailed naming the source and every disagreement.
+Status AssignSpansFromRecording(const std::string& source, const std::vector<calibration::PoseSample>& samples,
+                                const std::vector<config::SessionRun*>& runs,
+                                const calibration::RestOptions& rest_options,
+                                std::vector<SegmentAssignment>* assignments);
 
 // Whether `group` (the runs of one recording) is one run with `procedure:
 // auto` and no span: the recording's runs are then whatever it holds.
@@ -56,18 +57,17 @@ bool IsLoneAutoRun(const std::vector<config::SessionRun*>& group);
 // named NAME_01, NAME_02, ..., each with its span and the procedure its poses
 // show, appended to `runs`. Squares within 30 % of one side get their median
 // side (read from the poses: a few % off; state side_mm in a plan for UMBMark
-// to the last digit). False (error naming source and run) when no
+// to the last digit). kFailed naming source and run when no
 // motion between two rests is found.
-bool ExpandAutoRun(const config::SessionRun& run, const std::string& source,
-                   const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
-                   std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments,
-                   std::string* error);
+Status ExpandAutoRun(const config::SessionRun& run, const std::string& source,
+                     const std::vector<calibration::PoseSample>& samples, const calibration::RestOptions& rest_options,
+                     std::vector<config::SessionRun>* runs, std::vector<SegmentAssignment>* assignments);
 
 // The session's pose-log runs that share a pose log: read, segmented and
 // given their spans (before MeasurePoseLogRun reads each span); a lone auto
 // run becomes the runs its log holds.
-bool AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
-                        std::vector<SegmentAssignment>* assignments, std::string* error);
+Status AssignPoseLogSpans(config::Session* session, const calibration::RestOptions& rest_options,
+                          std::vector<SegmentAssignment>* assignments);
 
 }  // namespace odocal::measure
 

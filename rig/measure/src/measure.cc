@@ -636,10 +636,10 @@ Status MeasurePoseLogRuns(const MeasureOptions& options, SessionMeasurement* ses
       continue;
     }
     rm.pose_log.emplace();
-    std::string error;
-    if (!MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log, &rm.measured,
-                           &*rm.pose_log, &error))
-      return Status::Error(StatusCode::kBadFile, error);
+    if (const Status measured = MeasurePoseLogRun(rm.run, sm.session.tracker, sm.session.nominal, options.pose_log,
+                                                  &rm.measured, &*rm.pose_log);
+        !measured)
+      return measured;
     pose_runs.push_back(&rm.measured);
   }
   if (!pose_runs.empty()) FinishPoseLogRuns(options.pose_log, pose_runs);

@@ -303,19 +303,13 @@ namespace {
 
 // The run's telemetry and its span of the pose log (the tracker's clock),
 // which must overlap; the log's rows and period in `stats`.
-std::optional<std::vector<PoseLogRow>> ReadRunSpan(const config::SessionRun& run,
-                                                   const calibration::WheelParams& nominal, calibration::MeasuredRun* m,
-                                                   PoseLogStats* stats, std::string* error) {
+Result<std::vector<PoseLogRow>> ReadRunSpan(const config::SessionRun& run, const calibration::WheelParams& nominal,
+                                            calibration::MeasuredRun* m, PoseLogStats* stats) {
+  using Rows = Result<std::vector<PoseLogRow>>;
   const auto rows = ReadPoseLog(run.poses);
-  if (!rows) {
-    *error = rows.message;
-    return std::nullopt;
-  }
+  if (!rows) return rows;
   const auto telemetry = ReadTelemetryCsv(run.telemetry, nominal);
-  if (!telemetry) {
-    *error = telemetry.message;
-    return std::nullopt;
-  }
+  if (!telemetry) return Rows::Error(telemetry.status, telemetry.message);
   m->telemetry = *telemetry;
   // A telemetry file shared by several runs: the run's span of it (the two
   // clocks share an origin, as below; 0.1 s either side for a small offset).
@@ -331,23 +325,21 @@ std::optional<std::vector<PoseLogRow>> ReadRunSpan(const config::SessionRun& run
   for (const PoseLogRow& r : *rows)
     if (r.t_s >= run.start_s - 1e-9 && r.t_s <= run.end_s + 1e-9) frames.push_back(r);
   if (frames.empty()) {
-    *error = run.poses + ": no rows within the run's start_s..end_s";
-    return std::nullopt;
+    return Rows::Error(StatusCode::kBadFile, run.poses + ": no rows within the run's start_s..end_s");
   }
   const double tel0 = m->telemetry.front().t_s, tel1 = m->telemetry.back().t_s;
   if (frames.back().t_s < tel0 || frames.front().t_s > tel1) {
     char span[160];
     std::snprintf(span, sizeof(span), " (poses %.3f..%.3f s, telemetry %.3f..%.3f s)", frames.front().t_s,
                   frames.back().t_s, tel0, tel1);
-    *error = run.poses + " and " + run.telemetry + ": never overlap in time" + span +
-             "; the two clocks must share an origin";
-    return std::nullopt;
+    return Rows::Error(StatusCode::kBadFile, run.poses + " and " + run.telemetry + ": never overlap in time" + span +
+                                                 "; the two clocks must share an origin");
   }
   stats->rows = static_cast<int>(frames.size());
   std::vector<double> periods;
   for (size_t i = 1; i < frames.size(); ++i) periods.push_back(frames[i].t_s - frames[i - 1].t_s);
   stats->pose_period_s = calibration::Median(periods);
-  return frames;
+  return Rows::Ok(std::move(frames));
 }
 
 // Which frames are the robot: those the file says are valid, less the
@@ -466,11 +458,11 @@ std::pair<double, double> LoggedPathAndTurn(const calibration::MeasuredRun& run,
 }
 
 // The log's units against the ticks' (path length and heading change), then
-// the clock offset from the heading rates (reported, not applied). false
-// with `error` naming the column when a unit is off.
-bool CheckUnitsAndClock(const config::SessionRun& run, const calibration::WheelParams& nominal,
-                        const PoseLogOptions& options, const Pose2& T_robot_body, calibration::MeasuredRun* m,
-                        PoseLogStats* stats, std::string* error) {
+// the clock offset from the heading rates (reported, not applied). kBadFile
+// naming the column when a unit is off.
+Status CheckUnitsAndClock(const config::SessionRun& run, const calibration::WheelParams& nominal,
+                          const PoseLogOptions& options, const Pose2& T_robot_body, calibration::MeasuredRun* m,
+                          PoseLogStats* stats) {
   double tick_path = 0.0;
   for (size_t i = 1; i < m->telemetry.size(); ++i) {
     const auto& a = m->telemetry[i - 1];
@@ -490,22 +482,23 @@ bool CheckUnitsAndClock(const config::SessionRun& run, const calibration::WheelP
   if (tick_path >= options.min_path_for_unit_check_m) {
     stats->path_ratio = pose_path / tick_path;
     if (stats->path_ratio < options.min_unit_ratio || stats->path_ratio > options.max_unit_ratio) {
-      *error =
-          run.poses + ": columns x_mm,y_mm: the logged path is " + Format("%.4g", stats->path_ratio) +
-          " times the ticks' (" + Format("%.0f", tick_path * kMToMm) + " mm by " + run.telemetry +
-          ", nominal parameters)" +
-          (stats->path_ratio < 0.01 ? ": metres where millimetres are expected?" : ": wrong unit or wrong telemetry?");
-      return false;
+      return Status::Error(StatusCode::kBadFile,
+                           run.poses + ": columns x_mm,y_mm: the logged path is " + Format("%.4g", stats->path_ratio) +
+                               " times the ticks' (" + Format("%.0f", tick_path * kMToMm) + " mm by " + run.telemetry +
+                               ", nominal parameters)" +
+                               (stats->path_ratio < 0.01 ? ": metres where millimetres are expected?"
+                                                         : ": wrong unit or wrong telemetry?"));
     }
   }
   if (tick_turn >= options.min_turn_for_unit_check_rad) {
     stats->heading_ratio = pose_turn / tick_turn;
     if (stats->heading_ratio < options.min_unit_ratio || stats->heading_ratio > options.max_unit_ratio) {
-      *error =
-          run.poses + ": column heading_deg: the logged heading change is " + Format("%.4g", stats->heading_ratio) +
-          " times the ticks' (" + Format("%.0f", tick_turn * kRadToDeg) + " deg by " + run.telemetry + ")" +
-          (stats->heading_ratio < 0.05 ? ": radians where degrees are expected?" : ": wrong unit or wrong telemetry?");
-      return false;
+      return Status::Error(StatusCode::kBadFile,
+                           run.poses + ": column heading_deg: the logged heading change is " +
+                               Format("%.4g", stats->heading_ratio) + " times the ticks' (" +
+                               Format("%.0f", tick_turn * kRadToDeg) + " deg by " + run.telemetry + ")" +
+                               (stats->heading_ratio < 0.05 ? ": radians where degrees are expected?"
+                                                            : ": wrong unit or wrong telemetry?"));
     }
   }
 
@@ -519,7 +512,7 @@ bool CheckUnitsAndClock(const config::SessionRun& run, const calibration::WheelP
       m->flags.push_back(RunFlag::Of(RunFlagKind::kClockOffset, Format("%+.3fs", *stats->clock_offset_s)));
     }
   }
-  return true;
+  return Status::Ok();
 }
 
 // The start and end rests FindRests finds in the frames, as for video: the
@@ -616,24 +609,24 @@ void FindPoseLogRests(const PoseLogOptions& options, const PoseLogStats& stats, 
 
 }  // namespace
 
-bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
-                       const calibration::WheelParams& nominal, const PoseLogOptions& options,
-                       calibration::MeasuredRun* m, PoseLogStats* stats, std::string* error) {
+Status MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
+                         const calibration::WheelParams& nominal, const PoseLogOptions& options,
+                         calibration::MeasuredRun* m, PoseLogStats* stats) {
   m->name = run.name;
   m->spec = run.spec;
-  const std::optional<std::vector<PoseLogRow>> frames = ReadRunSpan(run, nominal, m, stats, error);
-  if (!frames) return false;
+  const Result<std::vector<PoseLogRow>> frames = ReadRunSpan(run, nominal, m, stats);
+  if (!frames) return Status::Error(frames.status, frames.message);
   // The robot's pose from the body's: T_world_robot = T_world_body * T_robot_body^-1.
   const Pose2 T_robot_body =
       Pose2::FromXYHeading(tracker.offset_x_mm * kMmToM, tracker.offset_y_mm * kMmToM, tracker.yaw_deg * kDegToRad);
   AddFrames(*frames, FramesWithoutJumps(*frames, m->telemetry, nominal, options), T_robot_body.inverse(), m, stats);
   if (stats->valid < 2) {
     m->flags.push_back(RunFlag::Of(RunFlagKind::kTrackerNeverValid));
-    return true;
+    return Status::Ok();
   }
-  if (!CheckUnitsAndClock(run, nominal, options, T_robot_body, m, stats, error)) return false;
+  if (const Status units = CheckUnitsAndClock(run, nominal, options, T_robot_body, m, stats); !units) return units;
   FindPoseLogRests(options, *stats, m);
-  return true;
+  return Status::Ok();
 }
 
 void FinishPoseLogRuns(const PoseLogOptions& options, std::vector<calibration::MeasuredRun*> runs) {

@@ -103,10 +103,10 @@ struct PoseLogStats {
 // Measures one pose-log run: fills m->camera (the tracker's frames, robot
 // poses), m->telemetry, the rests and the flags. The return error and the
 // per-frame sigma are set by FinishPoseLogRuns, once the session's rests are
-// pooled. false with `error` naming the file on bad input.
-bool MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
-                       const calibration::WheelParams& nominal, const PoseLogOptions& options,
-                       calibration::MeasuredRun* m, PoseLogStats* stats, std::string* error);
+// pooled. kBadFile (kNotFound) naming the file on bad input.
+Status MeasurePoseLogRun(const config::SessionRun& run, const config::TrackerMount& tracker,
+                         const calibration::WheelParams& nominal, const PoseLogOptions& options,
+                         calibration::MeasuredRun* m, PoseLogStats* stats);
 
 // Per-frame sigma of the pose-log runs `runs` (pooled scatter about their
 // rest means; the stated default and a flag `default_frame_sigma` when no

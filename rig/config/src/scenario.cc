@@ -256,35 +256,13 @@ void ParseFloorTags(const YAML::Node& node, CameraScenario* c) {
 
 CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   const std::string path = "camera";
+  // clang-format off
   CheckKeys(node, path,
-            {"width",
-             "height",
-             "fx",
-             "fy",
-             "cx",
-             "cy",
-             "distortion",
-             "distortion_model",
-             "pose",
-             "fps",
-             "noise_sigma",
-             "blur_sigma_px",
-             "exposure_ms",
-             "crf",
-             "profile",
-             "psf",
-             "rolling_shutter_ms",
-             "bayer",
-             "gamma",
-             "vignetting",
-             "light_gradient",
-             "gain",
-             "sharpen",
-             "noise",
-             "codec",
-             "tag",
-             "floor_tags",
-             "one_video"});
+            {"width", "height", "fx", "fy", "cx", "cy", "distortion", "distortion_model", "pose", "fps", "noise_sigma",
+             "blur_sigma_px", "exposure_ms", "crf", "profile", "psf", "rolling_shutter_ms", "bayer",
+             "gamma", "vignetting", "light_gradient", "gain", "sharpen", "noise", "codec", "tag",
+             "floor_tags", "one_video"});
+  // clang-format on
   CameraScenario c;
   if (node["one_video"]) c.one_video = Bool(node["one_video"], "camera.one_video");
   ParseCameraLens(node, &c);

@@ -16,6 +16,7 @@
 #include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/trajectory_fit.h"
+#include "scalar.h"
 
 namespace odocal::calibration::internal {
 
@@ -61,12 +62,15 @@ template <typename T>
 void EccentricWheel(const T* effect_values, double ticks_per_rev, std::int64_t left_count, std::int64_t left_step_ticks,
                     std::int64_t right_count, std::int64_t right_step_ticks, T* left_m, T* right_m) {
   if (!(ticks_per_rev > 0.0)) return;  // no angle: a model built without the counts per turn
-  const auto ripple = [&](std::int64_t count, std::int64_t step, int sin_index, int cos_index) {
+  // A wheel whose two values are held at zero rolls true: skipped (to the
+  // bit; most fits hold them so, and two sines a step were 10 % of explain).
+  const auto ripple = [&](std::int64_t count, std::int64_t step, int sin_index, int cos_index, T* travel_m) {
+    if (IsExactlyZero(effect_values[sin_index]) && IsExactlyZero(effect_values[cos_index])) return;
     const double phi = 2.0 * M_PI * (static_cast<double>(count) + 0.5 * static_cast<double>(step)) / ticks_per_rev;
-    return 1.0 + effect_values[sin_index] * std::sin(phi) + effect_values[cos_index] * std::cos(phi);
+    *travel_m *= 1.0 + effect_values[sin_index] * std::sin(phi) + effect_values[cos_index] * std::cos(phi);
   };
-  *left_m *= ripple(left_count, left_step_ticks, EffectParams::kEccLeftSin, EffectParams::kEccLeftCos);
-  *right_m *= ripple(right_count, right_step_ticks, EffectParams::kEccRightSin, EffectParams::kEccRightCos);
+  ripple(left_count, left_step_ticks, EffectParams::kEccLeftSin, EffectParams::kEccLeftCos, left_m);
+  ripple(right_count, right_step_ticks, EffectParams::kEccRightSin, EffectParams::kEccRightCos, right_m);
 }
 
 }  // namespace odocal::calibration::internal

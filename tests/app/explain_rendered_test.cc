@@ -5,7 +5,7 @@
 // videos and the telemetry, never the scenario's effects or truth.json).
 // The truth stays here.
 //
-// One process renders every session (~20 s each at 960x540, 10 fps) so the
+// One process renders every session (~10 s each at 960x540, 5 fps) so the
 // noise floor of the plan — the gap the base model leaves when nothing is
 // hidden, wheel noise and camera noise together — is measured once and each
 // effect's gap is held to it.
@@ -62,7 +62,7 @@ camera:
   cy: 270
   distortion: [-0.12, 0.05, 0, 0, 0]
   pose: {x_mm: 0, y_mm: -1000, height_mm: 2000, roll_deg: 0, pitch_deg: 3, yaw_deg: 0}
-  fps: 10
+  fps: 5
   noise_sigma: 2.0
   blur_sigma_px: 0.8
   exposure_ms: 4
@@ -149,11 +149,10 @@ double ErrorOf(const Outcome& o, const nlohmann::json& fit, const std::string& k
 }
 
 // The largest sigma a base parameter may have on this plan. Measured on every
-// case here (explain.json of each): Ed 3.8-4.3e-5, Eb 3.06e-3 (the camera's
-// length scale: the tag's assumed 0.3 % print tolerance in quadrature with
-// the 4.2-4.8e-4 of its apparent size; these sessions have no floor
-// reference, docs/vision.md), turn gain
-// 5.8e-5 to 2.2e-4 (with turn slip). About twice the largest: a sigma beyond
+// case here (explain.json of each, 5 fps): Ed 3.8-4.3e-5, Eb 3.4e-3 (the
+// camera's length scale: the tag's assumed 0.3 % print tolerance in
+// quadrature with its apparent size's; these sessions have no floor
+// reference, docs/vision.md), turn gain 5.8e-5 to 2.5e-4 (with turn slip). About twice the largest: a sigma beyond
 // it is a fit that lost three quarters of its information, and an interval
 // or a "within k sigma" check against it would no longer test anything.
 double MaxSigma(const std::string& key) {

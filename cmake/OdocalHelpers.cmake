@@ -1,4 +1,5 @@
-# odocal_test(name [SERIAL] [SERIAL_FILTER GTEST_FILTER] [COST SECONDS] [SOURCES ...] [LIBS ...])
+# odocal_test(name [SERIAL] [SERIAL_FILTER GTEST_FILTER] [ONE_PROCESS GTEST_FILTER] [COST SECONDS]
+#             [SOURCES ...] [LIBS ...])
 # One line registers a test: tests/<dir>/<name>.cc linked to GoogleTest, the
 # shared test_util library and the listed module libraries. SERIAL: its
 # tests run with nothing beside them; SERIAL_FILTER: only those the filter
@@ -7,10 +8,14 @@
 # included) with the other core idle: keep the list short. COST: ctest's
 # estimate of its tests' seconds until it has measured them (a fresh
 # checkout has no Testing/Temporary/CTestCostData.txt): the long ones start
-# first instead of last, where one would run alone at the end.
+# first instead of last, where one would run alone at the end. ONE_PROCESS:
+# the tests the filter names run as one ctest test, `<name>.one_process`, in
+# one process, so that what they share (a static cache of an expensive
+# fixture: 30 real frames detected) is made once; ctest otherwise runs every
+# test in a process of its own.
 include(GoogleTest)
 function(odocal_test name)
-  cmake_parse_arguments(ARG "SERIAL" "SERIAL_FILTER;COST" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "SERIAL_FILTER;ONE_PROCESS;COST" "SOURCES;LIBS" ${ARGN})
   if(NOT ARG_SOURCES)
     set(ARG_SOURCES ${name}.cc)
   endif()
@@ -22,7 +27,16 @@ function(odocal_test name)
   if(ARG_COST)
     set(cost COST ${ARG_COST})
   endif()
-  if(ARG_SERIAL)
+  if(ARG_ONE_PROCESS)
+    if(ARG_SERIAL OR ARG_SERIAL_FILTER)
+      message(FATAL_ERROR "odocal_test(${name}): ONE_PROCESS with SERIAL or SERIAL_FILTER is not supported")
+    endif()
+    gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR} TEST_FILTER "-${ARG_ONE_PROCESS}"
+      PROPERTIES ENVIRONMENT "${env}" ${cost} DISCOVERY_TIMEOUT 60)
+    add_test(NAME ${name}.one_process COMMAND ${name} --gtest_filter=${ARG_ONE_PROCESS}
+      WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+    set_tests_properties(${name}.one_process PROPERTIES ENVIRONMENT "${env}" ${cost})
+  elseif(ARG_SERIAL)
     gtest_discover_tests(${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
       PROPERTIES ENVIRONMENT "${env}" RUN_SERIAL TRUE ${cost} DISCOVERY_TIMEOUT 60)
   elseif(ARG_SERIAL_FILTER)

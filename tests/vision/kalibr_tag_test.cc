@@ -797,6 +797,20 @@ std::map<std::pair<int, int>, cv::Point2d> ReadYac(const fs::path& csv) {
   return out;
 }
 
+// DetectBoard on each real frame with Kalibr's target, made once per process
+// and shared by the tests that read every frame (CMakeLists.txt runs them in
+// one process: ONE_PROCESS). In name (time) order, as RealFrames.
+const std::vector<BoardDetection>& RealDetections(const fs::path& dir) {
+  static const std::vector<BoardDetection> detections = [&dir] {
+    std::vector<BoardDetection> out;
+    const CalibrationBoard board = KalibrBoard();
+    for (const fs::path& jpg : RealFrames(dir))
+      out.push_back(DetectBoard(cv::imread(jpg.string(), cv::IMREAD_GRAYSCALE), board));
+    return out;
+  }();
+  return detections;
+}
+
 TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   const fs::path dir = AprilgridDir();
   if (dir.empty()) GTEST_SKIP() << "../shared/realdata/aprilgrid-d435i not present";
@@ -816,7 +830,10 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
   std::vector<double> dist;
   double radial_sum = 0.0;  // (odocal - yac) along the tag centre -> corner direction
   int radial_n = 0, yac_missing_corners = 0;
-  for (const auto& jpg : frames) {
+  const std::vector<BoardDetection>& detections = RealDetections(dir);
+  ASSERT_EQ(detections.size(), frames.size());
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const fs::path& jpg = frames[f];
     const cv::Mat grey = cv::imread(jpg.string(), cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(grey.empty()) << jpg;
     const auto yac = ReadYac(dir / "grid0" / "cam0" / "data" / (jpg.stem().string() + ".csv"));
@@ -833,7 +850,7 @@ TEST(KalibrTagRealAprilgrid, FindsTheTagsYacFindsWithTheSameCorners) {
     const cv::Mat H = cv::findHomography(yac_board, yac_px);
     ASSERT_FALSE(H.empty());
     one_bit_total += one_bit->Detect(grey).detections.size();
-    const BoardDetection d = DetectBoard(grey, board);
+    const BoardDetection& d = detections[f];
     refused += d.tags_refused.size();
     ours_total += d.tag_ids.size();
     yac_total += yac_ids.size();
@@ -917,10 +934,12 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
   const CalibrationBoard board = KalibrBoard();
   std::vector<BoardDetection> ours, yacs, yac_tags, as_seen;
   std::vector<double> shifts;
-  for (const auto& e : fs::directory_iterator(dir / "cam0" / "data")) {
-    if (e.path().extension() != ".jpg") continue;
-    const cv::Mat grey = cv::imread(e.path().string(), cv::IMREAD_GRAYSCALE);
-    BoardDetection d = DetectBoard(grey, board);
+  const std::vector<fs::path> frames = RealFrames(dir);
+  const std::vector<BoardDetection>& detections = RealDetections(dir);
+  ASSERT_EQ(detections.size(), frames.size());
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const fs::path& frame = frames[f];
+    BoardDetection d = detections[f];
     if (d.found) {
       // The same corners with the view's edge shift put back: the tags as
       // their edges show them (the 0.22 px radial offset to yac's X-corners
@@ -937,7 +956,7 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
       ours.push_back(std::move(d));
     }
     BoardDetection y, y_tags;
-    const auto yac = ReadYac(dir / "grid0" / "cam0" / "data" / (e.path().stem().string() + ".csv"));
+    const auto yac = ReadYac(dir / "grid0" / "cam0" / "data" / (frame.stem().string() + ".csv"));
     for (const auto& [key, p] : yac) {
       y.object_points.push_back(*board.AprilgridCorner(key.first, key.second));
       y.image_points.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));

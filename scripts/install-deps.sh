@@ -23,6 +23,7 @@ packages=(
 if [[ $mode == all ]]; then
   packages+=(
     libgtest-dev libgmock-dev libbenchmark-dev
+    clang-format git  # FormatCheck: the last commit's C/C++ lines against .clang-format (tests/app)
     chromium  # headless, for the live view's screenshot test (tests/live)
     postgresql  # a server store_test starts of its own (tests/records/postgres_server.h)
     # The firmware library on microcontrollers, in emulation (robot_link/firmware, cmake/Firmware.cmake)

@@ -154,6 +154,52 @@ TEST(Architecture, CalibrationIsPureMath) {
     EXPECT_FALSE(third_party.count(io)) << "vision includes <" << io << ">";
 }
 
+// The system headers a module's sources include, whole ("opencv2/videoio.hpp").
+std::set<std::string> IncludedHeaders(const std::string& dir) {
+  static const std::regex kAngle(R"re(#include\s+<([^>]+)>)re");
+  std::set<std::string> headers;
+  for (const auto& e : fs::recursive_directory_iterator(test_util::SourceDir() + "/" + dir)) {
+    const std::string ext = e.path().extension();
+    if (!e.is_regular_file() || (ext != ".h" && ext != ".cc" && ext != ".c")) continue;
+    const std::string text = test_util::Slurp(e.path());
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), kAngle); it != std::sregex_iterator(); ++it)
+      headers.insert((*it)[1]);
+  }
+  return headers;
+}
+
+// docs/architecture.md, "I/O": who parses the files people write, who touches video and
+// cameras, who opens a port, a database, a serial line or a process. Each kind of I/O is
+// reached through headers only the modules named there include.
+TEST(Architecture, EachKindOfIoLivesInTheModulesTheDocsName) {
+  struct Rule {
+    const char* what;
+    std::vector<std::string> header_prefixes;
+    std::set<std::string> modules;
+  };
+  const std::vector<Rule> rules = {
+      {"YAML files people write (config parses them)", {"yaml-cpp/"}, {"config"}},
+      {"video files, images and cameras (media, OpenCV's codecs as its plugin)",
+       {"opencv2/videoio", "opencv2/imgcodecs"},
+       {"media"}},
+      {"an HTTP port (live)", {"httplib"}, {"live"}},
+      {"a database (records)", {"sqlite3.h", "libpq-fe.h"}, {"records"}},
+      {"a serial line (robot_link)", {"termios.h"}, {"robot_link"}},
+      {"a child process (media's ffmpeg, station's external driver)", {"spawn.h"}, {"media", "station"}},
+  };
+  for (const auto& [module, dir] : ModuleDirs()) {
+    const std::set<std::string> headers = IncludedHeaders(dir);
+    for (const Rule& rule : rules) {
+      if (rule.modules.count(module)) continue;
+      for (const std::string& h : headers)
+        for (const std::string& prefix : rule.header_prefixes)
+          EXPECT_NE(h.rfind(prefix, 0), 0u)
+              << module << " (" << dir << ") includes <" << h << ">: " << rule.what << " belongs to "
+              << *rule.modules.begin() << (rule.modules.size() > 1 ? " and the others named" : "");
+    }
+  }
+}
+
 TEST(Architecture, ReadmeAndArchitectureDocTablesMatchTheBuild) {
   const Graph graph = ReadGraph();
   for (const char* doc : {"README.md", "docs/architecture.md"}) {

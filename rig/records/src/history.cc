@@ -239,17 +239,15 @@ std::string LimitKind(const std::string& failed) {
 
 std::string Pad(const std::string& s, size_t width) { return s.size() >= width ? s + " " : s + std::string(width - s.size(), ' '); }
 
-}  // namespace
+// How many calibrations a segment needs before its own trend predicts the next one, and how many
+// of the next ones the backward test (the very first calibrations) fits its trend to.
+constexpr size_t kMinTrend = 3, kBackwardWindow = 8;
 
-HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> records, const HistoryOptions& options) {
-  HistoryAnalysis a;
-  a.robot = robot;
-  std::stable_sort(records.begin(), records.end(), [](const Record& x, const Record& y) { return TimeOf(x) < TimeOf(y); });
-  a.records = std::move(records);
-
+// The records that hold a calibrated set and a time, oldest first, with their weeks since the first.
+std::vector<Calibration> CalibrationsOf(const std::vector<Record>& records) {
   std::vector<Calibration> cals;
-  for (size_t i = 0; i < a.records.size(); ++i) {
-    const Record& r = a.records[i];
+  for (size_t i = 0; i < records.size(); ++i) {
+    const Record& r = records[i];
     const auto t = ParseUtc(r.time_utc);
     if (!r.after || !t) continue;
     Calibration c;
@@ -260,76 +258,72 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
     c.distance_km = r.distance_km;
     cals.push_back(c);
   }
-  if (cals.empty()) return a;
+  if (cals.empty()) return cals;
   for (Calibration& c : cals) c.weeks = (c.time_s - cals.front().time_s) / kSecondsPerWeek;
+  return cals;
+}
+
+// Calibration i of parameter p against what the segment it is in predicts (see FindSteps): a
+// step when it is more than step_z sigmas off, which then starts a new segment.
+void TestForStep(const std::vector<Calibration>& cals, size_t i, const Parameter& p, const HistoryOptions& options,
+                 std::vector<size_t>& starts, HistoryAnalysis& a) {
   const size_t n = cals.size();
-
-  // Steps, parameter by parameter (a track repair leaves the wheels' wear trend whole): each
-  // calibration against the trend of its segment. A segment with no trend of its own yet (its
-  // first calibrations after a step) is predicted by the slope the earlier segments share, from
-  // its own level; with no earlier segment either (the very first calibrations) it is tested
-  // backwards, the calibration before against the trend of the next few. The previous value alone
-  // is the last resort: it would call a robot that wears four of its sigmas between calibrations
-  // a repair every time.
-  constexpr size_t kMinTrend = 3, kBackwardWindow = 8;
-  std::vector<std::vector<size_t>> starts(std::size(kParameters), std::vector<size_t>{0});
-  for (size_t i = 1; i < n; ++i) {
-    for (size_t q = 0; q < std::size(kParameters); ++q) {
-      const Parameter& p = kParameters[q];
-      const size_t segment = starts[q].back();
-      const Estimate& now = cals[i].*(p.field);
-      const Estimate& before = cals[i - 1].*(p.field);
-      std::optional<Prediction> pred;
-      double observed = now.value, observed_sigma = now.sigma.value_or(0.0), change = 0.0;
-      if (i - segment >= kMinTrend) pred = PredictFromTrend(Points(cals, segment, i, p), cals[i].weeks);
-      if (!pred) pred = PredictFromSegments(cals, starts[q], i, p);
-      if (pred) change = now.value - pred->value;
-      if (!pred && n - i >= kMinTrend) {
-        pred = PredictFromTrend(Points(cals, i, std::min(n, i + kBackwardWindow), p), cals[i - 1].weeks);
-        observed = before.value;
-        observed_sigma = before.sigma.value_or(0.0);
-        if (pred) change = pred->value - before.value;
-      }
-      if (!pred && before.sigma) {
-        pred = Prediction{before.value, *before.sigma * *before.sigma};
-        observed = now.value;
-        observed_sigma = now.sigma.value_or(0.0);
-        change = now.value - before.value;
-      }
-      if (!pred) continue;
-      const double variance = observed_sigma * observed_sigma + pred->variance;
-      if (!(variance > 0.0)) continue;
-      const double z = std::fabs(observed - pred->value) / std::sqrt(variance);
-      if (z > options.step_z) {
-        a.steps.push_back(Step{cals[i].record, a.records[cals[i].record].time_utc, p.name, change, z});
-        starts[q].push_back(i);
-      }
-    }
+  const size_t segment = starts.back();
+  const Estimate& now = cals[i].*(p.field);
+  const Estimate& before = cals[i - 1].*(p.field);
+  std::optional<Prediction> pred;
+  double observed = now.value, observed_sigma = now.sigma.value_or(0.0), change = 0.0;
+  if (i - segment >= kMinTrend) pred = PredictFromTrend(Points(cals, segment, i, p), cals[i].weeks);
+  if (!pred) pred = PredictFromSegments(cals, starts, i, p);
+  if (pred) change = now.value - pred->value;
+  if (!pred && n - i >= kMinTrend) {
+    pred = PredictFromTrend(Points(cals, i, std::min(n, i + kBackwardWindow), p), cals[i - 1].weeks);
+    observed = before.value;
+    observed_sigma = before.sigma.value_or(0.0);
+    if (pred) change = pred->value - before.value;
   }
-  const size_t segment = starts[1].back();        // the wheels' (what wear is fitted over)
-  const size_t track_segment = starts[0].back();
-  a.segment_start = cals[segment].record;
-  a.track_segment_start = cals[track_segment].record;
+  if (!pred && before.sigma) {
+    pred = Prediction{before.value, *before.sigma * *before.sigma};
+    observed = now.value;
+    observed_sigma = now.sigma.value_or(0.0);
+    change = now.value - before.value;
+  }
+  if (!pred) return;
+  const double variance = observed_sigma * observed_sigma + pred->variance;
+  if (!(variance > 0.0)) return;
+  const double z = std::fabs(observed - pred->value) / std::sqrt(variance);
+  if (z > options.step_z) {
+    a.steps.push_back(Step{cals[i].record, a.records[cals[i].record].time_utc, p.name, change, z});
+    starts.push_back(i);
+  }
+}
 
-  // Trends over each parameter's segment since its last step.
-  std::vector<Point> diameter = Points(cals, segment, n, kParameters[1]);
-  a.wear_mm_per_week = SlopeEstimate(diameter);
-  a.track_mm_per_week = SlopeEstimate(Points(cals, track_segment, n, kParameters[0]));
-  std::vector<Point> by_distance;
-  for (size_t k = segment; k < n; ++k)
-    if (cals[k].distance_km) by_distance.push_back({*cals[k].distance_km / 1000.0, cals[k].diameter.value, cals[k].diameter.sigma});
-  a.wear_mm_per_1000km = SlopeEstimate(by_distance);
+// Steps, parameter by parameter (a track repair leaves the wheels' wear trend whole): each
+// calibration against the trend of its segment. A segment with no trend of its own yet (its
+// first calibrations after a step) is predicted by the slope the earlier segments share, from
+// its own level; with no earlier segment either (the very first calibrations) it is tested
+// backwards, the calibration before against the trend of the next few. The previous value alone
+// is the last resort: it would call a robot that wears four of its sigmas between calibrations
+// a repair every time. Returns each parameter's segment starts (indices into cals).
+std::vector<std::vector<size_t>> FindSteps(const std::vector<Calibration>& cals, const HistoryOptions& options,
+                                           HistoryAnalysis& a) {
+  std::vector<std::vector<size_t>> starts(std::size(kParameters), std::vector<size_t>{0});
+  for (size_t i = 1; i < cals.size(); ++i)
+    for (size_t q = 0; q < std::size(kParameters); ++q) TestForStep(cals, i, kParameters[q], options, starts[q], a);
+  return starts;
+}
 
-  // E_max,syst's growth: what a calibration found the robot drifted to, from what the one
-  // before left it at (0 when that one did not measure it), over the weeks between.
+// E_max,syst's growth rates: what a calibration found the robot drifted to, from what the one
+// before left it at (0 when that one did not measure it), over the weeks between.
+std::vector<Point> EmaxGrowthRates(const std::vector<Record>& records) {
   std::vector<Point> rates;  // x unused: a weighted mean
   int previous = -1;
-  for (size_t i = 0; i < a.records.size(); ++i) {
-    const Record& r = a.records[i];
+  for (size_t i = 0; i < records.size(); ++i) {
+    const Record& r = records[i];
     const auto t = ParseUtc(r.time_utc);
     if (!t) continue;
     if (previous >= 0 && r.emax_syst_before_mm) {
-      const Record& p = a.records[previous];
+      const Record& p = records[previous];
       const double weeks = (*t - *ParseUtc(p.time_utc)) / kSecondsPerWeek;
       if (weeks > 0.0) {
         const double start = p.emax_syst_after_mm ? p.emax_syst_after_mm->value : 0.0;
@@ -341,24 +335,35 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
     }
     if (r.after) previous = static_cast<int>(i);
   }
-  if (!rates.empty()) {
-    const bool weighted = std::all_of(rates.begin(), rates.end(), [](const Point& p) { return p.sigma && *p.sigma > 0.0; });
-    double sw = 0.0, swy = 0.0;
-    for (const Point& p : rates) {
-      const double w = weighted ? 1.0 / (*p.sigma * *p.sigma) : 1.0;
-      sw += w;
-      swy += w * p.y;
-    }
-    Estimate growth{swy / sw, std::nullopt};
-    const int m = static_cast<int>(rates.size());
-    double chi2 = 0.0;
-    for (const Point& p : rates) chi2 += (weighted ? 1.0 / (*p.sigma * *p.sigma) : 1.0) * (p.y - growth.value) * (p.y - growth.value);
-    if (weighted) growth.sigma = std::sqrt((m > 1 ? std::max(1.0, chi2 / (m - 1)) : 1.0) / sw);
-    else if (m > 1) growth.sigma = std::sqrt(chi2 / (m - 1) / sw);
-    a.emax_growth_mm_per_week = growth;
-  }
+  return rates;
+}
 
-  const Calibration& last = cals.back();
+// The rates' weighted mean (weights 1/sigma^2 when every rate has a sigma), its sigma scaled by
+// the reduced chi^2 when that is above 1. rates is not empty.
+Estimate MeanGrowth(const std::vector<Point>& rates) {
+  const bool weighted =
+      std::all_of(rates.begin(), rates.end(), [](const Point& p) { return p.sigma && *p.sigma > 0.0; });
+  double sw = 0.0, swy = 0.0;
+  for (const Point& p : rates) {
+    const double w = weighted ? 1.0 / (*p.sigma * *p.sigma) : 1.0;
+    sw += w;
+    swy += w * p.y;
+  }
+  Estimate growth{swy / sw, std::nullopt};
+  const int m = static_cast<int>(rates.size());
+  double chi2 = 0.0;
+  for (const Point& p : rates)
+    chi2 += (weighted ? 1.0 / (*p.sigma * *p.sigma) : 1.0) * (p.y - growth.value) * (p.y - growth.value);
+  if (weighted)
+    growth.sigma = std::sqrt((m > 1 ? std::max(1.0, chi2 / (m - 1)) : 1.0) / sw);
+  else if (m > 1)
+    growth.sigma = std::sqrt(chi2 / (m - 1) / sw);
+  return growth;
+}
+
+// When the robot is due: the last calibration + recalibrate_days, or the day E_max,syst's growth
+// reaches its limit if sooner.
+void SetDue(const Calibration& last, const HistoryOptions& options, HistoryAnalysis& a) {
   const Record& last_record = a.records[last.record];
   std::optional<double> due_s;
   if (options.limits.recalibrate_days) due_s = last.time_s + *options.limits.recalibrate_days * 86400.0;
@@ -373,9 +378,15 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
     a.due_utc = FormatUtc(*due_s);
     a.due = *due_s <= options.now_s;
   }
+}
 
-  // The newest calibration against the trend of the ones before it in its segment (a step at
-  // the newest already says it: no warning twice).
+// The newest calibration against the trend of the ones before it in its segment (a step at
+// the newest already says it: no warning twice).
+void WarnIfNewestDisagrees(const std::vector<Calibration>& cals, const std::vector<std::vector<size_t>>& starts,
+                           const HistoryOptions& options, HistoryAnalysis& a) {
+  const size_t n = cals.size();
+  const Calibration& last = cals.back();
+  const Record& last_record = a.records[last.record];
   const bool newest_stepped =
       std::any_of(a.steps.begin(), a.steps.end(), [&](const Step& s) { return s.index == last.record; });
   for (size_t q = 0; q < std::size(kParameters) && n >= 2 && !newest_stepped; ++q) {
@@ -397,6 +408,41 @@ HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> rec
                                   static_cast<int>(n - 1 - segment), ValueText(predicted, 3).c_str(), p.unit, z));
     }
   }
+}
+}  // namespace
+
+HistoryAnalysis AnalyseHistory(const std::string& robot, std::vector<Record> records, const HistoryOptions& options) {
+  HistoryAnalysis a;
+  a.robot = robot;
+  std::stable_sort(records.begin(), records.end(),
+                   [](const Record& x, const Record& y) { return TimeOf(x) < TimeOf(y); });
+  a.records = std::move(records);
+
+  const std::vector<Calibration> cals = CalibrationsOf(a.records);
+  if (cals.empty()) return a;
+  const size_t n = cals.size();
+
+  const std::vector<std::vector<size_t>> starts = FindSteps(cals, options, a);
+  const size_t segment = starts[1].back();  // the wheels' (what wear is fitted over)
+  const size_t track_segment = starts[0].back();
+  a.segment_start = cals[segment].record;
+  a.track_segment_start = cals[track_segment].record;
+
+  // Trends over each parameter's segment since its last step.
+  std::vector<Point> diameter = Points(cals, segment, n, kParameters[1]);
+  a.wear_mm_per_week = SlopeEstimate(diameter);
+  a.track_mm_per_week = SlopeEstimate(Points(cals, track_segment, n, kParameters[0]));
+  std::vector<Point> by_distance;
+  for (size_t k = segment; k < n; ++k)
+    if (cals[k].distance_km)
+      by_distance.push_back({*cals[k].distance_km / 1000.0, cals[k].diameter.value, cals[k].diameter.sigma});
+  a.wear_mm_per_1000km = SlopeEstimate(by_distance);
+
+  const std::vector<Point> rates = EmaxGrowthRates(a.records);
+  if (!rates.empty()) a.emax_growth_mm_per_week = MeanGrowth(rates);
+
+  SetDue(cals.back(), options, a);
+  WarnIfNewestDisagrees(cals, starts, options, a);
   return a;
 }
 

@@ -149,6 +149,112 @@ std::optional<std::string> WriteSession(const Session& session, const std::strin
 
 namespace {
 
+// The camera (its file, where it is believed to be mounted, the tag, the floor): needed only by
+// video runs; with pose logs alone a session names no camera at all. (root is not const, here and
+// in ParseSessionRobot: a missing key reads as the non-const operator[] has always read it.)
+void ParseSessionCamera(YAML::Node& root, const fs::path& dir, Session& s) {
+  bool any_video = false;
+  if (const YAML::Node runs = root["runs"]; runs && runs.IsSequence())
+    for (const YAML::Node& r : runs) any_video = any_video || !r["poses"];
+  s.has_camera = any_video || root["camera_file"] || root["camera_mount_guess"] || root["tag"];
+  const char* why_camera =
+      any_video ? "missing (required: the session has video runs)" : "missing (required once any camera key is given)";
+  if (s.has_camera) {
+    if (!root["camera_file"]) Fail(root, "camera_file", why_camera);
+    s.camera_file = Resolve(dir, String(root["camera_file"], "camera_file"));
+    const auto camera = ReadCameraFile(s.camera_file);
+    if (!camera) Fail(root["camera_file"], "camera_file", camera.message);
+    s.intrinsics = camera->intrinsics;
+    if (!root["camera_mount_guess"]) Fail(root, "camera_mount_guess", why_camera);
+    const YAML::Node m = root["camera_mount_guess"];
+    const std::string mp = "camera_mount_guess";
+    CheckKeys(m, mp, {"x_mm", "y_mm", "height_mm", "roll_deg", "pitch_deg", "yaw_deg"});
+    s.camera_mount_guess.x_mm = OptionalNumber(m, mp, "x_mm", 0.0);
+    s.camera_mount_guess.y_mm = OptionalNumber(m, mp, "y_mm", 0.0);
+    s.camera_mount_guess.height_mm = Positive(RequiredNumber(m, mp, "height_mm"), m["height_mm"], mp + ".height_mm");
+    s.camera_mount_guess.roll_deg = OptionalNumber(m, mp, "roll_deg", 0.0);
+    s.camera_mount_guess.pitch_deg = OptionalNumber(m, mp, "pitch_deg", 0.0);
+    s.camera_mount_guess.yaw_deg = OptionalNumber(m, mp, "yaw_deg", 0.0);
+    if (!root["tag"]) Fail(root, "tag", why_camera);
+    s.tag = ParseTag(root["tag"], "tag", {"size_sigma_mm"});
+    if (const YAML::Node sigma = root["tag"]["size_sigma_mm"]) {
+      s.tag_size_sigma_mm = Number(sigma, "tag.size_sigma_mm");
+      if (!(*s.tag_size_sigma_mm >= 0.0)) Fail(sigma, "tag.size_sigma_mm", "must not be negative");
+    }
+    if (const YAML::Node floor = root["floor_reference"])
+      s.floor_reference = ParseFloorReference(floor, "floor_reference");
+  } else if (root["floor_reference"]) {
+    Fail(root["floor_reference"], "floor_reference", "needs a camera (camera_file, camera_mount_guess, tag)");
+  }
+}
+
+// Where the tracker sits on the robot (pose-log runs).
+void ParseSessionTracker(const YAML::Node& k, Session& s) {
+  CheckKeys(k, "tracker", {"offset_mm", "yaw_deg"});
+  if (const YAML::Node offset = k["offset_mm"]) {
+    CheckKeys(offset, "tracker.offset_mm", {"x", "y"});
+    s.tracker.offset_x_mm = OptionalNumber(offset, "tracker.offset_mm", "x", 0.0);
+    s.tracker.offset_y_mm = OptionalNumber(offset, "tracker.offset_mm", "y", 0.0);
+  }
+  s.tracker.yaw_deg = OptionalNumber(k, "tracker", "yaw_deg", 0.0);
+}
+
+// The robot (its nominal set, id and odometer) and when the session was recorded.
+void ParseSessionRobot(YAML::Node& root, Session& s) {
+  if (!root["robot"]) Fail(root, "robot", "missing (required)");
+  CheckKeys(root["robot"], "robot", {"nominal", "id", "odometer_km"});
+  if (!root["robot"]["nominal"]) Fail(root["robot"], "robot.nominal", "missing (required)");
+  s.nominal = ParseWheels(root["robot"]["nominal"], "robot.nominal", true, 0);
+  if (const YAML::Node id = root["robot"]["id"]) s.robot_id = String(id, "robot.id");
+  if (const YAML::Node km = root["robot"]["odometer_km"]) {
+    s.odometer_km = Number(km, "robot.odometer_km");
+    if (*s.odometer_km < 0) Fail(km, "robot.odometer_km", "must be >= 0");
+  }
+  if (const YAML::Node when = root["recorded_utc"]) {
+    s.recorded_utc = String(when, "recorded_utc");
+    if (!ParseUtc(s.recorded_utc))
+      Fail(when, "recorded_utc", "`" + s.recorded_utc + "` is not ISO 8601 (2026-11-27T14:05:00Z, or a date)");
+  }
+}
+
+// Run i of the session: its procedure, its recording (a video or a pose log, relative to dir) and its span.
+SessionRun ParseSessionRun(const YAML::Node& r, size_t i, const fs::path& dir) {
+  const std::string rp = "runs[" + std::to_string(i) + "]";
+  SessionRun run;
+  // `procedure: auto`: whatever the recording shows (segment_runs.h).
+  if (r["procedure"] && r["procedure"].IsScalar() && r["procedure"].Scalar() == "auto") {
+    CheckKeys(r, rp, {"name", "procedure", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
+    run.spec.procedure = calibration::Procedure::kRecorded;
+    run.infer_procedure = true;
+  } else {
+    run.spec = ParseRun(r, rp, {"name", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
+  }
+  run.name = r["name"] ? String(r["name"], Join(rp, "name")) : RunName(static_cast<int>(i), run.spec);
+  if (r["video"] && r["poses"]) Fail(r["poses"], Join(rp, "poses"), "a run has a video or a pose log, not both");
+  if (const YAML::Node p = r["poses"]) {
+    run.poses = Resolve(dir, String(p, Join(rp, "poses")));
+    if (!fs::exists(run.poses)) Fail(p, Join(rp, "poses"), run.poses + ": no such file");
+    // The model is driven by the ticks: a pose log without them is useless.
+    if (!r["telemetry"]) Fail(r, Join(rp, "telemetry"), "missing (required with poses)");
+    if (r["timestamps"]) Fail(r["timestamps"], Join(rp, "timestamps"), "applies to video runs only");
+  } else {
+    if (!r["video"]) Fail(r, Join(rp, "video"), "missing (required: video or poses)");
+    run.video = Resolve(dir, String(r["video"], Join(rp, "video")));
+    if (!fs::exists(run.video)) Fail(r["video"], Join(rp, "video"), run.video + ": no such file");
+  }
+  if (r["timestamps"]) {
+    run.timestamps = Resolve(dir, String(r["timestamps"], Join(rp, "timestamps")));
+    if (!fs::exists(run.timestamps)) Fail(r["timestamps"], Join(rp, "timestamps"), run.timestamps + ": no such file");
+  }
+  if (r["telemetry"]) run.telemetry = Resolve(dir, String(r["telemetry"], Join(rp, "telemetry")));
+  if (!run.poses.empty() && !fs::exists(run.telemetry))
+    Fail(r["telemetry"], Join(rp, "telemetry"), run.telemetry + ": no such file");
+  run.start_s = OptionalNumber(r, rp, "start_s", 0.0);
+  run.end_s = OptionalNumber(r, rp, "end_s", std::numeric_limits<double>::infinity());
+  if (!(run.end_s > run.start_s)) Fail(r, Join(rp, "end_s"), "must be after start_s");
+  return run;
+}
+
 // The parser; the public function wraps its error line in a Result.
 std::optional<Session> LoadSessionOrError(const std::string& path, std::string* error) {
   auto fail = [&](const std::string& message) -> std::optional<Session> {
@@ -170,107 +276,14 @@ std::optional<Session> LoadSessionOrError(const std::string& path, std::string* 
               {"camera_file", "camera_mount_guess", "tag", "floor_reference", "tracker", "robot", "runs", "recorded_utc"});
     Session s;
     s.path = path;
-    // The camera keys are needed only by video runs: with pose logs alone a
-    // session names no camera at all.
-    bool any_video = false;
-    if (const YAML::Node runs = root["runs"]; runs && runs.IsSequence())
-      for (const YAML::Node& r : runs) any_video = any_video || !r["poses"];
-    s.has_camera = any_video || root["camera_file"] || root["camera_mount_guess"] || root["tag"];
-    const char* why_camera = any_video ? "missing (required: the session has video runs)"
-                                       : "missing (required once any camera key is given)";
-    if (s.has_camera) {
-      if (!root["camera_file"]) Fail(root, "camera_file", why_camera);
-      s.camera_file = Resolve(dir, String(root["camera_file"], "camera_file"));
-      const auto camera = ReadCameraFile(s.camera_file);
-      if (!camera) Fail(root["camera_file"], "camera_file", camera.message);
-      s.intrinsics = camera->intrinsics;
-      if (!root["camera_mount_guess"]) Fail(root, "camera_mount_guess", why_camera);
-      const YAML::Node m = root["camera_mount_guess"];
-      const std::string mp = "camera_mount_guess";
-      CheckKeys(m, mp, {"x_mm", "y_mm", "height_mm", "roll_deg", "pitch_deg", "yaw_deg"});
-      s.camera_mount_guess.x_mm = OptionalNumber(m, mp, "x_mm", 0.0);
-      s.camera_mount_guess.y_mm = OptionalNumber(m, mp, "y_mm", 0.0);
-      s.camera_mount_guess.height_mm =
-          Positive(RequiredNumber(m, mp, "height_mm"), m["height_mm"], mp + ".height_mm");
-      s.camera_mount_guess.roll_deg = OptionalNumber(m, mp, "roll_deg", 0.0);
-      s.camera_mount_guess.pitch_deg = OptionalNumber(m, mp, "pitch_deg", 0.0);
-      s.camera_mount_guess.yaw_deg = OptionalNumber(m, mp, "yaw_deg", 0.0);
-      if (!root["tag"]) Fail(root, "tag", why_camera);
-      s.tag = ParseTag(root["tag"], "tag", {"size_sigma_mm"});
-      if (const YAML::Node sigma = root["tag"]["size_sigma_mm"]) {
-        s.tag_size_sigma_mm = Number(sigma, "tag.size_sigma_mm");
-        if (!(*s.tag_size_sigma_mm >= 0.0)) Fail(sigma, "tag.size_sigma_mm", "must not be negative");
-      }
-      if (const YAML::Node floor = root["floor_reference"])
-        s.floor_reference = ParseFloorReference(floor, "floor_reference");
-    } else if (root["floor_reference"]) {
-      Fail(root["floor_reference"], "floor_reference", "needs a camera (camera_file, camera_mount_guess, tag)");
-    }
-    if (const YAML::Node k = root["tracker"]) {
-      CheckKeys(k, "tracker", {"offset_mm", "yaw_deg"});
-      if (const YAML::Node offset = k["offset_mm"]) {
-        CheckKeys(offset, "tracker.offset_mm", {"x", "y"});
-        s.tracker.offset_x_mm = OptionalNumber(offset, "tracker.offset_mm", "x", 0.0);
-        s.tracker.offset_y_mm = OptionalNumber(offset, "tracker.offset_mm", "y", 0.0);
-      }
-      s.tracker.yaw_deg = OptionalNumber(k, "tracker", "yaw_deg", 0.0);
-    }
-    if (!root["robot"]) Fail(root, "robot", "missing (required)");
-    CheckKeys(root["robot"], "robot", {"nominal", "id", "odometer_km"});
-    if (!root["robot"]["nominal"]) Fail(root["robot"], "robot.nominal", "missing (required)");
-    s.nominal = ParseWheels(root["robot"]["nominal"], "robot.nominal", true, 0);
-    if (const YAML::Node id = root["robot"]["id"]) s.robot_id = String(id, "robot.id");
-    if (const YAML::Node km = root["robot"]["odometer_km"]) {
-      s.odometer_km = Number(km, "robot.odometer_km");
-      if (*s.odometer_km < 0) Fail(km, "robot.odometer_km", "must be >= 0");
-    }
-    if (const YAML::Node when = root["recorded_utc"]) {
-      s.recorded_utc = String(when, "recorded_utc");
-      if (!ParseUtc(s.recorded_utc))
-        Fail(when, "recorded_utc", "`" + s.recorded_utc + "` is not ISO 8601 (2026-11-27T14:05:00Z, or a date)");
-    }
+    ParseSessionCamera(root, dir, s);
+    if (const YAML::Node k = root["tracker"]) ParseSessionTracker(k, s);
+    ParseSessionRobot(root, s);
     const YAML::Node runs = root["runs"];
     if (!runs) Fail(root, "runs", "missing (required)");
     if (!runs.IsSequence() || runs.size() == 0)
       Fail(runs, "runs", "expected a non-empty list of runs");
-    for (size_t i = 0; i < runs.size(); ++i) {
-      const std::string rp = "runs[" + std::to_string(i) + "]";
-      const YAML::Node r = runs[i];
-      SessionRun run;
-      // `procedure: auto`: whatever the recording shows (segment_runs.h).
-      if (r["procedure"] && r["procedure"].IsScalar() && r["procedure"].Scalar() == "auto") {
-        CheckKeys(r, rp, {"name", "procedure", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
-        run.spec.procedure = calibration::Procedure::kRecorded;
-        run.infer_procedure = true;
-      } else {
-        run.spec = ParseRun(r, rp, {"name", "video", "poses", "timestamps", "telemetry", "start_s", "end_s"});
-      }
-      run.name = r["name"] ? String(r["name"], Join(rp, "name")) : RunName(static_cast<int>(i), run.spec);
-      if (r["video"] && r["poses"]) Fail(r["poses"], Join(rp, "poses"), "a run has a video or a pose log, not both");
-      if (const YAML::Node p = r["poses"]) {
-        run.poses = Resolve(dir, String(p, Join(rp, "poses")));
-        if (!fs::exists(run.poses)) Fail(p, Join(rp, "poses"), run.poses + ": no such file");
-        // The model is driven by the ticks: a pose log without them is useless.
-        if (!r["telemetry"]) Fail(r, Join(rp, "telemetry"), "missing (required with poses)");
-        if (r["timestamps"]) Fail(r["timestamps"], Join(rp, "timestamps"), "applies to video runs only");
-      } else {
-        if (!r["video"]) Fail(r, Join(rp, "video"), "missing (required: video or poses)");
-        run.video = Resolve(dir, String(r["video"], Join(rp, "video")));
-        if (!fs::exists(run.video)) Fail(r["video"], Join(rp, "video"), run.video + ": no such file");
-      }
-      if (r["timestamps"]) {
-        run.timestamps = Resolve(dir, String(r["timestamps"], Join(rp, "timestamps")));
-        if (!fs::exists(run.timestamps))
-          Fail(r["timestamps"], Join(rp, "timestamps"), run.timestamps + ": no such file");
-      }
-      if (r["telemetry"]) run.telemetry = Resolve(dir, String(r["telemetry"], Join(rp, "telemetry")));
-      if (!run.poses.empty() && !fs::exists(run.telemetry))
-        Fail(r["telemetry"], Join(rp, "telemetry"), run.telemetry + ": no such file");
-      run.start_s = OptionalNumber(r, rp, "start_s", 0.0);
-      run.end_s = OptionalNumber(r, rp, "end_s", std::numeric_limits<double>::infinity());
-      if (!(run.end_s > run.start_s)) Fail(r, Join(rp, "end_s"), "must be after start_s");
-      s.runs.push_back(run);
-    }
+    for (size_t i = 0; i < runs.size(); ++i) s.runs.push_back(ParseSessionRun(runs[i], i, dir));
     return s;
   } catch (const YamlError& e) {
     return fail(path + ":" + e.what());

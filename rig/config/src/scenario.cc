@@ -276,6 +276,110 @@ CameraScenario ParseCamera(const YAML::Node& node, std::uint64_t seed) {
   return c;
 }
 
+// One entry of the scenario's `effects:` list, by name.
+struct EffectEntry {
+  YAML::Node e;
+  std::string path;  // "effects[i]"
+  std::string name;
+  // Fails when the effect was already given (already: its value is set).
+  void FailIfListedTwice(bool already) const {
+    if (already) Fail(e, path, "effect '" + name + "' is listed twice");
+  }
+};
+
+// The effects on the measurement (the tag's and the tracker's mounting, the camera's latency, lens and
+// shutter); false when the entry is not one of them.
+bool ParseSensorEffect(const EffectEntry& x, sim::Effects& out) {
+  const YAML::Node& e = x.e;
+  const std::string& path = x.path;
+  const std::string& name = x.name;
+  if (name == "tag_offset") {
+    CheckKeys(e, path, {"name", "x_mm", "y_mm"});
+    x.FailIfListedTwice(out.tag_offset.has_value());
+    out.tag_offset =
+        sim::TagOffsetEffect{RequiredNumber(e, path, "x_mm") * kMmToM, RequiredNumber(e, path, "y_mm") * kMmToM};
+  } else if (name == "camera_latency") {
+    CheckKeys(e, path, {"name", "ms"});
+    x.FailIfListedTwice(out.camera_latency.has_value());
+    out.camera_latency = sim::CameraLatencyEffect{RequiredNumber(e, path, "ms") * 1e-3};
+  } else if (name == "lens_distortion") {
+    CheckKeys(e, path, {"name", "k1"});
+    x.FailIfListedTwice(out.lens_distortion.has_value());
+    out.lens_distortion = sim::LensDistortionEffect{RequiredNumber(e, path, "k1")};
+  } else if (name == "tracker_yaw") {
+    CheckKeys(e, path, {"name", "deg"});
+    x.FailIfListedTwice(out.tracker_yaw.has_value());
+    const double deg = RequiredNumber(e, path, "deg");
+    if (std::abs(deg) >= 45.0) Fail(e["deg"], Join(path, "deg"), "must be within (-45, 45)");
+    out.tracker_yaw = sim::TrackerYawEffect{deg * kDegToRad};
+  } else if (name == "rolling_shutter") {
+    CheckKeys(e, path, {"name", "ms"});
+    x.FailIfListedTwice(out.rolling_shutter.has_value());
+    // The readout of the rows, top to bottom (as camera.rolling_shutter_ms).
+    const double ms = RequiredNumber(e, path, "ms");
+    if (!(ms >= 0.0 && ms <= 1000.0)) Fail(e["ms"], Join(path, "ms"), "must be in [0, 1000]");
+    out.rolling_shutter = sim::RollingShutterEffect{ms * 1e-3};
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The effects on the robot's motion and its encoders (slips, backlash, carpet, wheels out of round);
+// false when the entry is not one of them.
+bool ParseDriveEffect(const EffectEntry& x, sim::Effects& out) {
+  const YAML::Node& e = x.e;
+  const std::string& path = x.path;
+  const std::string& name = x.name;
+  if (name == "turn_slip") {
+    CheckKeys(e, path, {"name", "fraction_at_1rad_s"});
+    x.FailIfListedTwice(out.turn_slip.has_value());
+    const double f = RequiredNumber(e, path, "fraction_at_1rad_s");
+    if (f < 0.0 || f >= 0.5) Fail(e["fraction_at_1rad_s"], Join(path, "fraction_at_1rad_s"), "must be in [0, 0.5)");
+    out.turn_slip = sim::TurnSlipEffect{f};
+  } else if (name == "encoder_backlash") {
+    CheckKeys(e, path, {"name", "ticks"});
+    x.FailIfListedTwice(out.encoder_backlash.has_value());
+    const double ticks = RequiredNumber(e, path, "ticks");
+    if (ticks < 0.0) Fail(e["ticks"], Join(path, "ticks"), "must not be negative");
+    out.encoder_backlash = sim::EncoderBacklashEffect{ticks};
+  } else if (name == "carpet_drift") {
+    CheckKeys(e, path, {"name", "grain_deg", "rate_mm_per_m"});
+    x.FailIfListedTwice(out.carpet_drift.has_value());
+    out.carpet_drift = sim::CarpetDriftEffect{RequiredNumber(e, path, "grain_deg") * kDegToRad,
+                                              RequiredNumber(e, path, "rate_mm_per_m") * kMmToM};
+  } else if (name == "speed_slip") {
+    CheckKeys(e, path, {"name", "fraction_at_1m_s"});
+    x.FailIfListedTwice(out.speed_slip.has_value());
+    const double k = RequiredNumber(e, path, "fraction_at_1m_s");
+    if (k < 0.0 || k >= 0.5) Fail(e["fraction_at_1m_s"], Join(path, "fraction_at_1m_s"), "must be in [0, 0.5)");
+    out.speed_slip = sim::SpeedSlipEffect{k};
+  } else if (name == "arc_scale") {
+    CheckKeys(e, path, {"name", "fraction_at_1_per_m"});
+    x.FailIfListedTwice(out.arc_scale.has_value());
+    // Loss c |kappa|: below 0.1 on a circle of radius 0.1 m.
+    const double c = RequiredNumber(e, path, "fraction_at_1_per_m");
+    if (c < 0.0 || c >= 0.01) Fail(e["fraction_at_1_per_m"], Join(path, "fraction_at_1_per_m"), "must be in [0, 0.01)");
+    out.arc_scale = sim::ArcScaleEffect{c};
+  } else if (name == "eccentric_wheel" || name == "oval_wheel") {
+    // One wheel's radius r (1 + a sin(k phi + phase)): once a turn
+    // (eccentric), or twice (oval, simulator only).
+    std::optional<sim::EccentricWheelEffect>& wheel_effect =
+        name == "eccentric_wheel" ? out.eccentric_wheel : out.oval_wheel;
+    CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
+    x.FailIfListedTwice(wheel_effect.has_value());
+    if (!e["wheel"]) Fail(e, Join(path, "wheel"), "missing (required: left or right)");
+    const std::string wheel = String(e["wheel"], Join(path, "wheel"));
+    if (wheel != "left" && wheel != "right") Fail(e["wheel"], Join(path, "wheel"), "must be left or right");
+    const double a = RequiredNumber(e, path, "amplitude");
+    if (a < 0.0 || a >= 0.2) Fail(e["amplitude"], Join(path, "amplitude"), "must be in [0, 0.2)");
+    wheel_effect = sim::EccentricWheelEffect{wheel == "left", a, OptionalNumber(e, path, "phase_deg", 0.0) * kDegToRad};
+  } else {
+    return false;
+  }
+  return true;
+}
+
 sim::Effects ParseEffects(const YAML::Node& effects) {
   if (!effects.IsSequence()) Fail(effects, "effects", "expected a list");
   sim::Effects out;
@@ -284,88 +388,13 @@ sim::Effects ParseEffects(const YAML::Node& effects) {
     const std::string path = "effects[" + std::to_string(i) + "]";
     ExpectMap(e, path);
     if (!e["name"]) Fail(e, Join(path, "name"), "missing (required)");
-    const std::string name = String(e["name"], Join(path, "name"));
-    auto twice = [&](bool already) {
-      if (already) Fail(e, path, "effect '" + name + "' is listed twice");
-    };
-    if (name == "tag_offset") {
-      CheckKeys(e, path, {"name", "x_mm", "y_mm"});
-      twice(out.tag_offset.has_value());
-      out.tag_offset = sim::TagOffsetEffect{RequiredNumber(e, path, "x_mm") * kMmToM,
-                                            RequiredNumber(e, path, "y_mm") * kMmToM};
-    } else if (name == "camera_latency") {
-      CheckKeys(e, path, {"name", "ms"});
-      twice(out.camera_latency.has_value());
-      out.camera_latency = sim::CameraLatencyEffect{RequiredNumber(e, path, "ms") * 1e-3};
-    } else if (name == "turn_slip") {
-      CheckKeys(e, path, {"name", "fraction_at_1rad_s"});
-      twice(out.turn_slip.has_value());
-      const double f = RequiredNumber(e, path, "fraction_at_1rad_s");
-      if (f < 0.0 || f >= 0.5) Fail(e["fraction_at_1rad_s"], Join(path, "fraction_at_1rad_s"), "must be in [0, 0.5)");
-      out.turn_slip = sim::TurnSlipEffect{f};
-    } else if (name == "lens_distortion") {
-      CheckKeys(e, path, {"name", "k1"});
-      twice(out.lens_distortion.has_value());
-      out.lens_distortion = sim::LensDistortionEffect{RequiredNumber(e, path, "k1")};
-    } else if (name == "encoder_backlash") {
-      CheckKeys(e, path, {"name", "ticks"});
-      twice(out.encoder_backlash.has_value());
-      const double ticks = RequiredNumber(e, path, "ticks");
-      if (ticks < 0.0) Fail(e["ticks"], Join(path, "ticks"), "must not be negative");
-      out.encoder_backlash = sim::EncoderBacklashEffect{ticks};
-    } else if (name == "carpet_drift") {
-      CheckKeys(e, path, {"name", "grain_deg", "rate_mm_per_m"});
-      twice(out.carpet_drift.has_value());
-      out.carpet_drift = sim::CarpetDriftEffect{RequiredNumber(e, path, "grain_deg") * kDegToRad,
-                                                RequiredNumber(e, path, "rate_mm_per_m") * kMmToM};
-    } else if (name == "tracker_yaw") {
-      CheckKeys(e, path, {"name", "deg"});
-      twice(out.tracker_yaw.has_value());
-      const double deg = RequiredNumber(e, path, "deg");
-      if (std::abs(deg) >= 45.0) Fail(e["deg"], Join(path, "deg"), "must be within (-45, 45)");
-      out.tracker_yaw = sim::TrackerYawEffect{deg * kDegToRad};
-    } else if (name == "speed_slip") {
-      CheckKeys(e, path, {"name", "fraction_at_1m_s"});
-      twice(out.speed_slip.has_value());
-      const double k = RequiredNumber(e, path, "fraction_at_1m_s");
-      if (k < 0.0 || k >= 0.5) Fail(e["fraction_at_1m_s"], Join(path, "fraction_at_1m_s"), "must be in [0, 0.5)");
-      out.speed_slip = sim::SpeedSlipEffect{k};
-    } else if (name == "arc_scale") {
-      CheckKeys(e, path, {"name", "fraction_at_1_per_m"});
-      twice(out.arc_scale.has_value());
-      // Loss c |kappa|: below 0.1 on a circle of radius 0.1 m.
-      const double c = RequiredNumber(e, path, "fraction_at_1_per_m");
-      if (c < 0.0 || c >= 0.01)
-        Fail(e["fraction_at_1_per_m"], Join(path, "fraction_at_1_per_m"), "must be in [0, 0.01)");
-      out.arc_scale = sim::ArcScaleEffect{c};
-    } else if (name == "rolling_shutter") {
-      CheckKeys(e, path, {"name", "ms"});
-      twice(out.rolling_shutter.has_value());
-      // The readout of the rows, top to bottom (as camera.rolling_shutter_ms).
-      const double ms = RequiredNumber(e, path, "ms");
-      if (!(ms >= 0.0 && ms <= 1000.0)) Fail(e["ms"], Join(path, "ms"), "must be in [0, 1000]");
-      out.rolling_shutter = sim::RollingShutterEffect{ms * 1e-3};
-    } else if (name == "eccentric_wheel" || name == "oval_wheel") {
-      // One wheel's radius r (1 + a sin(k phi + phase)): once a turn
-      // (eccentric), or twice (oval, simulator only).
-      std::optional<sim::EccentricWheelEffect>& wheel_effect =
-          name == "eccentric_wheel" ? out.eccentric_wheel : out.oval_wheel;
-      CheckKeys(e, path, {"name", "wheel", "amplitude", "phase_deg"});
-      twice(wheel_effect.has_value());
-      if (!e["wheel"]) Fail(e, Join(path, "wheel"), "missing (required: left or right)");
-      const std::string wheel = String(e["wheel"], Join(path, "wheel"));
-      if (wheel != "left" && wheel != "right") Fail(e["wheel"], Join(path, "wheel"), "must be left or right");
-      const double a = RequiredNumber(e, path, "amplitude");
-      if (a < 0.0 || a >= 0.2) Fail(e["amplitude"], Join(path, "amplitude"), "must be in [0, 0.2)");
-      wheel_effect =
-          sim::EccentricWheelEffect{wheel == "left", a, OptionalNumber(e, path, "phase_deg", 0.0) * kDegToRad};
-    } else {
+    const EffectEntry entry{e, path, String(e["name"], Join(path, "name"))};
+    if (!ParseSensorEffect(entry, out) && !ParseDriveEffect(entry, out))
       Fail(e["name"], Join(path, "name"),
-           "unknown effect '" + name +
+           "unknown effect '" + entry.name +
                "' (expected tag_offset, camera_latency, turn_slip, lens_distortion, "
                "encoder_backlash, carpet_drift, tracker_yaw, speed_slip, arc_scale, "
                "rolling_shutter, eccentric_wheel, oval_wheel)");
-    }
   }
   return out;
 }

@@ -173,54 +173,30 @@ CameraFile ParseKalibr(const YAML::Node& cam, const std::string& name) {
   return file;
 }
 
-CameraFile ParseRoot(const YAML::Node& root) {
-  // Kalibr: the cameras are maps cam0, cam1, ... holding `intrinsics`.
-  for (const char* cam : {"cam0"}) {
-    if (const YAML::Node node = root[cam]; node && node.IsMap() && node["intrinsics"]) return ParseKalibr(node, cam);
-  }
-  if (root["intrinsics"] && (root["distortion_coeffs"] || root["distortion_coefficients"]))
-    return ParseKalibr(root, "camera");
-  CameraFile file;
-  bool ros = false;
-  for (const char* key : kRosOnlyKeys) ros |= static_cast<bool>(root[key]);
-  std::string k_key = "camera_matrix";
-  const auto k_found = Find(root, kCameraMatrixKeys, &k_key);
-  if (!k_found) Throw("camera_matrix", "missing");
-  const YAML::Node k_node = *k_found;
-  if (k_node.IsMap() && !k_node["dt"] && k_node.Tag().find("opencv-matrix") == std::string::npos)
-    ros = true;
-  file.format = ros ? CameraFileFormat::kRos : CameraFileFormat::kOpenCv;
-
-  // Image size: image_width / image_height, or the interactive-calibration
-  // app's cameraResolution: [w, h].
-  int width = 0, height = 0;
+// The image size: image_width / image_height, or the interactive-calibration
+// app's cameraResolution: [w, h].
+cv::Size ReadImageSize(const YAML::Node& root) {
+  cv::Size size;
   if (root["image_width"] || root["image_height"] || !root["cameraResolution"]) {
     if (!root["image_width"]) Throw("image_width", "missing");
     if (!root["image_height"]) Throw("image_height", "missing");
-    width = ReadInt(root["image_width"], "image_width");
-    height = ReadInt(root["image_height"], "image_height");
-    if (width <= 0) Throw("image_width", "must be positive");
-    if (height <= 0) Throw("image_height", "must be positive");
+    size.width = ReadInt(root["image_width"], "image_width");
+    size.height = ReadInt(root["image_height"], "image_height");
+    if (size.width <= 0) Throw("image_width", "must be positive");
+    if (size.height <= 0) Throw("image_height", "must be positive");
   } else {
     const YAML::Node res = root["cameraResolution"];
     if (!res.IsSequence() || res.size() != 2) Throw("cameraResolution", "expected [width, height]");
-    width = ReadInt(res[0], "cameraResolution[0]");
-    height = ReadInt(res[1], "cameraResolution[1]");
-    if (width <= 0 || height <= 0) Throw("cameraResolution", "must be positive");
+    size.width = ReadInt(res[0], "cameraResolution[0]");
+    size.height = ReadInt(res[1], "cameraResolution[1]");
+    if (size.width <= 0 || size.height <= 0) Throw("cameraResolution", "must be positive");
   }
+  return size;
+}
 
-  const cv::Mat K = ReadMatrix(k_node, k_key);
-  if (K.rows != 3 || K.cols != 3)
-    Throw(k_key, "expected a 3x3 matrix, got " + std::to_string(K.rows) + "x" +
-                     std::to_string(K.cols));
-  std::string why;
-  if (!vision::Intrinsics::FromCv(K, cv::Mat(), width, height, &why)) Throw(k_key, why);
-
-  std::string d_key = "distortion_coefficients";
-  const auto d_node = Find(root, kDistortionKeys, &d_key);
-  if (!d_node) Throw("distortion_coefficients", "missing");
-  // The lens: ROS's distortion_model (also written into OpenCV files by
-  // odocal), or the OpenCV calibration sample's fisheye_model: 1.
+// The lens: ROS's distortion_model (also written into OpenCV files by
+// odocal), or the OpenCV calibration sample's fisheye_model: 1.
+vision::LensModel ReadLensModel(const YAML::Node& root) {
   vision::LensModel lens = vision::LensModel::kPlumbBob;
   if (const YAML::Node model = root["distortion_model"]) {
     const std::string name = model.IsScalar() ? model.Scalar() : "";
@@ -235,14 +211,11 @@ CameraFile ParseRoot(const YAML::Node& root) {
     if (on != 0 && on != 1) Throw("fisheye_model", "expected 0 or 1");
     if (on == 1) lens = vision::LensModel::kEquidistant;
   }
-  const cv::Mat D = ReadMatrix(*d_node, d_key);
-  if (D.rows != 1 && D.cols != 1)
-    Throw(d_key, "expected a 1xN or Nx1 vector, got " + std::to_string(D.rows) + "x" +
-                     std::to_string(D.cols));
-  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, lens);
-  if (!intrinsics) Throw(d_key, why);
-  file.intrinsics = *intrinsics;
+  return lens;
+}
 
+// What the file says beside the intrinsics: the camera's name and the calibration's reprojection errors.
+void ReadCalibrationNotes(const YAML::Node& root, CameraFile& file) {
   if (const YAML::Node name = root["camera_name"]) {
     if (!name.IsScalar()) Throw("camera_name", "expected a string");
     file.camera_name = name.Scalar();
@@ -258,6 +231,46 @@ CameraFile ParseRoot(const YAML::Node& root) {
     for (int i = 0; i < static_cast<int>(e.total()); ++i)
       file.per_view_reprojection_errors_px.push_back(e.at<double>(i / e.cols, i % e.cols));
   }
+}
+
+CameraFile ParseRoot(const YAML::Node& root) {
+  // Kalibr: the cameras are maps cam0, cam1, ... holding `intrinsics`.
+  for (const char* cam : {"cam0"}) {
+    if (const YAML::Node node = root[cam]; node && node.IsMap() && node["intrinsics"]) return ParseKalibr(node, cam);
+  }
+  if (root["intrinsics"] && (root["distortion_coeffs"] || root["distortion_coefficients"]))
+    return ParseKalibr(root, "camera");
+  CameraFile file;
+  bool ros = false;
+  for (const char* key : kRosOnlyKeys) ros |= static_cast<bool>(root[key]);
+  std::string k_key = "camera_matrix";
+  const auto k_found = Find(root, kCameraMatrixKeys, &k_key);
+  if (!k_found) Throw("camera_matrix", "missing");
+  const YAML::Node k_node = *k_found;
+  if (k_node.IsMap() && !k_node["dt"] && k_node.Tag().find("opencv-matrix") == std::string::npos) ros = true;
+  file.format = ros ? CameraFileFormat::kRos : CameraFileFormat::kOpenCv;
+
+  const cv::Size size = ReadImageSize(root);
+  const int width = size.width, height = size.height;
+
+  const cv::Mat K = ReadMatrix(k_node, k_key);
+  if (K.rows != 3 || K.cols != 3)
+    Throw(k_key, "expected a 3x3 matrix, got " + std::to_string(K.rows) + "x" + std::to_string(K.cols));
+  std::string why;
+  if (!vision::Intrinsics::FromCv(K, cv::Mat(), width, height, &why)) Throw(k_key, why);
+
+  std::string d_key = "distortion_coefficients";
+  const auto d_node = Find(root, kDistortionKeys, &d_key);
+  if (!d_node) Throw("distortion_coefficients", "missing");
+  const vision::LensModel lens = ReadLensModel(root);
+  const cv::Mat D = ReadMatrix(*d_node, d_key);
+  if (D.rows != 1 && D.cols != 1)
+    Throw(d_key, "expected a 1xN or Nx1 vector, got " + std::to_string(D.rows) + "x" + std::to_string(D.cols));
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, lens);
+  if (!intrinsics) Throw(d_key, why);
+  file.intrinsics = *intrinsics;
+
+  ReadCalibrationNotes(root, file);
   return file;
 }
 

@@ -122,27 +122,14 @@ calibration::WheelParams ParseWheels(const YAML::Node& node, const std::string& 
   return p;
 }
 
-RunSpec ParseRun(const YAML::Node& node, const std::string& path,
-                 const std::set<std::string>& extra_keys) {
-  std::set<std::string> allowed = {"procedure", "direction", "side_mm", "distance_mm", "turns",
-                                   "repeats", "reference", "speed_mm_s", "turn_rate_deg_s",
-                                   "radius_mm"};
-  allowed.insert(extra_keys.begin(), extra_keys.end());
-  CheckKeys(node, path, allowed);
-  if (!node["procedure"]) Fail(node, Join(path, "procedure"), "missing (required)");
-  const std::string name = String(node["procedure"], Join(path, "procedure"));
-  const auto procedure = calibration::ParseProcedure(name);
-  if (!procedure) {
-    Fail(node["procedure"], Join(path, "procedure"),
-         "unknown procedure '" + name + "' (expected umbmark, straight, spin, out_and_back, circle, "
-         "recorded)");
-  }
-  RunSpec spec;
-  spec.procedure = *procedure;
-  // Which keys each procedure takes; anything else is a mistake worth naming.
+namespace {
+
+// Which keys each procedure takes; anything else is a mistake worth naming.
+void CheckProcedureKeys(const YAML::Node& node, const std::string& path, const std::string& name,
+                        calibration::Procedure procedure, const std::set<std::string>& extra_keys) {
   std::set<std::string> takes = {"procedure", "speed_mm_s", "turn_rate_deg_s"};
   takes.insert(extra_keys.begin(), extra_keys.end());
-  switch (spec.procedure) {
+  switch (procedure) {
     case calibration::Procedure::kUmbmark: takes.insert({"direction", "side_mm"}); break;
     case calibration::Procedure::kStraight: takes.insert({"distance_mm"}); break;
     case calibration::Procedure::kSpin: takes.insert({"turns", "direction", "reference"}); break;
@@ -157,15 +144,11 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
     if (!takes.count(key))
       Fail(entry.first, Join(path, key), "does not apply to procedure " + name);
   }
-  spec.direction = calibration::Direction::kCcw;
-  if (const YAML::Node d = node["direction"]) {
-    const std::string dir = String(d, Join(path, "direction"));
-    const auto parsed = calibration::ParseDirection(dir);
-    if (!parsed) Fail(d, Join(path, "direction"), "expected cw or ccw, got '" + dir + "'");
-    spec.direction = *parsed;
-  } else if (spec.procedure == calibration::Procedure::kUmbmark) {
-    Fail(node, Join(path, "direction"), "missing (required for umbmark: cw or ccw)");
-  }
+}
+
+// The run's size as its procedure needs it: the square's side, the distance,
+// the circle's radius, the turns; and the repeats.
+void ParseRunSize(const YAML::Node& node, const std::string& path, const std::string& name, RunSpec& spec) {
   if (spec.procedure == calibration::Procedure::kUmbmark)
     spec.side_m = Positive(RequiredNumber(node, path, "side_mm"), node["side_mm"],
                            Join(path, "side_mm")) * kMmToM;
@@ -188,6 +171,37 @@ RunSpec ParseRun(const YAML::Node& node, const std::string& path,
     if (repeats <= 0 || repeats > 1000) Fail(r, Join(path, "repeats"), "must be 1 to 1000");
     spec.repeats = static_cast<int>(repeats);
   }
+}
+
+}  // namespace
+
+RunSpec ParseRun(const YAML::Node& node, const std::string& path, const std::set<std::string>& extra_keys) {
+  std::set<std::string> allowed = {"procedure", "direction", "side_mm",    "distance_mm",     "turns",
+                                   "repeats",   "reference", "speed_mm_s", "turn_rate_deg_s", "radius_mm"};
+  allowed.insert(extra_keys.begin(), extra_keys.end());
+  CheckKeys(node, path, allowed);
+  if (!node["procedure"]) Fail(node, Join(path, "procedure"), "missing (required)");
+  const std::string name = String(node["procedure"], Join(path, "procedure"));
+  const auto procedure = calibration::ParseProcedure(name);
+  if (!procedure) {
+    Fail(node["procedure"], Join(path, "procedure"),
+         "unknown procedure '" + name +
+             "' (expected umbmark, straight, spin, out_and_back, circle, "
+             "recorded)");
+  }
+  RunSpec spec;
+  spec.procedure = *procedure;
+  CheckProcedureKeys(node, path, name, spec.procedure, extra_keys);
+  spec.direction = calibration::Direction::kCcw;
+  if (const YAML::Node d = node["direction"]) {
+    const std::string dir = String(d, Join(path, "direction"));
+    const auto parsed = calibration::ParseDirection(dir);
+    if (!parsed) Fail(d, Join(path, "direction"), "expected cw or ccw, got '" + dir + "'");
+    spec.direction = *parsed;
+  } else if (spec.procedure == calibration::Procedure::kUmbmark) {
+    Fail(node, Join(path, "direction"), "missing (required for umbmark: cw or ccw)");
+  }
+  ParseRunSize(node, path, name, spec);
   if (const YAML::Node r = node["reference"]) {
     const std::string ref = String(r, Join(path, "reference"));
     const auto parsed = calibration::ParseReference(ref);

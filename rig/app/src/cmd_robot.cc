@@ -221,14 +221,8 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
   std::cout << "run " << id << " completed\n";
 }
 
-}  // namespace
-
-void RegisterRobotCommand(CLI::App& app) {
-  CLI::App* robot = app.add_subcommand("robot", "talk to a robot over its serial link");
-  robot->require_subcommand(1);
-
-  auto flags = std::make_shared<LinkFlags>();
-
+// `robot info`: the handshake and the robot's status.
+void AddRobotInfoCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   CLI::App* info = robot->add_subcommand("info", "handshake and print what the robot reports");
   AddLinkFlags(info, flags.get());
   info->callback([flags] {
@@ -243,7 +237,10 @@ void RegisterRobotCommand(CLI::App& app) {
               << "link_frames_ok: " << status.frames_ok << "\n"
               << "link_crc_errors: " << status.crc_errors << "\n";
   });
+}
 
+// `robot get`: the active, staged or previous set (all of it, or the named parameters).
+void AddRobotGetCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   auto get_names = std::make_shared<std::vector<std::string>>();
   auto which = std::make_shared<std::string>("active");
   CLI::App* get = robot->add_subcommand("get", "print parameters (all, or the named ones)");
@@ -267,7 +264,10 @@ void RegisterRobotCommand(CLI::App& app) {
       std::cout << n << " = " << rl::FormatValue(set.Get(ParamIndexOrFail(n))) << "\n";
     }
   });
+}
 
+// `robot set`: one parameter, committed atomically.
+void AddRobotSetCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   auto set_name = std::make_shared<std::string>();
   auto set_value = std::make_shared<std::string>();
   CLI::App* set = robot->add_subcommand("set", "change one parameter (committed atomically): NAME VALUE or NAME=VALUE");
@@ -288,7 +288,10 @@ void RegisterRobotCommand(CLI::App& app) {
     Session s = Connect(*flags);
     PrintSet(Check(s.client->SetParam(*set_name, value)));
   });
+}
 
+// `robot push`: a whole set staged, read back, committed and verified.
+void AddRobotPushCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   auto assignments = std::make_shared<std::vector<std::string>>();
   CLI::App* push = robot->add_subcommand(
       "push", "stage a whole set (NAME=VALUE; unnamed ones keep their value), read it back, "
@@ -310,13 +313,20 @@ void RegisterRobotCommand(CLI::App& app) {
     PrintSet(report.active);
     std::cout << "verified: checksum 0x" << std::hex << report.checksum << std::dec << "\n";
   });
+}
 
+// `robot rollback`: the previous set active again.
+void AddRobotRollbackCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   CLI::App* rollback = robot->add_subcommand("rollback", "make the previous set active again");
   AddLinkFlags(rollback, flags.get());
   rollback->callback([flags] {
     Session s = Connect(*flags);
     PrintSet(Check(s.client->Rollback()));
   });
+}
+
+// `robot run`: one procedure driven to its end (DriveOneRun).
+void AddRobotRunCommand(CLI::App* robot, const std::shared_ptr<LinkFlags>& flags) {
   auto run = std::make_shared<RunFlags>();
   CLI::App* run_cmd = robot->add_subcommand(
       "run", "drive one procedure to its end (exit 0: completed; 9: stopped, failed or timed out; "
@@ -337,6 +347,21 @@ void RegisterRobotCommand(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   run_cmd->add_option("--telemetry", run->telemetry, "write the run's telemetry CSV (docs/formats.md)");
   run_cmd->callback([flags, run] { DriveOneRun(*flags, *run); });
+}
+
+}  // namespace
+
+void RegisterRobotCommand(CLI::App& app) {
+  CLI::App* robot = app.add_subcommand("robot", "talk to a robot over its serial link");
+  robot->require_subcommand(1);
+
+  auto flags = std::make_shared<LinkFlags>();
+  AddRobotInfoCommand(robot, flags);
+  AddRobotGetCommand(robot, flags);
+  AddRobotSetCommand(robot, flags);
+  AddRobotPushCommand(robot, flags);
+  AddRobotRollbackCommand(robot, flags);
+  AddRobotRunCommand(robot, flags);
 }
 
 }  // namespace odocal::app

@@ -98,34 +98,85 @@ class Source {
   std::optional<double> t0_;
 };
 
-void RunWatch(const WatchArgs& args) {
-  const vision::TagSpec tag = ParseTagOption(kWatch, "--tag", args.tag);
-  std::string why;
-  if (!vision::IsKnownTagFamily(tag.family))
-    Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": unknown family '" + tag.family + "'");
+// The options, checked (a bad one exits 2): the tag, the mount guess, where to
+// serve, the camera's intrinsics.
+struct WatchInputs {
+  vision::TagSpec tag;
   std::optional<vision::CameraMount> mount_guess;
-  if (!args.mount.empty()) mount_guess = ParseMountOption(kWatch, "--mount-guess", args.mount);
+  live::LiveServerOptions server_options;
+  vision::Intrinsics intrinsics;
+};
+WatchInputs CheckWatchInputs(const WatchArgs& args) {
+  WatchInputs in;
+  in.tag = ParseTagOption(kWatch, "--tag", args.tag);
+  std::string why;
+  if (!vision::IsKnownTagFamily(in.tag.family))
+    Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": unknown family '" + in.tag.family + "'");
+  if (!args.mount.empty()) in.mount_guess = ParseMountOption(kWatch, "--mount-guess", args.mount);
   if (args.port < 0 || args.port > 65535)
     Fail(kWatch, kExitBadInput, "--port " + std::to_string(args.port) + ": not in 0..65535 (0: any free port)");
-  live::LiveServerOptions server_options;
-  server_options.bind_address = args.bind;
-  server_options.port = args.port;
-  if (!server_options.IsValid(&why)) Fail(kWatch, kExitBadInput, "--bind " + args.bind + ": " + why);
+  in.server_options.bind_address = args.bind;
+  in.server_options.port = args.port;
+  if (!in.server_options.IsValid(&why)) Fail(kWatch, kExitBadInput, "--bind " + args.bind + ": " + why);
   if (args.seconds < 0.0) Fail(kWatch, kExitBadInput, "--seconds must be >= 0 (0: until the source ends)");
   if (args.hold_s < 0.0) Fail(kWatch, kExitBadInput, "--hold-s must be >= 0");
   if (args.delay_s < 0.0) Fail(kWatch, kExitBadInput, "--delay-s must be >= 0");
   const auto file = config::ReadCameraFile(args.calibration);
   if (!file) Fail(kWatch, kExitBadInput, "--calibration: " + file.message);
-  const vision::Intrinsics& intrinsics = file->intrinsics;
+  in.intrinsics = file->intrinsics;
+  return in;
+}
+
+// How the frames ended: `ended` says why a source stopped delivering (empty
+// at the video's end, --seconds or Ctrl-C), after elapsed_s.
+struct WatchedFrames {
+  std::string ended;
+  double elapsed_s = 0.0;
+};
+
+// Each frame to the tag watch until the source ends, --seconds pass or Ctrl-C
+// (with --realtime, a video at its frame rate).
+WatchedFrames WatchFrames(const WatchArgs& args, const vision::Intrinsics& intrinsics, Source& source,
+                          live::TagWatch& watch) {
+  std::string error;
+  WatchedFrames watched;
+  const Clock::time_point t0 = Clock::now();
+  while (!g_watch_stop) {
+    std::optional<media::CameraFrame> frame = source.Next(&error);
+    if (!frame) {
+      watched.ended = error;
+      break;
+    }
+    if (args.seconds > 0.0 && frame->t_s > args.seconds) break;
+    if (frame->grey.cols != intrinsics.width || frame->grey.rows != intrinsics.height) {
+      Fail(kWatch, kExitBadInput,
+           source.Describe() + " delivers " + std::to_string(frame->grey.cols) + "x" +
+               std::to_string(frame->grey.rows) + " frames, --calibration " + args.calibration + " is for " +
+               std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
+    }
+    if (args.realtime && source.is_file()) {
+      const double ahead = frame->t_s - Since(t0);
+      if (ahead > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(ahead));
+    }
+    watch.OnFrame(frame->grey, frame->t_s);
+  }
+  watched.elapsed_s = Since(t0);
+  return watched;
+}
+
+void RunWatch(const WatchArgs& args) {
+  const WatchInputs in = CheckWatchInputs(args);
+  const vision::TagSpec& tag = in.tag;
+  const vision::Intrinsics& intrinsics = in.intrinsics;
 
   Source source(args.camera);
   live::LiveState state;
-  auto watch = live::TagWatch::Create(tag, intrinsics, mount_guess, &state);
+  auto watch = live::TagWatch::Create(tag, intrinsics, in.mount_guess, &state);
   if (!watch) Fail(kWatch, kExitBadInput, "--tag " + args.tag + ": " + watch.message);
 
   state.SetSource(source.Describe());
   state.SetProgress(0, 0, "", "watch: no plan, the camera only");
-  auto server = live::LiveServer::Start(state, server_options);
+  auto server = live::LiveServer::Start(state, in.server_options);
   if (!server)
     Fail(kWatch, kExitBadInput, "--bind " + args.bind + " --port " + std::to_string(args.port) + ": " + server.message);
   const std::string url = (*server)->url();
@@ -140,28 +191,9 @@ void RunWatch(const WatchArgs& args) {
   const Clock::time_point delay_from = Clock::now();
   while (!g_watch_stop && Since(delay_from) < args.delay_s) std::this_thread::sleep_for(std::chrono::milliseconds(20));
 
-  std::string error, ended;
-  const Clock::time_point t0 = Clock::now();
-  while (!g_watch_stop) {
-    std::optional<media::CameraFrame> frame = source.Next(&error);
-    if (!frame) {
-      ended = error;
-      break;
-    }
-    if (args.seconds > 0.0 && frame->t_s > args.seconds) break;
-    if (frame->grey.cols != intrinsics.width || frame->grey.rows != intrinsics.height) {
-      Fail(kWatch, kExitBadInput,
-           source.Describe() + " delivers " + std::to_string(frame->grey.cols) + "x" +
-               std::to_string(frame->grey.rows) + " frames, --calibration " + args.calibration + " is for " +
-               std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
-    }
-    if (args.realtime && source.is_file()) {
-      const double ahead = frame->t_s - Since(t0);
-      if (ahead > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(ahead));
-    }
-    (*watch)->OnFrame(frame->grey, frame->t_s);
-  }
-  const double elapsed = Since(t0);
+  const WatchedFrames watched = WatchFrames(args, intrinsics, source, **watch);
+  const double elapsed = watched.elapsed_s;
+  const std::string& ended = watched.ended;
   const long frames = (*watch)->frames(), found = (*watch)->found();
   std::printf("watched %ld frames in %.2f s (%.1f frames/s), tag found in %ld\n", frames, elapsed,
               elapsed > 0.0 ? frames / elapsed : 0.0, found);

@@ -34,62 +34,71 @@ nlohmann::json TurnSlipJson(const TurnSlipResult& t) {
                     "track_factor(omega) = track_factor_at_rest / (1 - f omega)"}};
 }
 
+namespace {
+
+// One run of an iteration: what was driven, what the camera saw, its return error.
+nlohmann::json StationRunJson(const StationRun& run) {
+  nlohmann::json r = {{"name", run.name},
+                      {"procedure", calibration::ToString(run.spec.procedure)},
+                      {"direction", calibration::ToString(run.spec.direction)},
+                      {"side_mm", run.spec.side_m * kMToMm},
+                      {"run_id", run.run_id},
+                      {"moving_frames", run.moving_frames},
+                      {"moving_frames_tag_found", run.moving_found},
+                      {"max_motion_px", run.max_motion_px},
+                      {"turned_deg", run.turned_rad ? nlohmann::json(RadToDeg(*run.turned_rad)) : nlohmann::json()},
+                      {"unseen_s", run.unseen_s},
+                      {"frames_dropped", run.frames_dropped},
+                      {"rest_frames", {{"start", run.start_rest.n}, {"end", run.end_rest.n}}}};
+  if (run.spec.procedure == calibration::Procedure::kStraight ||
+      run.spec.procedure == calibration::Procedure::kOutAndBack)
+    r["distance_mm"] = run.spec.distance_m * kMToMm;
+  if (run.spec.procedure == calibration::Procedure::kSpin) r["turns"] = run.spec.turns;
+  if (run.spec.turn_rate_rad_s) r["turn_rate_deg_s"] = RadToDeg(*run.spec.turn_rate_rad_s);
+  if (!run.log_path.empty()) r["log"] = run.log_path;
+  if (run.start_rest.n > 0 && run.end_rest.n > 0) {
+    r["return_error"] = report::ReturnErrorJson(run.return_error.pose);
+    r["sigma"] = {{"x_mm", run.return_error.sigma_x_m() * kMToMm},
+                  {"y_mm", run.return_error.sigma_y_m() * kMToMm},
+                  {"theta_deg", RadToDeg(run.return_error.sigma_heading_rad())}};
+  }
+  return r;
+}
+
+// One iteration: the runs driven with a set, what they estimate and what was pushed.
+nlohmann::json IterationJson(const StationIteration& it) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (const StationRun& run : it.runs) runs.push_back(StationRunJson(run));
+  nlohmann::json j = {{"params_used", ParamSetJson(it.params_used)}, {"runs", runs}};
+  if (it.estimate.ok()) {
+    const calibration::CoupledEstimate& c = it.estimate.coupled;
+    j["emax_syst_mm"] = it.estimate.emax_syst_m * kMToMm;
+    j["emax_syst_sigma_mm"] = it.emax_sigma_m ? nlohmann::json(*it.emax_sigma_m * kMToMm) : nlohmann::json();
+    j["estimate"] = {{"Ed", c.Ed},
+                     {"Eb", c.Eb},
+                     {"sigma_Ed", c.sigma_Ed ? nlohmann::json(*c.sigma_Ed) : nlohmann::json()},
+                     {"sigma_Eb", c.sigma_Eb ? nlohmann::json(*c.sigma_Eb) : nlohmann::json()},
+                     {"Eb_is", "turn gain Eb/Es (UMBMark does not see the distance scale)"}};
+    j["umbmark"] = report::UmbmarkJson(it.input, it.estimate);
+  } else {
+    j["emax_syst_mm"] = nullptr;
+    j["estimate"] = nullptr;
+  }
+  j["cvra"] = report::CvraJson(it.session_estimate);
+  if (!it.session_estimate.notes.empty()) j["notes"] = it.session_estimate.notes;
+  if (!it.turn_slip.groups.empty()) j["turn_slip"] = TurnSlipJson(it.turn_slip);
+  j["corrected"] = it.corrected ? ParamSetJson(*it.corrected) : nlohmann::json();
+  j["pushed"] = it.pushed ? ParamSetJson(*it.pushed) : nlohmann::json();
+  j["converged"] = it.converged;
+  if (!it.note.empty()) j["note"] = it.note;
+  return j;
+}
+
+}  // namespace
+
 nlohmann::json StationReportJson(const StationResult& result) {
   nlohmann::json iterations = nlohmann::json::array();
-  for (const StationIteration& it : result.iterations) {
-    nlohmann::json runs = nlohmann::json::array();
-    for (const StationRun& run : it.runs) {
-      nlohmann::json r = {{"name", run.name},
-                          {"procedure", calibration::ToString(run.spec.procedure)},
-                          {"direction", calibration::ToString(run.spec.direction)},
-                          {"side_mm", run.spec.side_m * kMToMm},
-                          {"run_id", run.run_id},
-                          {"moving_frames", run.moving_frames},
-                          {"moving_frames_tag_found", run.moving_found},
-                          {"max_motion_px", run.max_motion_px},
-                          {"turned_deg", run.turned_rad ? nlohmann::json(RadToDeg(*run.turned_rad))
-                                                        : nlohmann::json()},
-                          {"unseen_s", run.unseen_s},
-                          {"frames_dropped", run.frames_dropped},
-                          {"rest_frames", {{"start", run.start_rest.n}, {"end", run.end_rest.n}}}};
-      if (run.spec.procedure == calibration::Procedure::kStraight ||
-          run.spec.procedure == calibration::Procedure::kOutAndBack)
-        r["distance_mm"] = run.spec.distance_m * kMToMm;
-      if (run.spec.procedure == calibration::Procedure::kSpin) r["turns"] = run.spec.turns;
-      if (run.spec.turn_rate_rad_s) r["turn_rate_deg_s"] = RadToDeg(*run.spec.turn_rate_rad_s);
-      if (!run.log_path.empty()) r["log"] = run.log_path;
-      if (run.start_rest.n > 0 && run.end_rest.n > 0) {
-        r["return_error"] = report::ReturnErrorJson(run.return_error.pose);
-        r["sigma"] = {{"x_mm", run.return_error.sigma_x_m() * kMToMm},
-                      {"y_mm", run.return_error.sigma_y_m() * kMToMm},
-                      {"theta_deg", RadToDeg(run.return_error.sigma_heading_rad())}};
-      }
-      runs.push_back(r);
-    }
-    nlohmann::json j = {{"params_used", ParamSetJson(it.params_used)}, {"runs", runs}};
-    if (it.estimate.ok()) {
-      const calibration::CoupledEstimate& c = it.estimate.coupled;
-      j["emax_syst_mm"] = it.estimate.emax_syst_m * kMToMm;
-      j["emax_syst_sigma_mm"] = it.emax_sigma_m ? nlohmann::json(*it.emax_sigma_m * kMToMm) : nlohmann::json();
-      j["estimate"] = {{"Ed", c.Ed},
-                       {"Eb", c.Eb},
-                       {"sigma_Ed", c.sigma_Ed ? nlohmann::json(*c.sigma_Ed) : nlohmann::json()},
-                       {"sigma_Eb", c.sigma_Eb ? nlohmann::json(*c.sigma_Eb) : nlohmann::json()},
-                       {"Eb_is", "turn gain Eb/Es (UMBMark does not see the distance scale)"}};
-      j["umbmark"] = report::UmbmarkJson(it.input, it.estimate);
-    } else {
-      j["emax_syst_mm"] = nullptr;
-      j["estimate"] = nullptr;
-    }
-    j["cvra"] = report::CvraJson(it.session_estimate);
-    if (!it.session_estimate.notes.empty()) j["notes"] = it.session_estimate.notes;
-    if (!it.turn_slip.groups.empty()) j["turn_slip"] = TurnSlipJson(it.turn_slip);
-    j["corrected"] = it.corrected ? ParamSetJson(*it.corrected) : nlohmann::json();
-    j["pushed"] = it.pushed ? ParamSetJson(*it.pushed) : nlohmann::json();
-    j["converged"] = it.converged;
-    if (!it.note.empty()) j["note"] = it.note;
-    iterations.push_back(j);
-  }
+  for (const StationIteration& it : result.iterations) iterations.push_back(IterationJson(it));
   nlohmann::json report = {
       {"status", ToString(result.status)},
       {"message", result.message},

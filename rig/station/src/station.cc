@@ -93,6 +93,37 @@ std::optional<double> MotionClockOffset(const std::vector<DriverTelemetry>& tel,
   return 0.5 * ((*camera_start - *wheels_start) + (*camera_end - *wheels_end));
 }
 
+// A line through (steady s since origin, camera s): (intercept, slope), nullopt
+// with fewer than two points or all at one time.
+std::optional<std::pair<double, double>> FitCameraClock(const std::vector<std::pair<Clock::time_point, double>>& clock,
+                                                        Clock::time_point origin) {
+  if (clock.size() < 2) return std::nullopt;
+  double mx = 0.0, my = 0.0;
+  for (const auto& [steady, t] : clock) mx += Seconds(steady - origin), my += t;
+  mx /= clock.size(), my /= clock.size();
+  double sxx = 0.0, sxy = 0.0;
+  for (const auto& [steady, t] : clock) {
+    const double x = Seconds(steady - origin) - mx;
+    sxx += x * x, sxy += x * (t - my);
+  }
+  if (!(sxx > 0.0)) return std::nullopt;
+  return std::pair{my - sxy / sxx * mx, sxy / sxx};
+}
+
+// Each frame's noise: the rests' scatter, pooled (as batch states it);
+// without it (no rest of 3 frames), 0.1 mm and 0.06 deg, the order of a
+// 40 px tag's per-frame noise (docs/vision.md).
+void SetFrameNoise(calibration::MeasuredSession& session) {
+  std::vector<const calibration::MeasuredRun*> runs;
+  for (const calibration::MeasuredRun& m : session.runs) runs.push_back(&m);
+  const calibration::RestScatter scatter = calibration::PooledRestScatter(runs);
+  for (calibration::MeasuredRun& m : session.runs)
+    for (calibration::CameraRecord& c : m.camera) {
+      c.sigma_position_m = scatter.dof > 0 ? scatter.sigma_position_m : 1e-4;
+      c.sigma_heading_rad = scatter.dof > 0 ? scatter.sigma_heading_rad : 1e-3;
+    }
+}
+
 // One pass of the loop. Members hold what the failure handling needs.
 class Station {
  public:
@@ -179,6 +210,10 @@ class Station {
                                    RestFrames* rest);
   std::optional<Failure> MeasureRound(StationIteration* iteration,
                                       const std::vector<std::pair<RestFrames, RestFrames>>& rests);
+  // MeasureRound's steps.
+  void FitCamera(const std::vector<std::pair<RestFrames, RestFrames>>& rests);
+  std::optional<Failure> MeasureRests(const std::vector<std::pair<RestFrames, RestFrames>>& rests,
+                                      StationIteration* iteration, measure::SessionMeasurement* session) const;
   void Cleanup(StationResult* result);
 
   const StationSetup& setup_;
@@ -197,6 +232,11 @@ class Station {
   std::optional<calibration::MeasuredSession> recorded_;
   void BuildRecordedSession(const StationIteration& iteration,
                             const std::vector<std::pair<RestFrames, RestFrames>>& rests);
+  // BuildRecordedSession's steps, for one run.
+  calibration::MeasuredRun RecordedRun(const StationRun& run, const Recording& recording,
+                                       const std::pair<RestFrames, RestFrames>& rest, Clock::time_point origin) const;
+  std::optional<double> TelemetryClockOffset(const Recording& recording, const std::pair<RestFrames, RestFrames>& rest,
+                                             Clock::time_point origin) const;
   std::unique_ptr<vision::TagObserver> observer_;
   std::vector<vision::TagCorners> view_candidates_;
   std::optional<vision::CameraModel> guess_camera_;
@@ -489,43 +529,44 @@ std::optional<Station::Failure> Station::DriveRun(const calibration::RunSpec& sp
   return FinishRun(spec, run, &watch, rest);
 }
 
-std::optional<Station::Failure> Station::MeasureRound(
-    StationIteration* iteration, const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
-  if (!camera_) {
-    std::vector<vision::TagCorners> views = measure::PickPlaneViews(
-        view_candidates_, options_.min_view_separation_px, options_.max_plane_views);
-    // The tag's edge shift (tone curve, blur, ink), measured in the rests'
-    // frames and taken out of the views, as batch does: the plane's height is
-    // the tag's apparent size.
-    std::vector<const vision::FrameObservation*> rest_frames;
-    for (const auto& [start, end] : rests)
-      for (const RestFrames* r : {&start, &end})
-        for (const vision::FrameObservation& f : r->found) rest_frames.push_back(&f);
-    const vision::CameraModel lens(setup_.intrinsics, setup_.mount_guess);
-    const vision::EdgeShiftEstimate shift =
-        measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
-    if (shift.ok)
-      for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
-    const measure::CameraPlaneOrGuess fit =
-        measure::EstimateCameraPlaneOrGuess(setup_.intrinsics, setup_.tag, views, setup_.mount_guess, options_.plane);
-    vision::CameraMount mount = fit.mount;
-    plane_ = fit.plane;
-    plane_estimated_ = fit.estimated();
-    if (plane_estimated_)
-      Log(Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
-                 "(rms %.3f px)",
-                 plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm, plane_.rms_reprojection_px));
-    else
-      Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
-    EstimateScale(&mount, shift.ok ? &shift : nullptr);
-    camera_.emplace(setup_.intrinsics, mount);
-  }
-  // The round as batch sees a session: the set the robot ran with, each
-  // run's return error; then batch's estimators.
-  measure::SessionMeasurement session;
-  session.session.nominal = ToWheelParams(current_);
-  session.camera_scale_sigma = camera_scale_ ? camera_scale_->relative_sigma : 0.0;
-  if (camera_scale_) session.camera_scale = *camera_scale_;
+// The camera's model, once: its plane fitted to the views the rounds gave (the
+// operator's guess when they are too few), then its length scale.
+void Station::FitCamera(const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
+  std::vector<vision::TagCorners> views =
+      measure::PickPlaneViews(view_candidates_, options_.min_view_separation_px, options_.max_plane_views);
+  // The tag's edge shift (tone curve, blur, ink), measured in the rests'
+  // frames and taken out of the views, as batch does: the plane's height is
+  // the tag's apparent size.
+  std::vector<const vision::FrameObservation*> rest_frames;
+  for (const auto& [start, end] : rests)
+    for (const RestFrames* r : {&start, &end})
+      for (const vision::FrameObservation& f : r->found) rest_frames.push_back(&f);
+  const vision::CameraModel lens(setup_.intrinsics, setup_.mount_guess);
+  const vision::EdgeShiftEstimate shift =
+      measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
+  if (shift.ok)
+    for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
+  const measure::CameraPlaneOrGuess fit =
+      measure::EstimateCameraPlaneOrGuess(setup_.intrinsics, setup_.tag, views, setup_.mount_guess, options_.plane);
+  vision::CameraMount mount = fit.mount;
+  plane_ = fit.plane;
+  plane_estimated_ = fit.estimated();
+  if (plane_estimated_)
+    Log(
+        Format("camera plane from %d views: roll %.3f deg, pitch %.3f deg, height %.1f mm "
+               "(rms %.3f px)",
+               plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm, plane_.rms_reprojection_px));
+  else
+    Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
+  EstimateScale(&mount, shift.ok ? &shift : nullptr);
+  camera_.emplace(setup_.intrinsics, mount);
+}
+
+// Each run's start and end rest measured on the camera's model, and their
+// relative pose: the run's measurement, to `iteration` and to `session`.
+std::optional<Station::Failure> Station::MeasureRests(const std::vector<std::pair<RestFrames, RestFrames>>& rests,
+                                                      StationIteration* iteration,
+                                                      measure::SessionMeasurement* session) const {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < iteration->runs.size(); ++i) {
     StationRun& run = iteration->runs[i];
@@ -549,8 +590,21 @@ std::optional<Station::Failure> Station::MeasureRound(
     m.measured.end_rest = *end;
     run.return_error = r;
     m.measured.return_error = r;
-    session.runs.push_back(std::move(m));
+    session->runs.push_back(std::move(m));
   }
+  return std::nullopt;
+}
+
+std::optional<Station::Failure> Station::MeasureRound(StationIteration* iteration,
+                                                      const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
+  if (!camera_) FitCamera(rests);
+  // The round as batch sees a session: the set the robot ran with, each
+  // run's return error; then batch's estimators.
+  measure::SessionMeasurement session;
+  session.session.nominal = ToWheelParams(current_);
+  session.camera_scale_sigma = camera_scale_ ? camera_scale_->relative_sigma : 0.0;
+  if (camera_scale_) session.camera_scale = *camera_scale_;
+  if (auto f = MeasureRests(rests, iteration, &session)) return f;
   if (round_ == 1 && options_.explain) BuildRecordedSession(*iteration, rests);
   iteration->session_estimate = measure::EstimateSession({session});
   const measure::SessionEstimate& e = iteration->session_estimate;
@@ -601,6 +655,65 @@ void Station::EstimateScale(vision::CameraMount* mount, const vision::EdgeShiftE
   }
 }
 
+// One run of the first round as explain measures it: the rests' and the run's
+// frames posed on the camera's model, the telemetry on the camera's clock.
+calibration::MeasuredRun Station::RecordedRun(const StationRun& run, const Recording& recording,
+                                              const std::pair<RestFrames, RestFrames>& rest,
+                                              Clock::time_point origin) const {
+  calibration::MeasuredRun m;
+  m.name = run.name;
+  m.spec = run.spec;
+  m.start_rest = run.start_rest;
+  m.end_rest = run.end_rest;
+  m.return_error = run.return_error;
+  auto add_frame = [&](const vision::FrameObservation& f) {
+    calibration::CameraRecord c;
+    c.t_s = f.t_s;
+    if (f.corners_px) {
+      const vision::PlanarPoseResult pose = vision::MeasureTagPose(*camera_, setup_.tag, *f.corners_px);
+      c.valid = pose.ok;
+      c.T_world_robot = pose.T_world_robot;
+    }
+    m.camera.push_back(c);
+  };
+  for (const auto& f : rest.first.found) add_frame(f);
+  for (const auto& f : recording.frames) add_frame(f);
+  for (const auto& f : rest.second.found) add_frame(f);
+  const std::vector<DriverTelemetry>& tel = recording.telemetry;
+  if (tel.size() >= 2) {
+    const std::optional<double> offset = TelemetryClockOffset(recording, rest, origin);
+    if (offset) {
+      for (const DriverTelemetry& t : tel)
+        m.telemetry.push_back({t.robot_t_s + *offset, t.left_ticks, t.right_ticks, t.odometry});
+    } else {
+      Log(run.name + ": its telemetry could not be put on the camera's clock; explain leaves it out");
+    }
+  }
+  return m;
+}
+
+// Camera clock - robot clock for a run's telemetry (see BuildRecordedSession);
+// nullopt when it cannot be told.
+std::optional<double> Station::TelemetryClockOffset(const Recording& recording,
+                                                    const std::pair<RestFrames, RestFrames>& rest,
+                                                    Clock::time_point origin) const {
+  const std::vector<DriverTelemetry>& tel = recording.telemetry;
+  std::optional<double> offset;  // camera clock - robot clock
+  if (setup_.camera_on_robot_clock) {
+    offset = 0.0;
+  } else if (tel.front().received) {
+    if (const auto line = FitCameraClock(recording.clock, origin)) {
+      const auto [a, b] = *line;
+      double least = std::numeric_limits<double>::infinity();
+      for (const DriverTelemetry& t : tel) least = std::min(least, a + b * Seconds(*t.received - origin) - t.robot_t_s);
+      offset = least;
+    }
+  } else {
+    offset = MotionClockOffset(tel, rest.first.found.back(), rest.second.found.front(), recording.frames);
+  }
+  return offset;
+}
+
 // The first round as a measured session for explain: each frame's pose on
 // the camera's final model, the telemetry put on the camera's clock. The
 // clocks: the camera's time against the host's at each grab, fitted by a
@@ -611,82 +724,18 @@ void Station::EstimateScale(vision::CameraMount* mount, const vision::EdgeShiftE
 // virtual camera's clock is the robot's: no mapping, camera_on_robot_clock.)
 void Station::BuildRecordedSession(const StationIteration& iteration,
                                    const std::vector<std::pair<RestFrames, RestFrames>>& rests) {
-  // A line through (steady s, camera s), for each run on its own grabs (a
-  // real camera: slope 1; its stamps need not share the host clock's origin).
+  // The steady clock's origin for the lines through (steady s, camera s),
+  // each run's on its own grabs (a real camera: slope 1; its stamps need not
+  // share the host clock's origin).
   const Clock::time_point origin = Clock::now();
-  auto fit = [&](const std::vector<std::pair<Clock::time_point, double>>& clock) -> std::optional<std::pair<double, double>> {
-    if (clock.size() < 2) return std::nullopt;
-    double mx = 0.0, my = 0.0;
-    for (const auto& [steady, t] : clock) mx += Seconds(steady - origin), my += t;
-    mx /= clock.size(), my /= clock.size();
-    double sxx = 0.0, sxy = 0.0;
-    for (const auto& [steady, t] : clock) {
-      const double x = Seconds(steady - origin) - mx;
-      sxx += x * x, sxy += x * (t - my);
-    }
-    if (!(sxx > 0.0)) return std::nullopt;
-    return std::pair{my - sxy / sxx * mx, sxy / sxx};
-  };
   calibration::MeasuredSession session;
   session.believed = ToWheelParams(current_);
   session.camera_scale_sigma = camera_scale_ ? camera_scale_->relative_sigma : 0.0;
-  std::vector<const calibration::MeasuredRun*> runs;
   for (size_t i = 0; i < iteration.runs.size() && i < recording_.size(); ++i) {
     const StationRun& run = iteration.runs[i];
-    calibration::MeasuredRun m;
-    m.name = run.name;
-    m.spec = run.spec;
-    m.start_rest = run.start_rest;
-    m.end_rest = run.end_rest;
-    m.return_error = run.return_error;
-    auto add_frame = [&](const vision::FrameObservation& f) {
-      calibration::CameraRecord c;
-      c.t_s = f.t_s;
-      if (f.corners_px) {
-        const vision::PlanarPoseResult pose = vision::MeasureTagPose(*camera_, setup_.tag, *f.corners_px);
-        c.valid = pose.ok;
-        c.T_world_robot = pose.T_world_robot;
-      }
-      m.camera.push_back(c);
-    };
-    for (const auto& f : rests[i].first.found) add_frame(f);
-    for (const auto& f : recording_[i].frames) add_frame(f);
-    for (const auto& f : rests[i].second.found) add_frame(f);
-    const std::vector<DriverTelemetry>& tel = recording_[i].telemetry;
-    if (tel.size() >= 2) {
-      std::optional<double> offset;  // camera clock - robot clock
-      if (setup_.camera_on_robot_clock) {
-        offset = 0.0;
-      } else if (tel.front().received) {
-        if (const auto line = fit(recording_[i].clock)) {
-          const auto [a, b] = *line;
-          double least = std::numeric_limits<double>::infinity();
-          for (const DriverTelemetry& t : tel)
-            least = std::min(least, a + b * Seconds(*t.received - origin) - t.robot_t_s);
-          offset = least;
-        }
-      } else {
-        offset = MotionClockOffset(tel, rests[i].first.found.back(), rests[i].second.found.front(), recording_[i].frames);
-      }
-      if (offset) {
-        for (const DriverTelemetry& t : tel)
-          m.telemetry.push_back({t.robot_t_s + *offset, t.left_ticks, t.right_ticks, t.odometry});
-      } else {
-        Log(run.name + ": its telemetry could not be put on the camera's clock; explain leaves it out");
-      }
-    }
-    session.runs.push_back(std::move(m));
+    session.runs.push_back(RecordedRun(run, recording_[i], rests[i], origin));
   }
-  for (const calibration::MeasuredRun& m : session.runs) runs.push_back(&m);
-  // Each frame's noise: the rests' scatter, pooled (as batch states it);
-  // without it (no rest of 3 frames), 0.1 mm and 0.06 deg, the order of a
-  // 40 px tag's per-frame noise (docs/vision.md).
-  const calibration::RestScatter scatter = calibration::PooledRestScatter(runs);
-  for (calibration::MeasuredRun& m : session.runs)
-    for (calibration::CameraRecord& c : m.camera) {
-      c.sigma_position_m = scatter.dof > 0 ? scatter.sigma_position_m : 1e-4;
-      c.sigma_heading_rad = scatter.dof > 0 ? scatter.sigma_heading_rad : 1e-3;
-    }
+  SetFrameNoise(session);
   recorded_ = std::move(session);
   recording_.clear();
 }

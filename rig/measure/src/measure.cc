@@ -211,6 +211,47 @@ std::string Percent(double fraction, int decimals) {
   return text;
 }
 
+// The scale from a usable floor reference: the camera's height above the
+// reference's tags (to `mount`), and what the robot tag's print then measures.
+void ScaleFromFloorReference(const vision::FloorReference& reference, double tag_mm, double apparent_sigma,
+                             vision::CameraMount* mount, std::vector<std::string>* flags, CameraScale& scale) {
+  const vision::FloorScaleResult& f = *scale.floor;
+  const double above_ref = f.camera_height_mm - tag_mm;
+  const double above_tag = mount->height_mm - tag_mm;
+  const double sigma_above_ref = std::hypot(f.sigma_camera_height_mm, reference.tag_height_sigma_mm);
+  scale.source = CameraScale::Source::kFloorReference;
+  scale.relative_sigma = sigma_above_ref / above_ref;
+  scale.camera_height_mm = f.camera_height_mm;
+  scale.sigma_camera_height_mm = f.sigma_camera_height_mm;
+  // A tag printed s times its stated size looks s times nearer.
+  scale.tag_print_scale = above_ref / above_tag;
+  scale.tag_print_scale_sigma = *scale.tag_print_scale * std::hypot(scale.relative_sigma, apparent_sigma);
+  const double off = *scale.tag_print_scale - 1.0;
+  scale.explanation = "from the floor reference (" + std::to_string(f.pairs.size()) +
+                      (f.pairs.size() == 1 ? " distance" : " distances") + "): ±" + Percent(scale.relative_sigma, 3) +
+                      "; the robot tag prints " + Percent(std::abs(off), 2) + " ± " +
+                      Percent(*scale.tag_print_scale_sigma, 2) + (off >= 0.0 ? " large" : " small") +
+                      " (or looks it: tone curve, blur)";
+  if (f.inconsistent) {
+    if (flags) flags->push_back("floor_reference_inconsistent");
+    scale.explanation += "; the measured distances disagree beyond their sigmas (a tag moved? a misread tape?)";
+  }
+  mount->height_mm = f.camera_height_mm;
+}
+
+// The edge shift found and removed, as the explanation says it.
+std::string EdgeShiftText(const vision::EdgeShiftEstimate& shift) {
+  std::string shift_text = "; the tag's edges lie ";
+  shift_text += Fixed(std::abs(shift.shift_px), 3);
+  shift_text += " ± ";
+  shift_text += Fixed(shift.sigma_px, 3);
+  shift_text += shift.shift_px >= 0.0 ? " px outside" : " px inside";
+  shift_text += " the print (tone curve, blur, ink: ";
+  shift_text += Percent(std::abs(shift.RelativeScaleError()), 2);
+  shift_text += " of the scale, removed)";
+  return shift_text;
+}
+
 }  // namespace
 
 CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
@@ -242,43 +283,12 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
       if (!scale.floor->ok) fallback_reason = scale.floor->message;
     }
     if (scale.floor && scale.floor->ok) {
-      const vision::FloorScaleResult& f = *scale.floor;
-      const double above_ref = f.camera_height_mm - tag_mm;
-      const double above_tag = mount->height_mm - tag_mm;
-      const double sigma_above_ref = std::hypot(f.sigma_camera_height_mm, reference->tag_height_sigma_mm);
-      scale.source = CameraScale::Source::kFloorReference;
-      scale.relative_sigma = sigma_above_ref / above_ref;
-      scale.camera_height_mm = f.camera_height_mm;
-      scale.sigma_camera_height_mm = f.sigma_camera_height_mm;
-      // A tag printed s times its stated size looks s times nearer.
-      scale.tag_print_scale = above_ref / above_tag;
-      scale.tag_print_scale_sigma = *scale.tag_print_scale * std::hypot(scale.relative_sigma, apparent_sigma);
-      const double off = *scale.tag_print_scale - 1.0;
-      scale.explanation = "from the floor reference (" + std::to_string(f.pairs.size()) +
-                          (f.pairs.size() == 1 ? " distance" : " distances") + "): ±" +
-                          Percent(scale.relative_sigma, 3) + "; the robot tag prints " +
-                          Percent(std::abs(off), 2) + " ± " + Percent(*scale.tag_print_scale_sigma, 2) +
-                          (off >= 0.0 ? " large" : " small") + " (or looks it: tone curve, blur)";
-      if (f.inconsistent) {
-        if (flags) flags->push_back("floor_reference_inconsistent");
-        scale.explanation += "; the measured distances disagree beyond their sigmas (a tag moved? a misread tape?)";
-      }
-      mount->height_mm = f.camera_height_mm;
+      ScaleFromFloorReference(*reference, tag_mm, apparent_sigma, mount, flags, scale);
       return scale;
     }
     if (flags) flags->push_back("floor_reference_unusable");
   }
-  std::string shift_text;
-  if (edge_shift) {
-    shift_text = "; the tag's edges lie ";
-    shift_text += Fixed(std::abs(edge_shift->shift_px), 3);
-    shift_text += " ± ";
-    shift_text += Fixed(edge_shift->sigma_px, 3);
-    shift_text += edge_shift->shift_px >= 0.0 ? " px outside" : " px inside";
-    shift_text += " the print (tone curve, blur, ink: ";
-    shift_text += Percent(std::abs(edge_shift->RelativeScaleError()), 2);
-    shift_text += " of the scale, removed)";
-  }
+  const std::string shift_text = edge_shift ? EdgeShiftText(*edge_shift) : std::string();
   scale.source = CameraScale::Source::kTagSize;
   scale.relative_sigma = tag_sigma;
   scale.camera_height_mm = mount->height_mm;
@@ -385,6 +395,58 @@ bool SameRefinementInput(const vision::FrameObservation& a, const vision::FrameO
   return true;
 }
 
+namespace {
+
+// A refined frame's quality, to quality.per_frame (its flags counted in
+// `reasons`): its corners when the gate raises no flag.
+std::optional<vision::TagCorners> GateFrame(const vision::ModelFreeRefineResult& r, double t_s,
+                                            const vision::QualityGate& gate, std::map<std::string, int>& reasons,
+                                            RestQuality& quality) {
+  FrameQuality fq;
+  fq.t_s = t_s;
+  fq.fitted = r.ok;
+  fq.quality = r.quality;
+  fq.flags = r.ok ? vision::QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
+  for (const std::string& reason : fq.flags) ++reasons[reason];
+  std::optional<vision::TagCorners> corners;
+  if (fq.flags.empty()) corners = r.corners_px;
+  quality.per_frame.push_back(std::move(fq));
+  return corners;
+}
+
+// The rest's quality: frames tried and usable, the median fitted frame, and
+// the frames' reasons when most were unusable.
+void SummariseRestQuality(int tried, int usable, const std::map<std::string, int>& reasons, RestQuality& quality) {
+  quality.frames = tried;
+  quality.usable = usable;
+  std::vector<vision::TagImageQuality> fitted;
+  for (const FrameQuality& fq : quality.per_frame)
+    if (fq.fitted) fitted.push_back(fq.quality);
+  if (!fitted.empty()) {
+    auto median = [&](auto member) {
+      std::vector<double> v;
+      for (const auto& q : fitted) v.push_back(q.*member);
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    vision::TagImageQuality& m = quality.median;
+    m.side_px = median(&vision::TagImageQuality::side_px);
+    m.cell_px = median(&vision::TagImageQuality::cell_px);
+    m.contrast_grey = median(&vision::TagImageQuality::contrast_grey);
+    m.blur_sigma_px = median(&vision::TagImageQuality::blur_sigma_px);
+    m.gamma = median(&vision::TagImageQuality::gamma);
+    for (const auto& q : fitted) {
+      m.saturated_fraction = std::max(m.saturated_fraction, q.saturated_fraction);
+      m.rms_residual_grey = std::max(m.rms_residual_grey, q.rms_residual_grey);
+      m.relative_residual = std::max(m.relative_residual, q.relative_residual);
+    }
+  }
+  if (tried > 0 && 2 * quality.usable < tried)
+    for (const auto& [reason, count] : reasons) quality.flags.push_back(reason);
+}
+
+}  // namespace
+
 std::optional<calibration::RestWindow> MeasureRestExactly(
     const std::vector<vision::FrameObservation>& frames, double t_begin_s, double t_end_s,
     const vision::CameraModel& camera, const vision::TagSpec& tag, RestQuality* quality,
@@ -411,15 +473,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
       if (!repeated)
         previous_fit = vision::RefineTagCornersModelFree(f.crop, *f.corners_px, &camera,
                                                          vision::RefineOptionsFor(f), f.crop_origin);
-      const vision::ModelFreeRefineResult& r = previous_fit;
-      FrameQuality fq;
-      fq.t_s = f.t_s;
-      fq.fitted = r.ok;
-      fq.quality = r.quality;
-      fq.flags = r.ok ? vision::QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
-      for (const std::string& reason : fq.flags) ++reasons[reason];
-      if (fq.flags.empty()) corners = r.corners_px;
-      quality->per_frame.push_back(std::move(fq));
+      corners = GateFrame(previous_fit, f.t_s, gate, reasons, *quality);
     } else {
       if (!repeated) previous_corners = vision::RefineObservationExactly(f, camera);
       corners = previous_corners;
@@ -430,34 +484,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     samples.push_back({f.t_s, pose.T_world_robot, true});
     closures.push_back(pose.closure_mm);
   }
-  if (quality) {
-    quality->frames = tried;
-    quality->usable = static_cast<int>(samples.size());
-    std::vector<vision::TagImageQuality> fitted;
-    for (const FrameQuality& fq : quality->per_frame)
-      if (fq.fitted) fitted.push_back(fq.quality);
-    if (!fitted.empty()) {
-      auto median = [&](auto member) {
-        std::vector<double> v;
-        for (const auto& q : fitted) v.push_back(q.*member);
-        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-        return v[v.size() / 2];
-      };
-      vision::TagImageQuality& m = quality->median;
-      m.side_px = median(&vision::TagImageQuality::side_px);
-      m.cell_px = median(&vision::TagImageQuality::cell_px);
-      m.contrast_grey = median(&vision::TagImageQuality::contrast_grey);
-      m.blur_sigma_px = median(&vision::TagImageQuality::blur_sigma_px);
-      m.gamma = median(&vision::TagImageQuality::gamma);
-      for (const auto& q : fitted) {
-        m.saturated_fraction = std::max(m.saturated_fraction, q.saturated_fraction);
-        m.rms_residual_grey = std::max(m.rms_residual_grey, q.rms_residual_grey);
-        m.relative_residual = std::max(m.relative_residual, q.relative_residual);
-      }
-    }
-    if (tried > 0 && 2 * quality->usable < tried)
-      for (const auto& [reason, count] : reasons) quality->flags.push_back(reason);
-  }
+  if (quality) SummariseRestQuality(tried, static_cast<int>(samples.size()), reasons, *quality);
   if (tried == 0 || 2 * static_cast<int>(samples.size()) < tried) return std::nullopt;
   std::optional<calibration::RestWindow> rest = calibration::SummarizeRest(samples);
   if (!rest) return rest;

@@ -30,6 +30,59 @@ double Round1(double v) { return std::round(v * 10.0) / 10.0; }
 // image by `s`: pixel edges scale, centres move by half a pixel.
 cv::Point2d Scaled(const cv::Point2d& p, double s) { return {(p.x + 0.5) * s - 0.5, (p.y + 0.5) * s - 0.5}; }
 
+// What the page says about the tag, as the state holds it (read under its lock).
+struct TagStatus {
+  bool framed = false;                // a frame has arrived
+  std::optional<TagOutline> corners;  // in the latest frame, when the tag was found there
+  int frames_without_tag = 0;
+  bool ever_seen = false;
+  std::optional<double> side_px, sharpness, sharpness_reference;
+};
+
+// state.json's "tag": seen or not, its corners, size and sharpness.
+nlohmann::json TagJson(const TagStatus& t) {
+  using nlohmann::json;
+  const bool seen = t.corners.has_value();
+  json tag = {{"seen", seen}, {"frames_since_seen", t.frames_without_tag}};
+  if (seen) {
+    json corners = json::array();
+    for (const cv::Point2d& c : *t.corners) corners.push_back({c.x, c.y});
+    tag["corners_px"] = corners;
+  } else {
+    tag["corners_px"] = nullptr;
+  }
+  tag["side_px"] = seen && t.side_px ? json(Round1(*t.side_px)) : json(nullptr);
+  tag["sharpness"] = seen && t.sharpness ? json(*t.sharpness) : json(nullptr);
+  tag["sharpness_reference"] = t.sharpness_reference ? json(*t.sharpness_reference) : json(nullptr);
+  return tag;
+}
+
+// The warnings the tag's state raises: lost (or never found), too small, blurred.
+nlohmann::json TagWarnings(const TagStatus& t, const LiveOptions& options) {
+  using nlohmann::json;
+  const bool seen = t.corners.has_value();
+  json warnings = json::array();
+  auto warn = [&](const char* key, const std::string& text) { warnings.push_back({{"key", key}, {"text", text}}); };
+  if (t.framed && t.frames_without_tag >= options.lost_after_frames) {
+    warn("tag_lost", t.ever_seen
+                         ? Format("tag lost: not in the last %d frames (out of view, covered, or too blurred)",
+                                  t.frames_without_tag)
+                         : Format("tag not found in %d frames: is it in view, lit, and the family and id given?",
+                                  t.frames_without_tag));
+  }
+  if (seen && t.side_px && *t.side_px < options.min_side_px) {
+    warn("too_small", Format("tag too small: %.0f px across, under %.0f px its corners cannot be refined (hang the "
+                             "camera lower or print the tag larger)",
+                             *t.side_px, options.min_side_px));
+  }
+  if (seen && t.sharpness && t.sharpness_reference && *t.sharpness < options.blur_ratio * *t.sharpness_reference) {
+    warn("blur", Format("image blurred: the tag is %.0f %% as sharp as this session's sharp frames (motion blur: a "
+                        "shorter exposure or a slower robot; or the focus)",
+                        100.0 * *t.sharpness / *t.sharpness_reference));
+  }
+  return warnings;
+}
+
 }  // namespace
 
 double DefaultMinSidePx() {
@@ -239,19 +292,16 @@ nlohmann::json LiveState::StateJson() const {
   } else {
     j["frame"] = nullptr;
   }
-  const bool seen = frame_ && frame_->corners.has_value();
-  json tag = {{"seen", seen}, {"frames_since_seen", frames_without_tag_}};
-  if (seen) {
-    json corners = json::array();
-    for (const cv::Point2d& c : *frame_->corners) corners.push_back({c.x, c.y});
-    tag["corners_px"] = corners;
-  } else {
-    tag["corners_px"] = nullptr;
-  }
-  tag["side_px"] = seen && side_px_ ? json(Round1(*side_px_)) : json(nullptr);
-  tag["sharpness"] = seen && sharpness_ ? json(*sharpness_) : json(nullptr);
-  tag["sharpness_reference"] = sharpness_reference_ ? json(*sharpness_reference_) : json(nullptr);
-  j["tag"] = tag;
+  TagStatus t;
+  t.framed = frame_ != nullptr;
+  if (frame_) t.corners = frame_->corners;
+  t.frames_without_tag = frames_without_tag_;
+  t.ever_seen = tag_ever_seen_;
+  t.side_px = side_px_;
+  t.sharpness = sharpness_;
+  t.sharpness_reference = sharpness_reference_;
+  const bool seen = t.corners.has_value();
+  j["tag"] = TagJson(t);
   if (pose_) {
     j["pose"] = {{"t_s", pose_t_s_},
                  {"current", seen && pose_t_s_ == frame_t_s_},
@@ -280,25 +330,7 @@ nlohmann::json LiveState::StateJson() const {
     estimates.push_back({{"name", e.name}, {"value", e.value}, {"sigma", e.sigma}, {"unit", e.unit}});
   j["estimates"] = estimates;
 
-  json warnings = json::array();
-  auto warn = [&](const char* key, const std::string& text) { warnings.push_back({{"key", key}, {"text", text}}); };
-  if (frame_ && frames_without_tag_ >= options_.lost_after_frames) {
-    warn("tag_lost", tag_ever_seen_
-                         ? Format("tag lost: not in the last %d frames (out of view, covered, or too blurred)",
-                               frames_without_tag_)
-                         : Format("tag not found in %d frames: is it in view, lit, and the family and id given?",
-                               frames_without_tag_));
-  }
-  if (seen && side_px_ && *side_px_ < options_.min_side_px) {
-    warn("too_small", Format("tag too small: %.0f px across, under %.0f px its corners cannot be refined (hang the "
-                          "camera lower or print the tag larger)",
-                          *side_px_, options_.min_side_px));
-  }
-  if (seen && sharpness_ && sharpness_reference_ && *sharpness_ < options_.blur_ratio * *sharpness_reference_) {
-    warn("blur", Format("image blurred: the tag is %.0f %% as sharp as this session's sharp frames (motion blur: a "
-                     "shorter exposure or a slower robot; or the focus)",
-                     100.0 * *sharpness_ / *sharpness_reference_));
-  }
+  json warnings = TagWarnings(t, options_);
   for (const Warning& w : producer_warnings_) warnings.push_back({{"key", w.key}, {"text", w.text}});
   j["warnings"] = warnings;
   return j;

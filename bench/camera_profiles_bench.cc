@@ -149,10 +149,9 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
       truth = created.renderer->Render(pose);
       images.push_back(truth.image);
     }
-    std::string error;
-    const auto coded = media::CodecRoundTrip(images, formation.codec, 30.0, &error);
+    const auto coded = media::CodecRoundTrip(images, formation.codec, 30.0);
     if (!coded) {
-      std::printf("codec: %s\n", error.c_str());
+      std::printf("codec: %s\n", coded.message.c_str());
       return;
     }
     for (size_t e = 0; e < estimators.size(); ++e) {

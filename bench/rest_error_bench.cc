@@ -124,10 +124,9 @@ void RunCamera(const std::string& name, int frames, int rests, uint64_t seed, bo
       truth = created.renderer->Render(pose);
       images.push_back(truth.image);
     }
-    std::string error;
-    const auto coded = odocal::media::CodecRoundTrip(images, ro.formation.codec, 15.0, &error);
+    const auto coded = odocal::media::CodecRoundTrip(images, ro.formation.codec, 15.0);
     if (!coded) {
-      std::printf("codec: %s\n", error.c_str());
+      std::printf("codec: %s\n", coded.message.c_str());
       return;
     }
     // The true corners on the tag's plane; the measured ones' mean error

@@ -25,16 +25,16 @@ class CaptureSourceTest : public odocal::testing::MediaTest {};
 TEST_F(CaptureSourceTest, AVideoFileIsACameraOfGreyFramesOnTheHostClock) {
   const std::string path = Path("square.mp4");
   ASSERT_TRUE(WriteClipWithOpenCv(path)) << "this OpenCV cannot write H.264 (avc1)";
-  std::string error;
-  std::unique_ptr<CaptureSource> source = CaptureSource::Open(path, &error);
-  ASSERT_TRUE(source) << error;
+  Result<std::unique_ptr<CaptureSource>> opened = CaptureSource::Open(path);
+  ASSERT_TRUE(opened) << opened.message;
+  CaptureSource* source = opened->get();
   EXPECT_EQ(source->Describe(), "camera " + path);
   ASSERT_TRUE(source->NominalFps());
   EXPECT_NEAR(*source->NominalFps(), kClipFps, 1e-6);
   double last_t_s = 0.0;
   for (int k = 0; k < kClipFrames; ++k) {
-    const std::optional<CameraFrame> frame = source->Grab(&error);
-    ASSERT_TRUE(frame) << "frame " << k << ": " << error;
+    const Result<CameraFrame> frame = source->Grab();
+    ASSERT_TRUE(frame) << "frame " << k << ": " << frame.message;
     ASSERT_EQ(frame->grey.type(), CV_8UC1) << "the colour file is delivered grey";
     ASSERT_EQ(frame->grey.size(), cv::Size(kClipWidth, kClipHeight));
     const cv::Point2d centre = BrightCentroid(frame->grey);
@@ -45,9 +45,10 @@ TEST_F(CaptureSourceTest, AVideoFileIsACameraOfGreyFramesOnTheHostClock) {
     EXPECT_LT(frame->t_s, 5.0) << "frame " << k;
     last_t_s = frame->t_s;
   }
-  error.clear();
-  EXPECT_FALSE(source->Grab(&error)) << "ten frames written, ten delivered";
-  EXPECT_THAT(error, HasSubstr("camera '" + path + "' delivered no frame"));
+  const Result<CameraFrame> after = source->Grab();
+  EXPECT_FALSE(after) << "ten frames written, ten delivered";
+  EXPECT_EQ(after.status, StatusCode::kIoError);
+  EXPECT_THAT(after.message, HasSubstr("camera '" + path + "' delivered no frame"));
 }
 
 // Each refusal costs every backend's try (GStreamer's ~0.5 s): two cases here, the rest of the bad
@@ -55,10 +56,11 @@ TEST_F(CaptureSourceTest, AVideoFileIsACameraOfGreyFramesOnTheHostClock) {
 TEST_F(CaptureSourceTest, WhatCannotBeOpenedIsNamed) {
   std::filesystem::create_directory(Path("empty_dir"));
   for (const std::string& device : {Path("missing.mp4"), Path("empty_dir")}) {
-    std::string error;
-    EXPECT_FALSE(CaptureSource::Open(device, &error)) << device;
-    EXPECT_THAT(error, HasSubstr("cannot open camera '" + device + "'"));
-    EXPECT_THAT(error, HasSubstr("no such stream or file"));
+    const auto opened = CaptureSource::Open(device);
+    EXPECT_FALSE(opened) << device;
+    EXPECT_EQ(opened.status, StatusCode::kOpenFailed) << device;
+    EXPECT_THAT(opened.message, HasSubstr("cannot open camera '" + device + "'"));
+    EXPECT_THAT(opened.message, HasSubstr("no such stream or file"));
   }
 }
 

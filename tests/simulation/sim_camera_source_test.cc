@@ -46,7 +46,9 @@ struct VirtualCamera {
   VirtualCamera() {
     if (!scenario.camera || !scenario.tag) return;
     backend = std::make_unique<sim::SimMotionBackend>(scenario.robot);
-    camera = simulation::SimCameraSource::Create(*scenario.camera, *scenario.tag, *backend, &error);
+    auto created = simulation::SimCameraSource::Create(*scenario.camera, *scenario.tag, *backend);
+    if (created) camera = std::move(*created);
+    error = created.message;
   }
 };
 
@@ -67,8 +69,8 @@ TEST(SimCameraSource, FramesAreStampedWithTimesTheRobotsClockHadAFramePeriodApar
   });
   std::vector<double> stamps;
   for (int i = 0; i < 20; ++i) {
-    const auto frame = camera->Grab(&error);
-    ASSERT_TRUE(frame) << error;
+    const auto frame = camera->Grab();
+    ASSERT_TRUE(frame) << frame.message;
     const double clock_after = backend.RobotTime();
     EXPECT_LE(frame->t_s, clock_after + 1e-12) << "frame " << i << " stamped ahead of the robot's clock";
     // A reading of the clock (a multiple of its 10 ms tick), not an extrapolation.
@@ -87,12 +89,11 @@ TEST(SimCameraSource, AClockThatStandsStillDoesNotHangTheCamera) {
   VirtualCamera v;
   ASSERT_TRUE(v.camera) << v.error;
   auto& camera = v.camera;  // the robot (v.backend) is never stepped
-  std::string error;
-  const auto first = camera->Grab(&error);
-  ASSERT_TRUE(first) << error;
+  const auto first = camera->Grab();
+  ASSERT_TRUE(first) << first.message;
   const auto t0 = std::chrono::steady_clock::now();
-  const auto second = camera->Grab(&error);
-  ASSERT_TRUE(second) << error;
+  const auto second = camera->Grab();
+  ASSERT_TRUE(second) << second.message;
   EXPECT_LT(std::chrono::steady_clock::now() - t0, simulation::SimCameraSource::kMaxWait * 4);
   EXPECT_NEAR(second->t_s - first->t_s, 1.0 / 30.0, 1e-9);
 }

@@ -95,7 +95,6 @@ std::unique_ptr<VirtualStation> MakeStation(
   auto vs = std::make_unique<VirtualStation>();
   const std::string dir = test_util::MakeTempDir("odocal_station_");
   std::ofstream(dir + "/scenario.yaml") << scenario_text;
-  std::string error;
   const auto scenario = config::LoadScenario(dir + "/scenario.yaml");
   EXPECT_TRUE(scenario) << scenario.message;
   if (!scenario) return nullptr;
@@ -117,9 +116,10 @@ std::unique_ptr<VirtualStation> MakeStation(
   EXPECT_TRUE(port.ok()) << port.message;
   if (!port.ok()) return nullptr;
   vs->port = std::move(*port.value);
-  vs->camera = simulation::SimCameraSource::Create(*vs->scenario.camera, *vs->scenario.tag, *vs->backend, &error);
-  EXPECT_TRUE(vs->camera) << error;
-  if (!vs->camera) return nullptr;
+  auto camera = simulation::SimCameraSource::Create(*vs->scenario.camera, *vs->scenario.tag, *vs->backend);
+  EXPECT_TRUE(camera.ok()) << camera.message;
+  if (!camera.ok()) return nullptr;
+  vs->camera = std::move(*camera);
   vs->setup.transport = vs->port.get();
   vs->setup.camera = vs->camera.get();
   vs->setup.camera_on_robot_clock = true;  // the virtual camera renders robot time (as `odocal station` sets)
@@ -298,8 +298,8 @@ TEST(StationFailure, TagNotFoundAtTheStart) {
 class BlindAfter final : public media::FrameSource {
  public:
   BlindAfter(media::FrameSource& inner, int frames) : inner_(inner), left_(frames) {}
-  std::optional<media::CameraFrame> Grab(std::string* error) override {
-    auto frame = inner_.Grab(error);
+  Result<media::CameraFrame> Grab() override {
+    auto frame = inner_.Grab();
     if (frame && left_-- <= 0) frame->grey.setTo(cv::Scalar(120));
     return frame;
   }
@@ -326,12 +326,9 @@ TEST(StationFailure, CameraLostAfterTheStart) {
 class UnpluggedAfter final : public media::FrameSource {
  public:
   UnpluggedAfter(media::FrameSource& inner, int frames) : inner_(inner), left_(frames) {}
-  std::optional<media::CameraFrame> Grab(std::string* error) override {
-    if (left_-- <= 0) {
-      *error = "no frame (unplugged)";
-      return std::nullopt;
-    }
-    return inner_.Grab(error);
+  Result<media::CameraFrame> Grab() override {
+    if (left_-- <= 0) return Result<media::CameraFrame>::Error(StatusCode::kIoError, "no frame (unplugged)");
+    return inner_.Grab();
   }
   std::string Describe() const override { return "unplugged " + inner_.Describe(); }
 
@@ -344,12 +341,10 @@ class UnpluggedAfter final : public media::FrameSource {
 class UnpluggedOnce final : public media::FrameSource {
  public:
   UnpluggedOnce(media::FrameSource& inner, std::function<bool()> now) : inner_(inner), now_(std::move(now)) {}
-  std::optional<media::CameraFrame> Grab(std::string* error) override {
-    if (unplugged_ || (unplugged_ = now_())) {
-      *error = "no frame (unplugged)";
-      return std::nullopt;
-    }
-    return inner_.Grab(error);
+  Result<media::CameraFrame> Grab() override {
+    if (unplugged_ || (unplugged_ = now_()))
+      return Result<media::CameraFrame>::Error(StatusCode::kIoError, "no frame (unplugged)");
+    return inner_.Grab();
   }
   std::string Describe() const override { return "unplugged " + inner_.Describe(); }
 

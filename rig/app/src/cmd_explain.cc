@@ -136,8 +136,9 @@ void RunExplain(const ExplainArgs& args) {
   std::optional<calibration::MeasuredSession> session;
   nlohmann::json input;
   if (std::filesystem::is_directory(args.session)) {
-    session = simulation::LoadSimulatedSession(args.session, camera, &error);
-    if (!session) Fail("explain", kExitBadInput, error);
+    Result<calibration::MeasuredSession> loaded = simulation::LoadSimulatedSession(args.session, camera);
+    if (!loaded) Fail("explain", kExitBadInput, loaded.message);
+    session = std::move(loaded.value);
     input = {{"session", args.session},
              {"camera", "stand-in: simulated true trajectory + seeded noise (not the camera "
                         "pipeline)"},

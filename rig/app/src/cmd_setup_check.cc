@@ -61,14 +61,14 @@ std::vector<measure::SetupFrame> Grab(const std::string& camera, double seconds)
     if (frames.empty()) Fail(kSetupCheck, kExitBadInput, camera + ": no frame could be read");
     return frames;
   }
-  std::string error;
-  std::unique_ptr<media::CaptureSource> source = media::CaptureSource::Open(camera, &error);
-  if (!source) Fail(kSetupCheck, kExitBadInput, "--camera " + camera + ": " + error);
+  Result<std::unique_ptr<media::CaptureSource>> opened = media::CaptureSource::Open(camera);
+  if (!opened) Fail(kSetupCheck, kExitBadInput, "--camera " + camera + ": " + opened.message);
+  media::CaptureSource& source = **opened;
   double t0 = -1.0;
   while (true) {
-    std::optional<media::CameraFrame> frame = source->Grab(&error);
+    Result<media::CameraFrame> frame = source.Grab();
     if (!frame) {
-      if (frames.empty()) Fail(kSetupCheck, kExitFailure, source->Describe() + ": " + error);
+      if (frames.empty()) Fail(kSetupCheck, kExitFailure, source.Describe() + ": " + frame.message);
       break;
     }
     if (t0 < 0.0) t0 = frame->t_s;

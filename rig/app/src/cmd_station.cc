@@ -274,7 +274,6 @@ void StationPlanFromConfig(const config::StationConfig& c, station::StationSetup
 void RunVirtualStation(const StationArgs& args, const records::Limits& limits, station::StationOptions options,
                        station::StationSetup setup) {
   const std::string name = "station";
-  std::string error;
   const auto s = config::LoadScenario(args.scenario);
   if (!s) Fail(name, kExitBadInput, s.message);
   if (!s->camera || !s->tag)
@@ -296,8 +295,8 @@ void RunVirtualStation(const StationArgs& args, const records::Limits& limits, s
   if (!host) Fail(name, kExitFailure, "virtual robot: " + host.message);
   auto port = robot_link::SerialTransport::Open((*host.value)->device_path());
   if (!port) Fail(name, kExitFailure, "virtual robot: " + port.message);
-  auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend, &error);
-  if (!camera) Fail(name, kExitFailure, error);
+  auto camera = simulation::SimCameraSource::Create(*s->camera, *s->tag, backend);
+  if (!camera) Fail(name, kExitFailure, camera.message);
   char scale[64];
   std::snprintf(scale, sizeof(scale), ", %g robot seconds per wall second", args.time_scale);
   Progress("virtual robot on " + (*host.value)->device_path() + scale);
@@ -316,7 +315,7 @@ void RunVirtualStation(const StationArgs& args, const records::Limits& limits, s
     driver = MakeExternalDriver(args.driver == "command", o);
     setup.driver = driver.get();
   }
-  setup.camera = camera.get();
+  setup.camera = camera->get();
   setup.camera_on_robot_clock = true;  // the virtual camera renders robot time
   setup.intrinsics = s->camera->intrinsics;
   // The operator's guess is where the camera was hung; the station
@@ -339,7 +338,6 @@ void RunVirtualStation(const StationArgs& args, const records::Limits& limits, s
 void RunRealStation(const StationArgs& args, records::Limits limits, station::StationOptions options,
                     station::StationSetup setup) {
   const std::string name = "station";
-  std::string error;
   const auto c = config::LoadStationConfig(args.config);
   if (!c) Fail(name, kExitBadInput, c.message);
   limits = LimitsOrFail(name, args.record, c->limits);
@@ -365,10 +363,10 @@ void RunRealStation(const StationArgs& args, records::Limits limits, station::St
     setup.driver = driver.get();
   }
   options.run_timeout = std::chrono::milliseconds(static_cast<long>(c->run_timeout_s * 1e3));
-  auto camera = media::CaptureSource::Open(c->camera_device, &error);
-  if (!camera) Fail(name, kExitBadInput, error);
+  auto camera = media::CaptureSource::Open(c->camera_device);
+  if (!camera) Fail(name, kExitBadInput, camera.message);
   StationPlanFromConfig(*c, &setup);
-  setup.camera = camera.get();
+  setup.camera = camera->get();
   setup.intrinsics = camera_file->intrinsics;
   setup.mount_guess = c->mount_guess;
   setup.tag = c->tag;

@@ -67,9 +67,9 @@ class Source {
     const bool device_like = camera.find("://") != std::string::npos || camera.rfind("/dev/", 0) == 0 ||
                              camera.find_first_not_of("0123456789") == std::string::npos;
     if (!device_like) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": no such file, and not a device or URL");
-    std::string error;
-    capture_ = media::CaptureSource::Open(camera, &error);
-    if (!capture_) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": cannot be opened: " + error);
+    Result<std::unique_ptr<media::CaptureSource>> opened = media::CaptureSource::Open(camera);
+    if (!opened) Fail(kWatch, kExitBadInput, "CAMERA " + camera + ": cannot be opened: " + opened.message);
+    capture_ = std::move(*opened);
   }
   bool is_file() const { return is_file_; }
   std::string Describe() const { return is_file_ ? name_ : capture_->Describe(); }
@@ -81,11 +81,14 @@ class Source {
       if (!video_.Read(&grey)) return std::nullopt;
       return media::CameraFrame{grey, index_++ / fps_};
     }
-    std::optional<media::CameraFrame> frame = capture_->Grab(error);
-    if (!frame) return std::nullopt;
+    Result<media::CameraFrame> frame = capture_->Grab();
+    if (!frame) {
+      *error = frame.message;
+      return std::nullopt;
+    }
     if (!t0_) t0_ = frame->t_s;
     frame->t_s -= *t0_;
-    return frame;
+    return std::move(frame.value);
   }
 
  private:

@@ -20,25 +20,21 @@ double Seconds(std::chrono::steady_clock::duration d) {
 CaptureSource::CaptureSource(std::string device) : device_(std::move(device)) {}
 CaptureSource::~CaptureSource() = default;
 
-std::unique_ptr<CaptureSource> CaptureSource::Open(const std::string& device, std::string* error) {
+Result<std::unique_ptr<CaptureSource>> CaptureSource::Open(const std::string& device) {
+  using R = Result<std::unique_ptr<CaptureSource>>;
   std::unique_ptr<CaptureSource> source(new CaptureSource(device));
   const bool is_index = !device.empty() && std::all_of(device.begin(), device.end(),
                                                       [](unsigned char c) { return std::isdigit(c); });
   std::string why;
   const internal::Codecs* codecs = internal::LoadCodecs(&why);
-  if (!codecs) {
-    if (error) *error = "cannot open camera '" + device + "': " + why;
-    return nullptr;
-  }
+  if (!codecs) return R::Error(StatusCode::kNotFound, "cannot open camera '" + device + "': " + why);
   source->capture_ = codecs->OpenCamera(is_index ? std::stoi(device) : -1, device);
-  if (!source->capture_) {
-    if (error)
-      *error = "cannot open camera '" + device + "'" +
-               (is_index ? " (no such video device, or busy)" : " (no such stream or file, or no backend reads it)");
-    return nullptr;
-  }
+  if (!source->capture_)
+    return R::Error(StatusCode::kOpenFailed, "cannot open camera '" + device + "'" +
+                                                 (is_index ? " (no such video device, or busy)"
+                                                           : " (no such stream or file, or no backend reads it)"));
   source->opened_at_ = std::chrono::steady_clock::now();
-  return source;
+  return R::Ok(std::move(source));
 }
 
 std::optional<double> CaptureSource::NominalFps() const {
@@ -47,12 +43,11 @@ std::optional<double> CaptureSource::NominalFps() const {
   return std::nullopt;
 }
 
-std::optional<CameraFrame> CaptureSource::Grab(std::string* error) {
+Result<CameraFrame> CaptureSource::Grab() {
   cv::Mat frame;
-  if (!capture_->Read(&frame) || frame.empty()) {
-    if (error) *error = "camera '" + device_ + "' delivered no frame (unplugged, or the stream ended)";
-    return std::nullopt;
-  }
+  if (!capture_->Read(&frame) || frame.empty())
+    return Result<CameraFrame>::Error(StatusCode::kIoError,
+                                      "camera '" + device_ + "' delivered no frame (unplugged, or the stream ended)");
   CameraFrame out;
   out.t_s = Seconds(std::chrono::steady_clock::now() - opened_at_);
   if (frame.channels() == 3) {
@@ -63,7 +58,7 @@ std::optional<CameraFrame> CaptureSource::Grab(std::string* error) {
     out.grey = frame;
   }
   if (out.grey.depth() != CV_8U) out.grey.convertTo(out.grey, CV_8U);
-  return out;
+  return Result<CameraFrame>::Ok(std::move(out));
 }
 
 }  // namespace odocal::media

@@ -274,16 +274,16 @@ Result<std::vector<double>> ReadTimestamps(const std::string& path) {
   return Stamps::Ok(std::move(stamps));
 }
 
-std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
-                                                    const vision::CodecOptions& codec, double fps,
-                                                    std::string* error) {
+Result<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames, const vision::CodecOptions& codec,
+                                            double fps) {
+  using Frames = Result<std::vector<cv::Mat>>;
   if (codec.kind != vision::CodecOptions::Kind::kH264 || frames.empty()) {
     if (codec.kind == vision::CodecOptions::Kind::kMjpeg) {
       std::vector<cv::Mat> out;
       for (const cv::Mat& f : frames) out.push_back(vision::JpegRoundTrip(f, codec.quality));
-      return out;
+      return Frames::Ok(std::move(out));
     }
-    return frames;
+    return Frames::Ok(frames);
   }
   static std::atomic<int> counter{0};
   const std::string path = (std::filesystem::temp_directory_path() /
@@ -306,11 +306,9 @@ std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& f
   }
   std::error_code ignored;
   std::filesystem::remove(path, ignored);
-  if (!s.ok() || out.size() != frames.size()) {
-    if (error) *error = s.ok() ? "H.264 round trip lost frames" : s.message;
-    return std::nullopt;
-  }
-  return out;
+  if (!s.ok()) return Frames::From(s);
+  if (out.size() != frames.size()) return Frames::Error(StatusCode::kFailed, "H.264 round trip lost frames");
+  return Frames::Ok(std::move(out));
 }
 
 }  // namespace odocal::media

@@ -8,10 +8,10 @@
 
 namespace odocal::simulation {
 
-std::unique_ptr<SimCameraSource> SimCameraSource::Create(const config::CameraScenario& camera,
-                                                         const vision::TagSpec& tag,
-                                                         const sim::SimMotionBackend& backend,
-                                                         std::string* error) {
+Result<std::unique_ptr<SimCameraSource>> SimCameraSource::Create(const config::CameraScenario& camera,
+                                                                 const vision::TagSpec& tag,
+                                                                 const sim::SimMotionBackend& backend) {
+  using R = Result<std::unique_ptr<SimCameraSource>>;
   // The world as it is: the tag as printed, the floor tags on the floor.
   vision::TagSpec printed = tag;
   printed.size_mm *= camera.tag_print_scale;
@@ -19,14 +19,11 @@ std::unique_ptr<SimCameraSource> SimCameraSource::Create(const config::CameraSce
   render.floor_tags = FloorTagPlacements(camera);
   vision::RendererResult r =
       vision::Renderer::Create(vision::CameraModel(camera.intrinsics, camera.mount), printed, render);
-  if (!r.ok) {
-    if (error) *error = "virtual camera: " + r.message;
-    return nullptr;
-  }
-  return std::unique_ptr<SimCameraSource>(new SimCameraSource(std::move(r.renderer), camera.fps, backend));
+  if (!r.ok) return R::Error(StatusCode::kInvalidArgument, "virtual camera: " + r.message);
+  return R::Ok(std::unique_ptr<SimCameraSource>(new SimCameraSource(std::move(r.renderer), camera.fps, backend)));
 }
 
-std::optional<media::CameraFrame> SimCameraSource::Grab(std::string*) {
+Result<media::CameraFrame> SimCameraSource::Grab() {
   // A camera samples the world at its frame rate, and the world's clock is
   // the robot's: a frame is taken once that clock has moved a frame period
   // past the last frame, and shows the pose at the time it is stamped with
@@ -48,7 +45,7 @@ std::optional<media::CameraFrame> SimCameraSource::Grab(std::string*) {
   }
   last_t_s_ = now.t_s;
   vision::RenderedFrame frame = renderer_->Render(now.pose);
-  return media::CameraFrame{std::move(frame.image), now.t_s};
+  return Result<media::CameraFrame>::Ok(media::CameraFrame{std::move(frame.image), now.t_s});
 }
 
 }  // namespace odocal::simulation

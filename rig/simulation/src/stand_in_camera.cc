@@ -195,25 +195,20 @@ std::vector<SimulatedRunRecord> SimulatedRunRecordsOf(const SimulationResult& re
   return runs;
 }
 
-std::optional<calibration::MeasuredSession> LoadSimulatedSession(
-    const std::string& dir, const StandInCameraOptions& options, std::string* error) {
+Result<calibration::MeasuredSession> LoadSimulatedSession(const std::string& dir, const StandInCameraOptions& options) {
+  using R = Result<calibration::MeasuredSession>;
   std::string why;
-  if (!options.IsValid(&why)) {
-    *error = why;
-    return std::nullopt;
-  }
+  if (!options.IsValid(&why)) return R::Error(StatusCode::kInvalidArgument, why);
   const std::string truth_path = dir + "/truth.json";
   std::ifstream in(truth_path);
-  if (!in) {
-    *error = truth_path + ": cannot read (expected an `odocal simulate --out` directory)";
-    return std::nullopt;
-  }
+  if (!in)
+    return R::Error(StatusCode::kNotFound,
+                    truth_path + ": cannot read (expected an `odocal simulate --out` directory)");
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(in);
   } catch (const std::exception& e) {
-    *error = truth_path + ": not JSON: " + e.what();
-    return std::nullopt;
+    return R::Error(StatusCode::kBadFile, truth_path + ": not JSON: " + e.what());
   }
   calibration::WheelParams believed;
   std::vector<SimulatedRunRecord> runs;
@@ -244,7 +239,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
       run.spec.repeats = j.value("repeats", 1);
       std::vector<std::vector<double>> rows;
       const std::string telemetry = dir + "/" + j.at("telemetry").get<std::string>();
-      if (!ReadCsv(telemetry, 7, &rows, error)) return std::nullopt;
+      if (!ReadCsv(telemetry, 7, &rows, &why)) return R::Error(StatusCode::kBadFile, why);
       for (const auto& r : rows)
         run.telemetry.push_back({r[0], static_cast<std::int64_t>(std::llround(r[1])),
                                  static_cast<std::int64_t>(std::llround(r[2])),
@@ -252,7 +247,7 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
       rows.clear();
       // The true trajectory feeds only the stand-in camera.
       const std::string trajectory = dir + "/" + j.at("trajectory").get<std::string>();
-      if (!ReadCsv(trajectory, 4, &rows, error)) return std::nullopt;
+      if (!ReadCsv(trajectory, 4, &rows, &why)) return R::Error(StatusCode::kBadFile, why);
       for (const auto& r : rows) {
         if (!run.truth_t_s.empty() && r[0] <= run.truth_t_s.back()) continue;
         run.truth_t_s.push_back(r[0]);
@@ -261,14 +256,10 @@ std::optional<calibration::MeasuredSession> LoadSimulatedSession(
       runs.push_back(std::move(run));
     }
   } catch (const std::exception& e) {
-    *error = truth_path + ": " + e.what();
-    return std::nullopt;
+    return R::Error(StatusCode::kBadFile, truth_path + ": " + e.what());
   }
-  if (!believed.IsValid(&why)) {
-    *error = truth_path + ": robot.nominal." + why;
-    return std::nullopt;
-  }
-  return MeasureWithStandInCamera(believed, runs, options);
+  if (!believed.IsValid(&why)) return R::Error(StatusCode::kBadFile, truth_path + ": robot.nominal." + why);
+  return R::Ok(MeasureWithStandInCamera(believed, runs, options));
 }
 
 }  // namespace odocal::simulation

@@ -256,19 +256,18 @@ class Station {
 // Frames of the robot standing still: the tag's corners, kept with their crops
 // for the exact refinement once the camera plane is known.
 std::optional<Station::Failure> Station::CaptureRest(RestFrames* rest, std::vector<cv::Mat>* keep_grey) {
-  std::string error;
   if (options_.settle_s > 0.0)
     std::this_thread::sleep_for(std::chrono::duration<double>(options_.settle_s));
   for (int i = 0; i < options_.rest_flush_frames; ++i) {
-    if (!setup_.camera->Grab(&error))
-      return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
+    const Result<media::CameraFrame> flushed = setup_.camera->Grab();
+    if (!flushed) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + flushed.message};
   }
   // Search the first rest frame in full: while the robot was out of view the
   // tracker searches only every few frames.
   observer_->Reset();
   for (int i = 0; i < options_.rest_frames; ++i) {
-    const auto frame = setup_.camera->Grab(&error);
-    if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
+    const Result<media::CameraFrame> frame = setup_.camera->Grab();
+    if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + frame.message};
     if (frame->grey.cols != setup_.intrinsics.width || frame->grey.rows != setup_.intrinsics.height) {
       return Failure{StationStatus::kInvalidInput,
                      Format("%s delivers %dx%d frames, its calibration is for %dx%d",
@@ -429,7 +428,6 @@ bool Station::SeeMovingFrame(const media::CameraFrame& frame, StationRun* run, R
 // camera sees the robot stop; a failure when it takes too long, shows no
 // motion, or the camera or the link is lost.
 std::optional<Station::Failure> Station::WatchRun(StationRun* run, RunWatch* watch) {
-  std::string error;
   for (;;) {
     if (StopRequested()) return Failure{StationStatus::kInterrupted, watch->what + ": interrupted"};
     if (!driver_->EndsByCamera()) {
@@ -449,8 +447,8 @@ std::optional<Station::Failure> Station::WatchRun(StationRun* run, RunWatch* wat
       return Failure{StationStatus::kRunNotCompleted,
                      watch->what + Format(": the camera saw no motion within %.0f s", Seconds(options_.start_timeout))};
     }
-    const auto frame = setup_.camera->Grab(&error);
-    if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + error};
+    const Result<media::CameraFrame> frame = setup_.camera->Grab();
+    if (!frame) return Failure{StationStatus::kCameraLost, setup_.camera->Describe() + ": " + frame.message};
     if (SeeMovingFrame(*frame, run, watch)) return std::nullopt;
     std::this_thread::sleep_for(options_.poll_interval);
   }

@@ -11,6 +11,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
+
 namespace odocal::media {
 
 namespace internal {
@@ -26,9 +28,9 @@ struct CameraFrame {
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
-  // The next frame; nullopt with `*error` when the camera delivers none
+  // The next frame; kIoError naming the camera when it delivers none
   // (unplugged, stream ended).
-  virtual std::optional<CameraFrame> Grab(std::string* error) = 0;
+  virtual Result<CameraFrame> Grab() = 0;
   virtual std::string Describe() const = 0;
   // The frame rate the camera delivers at, when it says: frames further
   // apart than that were dropped (a machine too busy to take them).
@@ -39,10 +41,11 @@ class FrameSource {
 // Frames are stamped with the host's steady clock.
 class CaptureSource final : public FrameSource {
  public:
-  // nullptr with `*error` when the camera cannot be opened. One that opens
-  // but delivers nothing fails at the first Grab, which names it.
-  static std::unique_ptr<CaptureSource> Open(const std::string& device, std::string* error);
-  std::optional<CameraFrame> Grab(std::string* error) override;
+  // kOpenFailed naming the device when the camera cannot be opened (kNotFound
+  // when OpenCV's codecs cannot be loaded). One that opens but delivers
+  // nothing fails at the first Grab, which names it.
+  static Result<std::unique_ptr<CaptureSource>> Open(const std::string& device);
+  Result<CameraFrame> Grab() override;
   std::string Describe() const override { return "camera " + device_; }
   std::optional<double> NominalFps() const override;
   ~CaptureSource() override;

@@ -84,11 +84,11 @@ class VideoReader {
 Result<std::vector<double>> ReadTimestamps(const std::string& path);
 
 // Codec round trip of a clip (the camera simulator's last stage): MJPEG frame
-// by frame in memory, H.264 through a temporary .mp4 (ffmpeg program). nullopt
-// with `error` set when the codec is unavailable. kNone returns the frames.
-std::optional<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames,
-                                                    const vision::CodecOptions& codec, double fps,
-                                                    std::string* error);
+// by frame in memory, H.264 through a temporary .mp4 (ffmpeg program). The
+// writer's or reader's error when the codec is unavailable; kFailed when
+// frames were lost on the way. kNone returns the frames.
+Result<std::vector<cv::Mat>> CodecRoundTrip(const std::vector<cv::Mat>& frames, const vision::CodecOptions& codec,
+                                            double fps);
 
 }  // namespace odocal::media
 

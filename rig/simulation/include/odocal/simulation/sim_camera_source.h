@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 
+#include "odocal/base/status.h"
 #include "odocal/config/scenario.h"
 #include "odocal/media/frame_source.h"
 #include "odocal/sim/sim_motion_backend.h"
@@ -27,11 +28,12 @@ namespace odocal::simulation {
 // with the scenario's floor tags (camera.floor_tags) on the floor.
 class SimCameraSource final : public media::FrameSource {
  public:
-  static std::unique_ptr<SimCameraSource> Create(const config::CameraScenario& camera,
-                                                 const vision::TagSpec& tag,
-                                                 const sim::SimMotionBackend& backend,
-                                                 std::string* error);
-  std::optional<media::CameraFrame> Grab(std::string* error) override;
+  // kInvalidArgument naming what the renderer refused.
+  static Result<std::unique_ptr<SimCameraSource>> Create(const config::CameraScenario& camera,
+                                                         const vision::TagSpec& tag,
+                                                         const sim::SimMotionBackend& backend);
+  // Never fails: the virtual camera always renders a frame.
+  Result<media::CameraFrame> Grab() override;
   std::string Describe() const override { return "virtual camera"; }
   std::optional<double> NominalFps() const override { return fps_; }
 

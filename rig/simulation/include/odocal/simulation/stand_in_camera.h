@@ -25,6 +25,7 @@
 
 #include <Eigen/Core>
 
+#include "odocal/base/status.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/simulation/simulation.h"
@@ -92,10 +93,10 @@ calibration::MeasuredSession MeasureWithStandInCamera(const calibration::WheelPa
 // The runs of an in-memory simulation (full control-rate trajectory).
 std::vector<SimulatedRunRecord> SimulatedRunRecordsOf(const SimulationResult& result);
 
-// From an `odocal simulate --out DIR` directory. nullopt with `error` (one
-// line naming the file) when it is missing or malformed.
-std::optional<calibration::MeasuredSession> LoadSimulatedSession(
-    const std::string& dir, const StandInCameraOptions& options, std::string* error);
+// From an `odocal simulate --out DIR` directory. An error of one line naming
+// the file when it is missing (kNotFound) or malformed (kBadFile), or the
+// options are invalid (kInvalidArgument).
+Result<calibration::MeasuredSession> LoadSimulatedSession(const std::string& dir, const StandInCameraOptions& options);
 
 }  // namespace odocal::simulation
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <functional>
 #include <limits>
 
 #include "odocal/base/format.h"
@@ -228,112 +227,167 @@ std::optional<std::string> SegmentContradicts(const RunSpec& planned, const Moti
   return std::nullopt;
 }
 
-PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
-                              const std::vector<std::string>& names, double size_tolerance) {
-  const size_t n = segments.size(), m = planned.size();
-  // What pairing segment i with run j costs: nothing when it is the run, a
-  // near miss when it is the run's procedure driven another way (direction,
-  // size, turns), a full disagreement otherwise -- as much as a run missing
-  // or a segment extra. So a run missing next to a square driven the wrong
-  // way reads as that, not as the square missing and its neighbour replaced
-  // by a square (two full disagreements).
-  constexpr int kNearMiss = 1, kWrong = 2, kGap = 2;
-  auto pair_cost = [&](size_t i, size_t j) {
+namespace {
+
+// What pairing segment i with run j costs: nothing when it is the run, a
+// near miss when it is the run's procedure driven another way (direction,
+// size, turns), a full disagreement otherwise -- as much as a run missing
+// or a segment extra. So a run missing next to a square driven the wrong
+// way reads as that, not as the square missing and its neighbour replaced
+// by a square (two full disagreements).
+constexpr int kNearMiss = 1, kWrong = 2, kGap = 2;
+
+// The segments, the plan, and the least costs of aligning their beginnings.
+struct Alignment {
+  const std::vector<MotionSegment>& segments;
+  const std::vector<RunSpec>& planned;
+  const std::vector<std::string>& names;
+  double size_tolerance;
+  // cost[i][j]: the least cost aligning the first i segments with the first
+  // j runs.
+  std::vector<std::vector<int>> cost;
+
+  // What pairing segment i with run j costs (kNearMiss, kWrong or nothing).
+  int PairCost(size_t i, size_t j) const {
     if (!segments[i].readable) return SegmentContradicts(planned[j], segments[i], size_tolerance) ? kWrong : 0;
     if (SegmentMatches(planned[j], segments[i].inferred, size_tolerance)) return 0;
     return planned[j].procedure == segments[i].inferred.procedure ? kNearMiss : kWrong;
-  };
-  // cost[i][j]: the least cost aligning the first i segments with the first
-  // j runs.
-  std::vector<std::vector<int>> cost(n + 1, std::vector<int>(m + 1, 0));
+  }
+  // Segment i's time between its rests, as the problems name it.
+  std::string Span(size_t i) const {
+    return Format("%.1f-%.1f s", segments[i].start_rest.t_end_s, segments[i].end_rest.t_begin_s);
+  }
+  // Run j by name and procedure, as the problems name it.
+  std::string Run(size_t j) const {
+    return "run '" + (j < names.size() ? names[j] : std::to_string(j + 1)) + "' (" + Describe(planned[j]) + ")";
+  }
+};
+
+// The table of least costs, filled by the edit-distance recurrence.
+Alignment Align(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
+                const std::vector<std::string>& names, double size_tolerance) {
+  const size_t n = segments.size(), m = planned.size();
+  Alignment a{segments, planned, names, size_tolerance,
+              std::vector<std::vector<int>>(n + 1, std::vector<int>(m + 1, 0))};
+  std::vector<std::vector<int>>& cost = a.cost;
   for (size_t i = 0; i <= n; ++i) cost[i][0] = kGap * static_cast<int>(i);
   for (size_t j = 0; j <= m; ++j) cost[0][j] = kGap * static_cast<int>(j);
   for (size_t i = 1; i <= n; ++i)
     for (size_t j = 1; j <= m; ++j)
-      cost[i][j] = std::min({cost[i - 1][j - 1] + pair_cost(i - 1, j - 1), cost[i - 1][j] + kGap,
-                             cost[i][j - 1] + kGap});
-  auto span = [&](size_t i) {
-    return Format("%.1f-%.1f s", segments[i].start_rest.t_end_s, segments[i].end_rest.t_begin_s);
-  };
-  auto run = [&](size_t j) {
-    return "run '" + (j < names.size() ? names[j] : std::to_string(j + 1)) + "' (" + Describe(planned[j]) + ")";
-  };
-  // Every least-cost alignment (a few: ties are rare, and a recording that
-  // allows many readings is said to), walked back from the end. The first is
-  // the answer; the others, when their disagreements differ, are readings
-  // the recording cannot rule out.
-  struct Reading {
-    std::vector<std::string> problems;  // from the end
-    std::vector<int> segment_of_run;
-  };
-  constexpr size_t kMaxReadings = 4;
-  constexpr int kMaxSteps = 100000;
-  std::vector<Reading> readings;
-  bool truncated = false;
-  int steps = 0;
-  Reading current{{}, std::vector<int>(m, -1)};
-  std::function<void(size_t, size_t)> walk = [&](size_t i, size_t j) {
+      cost[i][j] =
+          std::min({cost[i - 1][j - 1] + a.PairCost(i - 1, j - 1), cost[i - 1][j] + kGap, cost[i][j - 1] + kGap});
+  return a;
+}
+
+// One least-cost alignment: its disagreements and the segment of each run.
+struct Reading {
+  std::vector<std::string> problems;  // from the end
+  std::vector<int> segment_of_run;
+};
+
+// Every least-cost alignment (a few: ties are rare, and a recording that
+// allows many readings is said to), walked back from the end. The first is
+// the answer; the others, when their disagreements differ, are readings
+// the recording cannot rule out.
+struct ReadingWalk {
+  static constexpr size_t kMaxReadings = 4;
+  static constexpr int kMaxSteps = 100000;
+
+  explicit ReadingWalk(const Alignment& alignment)
+      : a(alignment), current{{}, std::vector<int>(alignment.planned.size(), -1)} {}
+
+  // Walks back from cell (i, j) along every move that keeps the least cost.
+  void Walk(size_t i, size_t j) {
     if (truncated) return;
     if (++steps > kMaxSteps) {
       truncated = true;
       return;
     }
     if (i == 0 && j == 0) {
-      Reading r = current;
-      std::reverse(r.problems.begin(), r.problems.end());
-      for (const Reading& seen : readings)
-        if (seen.problems == r.problems) return;
-      if (readings.size() == kMaxReadings) {
-        truncated = true;
-        return;
-      }
-      readings.push_back(std::move(r));
+      Keep();
       return;
     }
-    if (i > 0 && j > 0) {
-      const int c = pair_cost(i - 1, j - 1);
-      if (cost[i][j] == cost[i - 1][j - 1] + c) {
-        if (c == 0) {
-          current.segment_of_run[j - 1] = static_cast<int>(i - 1);
-        } else {
-          const MotionSegment& seg = segments[i - 1];
-          current.problems.push_back(
-              run(j - 1) + ": the segment at " + span(i - 1) +
-              (seg.readable ? " is " + Describe(seg.inferred)
-                            : Format(" (out of view %.1f s of %.1f s) contradicts it: ", seg.seen.unseen_s,
-                                     seg.end_rest.t_begin_s - seg.start_rest.t_end_s) +
-                                  *SegmentContradicts(planned[j - 1], seg, size_tolerance)));
-        }
-        walk(i - 1, j - 1);
-        if (c == 0)
-          current.segment_of_run[j - 1] = -1;
-        else
-          current.problems.pop_back();
-      }
+    if (i > 0 && j > 0) WalkPaired(i, j);
+    if (i > 0 && a.cost[i][j] == a.cost[i - 1][j] + kGap) WalkExtraSegment(i, j);
+    if (j > 0 && a.cost[i][j] == a.cost[i][j - 1] + kGap) WalkMissingRun(i, j);
+  }
+
+  // At the start: keeps the current reading unless one with its problems is kept.
+  void Keep() {
+    Reading r = current;
+    std::reverse(r.problems.begin(), r.problems.end());
+    for (const Reading& seen : readings)
+      if (seen.problems == r.problems) return;
+    if (readings.size() == kMaxReadings) {
+      truncated = true;
+      return;
     }
-    if (i > 0 && cost[i][j] == cost[i - 1][j] + kGap) {
-      current.problems.push_back("extra segment at " + span(i - 1) + " (" + DescribeSeen(segments[i - 1]) +
-                                 "): not in the plan");
-      walk(i - 1, j);
+    readings.push_back(std::move(r));
+  }
+
+  // Segment i-1 as run j-1 (when that keeps the least cost): a match, or a
+  // problem saying how they differ.
+  void WalkPaired(size_t i, size_t j) {
+    const int c = a.PairCost(i - 1, j - 1);
+    if (a.cost[i][j] != a.cost[i - 1][j - 1] + c) return;
+    if (c == 0) {
+      current.segment_of_run[j - 1] = static_cast<int>(i - 1);
+    } else {
+      const MotionSegment& seg = a.segments[i - 1];
+      current.problems.push_back(a.Run(j - 1) + ": the segment at " + a.Span(i - 1) +
+                                 (seg.readable
+                                      ? " is " + Describe(seg.inferred)
+                                      : Format(" (out of view %.1f s of %.1f s) contradicts it: ", seg.seen.unseen_s,
+                                               seg.end_rest.t_begin_s - seg.start_rest.t_end_s) +
+                                            *SegmentContradicts(a.planned[j - 1], seg, a.size_tolerance)));
+    }
+    Walk(i - 1, j - 1);
+    if (c == 0)
+      current.segment_of_run[j - 1] = -1;
+    else
       current.problems.pop_back();
-    }
-    if (j > 0 && cost[i][j] == cost[i][j - 1] + kGap) {
-      // A run with no segment: where it should have been.
-      const double after = i > 0 ? segments[i - 1].end_rest.t_begin_s : 0.0;
-      const double before = i < n ? segments[i].start_rest.t_end_s : std::numeric_limits<double>::infinity();
-      current.problems.push_back(run(j - 1) + ": missing (no motion segment for it" +
-                                 (std::isfinite(before) ? Format(" between %.1f s and %.1f s)", after, before)
-                                                        : Format(" after %.1f s)", after)));
-      walk(i, j - 1);
-      current.problems.pop_back();
-    }
-  };
-  walk(n, m);
+  }
+
+  // Segment i-1 in no run: an extra segment.
+  void WalkExtraSegment(size_t i, size_t j) {
+    current.problems.push_back("extra segment at " + a.Span(i - 1) + " (" + DescribeSeen(a.segments[i - 1]) +
+                               "): not in the plan");
+    Walk(i - 1, j);
+    current.problems.pop_back();
+  }
+
+  // Run j-1 with no segment: where it should have been.
+  void WalkMissingRun(size_t i, size_t j) {
+    const size_t n = a.segments.size();
+    const double after = i > 0 ? a.segments[i - 1].end_rest.t_begin_s : 0.0;
+    const double before = i < n ? a.segments[i].start_rest.t_end_s : std::numeric_limits<double>::infinity();
+    current.problems.push_back(a.Run(j - 1) + ": missing (no motion segment for it" +
+                               (std::isfinite(before) ? Format(" between %.1f s and %.1f s)", after, before)
+                                                      : Format(" after %.1f s)", after)));
+    Walk(i, j - 1);
+    current.problems.pop_back();
+  }
+
+  const Alignment& a;
+  std::vector<Reading> readings;
+  bool truncated = false;
+  int steps = 0;
+  Reading current;
+};
+
+}  // namespace
+
+PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const std::vector<RunSpec>& planned,
+                              const std::vector<std::string>& names, double size_tolerance) {
+  const Alignment alignment = Align(segments, planned, names, size_tolerance);
+  ReadingWalk walk(alignment);
+  walk.Walk(segments.size(), planned.size());
+  const std::vector<Reading>& readings = walk.readings;
   PlanMatch match;
   match.segment_of_run = readings.front().segment_of_run;
   match.problems = readings.front().problems;
   for (size_t k = 1; k < readings.size(); ++k) match.other_readings.push_back(readings[k].problems);
-  match.more_readings = truncated;
+  match.more_readings = walk.truncated;
   match.ok = match.problems.empty();
   return match;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ostream>
+#include <utility>
 
 #include "odocal/calibration/statistics.h"
 
@@ -54,18 +55,29 @@ std::ostream& operator<<(std::ostream& os, const RestWindow& r) {
             << r.mean << ")";
 }
 
-RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions& options) {
-  RestSummary summary;
-  std::vector<size_t> valid;
-  for (size_t i = 0; i < samples.size(); ++i)
-    if (samples[i].valid) valid.push_back(i);
-  if (valid.size() < 3) return summary;
+namespace {
 
-  // Tolerances from the data. Second differences are pure noise at rest and
-  // at constant velocity (only accelerations add to them, briefly), so their
-  // median gives the frame noise robustly whatever the robot did:
-  // |d2 p| is Rayleigh with scale sqrt(6) sigma (median 1.1774 scale), d2
-  // heading is normal with sigma sqrt(6) (median |.| 0.6745 sigma sqrt(6)).
+// A series, what FindRests was asked, and what its steps learn of the series.
+struct RestSearch {
+  const std::vector<PoseSample>& samples;
+  const RestOptions& options;
+  std::vector<size_t> valid;  // indices of the valid samples
+  double tol_p = 0.0;         // m, a rest's spread of positions
+  double tol_h = 0.0;         // rad, a rest's spread of headings
+};
+
+using SampleRange = std::pair<size_t, size_t>;  // [begin, end) sample indices
+
+// Tolerances from the options, or where those are 0 from the data. Second
+// differences are pure noise at rest and at constant velocity (only
+// accelerations add to them, briefly), so their median gives the frame noise
+// robustly whatever the robot did: |d2 p| is Rayleigh with scale sqrt(6)
+// sigma (median 1.1774 scale), d2 heading is normal with sigma sqrt(6)
+// (median |.| 0.6745 sigma sqrt(6)).
+void SetTolerances(RestSearch* search) {
+  const std::vector<PoseSample>& samples = search->samples;
+  const std::vector<size_t>& valid = search->valid;
+  const RestOptions& options = search->options;
   double tol_p = options.position_tolerance_m, tol_h = options.heading_tolerance_rad;
   if (tol_p == 0.0 || tol_h == 0.0) {
     std::vector<double> d2_p, d2_h;
@@ -83,11 +95,16 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
     if (tol_p == 0.0) tol_p = std::max(options.min_position_tolerance_m, 4.5 * sigma_p);
     if (tol_h == 0.0) tol_h = std::max(options.min_heading_tolerance_rad, 4.5 * sigma_h);
   }
-  summary.position_tolerance_m = tol_p;
-  summary.heading_tolerance_rad = tol_h;
+  search->tol_p = tol_p;
+  search->tol_h = tol_h;
+}
 
-  // Rest flag per valid sample.
-  const double half = options.window_s / 2.0;
+// Rest flag per sample: a valid sample whose whole window, without a gap,
+// stays within the tolerances of the window's median pose.
+std::vector<bool> FlagRestSamples(const RestSearch& search) {
+  const std::vector<PoseSample>& samples = search.samples;
+  const std::vector<size_t>& valid = search.valid;
+  const double half = search.options.window_s / 2.0;
   std::vector<double> spacing;
   for (size_t k = 1; k < valid.size(); ++k)
     spacing.push_back(samples[valid[k]].t_s - samples[valid[k - 1]].t_s);
@@ -105,7 +122,7 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
     const double reference = samples[valid[k]].pose.heading();
     bool gap = false;
     for (size_t j = lo; j <= hi; ++j) {
-      if (j > lo && samples[valid[j]].t_s - samples[valid[j - 1]].t_s > options.max_gap_s) gap = true;
+      if (j > lo && samples[valid[j]].t_s - samples[valid[j - 1]].t_s > search.options.max_gap_s) gap = true;
       xs.push_back(samples[valid[j]].pose.x());
       ys.push_back(samples[valid[j]].pose.y());
       hs.push_back(WrapAngle(samples[valid[j]].pose.heading() - reference));
@@ -115,14 +132,19 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
     const double heading_centre = Median(hs);
     bool still = true;
     for (size_t j = 0; j < xs.size() && still; ++j) {
-      still = (Eigen::Vector2d(xs[j], ys[j]) - centre).norm() <= tol_p &&
-              std::abs(hs[j] - heading_centre) <= tol_h;
+      still = (Eigen::Vector2d(xs[j], ys[j]) - centre).norm() <= search.tol_p &&
+              std::abs(hs[j] - heading_centre) <= search.tol_h;
     }
     rest[valid[k]] = still;
   }
+  return rest;
+}
 
-  // Maximal runs of rest samples, split at gaps.
-  std::vector<std::pair<size_t, size_t>> runs;  // [begin, end) sample indices
+// Maximal runs of rest samples, split at gaps.
+std::vector<SampleRange> RunsOfRest(const RestSearch& search, const std::vector<bool>& rest) {
+  const std::vector<PoseSample>& samples = search.samples;
+  const std::vector<size_t>& valid = search.valid;
+  std::vector<SampleRange> runs;
   size_t k = 0;
   while (k < valid.size()) {
     if (!rest[valid[k]]) {
@@ -131,29 +153,51 @@ RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions&
     }
     size_t m = k;
     while (m + 1 < valid.size() && rest[valid[m + 1]] &&
-           samples[valid[m + 1]].t_s - samples[valid[m]].t_s <= options.max_gap_s)
+           samples[valid[m + 1]].t_s - samples[valid[m]].t_s <= search.options.max_gap_s)
       ++m;
     runs.emplace_back(valid[k], valid[m] + 1);
     k = m + 1;
   }
-  // One noisy frame knocks a window's worth of frames out of a rest. Two
-  // pieces a short interruption apart whose means agree are one rest.
-  std::vector<std::pair<size_t, size_t>> merged;
+  return runs;
+}
+
+// One noisy frame knocks a window's worth of frames out of a rest. Two
+// pieces a short interruption apart whose means agree are one rest.
+std::vector<SampleRange> MergeInterrupted(const RestSearch& search, const std::vector<SampleRange>& runs) {
+  const std::vector<PoseSample>& samples = search.samples;
+  std::vector<SampleRange> merged;
   for (const auto& run : runs) {
     if (!merged.empty()) {
       const auto& last = merged.back();
       const double hole = samples[run.first].t_s - samples[last.second - 1].t_s;
       const RestWindow a = Summarize(samples, last.first, last.second);
       const RestWindow b = Summarize(samples, run.first, run.second);
-      if (hole <= 1.5 * options.window_s &&
-          (a.mean.translation() - b.mean.translation()).norm() < 0.5 * tol_p &&
-          std::abs(WrapAngle(a.mean.heading() - b.mean.heading())) < 0.5 * tol_h) {
+      if (hole <= 1.5 * search.options.window_s &&
+          (a.mean.translation() - b.mean.translation()).norm() < 0.5 * search.tol_p &&
+          std::abs(WrapAngle(a.mean.heading() - b.mean.heading())) < 0.5 * search.tol_h) {
         merged.back().second = run.second;
         continue;
       }
     }
     merged.push_back(run);
   }
+  return merged;
+}
+
+}  // namespace
+
+RestSummary FindRests(const std::vector<PoseSample>& samples, const RestOptions& options) {
+  RestSummary summary;
+  RestSearch search{samples, options, {}};
+  std::vector<size_t>& valid = search.valid;
+  for (size_t i = 0; i < samples.size(); ++i)
+    if (samples[i].valid) valid.push_back(i);
+  if (valid.size() < 3) return summary;
+  SetTolerances(&search);
+  summary.position_tolerance_m = search.tol_p;
+  summary.heading_tolerance_rad = search.tol_h;
+  const std::vector<bool> rest = FlagRestSamples(search);
+  const std::vector<SampleRange> merged = MergeInterrupted(search, RunsOfRest(search, rest));
   for (const auto& [begin, end] : merged) {
     if (samples[end - 1].t_s - samples[begin].t_s >= options.min_duration_s)
       summary.rests.push_back(Summarize(samples, begin, end));

@@ -503,41 +503,38 @@ ExplainResult Explain(const MeasuredSession& session, const ExplainOptions& opti
   return result;
 }
 
-UnexplainedReport FindUnexplained(const MeasuredSession& session, const TrajectoryFitResult& fit,
-                                  const ExplainOptions& options) {
-  UnexplainedReport u;
-  u.gap_m = fit.gap_m;
-  u.expected_gap_m = fit.expected_gap_m();
-  u.wheel_noise_gap_m = fit.wheel_noise_gap_m;
-  if (fit.residuals.empty() || !(u.expected_gap_m > 0.0)) return u;
-  const double expected_sq = u.expected_gap_m * u.expected_gap_m;
-  u.excess_m = std::sqrt(std::max(0.0, u.gap_m * u.gap_m - expected_sq));
-  u.ratio = u.gap_m * u.gap_m / expected_sq;
-  const double rho = fit.lag1_autocorrelation;
-  auto effective = [rho](double n) { return std::max(1.0, n * (1.0 - rho) / (1.0 + rho)); };
-  // The mean square of 2 n_eff standard normal components, over the variance.
-  auto threshold = [](double n_eff, double alpha) {
-    const double dof = 2.0 * n_eff;
-    return boost::math::quantile(boost::math::complement(boost::math::chi_squared(dof), alpha)) /
-           dof;
-  };
-  u.n_eff = effective(static_cast<double>(fit.residuals.size()));
-  u.threshold = threshold(u.n_eff, options.unexplained_alpha);
-  u.significant = u.ratio > u.threshold && u.excess_m >= options.unexplained_min_excess_m;
+namespace {
 
-  // Segments: contiguous frames of one motion in one run.
-  struct Segment {
-    UnexplainedSegment s;
-    double sum_sq = 0.0;
-    double turned_rad = 0.0;
-    double last_heading = 0.0;
-    MotionKind kind = MotionKind::kRest;
-  };
-  std::vector<Segment> segments;
+// FindUnexplained's steps, in order.
+
+// How many independent samples n samples with lag-1 autocorrelation rho are
+// worth.
+double EffectiveSamples(double n, double rho) { return std::max(1.0, n * (1.0 - rho) / (1.0 + rho)); }
+
+// The mean square of 2 n_eff standard normal components, over the variance,
+// that chance exceeds with probability alpha.
+double MeanSquareThreshold(double n_eff, double alpha) {
+  const double dof = 2.0 * n_eff;
+  return boost::math::quantile(boost::math::complement(boost::math::chi_squared(dof), alpha)) / dof;
+}
+
+// Contiguous frames of one motion in one run, with their sums.
+struct ResidualSegment {
+  UnexplainedSegment s;
+  double sum_sq = 0.0;
+  double turned_rad = 0.0;
+  double last_heading = 0.0;
+  MotionKind kind = MotionKind::kRest;
+};
+
+// The fit's residuals cut into segments: contiguous frames of one motion in
+// one run.
+std::vector<ResidualSegment> SegmentResiduals(const MeasuredSession& session, const TrajectoryFitResult& fit) {
+  std::vector<ResidualSegment> segments;
   for (const FrameResidual& r : fit.residuals) {
     if (segments.empty() || segments.back().s.run_index != r.run ||
         segments.back().kind != r.motion) {
-      Segment g;
+      ResidualSegment g;
       g.s.run_index = r.run;
       g.s.run = session.runs[r.run].name;
       g.s.t_from_s = r.t_s;
@@ -545,20 +542,31 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
       g.last_heading = r.measured_heading_rad;
       segments.push_back(g);
     }
-    Segment& g = segments.back();
+    ResidualSegment& g = segments.back();
     g.s.t_to_s = r.t_s;
     g.s.frames++;
     g.sum_sq += r.error_m.squaredNorm();
     g.turned_rad += WrapAngle(r.measured_heading_rad - g.last_heading);
     g.last_heading = r.measured_heading_rad;
   }
-  struct Flagged {
-    double contribution;
-    UnexplainedSegment s;
-  };
-  std::vector<Flagged> flagged, candidates;
+  return segments;
+}
+
+// A segment to report, with its share of the excess (frames times its
+// excess mean square).
+struct FlaggedSegment {
+  double contribution;
+  UnexplainedSegment s;
+};
+
+// The segments to report, largest contribution first: those far above the
+// expected gap, and when the whole is significant also those that carry
+// most of it.
+std::vector<FlaggedSegment> FlagSegments(std::vector<ResidualSegment> segments, const UnexplainedReport& u,
+                                         double expected_sq, double rho, const ExplainOptions& options) {
+  std::vector<FlaggedSegment> flagged, candidates;
   const double n_segments = static_cast<double>(segments.size());
-  for (Segment& g : segments) {
+  for (ResidualSegment& g : segments) {
     if (g.s.frames < options.unexplained_min_frames) continue;
     const double ms = g.sum_sq / g.s.frames;
     g.s.size_m = std::sqrt(ms);
@@ -566,11 +574,11 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
     if (g.kind == MotionKind::kStraight && std::abs(g.turned_rad) > 15.0 * M_PI / 180.0)
       g.s.motion = "curve";
     const double excess = std::sqrt(std::max(0.0, ms - expected_sq));
-    const Flagged f{g.s.frames * (ms - expected_sq), g.s};
+    const FlaggedSegment f{g.s.frames * (ms - expected_sq), g.s};
     if (excess < options.unexplained_min_excess_m) continue;
-    const double local = std::max(
-        options.unexplained_local_ratio * options.unexplained_local_ratio,
-        threshold(effective(g.s.frames), options.unexplained_alpha / n_segments));
+    const double local =
+        std::max(options.unexplained_local_ratio * options.unexplained_local_ratio,
+                 MeanSquareThreshold(EffectiveSamples(g.s.frames, rho), options.unexplained_alpha / n_segments));
     if (ms / expected_sq > local ||
         (u.significant && ms > options.unexplained_segment_ratio *
                                    options.unexplained_segment_ratio * expected_sq))
@@ -583,13 +591,34 @@ UnexplainedReport FindUnexplained(const MeasuredSession& session, const Trajecto
   // short rest that carries an accumulated error may be the only one).
   if (u.significant) {
     std::sort(candidates.begin(), candidates.end(),
-              [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
+              [](const FlaggedSegment& a, const FlaggedSegment& b) { return a.contribution > b.contribution; });
     candidates.resize(std::min<size_t>(candidates.size(), 3));
     flagged.insert(flagged.end(), candidates.begin(), candidates.end());
   }
   std::sort(flagged.begin(), flagged.end(),
-            [](const Flagged& a, const Flagged& b) { return a.contribution > b.contribution; });
-  for (const Flagged& f : flagged) {
+            [](const FlaggedSegment& a, const FlaggedSegment& b) { return a.contribution > b.contribution; });
+  return flagged;
+}
+
+}  // namespace
+
+UnexplainedReport FindUnexplained(const MeasuredSession& session, const TrajectoryFitResult& fit,
+                                  const ExplainOptions& options) {
+  UnexplainedReport u;
+  u.gap_m = fit.gap_m;
+  u.expected_gap_m = fit.expected_gap_m();
+  u.wheel_noise_gap_m = fit.wheel_noise_gap_m;
+  if (fit.residuals.empty() || !(u.expected_gap_m > 0.0)) return u;
+  const double expected_sq = u.expected_gap_m * u.expected_gap_m;
+  u.excess_m = std::sqrt(std::max(0.0, u.gap_m * u.gap_m - expected_sq));
+  u.ratio = u.gap_m * u.gap_m / expected_sq;
+  const double rho = fit.lag1_autocorrelation;
+  u.n_eff = EffectiveSamples(static_cast<double>(fit.residuals.size()), rho);
+  u.threshold = MeanSquareThreshold(u.n_eff, options.unexplained_alpha);
+  u.significant = u.ratio > u.threshold && u.excess_m >= options.unexplained_min_excess_m;
+  const std::vector<FlaggedSegment> flagged =
+      FlagSegments(SegmentResiduals(session, fit), u, expected_sq, rho, options);
+  for (const FlaggedSegment& f : flagged) {
     if (static_cast<int>(u.where.size()) >= options.unexplained_max_reported) break;
     u.where.push_back(f.s);
   }

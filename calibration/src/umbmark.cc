@@ -283,6 +283,84 @@ Result<FirstOrderEstimate> FirstOrderFromY(double y_cw_m, double y_ccw_m, double
   return FromAlphaBeta(AlphaFromY(y_cw_m, y_ccw_m, side_m), BetaFromY(y_cw_m, y_ccw_m, side_m), side_m, track_m, "y");
 }
 
+namespace {
+
+// EstimateUmbmark's steps, in order.
+
+// The centres of gravity and the first-order estimates from x and from y,
+// with their sigmas; false (and the summary says why) when either is
+// meaningless.
+bool EstimateFirstOrder(const UmbmarkInput& input, UmbmarkSummary* summary) {
+  const double L = input.side_m;
+  const double b = input.track_m;
+  summary->cw = ComputeCentre(input.cw);
+  summary->ccw = ComputeCentre(input.ccw);
+  summary->emax_syst_m = std::max(summary->cw.radius_m(), summary->ccw.radius_m());
+
+  const Result<FirstOrderEstimate> from_x = FirstOrderFromX(summary->cw.x_m, summary->ccw.x_m, L, b);
+  const Result<FirstOrderEstimate> from_y = FirstOrderFromY(summary->cw.y_m, summary->ccw.y_m, L, b);
+  for (const Result<FirstOrderEstimate>* r : {&from_x, &from_y}) {
+    if (r->ok()) continue;
+    summary->status = r->status;
+    summary->message = r->message;
+    return false;
+  }
+  summary->from_x = *from_x;
+  summary->from_y = *from_y;
+  PropagateFirstOrder(summary->cw.x_m, summary->ccw.x_m, summary->cw.sigma_x_m, summary->ccw.sigma_x_m, L, b,
+                      AlphaFromX, BetaFromX, &summary->from_x);
+  PropagateFirstOrder(summary->cw.y_m, summary->ccw.y_m, summary->cw.sigma_y_m, summary->ccw.sigma_y_m, L, b,
+                      AlphaFromY, BetaFromY, &summary->from_y);
+  return true;
+}
+
+// The coupled fit of the exact square: how it is weighted, its problem and
+// its two parameters.
+struct CoupledFit {
+  bool repeated = false;  // weights from the spread of the runs (else from the options)
+  bool use_heading = false;
+  double ed = 1.0;
+  double eb = 1.0;
+  ceres::Problem problem;
+};
+
+// One residual block per direction against the exact square, each weighted
+// by the spread of the runs when the fit is `repeated`, else by the options'
+// sigmas; the weights go to the summary's coupled estimate. Ed and Eb are
+// bounded to [0.5, 2].
+void AddSquareResiduals(const UmbmarkInput& input, const UmbmarkOptions& options, UmbmarkSummary* summary,
+                        CoupledFit* fit) {
+  const bool repeated = fit->repeated;
+  double* ed = &fit->ed;
+  double* eb = &fit->eb;
+  ceres::Problem* problem = &fit->problem;
+  for (const auto& [direction, cg] :
+       {std::pair{Direction::kCw, summary->cw}, std::pair{Direction::kCcw, summary->ccw}}) {
+    const double sx = repeated ? std::max(*cg.sigma_x_m, options.min_position_sigma_m)
+                               : options.default_position_sigma_m;
+    const double sy = repeated ? std::max(*cg.sigma_y_m, options.min_position_sigma_m)
+                               : options.default_position_sigma_m;
+    std::optional<double> sh;
+    if (fit->use_heading) {
+      sh = repeated ? std::max(*cg.sigma_heading_rad, options.min_heading_sigma_rad)
+                    : options.default_heading_sigma_rad;
+    }
+    auto* functor = new SquareResidual(direction, input, options.mean_scale, cg, sx, sy, sh);
+    summary->coupled.residual_weights.push_back(1.0 / sx);
+    summary->coupled.residual_weights.push_back(1.0 / sy);
+    if (sh) summary->coupled.residual_weights.push_back(1.0 / *sh);
+    const int num_residuals = functor->num_residuals();
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SquareResidual, ceres::DYNAMIC, 1, 1>(functor, num_residuals), nullptr, ed, eb);
+  }
+  problem->SetParameterLowerBound(ed, 0, 0.5);
+  problem->SetParameterUpperBound(ed, 0, 2.0);
+  problem->SetParameterLowerBound(eb, 0, 0.5);
+  problem->SetParameterUpperBound(eb, 0, 2.0);
+}
+
+}  // namespace
+
 UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& options) {
   UmbmarkSummary summary;
   std::string why;
@@ -291,85 +369,42 @@ UmbmarkSummary EstimateUmbmark(const UmbmarkInput& input, const UmbmarkOptions& 
     summary.message = why;
     return summary;
   }
-  const double L = input.side_m;
   const double b = input.track_m;
-  summary.cw = ComputeCentre(input.cw);
-  summary.ccw = ComputeCentre(input.ccw);
-  summary.emax_syst_m = std::max(summary.cw.radius_m(), summary.ccw.radius_m());
-
-  const Result<FirstOrderEstimate> from_x = FirstOrderFromX(summary.cw.x_m, summary.ccw.x_m, L, b);
-  const Result<FirstOrderEstimate> from_y = FirstOrderFromY(summary.cw.y_m, summary.ccw.y_m, L, b);
-  for (const Result<FirstOrderEstimate>* r : {&from_x, &from_y}) {
-    if (r->ok()) continue;
-    summary.status = r->status;
-    summary.message = r->message;
-    return summary;
-  }
-  summary.from_x = *from_x;
-  summary.from_y = *from_y;
-  PropagateFirstOrder(summary.cw.x_m, summary.ccw.x_m, summary.cw.sigma_x_m,
-                      summary.ccw.sigma_x_m, L, b, AlphaFromX, BetaFromX, &summary.from_x);
-  PropagateFirstOrder(summary.cw.y_m, summary.ccw.y_m, summary.cw.sigma_y_m,
-                      summary.ccw.sigma_y_m, L, b, AlphaFromY, BetaFromY, &summary.from_y);
+  if (!EstimateFirstOrder(input, &summary)) return summary;
 
   // Coupled fit of the exact square. Weights come from the spread of the runs
   // when there is one (then the covariance means something), else from the
   // options (then only the estimate does).
-  const bool repeated = summary.cw.sigma_x_m && summary.ccw.sigma_x_m;
-  const bool use_heading =
-      options.use_heading && AllHaveHeading(input.cw) && AllHaveHeading(input.ccw);
-  double ed = summary.from_x.Ed;
-  double eb = summary.from_x.Eb;
-  ceres::Problem problem;
-  for (const auto& [direction, cg] :
-       {std::pair{Direction::kCw, summary.cw}, std::pair{Direction::kCcw, summary.ccw}}) {
-    const double sx = repeated ? std::max(*cg.sigma_x_m, options.min_position_sigma_m)
-                               : options.default_position_sigma_m;
-    const double sy = repeated ? std::max(*cg.sigma_y_m, options.min_position_sigma_m)
-                               : options.default_position_sigma_m;
-    std::optional<double> sh;
-    if (use_heading) {
-      sh = repeated ? std::max(*cg.sigma_heading_rad, options.min_heading_sigma_rad)
-                    : options.default_heading_sigma_rad;
-    }
-    auto* functor = new SquareResidual(direction, input, options.mean_scale, cg, sx, sy, sh);
-    summary.coupled.residual_weights.push_back(1.0 / sx);
-    summary.coupled.residual_weights.push_back(1.0 / sy);
-    if (sh) summary.coupled.residual_weights.push_back(1.0 / *sh);
-    const int num_residuals = functor->num_residuals();
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SquareResidual, ceres::DYNAMIC, 1, 1>(functor,
-                                                                             num_residuals),
-        nullptr, &ed, &eb);
-  }
-  problem.SetParameterLowerBound(&ed, 0, 0.5);
-  problem.SetParameterUpperBound(&ed, 0, 2.0);
-  problem.SetParameterLowerBound(&eb, 0, 0.5);
-  problem.SetParameterUpperBound(&eb, 0, 2.0);
+  CoupledFit fit;
+  fit.repeated = summary.cw.sigma_x_m && summary.ccw.sigma_x_m;
+  fit.use_heading = options.use_heading && AllHaveHeading(input.cw) && AllHaveHeading(input.ccw);
+  fit.ed = summary.from_x.Ed;
+  fit.eb = summary.from_x.Eb;
+  AddSquareResiduals(input, options, &summary, &fit);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   ApplyTo(options.solver, &solver_options);
   ceres::Solver::Summary solver_summary;
-  ceres::Solve(solver_options, &problem, &solver_summary);
+  ceres::Solve(solver_options, &fit.problem, &solver_summary);
   if (!solver_summary.IsSolutionUsable()) {
     summary.status = StatusCode::kNoConvergence;
     summary.message = "coupled fit did not converge: " + solver_summary.message;
     return summary;
   }
   CoupledEstimate& coupled = summary.coupled;
-  coupled.Ed = ed;
-  coupled.Eb = eb;
-  coupled.used_heading = use_heading;
+  coupled.Ed = fit.ed;
+  coupled.Eb = fit.eb;
+  coupled.used_heading = fit.use_heading;
   coupled.iterations = static_cast<int>(solver_summary.iterations.size());
   coupled.rms_weighted_residual =
       std::sqrt(2.0 * solver_summary.final_cost / solver_summary.num_residuals);
-  if (repeated) {
-    PropagateRunSpread(input, use_heading, &problem, &ed, &eb, &coupled);
+  if (fit.repeated) {
+    PropagateRunSpread(input, fit.use_heading, &fit.problem, &fit.ed, &fit.eb, &coupled);
   }
-  summary.track_corrected_m = b * eb;
-  summary.turn_scale = eb / options.mean_scale;
-  summary.c_left = CorrectionLeft(ed);
-  summary.c_right = CorrectionRight(ed);
+  summary.track_corrected_m = b * fit.eb;
+  summary.turn_scale = fit.eb / options.mean_scale;
+  summary.c_left = CorrectionLeft(fit.ed);
+  summary.c_right = CorrectionRight(fit.ed);
   summary.status = StatusCode::kOk;
   summary.message = "ok";
   return summary;

@@ -973,67 +973,85 @@ std::vector<std::string> DescribeNullVectors(const Identifiability& identifiabil
   return lines;
 }
 
-std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
-                                               const FitParameters& params,
-                                               const TrajectoryFitOptions& options,
-                                               const Identifiability& identifiability,
-                                               const Eigen::MatrixXd& covariance,
-                                               std::vector<std::string>* unidentifiable) {
+namespace {
+
+// DeriveEstimates' steps, in order.
+
+// The estimates derived so far, each with its sigma by the delta method.
+struct EstimateList {
+  const Identifiability& identifiability;
+  const Eigen::MatrixXd& covariance;
   std::vector<ParameterEstimate> estimates;
-  const int p = static_cast<int>(covariance.rows());
+
   // A direction in parameter space is estimable when it is orthogonal to
   // every null vector (in the normalised coordinates).
-  auto estimable = [&](const Eigen::VectorXd& gradient) {
+  bool Estimable(const Eigen::VectorXd& gradient) const {
     const Eigen::VectorXd g = gradient.cwiseQuotient(identifiability.column_norms);
     if (g.norm() == 0.0) return true;
     for (const Eigen::VectorXd& v : identifiability.null_vectors)
       if (std::abs(g.normalized().dot(v)) > 0.02) return false;
     return true;
-  };
-  auto estimate = [&](const std::string& name, double value, const Eigen::VectorXd& gradient) {
+  }
+  // Adds `name` = `value`, whose gradient in the fitted columns is `gradient`.
+  void Add(const std::string& name, double value, const Eigen::VectorXd& gradient) {
     ParameterEstimate e;
     e.name = name;
     e.value = value;
-    e.identifiable = estimable(gradient);
+    e.identifiable = Estimable(gradient);
     e.sigma = std::sqrt(std::max(0.0, gradient.dot(covariance * gradient)));
     estimates.push_back(e);
-  };
+  }
+};
+
+// The ratios of the base parameters: Ed = r_r / r_l; Es = (r_l D_L + r_r
+// D_R) / (D_L + D_R); Eb; and the turn gain Eb / Es.
+void AddBaseRatios(const WheelParams& believed, const FitParameters& params, EstimateList* list) {
+  const int p = static_cast<int>(list->covariance.rows());
   const std::array<double, kBaseParams>& base = params.base_scales;  // r_left, r_right, Eb
-  // Ed = r_r / r_l; Es = (r_l D_L + r_r D_R) / (D_L + D_R); Eb.
   const double left_diameter_m = believed.left_wheel_diameter_m,
                right_diameter_m = believed.right_wheel_diameter_m;
   const double diameter_sum_m = left_diameter_m + right_diameter_m;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
   g[0] = -base[1] / (base[0] * base[0]);
   g[1] = 1.0 / base[0];
-  estimate("Ed", base[1] / base[0], g);
+  list->Add("Ed", base[1] / base[0], g);
   g.setZero();
   g[0] = left_diameter_m / diameter_sum_m;
   g[1] = right_diameter_m / diameter_sum_m;
   const double es = (base[0] * left_diameter_m + base[1] * right_diameter_m) / diameter_sum_m;
-  estimate("Es", es, g);
+  list->Add("Es", es, g);
   g.setZero();
   g[2] = 1.0;
-  estimate("Eb", base[2], g);
+  list->Add("Eb", base[2], g);
   // The turn gain Eb / Es (what UMBMark measures; free of the camera's scale).
   g.setZero();
   g[0] = -base[2] / (es * es) * left_diameter_m / diameter_sum_m;
   g[1] = -base[2] / (es * es) * right_diameter_m / diameter_sum_m;
   g[2] = 1.0 / es;
-  estimate("turn_gain", base[2] / es, g);
-  // A ratio whose uncertainty spans more than its plausible range is not
-  // determined by these data, whatever the rank test says (a nearly flat
-  // direction just above the tolerance).
-  for (ParameterEstimate& e : estimates)
-    if (e.identifiable && e.sigma > options.max_ratio_sigma) {
+  list->Add("turn_gain", base[2] / es, g);
+}
+
+// A ratio whose uncertainty spans more than its plausible range is not
+// determined by these data, whatever the rank test says (a nearly flat
+// direction just above the tolerance).
+void MarkImplausibleRatios(double max_ratio_sigma, std::vector<ParameterEstimate>* estimates,
+                           std::vector<std::string>* unidentifiable) {
+  for (ParameterEstimate& e : *estimates)
+    if (e.identifiable && e.sigma > max_ratio_sigma) {
       e.identifiable = false;
-      unidentifiable->push_back(e.name + ": sigma " + Fixed(e.sigma, 4) +
-                                " exceeds the plausible range of a ratio (" +
-                                Fixed(options.max_ratio_sigma, 3) + ")");
+      unidentifiable->push_back(e.name + ": sigma " + Fixed(e.sigma, 4) + " exceeds the plausible range of a ratio (" +
+                                Fixed(max_ratio_sigma, 3) + ")");
     }
+}
+
+// Each effect's parameters, named "<effect>.<parameter>"; carpet drift's as
+// its grain and rate.
+void AddEffectEstimates(const FitParameters& params, const std::vector<Effect>& effects, EstimateList* list) {
+  const int p = static_cast<int>(list->covariance.rows());
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
   const EffectParams& fx = params.effects;
   int c = kBaseParams;  // the fitted column of the next effect parameter
-  for (Effect e : options.effects) {
+  for (Effect e : effects) {
     const std::string prefix = std::string(ToString(e)) + ".";
     if (e == Effect::kCarpetDrift) {
       const double a = fx.values[EffectParams::kDriftA], b = fx.values[EffectParams::kDriftB];
@@ -1043,13 +1061,13 @@ std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
         g[c] = -b / (rate * rate);
         g[c + 1] = a / (rate * rate);
       }
-      estimate(prefix + "grain_rad", std::atan2(b, a), g);
+      list->Add(prefix + "grain_rad", std::atan2(b, a), g);
       g.setZero();
       if (rate > 0.0) {
         g[c] = a / rate;
         g[c + 1] = b / rate;
       }
-      estimate(prefix + "rate_m_per_m", rate, g);
+      list->Add(prefix + "rate_m_per_m", rate, g);
       c += 2;
       continue;
     }
@@ -1058,10 +1076,23 @@ std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed,
     for (size_t k = 0; k < idx.size(); ++k, ++c) {
       g.setZero();
       g[c] = 1.0;
-      estimate(prefix + names[k], fx.values[idx[k]], g);
+      list->Add(prefix + names[k], fx.values[idx[k]], g);
     }
   }
-  return estimates;
+}
+
+}  // namespace
+
+std::vector<ParameterEstimate> DeriveEstimates(const WheelParams& believed, const FitParameters& params,
+                                               const TrajectoryFitOptions& options,
+                                               const Identifiability& identifiability,
+                                               const Eigen::MatrixXd& covariance,
+                                               std::vector<std::string>* unidentifiable) {
+  EstimateList list{identifiability, covariance, {}};
+  AddBaseRatios(believed, params, &list);
+  MarkImplausibleRatios(options.max_ratio_sigma, &list.estimates, unidentifiable);
+  AddEffectEstimates(params, options.effects, &list);
+  return list.estimates;
 }
 
 }  // namespace internal

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 
@@ -95,6 +98,112 @@ bool ReplayOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// ReplayRun's steps, in order.
+
+// When the wheels first and last moved (telemetry clock; nullopt: never),
+// and how far they travelled.
+struct WheelMotion {
+  std::optional<double> first_motion_s, last_motion_s;
+  double distance_m = 0.0;
+};
+
+// The wheels' first and last motion, and the distance, from the ticks.
+WheelMotion FindWheelMotion(const MeasuredRun& run, const WheelParams& believed) {
+  WheelMotion motion;
+  const double left_m_per_tick = believed.LeftMetresPerTick();
+  const double right_m_per_tick = believed.RightMetresPerTick();
+  for (size_t k = 1; k < run.telemetry.size(); ++k) {
+    const std::int64_t dl = run.telemetry[k].left_ticks - run.telemetry[k - 1].left_ticks;
+    const std::int64_t dr = run.telemetry[k].right_ticks - run.telemetry[k - 1].right_ticks;
+    if (dl == 0 && dr == 0) continue;
+    if (!motion.first_motion_s) motion.first_motion_s = run.telemetry[k - 1].t_s;
+    motion.last_motion_s = run.telemetry[k].t_s;
+    // Wheel travel, so that a spin in place counts as distance too.
+    motion.distance_m += 0.5 * (std::abs(static_cast<double>(dl)) * left_m_per_tick +
+                                std::abs(static_cast<double>(dr)) * right_m_per_tick);
+  }
+  return motion;
+}
+
+// The run's valid camera frames in time order, each with its sigmas (the
+// options' defaults where the record has none).
+std::vector<Frame> ValidFrames(const MeasuredRun& run, const ReplayOptions& options) {
+  std::vector<Frame> frames;
+  for (const CameraRecord& f : run.camera) {
+    if (!f.valid) continue;
+    frames.push_back({f.t_s, f.T_world_robot,
+                      f.sigma_position_m > 0.0 ? f.sigma_position_m : options.default_position_sigma_m,
+                      f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
+                                                : options.default_heading_sigma_rad,
+                      f.image_row_fraction});
+  }
+  std::sort(frames.begin(), frames.end(),
+            [](const Frame& a, const Frame& b) { return a.t_s < b.t_s; });
+  return frames;
+}
+
+// The frames that anchor the start ([begin, end) of the frames), or why
+// there are none.
+struct AnchorRange {
+  size_t begin = 0, end = 0;
+  std::string error;  // empty: found
+};
+
+// The anchor: the frames that show the robot still before the wheels first
+// moved (the last max_anchor_frames of them), else the first anchor_frames;
+// at least one frame must follow it.
+AnchorRange FindAnchor(const std::vector<Frame>& frames, double first_motion_s, const ReplayModel& model,
+                       const ReplayOptions& options) {
+  // A frame stamped s shows the robot at telemetry time s + latency (and
+  // for a rolling shutter + (row fraction - 1/2) readout).
+  auto shown_s = [&](const Frame& f) { return model.effects.TelemetryTimeOf(f.t_s, f.row_fraction); };
+  size_t n_still = 0;
+  while (n_still < frames.size() && shown_s(frames[n_still]) <= first_motion_s) ++n_still;
+  AnchorRange range;
+  if (n_still > 0) {
+    range.end = n_still;
+    range.begin = n_still - std::min<size_t>(n_still, options.max_anchor_frames);
+  } else {
+    range.end = std::min<size_t>(frames.size(), options.anchor_frames);
+    if (range.end < static_cast<size_t>(options.anchor_frames)) {
+      range.error = "only " + std::to_string(frames.size()) + " valid frames, fewer than the " +
+                    std::to_string(options.anchor_frames) + " that anchor the start";
+      return range;
+    }
+  }
+  if (range.end >= frames.size()) range.error = "no valid frame after the start's anchor";
+  return range;
+}
+
+// The replay's errors: the RMS position error over the predicted frames, and
+// the end pose's error (the mean of the frames after the wheels last moved,
+// or without an end rest the last valid frame).
+void ScoreReplay(const ReplayModel& model, const std::vector<double>& rows, double last_motion_s, RunReplay* out) {
+  const std::vector<double>& stamps = out->t_s;
+  double sum_sq = 0.0;
+  std::vector<Pose2> final_measured, final_predicted;
+  for (size_t j = 0; j < stamps.size(); ++j) {
+    sum_sq += (out->predicted[j].translation() - out->measured[j].translation()).squaredNorm();
+    if (model.effects.TelemetryTimeOf(stamps[j], rows[j]) >= last_motion_s) {
+      final_measured.push_back(out->measured[j]);
+      final_predicted.push_back(out->predicted[j]);
+    }
+  }
+  out->rms_position_error_m = std::sqrt(sum_sq / static_cast<double>(stamps.size()));
+  if (final_measured.empty()) {  // no end rest: the last valid frame
+    final_measured.push_back(out->measured.back());
+    final_predicted.push_back(out->predicted.back());
+  }
+  const Pose2 measured_end = MeanPose(final_measured);
+  const Pose2 predicted_end = MeanPose(final_predicted);
+  out->final_position_error_m = (predicted_end.translation() - measured_end.translation()).norm();
+  out->final_heading_error_rad = WrapAngle(predicted_end.heading() - measured_end.heading());
+}
+
+}  // namespace
+
 RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const ReplayModel& model,
                     const std::optional<FloorCamera>& camera, const ReplayOptions& options) {
   RunReplay out;
@@ -108,54 +217,18 @@ RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const R
   if (!believed.IsValid(&why)) return fail("believed parameters: " + why);
   if (run.telemetry.size() < 2) return fail("fewer than 2 telemetry samples");
 
-  // The wheels' first and last motion (telemetry clock), and the distance.
-  const double left_m_per_tick = believed.LeftMetresPerTick();
-  const double right_m_per_tick = believed.RightMetresPerTick();
-  std::optional<double> first_motion_s, last_motion_s;
-  for (size_t k = 1; k < run.telemetry.size(); ++k) {
-    const std::int64_t dl = run.telemetry[k].left_ticks - run.telemetry[k - 1].left_ticks;
-    const std::int64_t dr = run.telemetry[k].right_ticks - run.telemetry[k - 1].right_ticks;
-    if (dl == 0 && dr == 0) continue;
-    if (!first_motion_s) first_motion_s = run.telemetry[k - 1].t_s;
-    last_motion_s = run.telemetry[k].t_s;
-    // Wheel travel, so that a spin in place counts as distance too.
-    out.distance_m += 0.5 * (std::abs(static_cast<double>(dl)) * left_m_per_tick +
-                             std::abs(static_cast<double>(dr)) * right_m_per_tick);
-  }
-  if (!first_motion_s) return fail("the wheels never moved");
+  const WheelMotion motion = FindWheelMotion(run, believed);
+  out.distance_m = motion.distance_m;
+  if (!motion.first_motion_s) return fail("the wheels never moved");
 
-  std::vector<Frame> frames;
-  for (const CameraRecord& f : run.camera) {
-    if (!f.valid) continue;
-    frames.push_back({f.t_s, f.T_world_robot,
-                      f.sigma_position_m > 0.0 ? f.sigma_position_m : options.default_position_sigma_m,
-                      f.sigma_heading_rad > 0.0 ? f.sigma_heading_rad
-                                                : options.default_heading_sigma_rad,
-                      f.image_row_fraction});
-  }
-  std::sort(frames.begin(), frames.end(),
-            [](const Frame& a, const Frame& b) { return a.t_s < b.t_s; });
-  // A frame stamped s shows the robot at telemetry time s + latency (and
-  // for a rolling shutter + (row fraction - 1/2) readout).
-  auto shown_s = [&](const Frame& f) { return model.effects.TelemetryTimeOf(f.t_s, f.row_fraction); };
-  size_t n_still = 0;
-  while (n_still < frames.size() && shown_s(frames[n_still]) <= *first_motion_s) ++n_still;
-  size_t anchor_begin = 0, anchor_end = 0;  // [begin, end) of `frames`
-  if (n_still > 0) {
-    anchor_end = n_still;
-    anchor_begin = n_still - std::min<size_t>(n_still, options.max_anchor_frames);
-  } else {
-    anchor_end = std::min<size_t>(frames.size(), options.anchor_frames);
-    if (anchor_end < static_cast<size_t>(options.anchor_frames))
-      return fail("only " + std::to_string(frames.size()) + " valid frames, fewer than the " +
-                  std::to_string(options.anchor_frames) + " that anchor the start");
-  }
-  if (anchor_end >= frames.size()) return fail("no valid frame after the start's anchor");
-  const std::vector<Frame> anchor(frames.begin() + anchor_begin, frames.begin() + anchor_end);
+  const std::vector<Frame> frames = ValidFrames(run, options);
+  const AnchorRange range = FindAnchor(frames, *motion.first_motion_s, model, options);
+  if (!range.error.empty()) return fail(range.error);
+  const std::vector<Frame> anchor(frames.begin() + range.begin, frames.begin() + range.end);
   out.start = AnchorStart(run, believed, model, camera, options, anchor);
 
   std::vector<double> stamps, rows;
-  for (size_t j = anchor_end; j < frames.size(); ++j) {
+  for (size_t j = range.end; j < frames.size(); ++j) {
     stamps.push_back(frames[j].t_s);
     rows.push_back(frames[j].row_fraction);
     out.measured.push_back(frames[j].z);
@@ -164,24 +237,7 @@ RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const R
   out.predicted = PredictMeasuredPoses(run, believed, model.scales, model.effects, camera,
                                        out.start, stamps, options.left_direction0,
                                        options.right_direction0, rows);
-  double sum_sq = 0.0;
-  std::vector<Pose2> final_measured, final_predicted;
-  for (size_t j = 0; j < stamps.size(); ++j) {
-    sum_sq += (out.predicted[j].translation() - out.measured[j].translation()).squaredNorm();
-    if (model.effects.TelemetryTimeOf(stamps[j], rows[j]) >= *last_motion_s) {
-      final_measured.push_back(out.measured[j]);
-      final_predicted.push_back(out.predicted[j]);
-    }
-  }
-  out.rms_position_error_m = std::sqrt(sum_sq / static_cast<double>(stamps.size()));
-  if (final_measured.empty()) {  // no end rest: the last valid frame
-    final_measured.push_back(out.measured.back());
-    final_predicted.push_back(out.predicted.back());
-  }
-  const Pose2 measured_end = MeanPose(final_measured);
-  const Pose2 predicted_end = MeanPose(final_predicted);
-  out.final_position_error_m = (predicted_end.translation() - measured_end.translation()).norm();
-  out.final_heading_error_rad = WrapAngle(predicted_end.heading() - measured_end.heading());
+  ScoreReplay(model, rows, *motion.last_motion_s, &out);
   out.ok = true;
   return out;
 }

@@ -37,6 +37,43 @@ double TrapezoidDuration(double total, double speed, double accel) {
   return 2.0 * t_accel_full + (total - speed * t_accel_full) / speed;
 }
 
+// One control step of a primitive, as the hidden wheel effects see it.
+struct WheelStep {
+  double left_shaft_ticks;  // each shaft's angle mid-step, in ticks
+  double right_shaft_ticks;
+  double curvature;  // 1/m, of the arc being driven (0: none)
+  double dt_s;       // the control period
+};
+
+// The robot-side effects on a step's ground travel (m) of each wheel:
+// eccentric_wheel, oval_wheel, speed_slip and arc_scale.
+void ApplyWheelEffects(const RobotConfig& config, const WheelStep& step, double* true_left_m, double* true_right_m) {
+  double& true_left = *true_left_m;
+  double& true_right = *true_right_m;
+  // eccentric_wheel (once a turn), oval_wheel (twice): the rolling radius
+  // at the wheel's angle mid-step (the shaft angle; backlash is ignored here).
+  for (const auto& [wheel_effect, cycles] :
+       {std::pair{&config.effects.eccentric_wheel, 1.0}, std::pair{&config.effects.oval_wheel, 2.0}}) {
+    if (!*wheel_effect) continue;
+    const EccentricWheelEffect& e = **wheel_effect;
+    const double shaft = e.left ? step.left_shaft_ticks : step.right_shaft_ticks;
+    const double phi = 2.0 * M_PI * shaft / config.truth.ticks_per_rev;
+    (e.left ? true_left : true_right) *= 1.0 + e.amplitude * std::sin(cycles * phi + e.phase_rad);
+  }
+  if (config.effects.speed_slip) {
+    // speed_slip: each wheel loses k |v| of its travel.
+    const double k = config.effects.speed_slip->fraction_at_1m_s;
+    true_left *= 1.0 - k * std::abs(true_left) / step.dt_s;
+    true_right *= 1.0 - k * std::abs(true_right) / step.dt_s;
+  }
+  if (config.effects.arc_scale && step.curvature != 0.0) {
+    // arc_scale: on an arc both wheels lose c |kappa| of their travel.
+    const double scale = 1.0 - config.effects.arc_scale->fraction_at_1_per_m * step.curvature;
+    true_left *= scale;
+    true_right *= scale;
+  }
+}
+
 }  // namespace
 
 bool RobotConfig::IsValid(std::string* why) const {
@@ -241,29 +278,9 @@ bool VirtualRobot::Step() {
                          true_left_per_tick;
       double true_right = GroundTicks(right_ticks, &right_direction_, &right_dead_ticks_) *
                           true_right_per_tick;
-      // eccentric_wheel (once a turn), oval_wheel (twice): the rolling radius
-      // at the wheel's angle mid-step (the shaft angle; backlash is ignored here).
-      for (const auto& [wheel_effect, cycles] :
-           {std::pair{&config_.effects.eccentric_wheel, 1.0}, std::pair{&config_.effects.oval_wheel, 2.0}}) {
-        if (!*wheel_effect) continue;
-        const EccentricWheelEffect& e = **wheel_effect;
-        const double shaft = e.left ? left_shaft_ticks_ + 0.5 * left_ticks
-                                    : right_shaft_ticks_ + 0.5 * right_ticks;
-        const double phi = 2.0 * M_PI * shaft / config_.truth.ticks_per_rev;
-        (e.left ? true_left : true_right) *= 1.0 + e.amplitude * std::sin(cycles * phi + e.phase_rad);
-      }
-      if (config_.effects.speed_slip) {
-        // speed_slip: each wheel loses k |v| of its travel.
-        const double k = config_.effects.speed_slip->fraction_at_1m_s;
-        true_left *= 1.0 - k * std::abs(true_left) / dt;
-        true_right *= 1.0 - k * std::abs(true_right) / dt;
-      }
-      if (config_.effects.arc_scale && seg.curvature != 0.0) {
-        // arc_scale: on an arc both wheels lose c |kappa| of their travel.
-        const double scale = 1.0 - config_.effects.arc_scale->fraction_at_1_per_m * seg.curvature;
-        true_left *= scale;
-        true_right *= scale;
-      }
+      const WheelStep step{left_shaft_ticks_ + 0.5 * left_ticks, right_shaft_ticks_ + 0.5 * right_ticks, seg.curvature,
+                           dt};
+      ApplyWheelEffects(config_, step, &true_left, &true_right);
       const double sigma = config_.noise.wheel_sigma_m_per_sqrt_m;
       if (sigma > 0.0) {
         true_left += sigma * std::sqrt(std::abs(true_left)) * normal_(rng_);

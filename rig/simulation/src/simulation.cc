@@ -92,6 +92,56 @@ SimulationResult Simulate(const config::Scenario& scenario,
   return result;
 }
 
+namespace {
+
+// WriteSimulation's steps.
+
+// A run's entry in truth.json, with its video's files when it was recorded.
+nlohmann::json RunTruthJson(const sim::RunRecord& run, const std::string& name, const RecordedRun* recorded) {
+  nlohmann::json j = RunSpecJson(run.spec);
+  j["name"] = name;
+  j["start_time_s"] = run.start_time_s;
+  j["end_time_s"] = run.end_time_s;
+  j["true_start"] = report::PoseJson(run.true_start);
+  j["true_end"] = report::PoseJson(run.true_end);
+  j["true_return_error"] = report::ReturnErrorJson(run.TrueEndInStartFrame());
+  j["odometry_end"] = report::PoseJson(run.odometry_end);
+  j["telemetry"] = name + ".telemetry.csv";
+  j["trajectory"] = name + ".trajectory.csv";
+  if (recorded) {
+    // The file names as written (one video for every run with camera.one_video).
+    j["video"] = std::filesystem::path(recorded->video).filename().string();
+    j["frames"] = std::filesystem::path(recorded->frames).filename().string();
+    j["frames_written"] = recorded->frames_written;
+    j["frames_visible"] = recorded->frames_visible;
+  }
+  return j;
+}
+
+// The session's runs as an operator would list them: each run's video,
+// timestamps and telemetry (and its span in the video unless one video
+// holds them all).
+std::vector<config::SessionRun> SessionRuns(const SimulationResult& result, const std::string& dir,
+                                            const std::vector<RecordedRun>& recorded, bool one_video) {
+  std::vector<config::SessionRun> runs;
+  for (size_t i = 0; i < result.runs.size(); ++i) {
+    config::SessionRun run;
+    run.name = result.run_names[i];
+    run.spec = result.runs[i].spec;
+    run.video = recorded[i].video;
+    run.timestamps = recorded[i].timestamps;
+    run.telemetry = dir + "/" + run.name + ".telemetry.csv";
+    if (!one_video) {  // one video: batch finds the runs in it
+      run.start_s = recorded[i].start_s;
+      run.end_s = recorded[i].end_s;
+    }
+    runs.push_back(run);
+  }
+  return runs;
+}
+
+}  // namespace
+
 std::optional<std::string> WriteSimulation(const config::Scenario& scenario, const SimulationResult& result,
                                            const std::string& dir,
                                            const std::vector<RecordedRun>* recorded) {
@@ -100,24 +150,7 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
   for (size_t i = 0; i < result.runs.size(); ++i) {
     const sim::RunRecord& run = result.runs[i];
     const std::string& name = result.run_names[i];
-    nlohmann::json j = RunSpecJson(run.spec);
-    j["name"] = name;
-    j["start_time_s"] = run.start_time_s;
-    j["end_time_s"] = run.end_time_s;
-    j["true_start"] = report::PoseJson(run.true_start);
-    j["true_end"] = report::PoseJson(run.true_end);
-    j["true_return_error"] = report::ReturnErrorJson(run.TrueEndInStartFrame());
-    j["odometry_end"] = report::PoseJson(run.odometry_end);
-    j["telemetry"] = name + ".telemetry.csv";
-    j["trajectory"] = name + ".trajectory.csv";
-    if (recorded) {
-      // The file names as written (one video for every run with camera.one_video).
-      j["video"] = std::filesystem::path((*recorded)[i].video).filename().string();
-      j["frames"] = std::filesystem::path((*recorded)[i].frames).filename().string();
-      j["frames_written"] = (*recorded)[i].frames_written;
-      j["frames_visible"] = (*recorded)[i].frames_visible;
-    }
-    runs.push_back(j);
+    runs.push_back(RunTruthJson(run, name, recorded ? &(*recorded)[i] : nullptr));
     if (auto error = config::WriteFileAtomically(dir + "/" + name + ".telemetry.csv", TelemetryCsv(run)))
       return error;
     if (auto error = config::WriteFileAtomically(dir + "/" + name + ".trajectory.csv", TrajectoryCsv(run)))
@@ -157,19 +190,7 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
       truth["floor_tags"] = {{"print_scale", cam.tag_print_scale}, {"distances", tape}};
     }
     session.nominal = scenario.robot.nominal;
-    for (size_t i = 0; i < result.runs.size(); ++i) {
-      config::SessionRun run;
-      run.name = result.run_names[i];
-      run.spec = result.runs[i].spec;
-      run.video = (*recorded)[i].video;
-      run.timestamps = (*recorded)[i].timestamps;
-      run.telemetry = dir + "/" + run.name + ".telemetry.csv";
-      if (!cam.one_video) {  // one video: batch finds the runs in it
-        run.start_s = (*recorded)[i].start_s;
-        run.end_s = (*recorded)[i].end_s;
-      }
-      session.runs.push_back(run);
-    }
+    session.runs = SessionRuns(result, dir, *recorded, cam.one_video);
     if (auto error = config::WriteSession(session, dir + "/session.yaml")) return error;
   }
   return config::WriteFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");

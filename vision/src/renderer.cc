@@ -313,6 +313,166 @@ struct Renderer::Impl {
         acc);
   }
 
+  // The robot's tag: its bitmap (1 = white), cell size and plate.
+  void LoadTag() {
+    auto family = internal::CreateFamily(tag.family);
+    internal::ImageU8Ptr im(apriltag_to_image(family.get(), tag.id));
+    total_width = im->width;
+    bitmap.create(im->height, im->width, CV_8U);
+    for (int r = 0; r < im->height; ++r) {
+      for (int c = 0; c < im->width; ++c) {
+        bitmap.at<uint8_t>(r, c) = im->buf[r * im->stride + c] > 127 ? 1 : 0;
+      }
+    }
+    width_at_border = family->width_at_border;
+    cell_m = tag.size_m() / family->width_at_border;
+    plate_half_m = 0.5 * total_width * cell_m + options.plate_margin_mm * kMmToM;
+    tag_T_robot = tag.T_robot_tag().inverse();
+  }
+
+  // Static floor into bg_sharp, sampled at the ray through the pixel centre.
+  void SampleStaticFloor() {
+    const int W = width, H = height;
+    bg_sharp = cv::Mat(H, W, CV_32F);
+    const Eigen::Matrix3d R = camera.T_world_camera().linear();
+    const Eigen::Vector3d c = camera.T_world_camera().translation();
+    for (int v = 0; v < H; ++v) {
+      float* row = bg_sharp.ptr<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const cv::Vec2d n = (corner_rays.at<cv::Vec2d>(v, u) + corner_rays.at<cv::Vec2d>(v + 1, u + 1)) * 0.5;
+        const Eigen::Vector3d d = R * Eigen::Vector3d(n[0], n[1], 1.0);
+        const double s = -c.z() / d.z();
+        double value = options.floor_mean;
+        if (s > 0.0) {
+          const Eigen::Vector3d p = c + s * d;
+          value += options.floor_contrast * FloorTexture(p.x(), p.y(), options.seed);
+        }
+        row[u] = static_cast<float>(value);
+      }
+    }
+  }
+
+  // Seeds the generators and fills the pool of pixel noise (with a sensor
+  // chain also the illumination field).
+  void SeedNoise() {
+    const int W = width, H = height;
+    rng = cv::RNG(options.seed * 7919 + 17);
+    offset_rng.seed(options.seed * 104729 + 3);
+    sensor_chain = options.formation.HasSensorChain();
+    if (sensor_chain) {
+      // Unit deviates: the sensor chain scales them per pixel (shot noise).
+      illumination = IlluminationField(options.formation, cv::Size(W, H));
+      noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
+      cv::Mat pool(1, static_cast<int>(noise_pool.size()), CV_32F, noise_pool.data());
+      rng.fill(pool, cv::RNG::NORMAL, 0.0, 1.0);
+    } else if (options.noise_sigma > 0.0) {
+      noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
+      cv::Mat pool(1, static_cast<int>(noise_pool.size()), CV_32F, noise_pool.data());
+      rng.fill(pool, cv::RNG::NORMAL, 0.0, options.noise_sigma);
+    }
+  }
+
+  // The part of the image a frame's geometry can change: `inner` is the
+  // geometry's box plus the blur's reach, `outer` that plus the blur's reach
+  // again (the floor the blur draws into `inner`). Empty when nothing is in front.
+  struct Window {
+    cv::Rect inner, outer;
+  };
+
+  // The window that changes over all poses of all bands: geometry box, then
+  // + blur margin (inner), + blur margin (outer).
+  Window ChangingWindow(const std::vector<std::pair<int, std::vector<Pose2>>>& bands) const {
+    cv::Rect2d box;
+    bool any = false;
+    for (const auto& band : bands) {
+      for (const auto& pose : band.second) {
+        const cv::Rect2d b = GeometryBox(pose);
+        if (b.width <= 0) continue;
+        box = any ? (box | b) : b;
+        any = true;
+      }
+    }
+    const cv::Rect image_rect(0, 0, width, height);
+    Window window;
+    if (any) {
+      const int x0 = static_cast<int>(std::floor(box.x)) - 1 - blur_margin;
+      const int y0 = static_cast<int>(std::floor(box.y)) - 1 - blur_margin;
+      const int x1 = static_cast<int>(std::ceil(box.x + box.width)) + 2 + blur_margin;
+      const int y1 = static_cast<int>(std::ceil(box.y + box.height)) + 2 + blur_margin;
+      window.inner = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image_rect;
+      window.outer =
+          cv::Rect(x0 - blur_margin, y0 - blur_margin, x1 - x0 + 2 * blur_margin, y1 - y0 + 2 * blur_margin) &
+          image_rect;
+    }
+    return window;
+  }
+
+  // The whole frame without a sensor chain: blurred floor + pooled noise
+  // from `offset` into the pool, quantised into `image` (H x W, CV_8U).
+  void PaintStaticFrame(size_t offset, cv::Mat* image) const {
+    const int W = width, H = height;
+    for (int v = 0; v < H; ++v) {
+      const float* bg = bg_blur.ptr<float>(v);
+      uint8_t* out = image->ptr<uint8_t>(v);
+      if (noise_pool.empty()) {
+        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u]);
+      } else {
+        const float* nz = noise_pool.data() + offset + static_cast<size_t>(v) * W;
+        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u] + nz[u]);
+      }
+    }
+  }
+
+  // The outer window at image resolution, all bands composed: each band's
+  // geometry over the sharp floor, averaged over its exposure, blurred.
+  // Empty when the inner window is.
+  // The window is formed at optical_oversample x the resolution: a camera
+  // blurs the continuous scene and then integrates over its pixels; blurring
+  // pixel-integrated samples with a sampled Gaussian is not the same, and the
+  // difference shifts edges parallel to the pixel grid by up to 0.03 px (all
+  // their pixels share one sub-pixel phase), a bias no measurement can undo.
+  // At 2x the sampled Gaussian is close to the continuous one (<= 0.008 px).
+  cv::Mat RenderWindow(const std::vector<std::pair<int, std::vector<Pose2>>>& bands, const Window& window,
+                       std::uint64_t jitter_seed) const {
+    const cv::Rect& inner = window.inner;
+    const cv::Rect& outer = window.outer;
+    const int scale = options.optical_oversample;
+    cv::Mat blurred;
+    for (size_t b = 0; b < bands.size() && inner.area() > 0; ++b) {
+      const std::vector<Pose2>& poses = bands[b].second;
+      // Rows [row_begin, row_end) of the image come from this band's exposure;
+      // the band is rendered over those rows and the blur's reach around them.
+      const int row_begin = std::max(bands[b].first, outer.y);
+      const int row_end = std::min(b + 1 < bands.size() ? bands[b + 1].first : height, outer.y + outer.height);
+      if (row_end <= row_begin) continue;
+      cv::Rect strip = outer;
+      if (bands.size() > 1) {
+        const int y0 = std::max(outer.y, row_begin - blur_margin);
+        const int y1 = std::min(outer.y + outer.height, row_end + blur_margin);
+        strip = cv::Rect(outer.x, y0, outer.width, y1 - y0);
+      }
+      cv::Mat acc = cv::Mat::zeros(strip.height * scale, strip.width * scale, CV_32F);
+      const double weight = 1.0 / static_cast<double>(poses.size());
+      const auto plane = PlanePoints(strip, scale);
+      for (const auto& pose : poses) RenderPose(pose, strip, plane, weight, jitter_seed, scale, &acc);
+      cv::Mat blurred_fine, band_image;
+      Blur(acc, &blurred_fine, scale);
+      if (scale > 1) {
+        cv::resize(blurred_fine, band_image, strip.size(), 0, 0, cv::INTER_AREA);
+      } else {
+        band_image = blurred_fine;
+      }
+      if (bands.size() == 1) {
+        blurred = band_image;
+        break;
+      }
+      if (blurred.empty()) blurred = cv::Mat::zeros(outer.size(), CV_32F);
+      band_image.rowRange(row_begin - strip.y, row_end - strip.y)
+          .copyTo(blurred.rowRange(row_begin - outer.y, row_end - outer.y));
+    }
+    return blurred;
+  }
+
   // Image bounding box of body and plate at a pose (empty if not in front).
   cv::Rect2d GeometryBox(const Pose2& T_world_robot) const {
     std::vector<Eigen::Vector3d> pts;
@@ -361,43 +521,11 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   impl->options = options;
   impl->width = camera.intrinsics().width;
   impl->height = camera.intrinsics().height;
-
-  auto family = internal::CreateFamily(tag.family);
-  internal::ImageU8Ptr im(apriltag_to_image(family.get(), tag.id));
-  impl->total_width = im->width;
-  impl->bitmap.create(im->height, im->width, CV_8U);
-  for (int r = 0; r < im->height; ++r) {
-    for (int c = 0; c < im->width; ++c) {
-      impl->bitmap.at<uint8_t>(r, c) = im->buf[r * im->stride + c] > 127 ? 1 : 0;
-    }
-  }
-  impl->width_at_border = family->width_at_border;
-  impl->cell_m = tag.size_m() / family->width_at_border;
-  impl->plate_half_m = 0.5 * impl->total_width * impl->cell_m + options.plate_margin_mm * kMmToM;
-  impl->tag_T_robot = tag.T_robot_tag().inverse();
+  impl->LoadTag();
 
   // Normalised coordinates of every pixel corner (u - 0.5, v - 0.5), once.
-  const int W = impl->width, H = impl->height;
   impl->corner_rays = internal::PixelCornerRays(camera);
-
-  // Static floor, sampled at the ray through the pixel centre.
-  impl->bg_sharp = cv::Mat(H, W, CV_32F);
-  const Eigen::Matrix3d R = camera.T_world_camera().linear();
-  const Eigen::Vector3d c = camera.T_world_camera().translation();
-  for (int v = 0; v < H; ++v) {
-    float* row = impl->bg_sharp.ptr<float>(v);
-    for (int u = 0; u < W; ++u) {
-      const cv::Vec2d n = (impl->corner_rays.at<cv::Vec2d>(v, u) + impl->corner_rays.at<cv::Vec2d>(v + 1, u + 1)) * 0.5;
-      const Eigen::Vector3d d = R * Eigen::Vector3d(n[0], n[1], 1.0);
-      const double s = -c.z() / d.z();
-      double value = options.floor_mean;
-      if (s > 0.0) {
-        const Eigen::Vector3d p = c + s * d;
-        value += options.floor_contrast * FloorTexture(p.x(), p.y(), options.seed);
-      }
-      row[u] = static_cast<float>(value);
-    }
-  }
+  impl->SampleStaticFloor();
   for (const FloorTagPlacement& placement : options.floor_tags) {
     if (!PaintFloorTag(camera, impl->corner_rays, placement, options, &impl->bg_sharp, &why)) {
       result.message = why;
@@ -411,20 +539,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
     impl->blur_ksize = internal::BlurKernelSize(options.blur_sigma_px);
   }
   impl->Blur(impl->bg_sharp, &impl->bg_blur, 1);
-  impl->rng = cv::RNG(options.seed * 7919 + 17);
-  impl->offset_rng.seed(options.seed * 104729 + 3);
-  impl->sensor_chain = options.formation.HasSensorChain();
-  if (impl->sensor_chain) {
-    // Unit deviates: the sensor chain scales them per pixel (shot noise).
-    impl->illumination = IlluminationField(options.formation, cv::Size(W, H));
-    impl->noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
-    cv::Mat pool(1, static_cast<int>(impl->noise_pool.size()), CV_32F, impl->noise_pool.data());
-    impl->rng.fill(pool, cv::RNG::NORMAL, 0.0, 1.0);
-  } else if (options.noise_sigma > 0.0) {
-    impl->noise_pool.resize(static_cast<size_t>(W) * H + (1 << 16));
-    cv::Mat pool(1, static_cast<int>(impl->noise_pool.size()), CV_32F, impl->noise_pool.data());
-    impl->rng.fill(pool, cv::RNG::NORMAL, 0.0, options.noise_sigma);
-  }
+  impl->SeedNoise();
   result.renderer.reset(new Renderer(std::move(impl)));
   result.ok = true;
   return result;
@@ -513,93 +628,24 @@ RenderedFrame Renderer::RenderBands(
       frame.tag_visible &= m.camera.InImage(Eigen::Vector2d(p.x, p.y), margin);
     }
   }
-
-  // Window that changes: geometry box, then + blur margin (inner), + blur margin (outer).
-  cv::Rect2d box;
-  bool any = false;
-  for (const auto& band : bands) {
-    for (const auto& pose : band.second) {
-      const cv::Rect2d b = m.GeometryBox(pose);
-      if (b.width <= 0) continue;
-      box = any ? (box | b) : b;
-      any = true;
-    }
-  }
-  const cv::Rect image_rect(0, 0, W, H);
-  cv::Rect inner, outer;
-  if (any) {
-    const int x0 = static_cast<int>(std::floor(box.x)) - 1 - m.blur_margin;
-    const int y0 = static_cast<int>(std::floor(box.y)) - 1 - m.blur_margin;
-    const int x1 = static_cast<int>(std::ceil(box.x + box.width)) + 2 + m.blur_margin;
-    const int y1 = static_cast<int>(std::ceil(box.y + box.height)) + 2 + m.blur_margin;
-    inner = cv::Rect(x0, y0, x1 - x0, y1 - y0) & image_rect;
-    outer = cv::Rect(x0 - m.blur_margin, y0 - m.blur_margin, x1 - x0 + 2 * m.blur_margin,
-                     y1 - y0 + 2 * m.blur_margin) &
-            image_rect;
-  }
+  const Impl::Window window = m.ChangingWindow(bands);
 
   // Whole frame: blurred floor + pooled noise.
   frame.image.create(H, W, CV_8U);
   const size_t offset = m.noise_pool.empty() ? 0 : m.offset_rng() % (1u << 16);
   if (!m.sensor_chain) {
-    for (int v = 0; v < H; ++v) {
-      const float* bg = m.bg_blur.ptr<float>(v);
-      uint8_t* out = frame.image.ptr<uint8_t>(v);
-      if (m.noise_pool.empty()) {
-        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u]);
-      } else {
-        const float* nz = m.noise_pool.data() + offset + static_cast<size_t>(v) * W;
-        for (int u = 0; u < W; ++u) out[u] = cv::saturate_cast<uint8_t>(bg[u] + nz[u]);
-      }
-    }
-    if (inner.area() <= 0) return frame;
+    m.PaintStaticFrame(offset, &frame.image);
+    if (window.inner.area() <= 0) return frame;
   }
 
   // Redraw the window: geometry over the sharp floor, averaged over the
   // exposure, blurred, fresh noise, quantised.
-  // The window is formed at optical_oversample x the resolution: a camera
-  // blurs the continuous scene and then integrates over its pixels; blurring
-  // pixel-integrated samples with a sampled Gaussian is not the same, and the
-  // difference shifts edges parallel to the pixel grid by up to 0.03 px (all
-  // their pixels share one sub-pixel phase), a bias no measurement can undo.
-  // At 2x the sampled Gaussian is close to the continuous one (<= 0.008 px).
-  const int scale = m.options.optical_oversample;
   // One grid jitter per frame: the coverage errors of consecutive frames are
   // independent and average out over a rest.
   const std::uint64_t jitter_seed = m.offset_rng();
-  cv::Mat blurred;  // the outer window at image resolution, all bands composed
-  for (size_t b = 0; b < bands.size() && inner.area() > 0; ++b) {
-    const std::vector<Pose2>& poses = bands[b].second;
-    // Rows [row_begin, row_end) of the image come from this band's exposure;
-    // the band is rendered over those rows and the blur's reach around them.
-    const int row_begin = std::max(bands[b].first, outer.y);
-    const int row_end = std::min(b + 1 < bands.size() ? bands[b + 1].first : H, outer.y + outer.height);
-    if (row_end <= row_begin) continue;
-    cv::Rect strip = outer;
-    if (bands.size() > 1) {
-      const int y0 = std::max(outer.y, row_begin - m.blur_margin);
-      const int y1 = std::min(outer.y + outer.height, row_end + m.blur_margin);
-      strip = cv::Rect(outer.x, y0, outer.width, y1 - y0);
-    }
-    cv::Mat acc = cv::Mat::zeros(strip.height * scale, strip.width * scale, CV_32F);
-    const double weight = 1.0 / static_cast<double>(poses.size());
-    const auto plane = m.PlanePoints(strip, scale);
-    for (const auto& pose : poses) m.RenderPose(pose, strip, plane, weight, jitter_seed, scale, &acc);
-    cv::Mat blurred_fine, band_image;
-    m.Blur(acc, &blurred_fine, scale);
-    if (scale > 1) {
-      cv::resize(blurred_fine, band_image, strip.size(), 0, 0, cv::INTER_AREA);
-    } else {
-      band_image = blurred_fine;
-    }
-    if (bands.size() == 1) {
-      blurred = band_image;
-      break;
-    }
-    if (blurred.empty()) blurred = cv::Mat::zeros(outer.size(), CV_32F);
-    band_image.rowRange(row_begin - strip.y, row_end - strip.y)
-        .copyTo(blurred.rowRange(row_begin - outer.y, row_end - outer.y));
-  }
+  const cv::Mat blurred = m.RenderWindow(bands, window, jitter_seed);
+  const cv::Rect& inner = window.inner;
+  const cv::Rect& outer = window.outer;
   if (m.sensor_chain) {
     cv::Mat irradiance = m.bg_blur.clone();
     if (inner.area() > 0)
@@ -609,8 +655,8 @@ RenderedFrame Renderer::RenderBands(
                                m.noise_pool, offset, inner, &m.rng);
     return frame;
   }
-  cv::Mat window = blurred(cv::Rect(inner.x - outer.x, inner.y - outer.y, inner.width, inner.height));
-  cv::Mat noisy = window.clone();
+  cv::Mat window_image = blurred(cv::Rect(inner.x - outer.x, inner.y - outer.y, inner.width, inner.height));
+  cv::Mat noisy = window_image.clone();
   if (m.options.noise_sigma > 0.0) {
     cv::Mat noise(inner.size(), CV_32F);
     m.rng.fill(noise, cv::RNG::NORMAL, 0.0, m.options.noise_sigma);

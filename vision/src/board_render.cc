@@ -129,18 +129,13 @@ bool BoardRenderOptions::IsValid(std::string* why) const {
   return true;
 }
 
-BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& pattern,
-                              const Eigen::Isometry3d& T_camera_board,
-                              const std::vector<Eigen::Vector3d>& points_board,
-                              const BoardRenderOptions& options, double margin_px) {
-  BoardRenderResult result;
-  if (!intrinsics.IsValid(&result.message) || !pattern.IsValid(&result.message) ||
-      !options.IsValid(&result.message)) {
-    return result;
-  }
-  // The mount is irrelevant here: everything happens in the camera frame.
-  const CameraModel camera(intrinsics, CameraMount{});
-  const int W = intrinsics.width, H = intrinsics.height;
+namespace {
+
+// The board's sharp image: each pixel the board's grey levels integrated
+// over its footprint on the board plane (CV_32F, the image's size).
+cv::Mat IntegrateBoard(const CameraModel& camera, const BoardPattern& pattern, const Eigen::Isometry3d& T_camera_board,
+                       const BoardRenderOptions& options) {
+  const int W = camera.intrinsics().width, H = camera.intrinsics().height;
   const cv::Mat rays = internal::PixelCornerRays(camera);
 
   const Eigen::Matrix3d R = T_camera_board.linear();
@@ -155,8 +150,8 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
     if (x >= 0.0 && y >= 0.0 && x < cols && y < rows) {
       return static_cast<int>(y) * cols + static_cast<int>(x);
     }
-    if (q.x() >= -pattern.margin_m && q.y() >= -pattern.margin_m &&
-        q.x() <= width_m + pattern.margin_m && q.y() <= height_m + pattern.margin_m) {
+    if (q.x() >= -pattern.margin_m && q.y() >= -pattern.margin_m && q.x() <= width_m + pattern.margin_m &&
+        q.y() <= height_m + pattern.margin_m) {
       return kQuietZone;
     }
     return kBeyondBoard;
@@ -189,32 +184,57 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
   cv::Mat acc = cv::Mat::zeros(H, W, CV_32F);
   internal::IntegratePixels(W, H, q, id, options.supersample, 1.0, options.seed * 0x2545F4914F6CDD1Dull + 1,
                             classify, value, &acc);
+  return acc;
+}
 
+// The camera over the sharp image: the optics' blur, then the sensor's noise.
+void BlurAndNoise(const BoardRenderOptions& options, cv::Mat* acc) {
   if (options.blur_sigma_px > 0.0) {
     cv::Mat blurred;
-    internal::OpticalBlur(acc, &blurred, options.blur_sigma_px);
-    acc = blurred;
+    internal::OpticalBlur(*acc, &blurred, options.blur_sigma_px);
+    *acc = blurred;
   }
   if (options.noise_sigma > 0.0) {
-    cv::Mat noise(H, W, CV_32F);
+    cv::Mat noise(acc->rows, acc->cols, CV_32F);
     cv::RNG rng(options.seed * 6364136223846793005ull + 1442695040888963407ull);
     rng.fill(noise, cv::RNG::NORMAL, 0.0, options.noise_sigma);
-    acc += noise;
+    *acc += noise;
   }
-  acc.convertTo(result.frame.image, CV_8U);  // rounds and saturates
+}
 
-  result.frame.all_visible = true;
+// The board points' true pixels into the frame (NaN behind the camera), and
+// whether all are in the image `margin_px` from its border.
+void ProjectBoardPoints(const CameraModel& camera, const Eigen::Isometry3d& T_camera_board,
+                        const std::vector<Eigen::Vector3d>& points_board, double margin_px, RenderedBoard* frame) {
+  frame->all_visible = true;
   for (const Eigen::Vector3d& p : points_board) {
     const auto px = camera.ProjectCamera(T_camera_board * p);
     if (!px) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
-      result.frame.points_px.emplace_back(nan, nan);
-      result.frame.all_visible = false;
+      frame->points_px.emplace_back(nan, nan);
+      frame->all_visible = false;
       continue;
     }
-    result.frame.points_px.emplace_back(px->x(), px->y());
-    result.frame.all_visible &= camera.InImage(*px, margin_px);
+    frame->points_px.emplace_back(px->x(), px->y());
+    frame->all_visible &= camera.InImage(*px, margin_px);
   }
+}
+
+}  // namespace
+
+BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& pattern,
+                              const Eigen::Isometry3d& T_camera_board, const std::vector<Eigen::Vector3d>& points_board,
+                              const BoardRenderOptions& options, double margin_px) {
+  BoardRenderResult result;
+  if (!intrinsics.IsValid(&result.message) || !pattern.IsValid(&result.message) || !options.IsValid(&result.message)) {
+    return result;
+  }
+  // The mount is irrelevant here: everything happens in the camera frame.
+  const CameraModel camera(intrinsics, CameraMount{});
+  cv::Mat acc = IntegrateBoard(camera, pattern, T_camera_board, options);
+  BlurAndNoise(options, &acc);
+  acc.convertTo(result.frame.image, CV_8U);  // rounds and saturates
+  ProjectBoardPoints(camera, T_camera_board, points_board, margin_px, &result.frame);
   result.ok = true;
   return result;
 }

@@ -197,11 +197,13 @@ cv::Mat IlluminationField(const ImageFormationOptions& options, cv::Size size) {
   return field;
 }
 
-cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& options,
-                     double additive_sigma, const cv::Mat& illumination,
-                     const std::vector<float>& unit_normals, size_t offset,
+namespace {
+
+// The frame's unit normal deviates: the pool's from `offset`, fresh ones
+// drawn over `fresh_noise_roi`.
+cv::Mat UnitDeviates(const std::vector<float>& unit_normals, size_t offset, cv::Size size,
                      const cv::Rect& fresh_noise_roi, cv::RNG* rng) {
-  const int W = irradiance.cols, H = irradiance.rows;
+  const int W = size.width, H = size.height;
   cv::Mat normals(H, W, CV_32F);
   for (int v = 0; v < H; ++v) {
     const float* pool = unit_normals.data() + offset + static_cast<size_t>(v) * W;
@@ -211,7 +213,14 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
     cv::Mat roi = normals(fresh_noise_roi);
     rng->fill(roi, cv::RNG::NORMAL, 0.0, 1.0);
   }
-  // Raw: per-pixel channel sensitivity (Bayer), electrons, noise, clip, 12 bits.
+  return normals;
+}
+
+// Raw: per-pixel channel sensitivity (Bayer), electrons, noise, clip, 12 bits
+// (CV_16U).
+cv::Mat ExposeRaw(const cv::Mat& irradiance, const cv::Mat& illumination, const cv::Mat& normals,
+                  const ImageFormationOptions& options, double additive_sigma) {
+  const int W = irradiance.cols, H = irradiance.rows;
   const double e_per_grey = options.noise ? options.noise->full_well_e / 255.0 : 0.0;
   const double read2 = options.noise ? options.noise->read_e * options.noise->read_e : 0.0;
   cv::Mat raw(H, W, CV_16U);
@@ -234,8 +243,14 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
                                                 static_cast<long>(kRawFullScale)));
     }
   }
-  cv::Mat linear;  // CV_32F, grey levels 0..255
-  if (options.bayer) {
+  return raw;
+}
+
+// The raw frame as linear grey levels 0..255 (CV_32F): demosaiced, white
+// balanced and turned to luma when the sensor has a Bayer filter.
+cv::Mat RawToLinear(const cv::Mat& raw, bool bayer) {
+  cv::Mat linear;
+  if (bayer) {
     // OpenCV names Bayer patterns by the second row's 2nd and 3rd pixels:
     // RGGB (R at (0, 0)) is its BayerBG.
     cv::Mat bgr;
@@ -244,7 +259,7 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
     cv::split(bgr, ch);
     // White balance, then luma (BT.601 weights, as OpenCV's BGR2GRAY).
     constexpr double kLuma[3] = {0.114, 0.587, 0.299};
-    linear = cv::Mat::zeros(H, W, CV_32F);
+    linear = cv::Mat::zeros(raw.rows, raw.cols, CV_32F);
     for (int c = 0; c < 3; ++c) {
       cv::Mat f;
       ch[c].convertTo(f, CV_32F, 255.0 / kRawFullScale * kLuma[c] / kBayerSensitivity[c]);
@@ -253,21 +268,34 @@ cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& opt
   } else {
     raw.convertTo(linear, CV_32F, 255.0 / kRawFullScale);
   }
-  // Tone curve by a look-up on the 12-bit code values (as an ISP does).
-  if (std::abs(options.gamma - 1.0) > 1e-12) {
-    std::vector<float> lut(4096 * 2);  // white balance can push red/blue over full scale
-    for (size_t k = 0; k < lut.size(); ++k)
-      lut[k] = static_cast<float>(255.0 * std::pow(std::min(1.0, k / kRawFullScale), 1.0 / options.gamma));
-    for (int v = 0; v < H; ++v) {
-      float* row = linear.ptr<float>(v);
-      for (int u = 0; u < W; ++u) {
-        const double code = std::clamp(row[u] / 255.0 * kRawFullScale, 0.0, lut.size() - 2.0);
-        const size_t k = static_cast<size_t>(code);
-        const double f = code - k;
-        row[u] = static_cast<float>(lut[k] * (1 - f) + lut[k + 1] * f);
-      }
+  return linear;
+}
+
+// Tone curve by a look-up on the 12-bit code values (as an ISP does).
+void ApplyToneCurve(double gamma, cv::Mat* linear) {
+  std::vector<float> lut(4096 * 2);  // white balance can push red/blue over full scale
+  for (size_t k = 0; k < lut.size(); ++k)
+    lut[k] = static_cast<float>(255.0 * std::pow(std::min(1.0, k / kRawFullScale), 1.0 / gamma));
+  for (int v = 0; v < linear->rows; ++v) {
+    float* row = linear->ptr<float>(v);
+    for (int u = 0; u < linear->cols; ++u) {
+      const double code = std::clamp(row[u] / 255.0 * kRawFullScale, 0.0, lut.size() - 2.0);
+      const size_t k = static_cast<size_t>(code);
+      const double f = code - k;
+      row[u] = static_cast<float>(lut[k] * (1 - f) + lut[k + 1] * f);
     }
   }
+}
+
+}  // namespace
+
+cv::Mat SensorToGrey(const cv::Mat& irradiance, const ImageFormationOptions& options, double additive_sigma,
+                     const cv::Mat& illumination, const std::vector<float>& unit_normals, size_t offset,
+                     const cv::Rect& fresh_noise_roi, cv::RNG* rng) {
+  const cv::Mat normals = UnitDeviates(unit_normals, offset, irradiance.size(), fresh_noise_roi, rng);
+  const cv::Mat raw = ExposeRaw(irradiance, illumination, normals, options, additive_sigma);
+  cv::Mat linear = RawToLinear(raw, options.bayer);  // CV_32F, grey levels 0..255
+  if (std::abs(options.gamma - 1.0) > 1e-12) ApplyToneCurve(options.gamma, &linear);
   if (options.sharpen > 0.0) {
     cv::Mat soft;
     cv::GaussianBlur(linear, soft, cv::Size(0, 0), options.sharpen_sigma_px);

@@ -108,6 +108,173 @@ double EdgeContrast(const cv::Mat& grey, const std::array<cv::Point2d, 4>& c) {
   return median(out_px) - median(in_px);
 }
 
+// Refines a detected tag's corners by the edge model, with their sigmas, and
+// takes the edge shift out of them; a message in the tag when that fails.
+void RefineSurveyedTag(const cv::Mat& grey, const CameraModel* camera, const std::string& family,
+                       const CornerRefineOptions& refine, SurveyedTag* tag) {
+  SurveyedTag& t = *tag;
+  std::array<cv::Matx22d, 4> cov;
+  const CornerRefineResult r =
+      internal::RefineTagCornersByEdgeModelWithCovariance(grey, t.corners_px, camera, refine, {0, 0}, &cov);
+  t.refined = r.ok;
+  if (!r.ok) {
+    t.refine_message = r.message;
+    return;
+  }
+  t.corners_px = r.corners_px;
+  for (int k = 0; k < 4; ++k) t.corner_sigma_px[k] = std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1)));
+  // The edge shift (edge_shift.h), measured in the tag and taken out of
+  // its corners: they are then the print's, and a pose from them has
+  // the print's distance.
+  std::string why;
+  if (const auto cells = TagCells::Of(family, t.id, &why)) {
+    const EdgeShiftResult shift = MeasureEdgeShift(grey, t.corners_px, *cells, camera);
+    if (shift.ok) {
+      t.edge_shift_px = shift.shift_px;
+      t.edge_shift_sigma_px = shift.sigma_px;
+      t.corners_px = RemoveEdgeShift(t.corners_px, shift.shift_px, camera);
+    }
+  }
+}
+
+// Whether a candidate quad's centre `c` is explained by a known tag: within
+// a quarter of its side of the tag's centre, or inside it.
+bool ExplainedByKnownTag(const cv::Point2d& c, const std::vector<std::array<cv::Point2d, 4>>& known) {
+  for (const auto& corners : known) {
+    const double side = 0.25 * (cv::norm(corners[0] - corners[1]) + cv::norm(corners[1] - corners[2]) +
+                                cv::norm(corners[2] - corners[3]) + cv::norm(corners[3] - corners[0]));
+    std::vector<cv::Point2f> poly;
+    for (const auto& p : corners) poly.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+    if (cv::norm(c - Centre(corners)) < 0.25 * side ||
+        cv::pointPolygonTest(poly, cv::Point2f(static_cast<float>(c.x), static_cast<float>(c.y)), false) >= 0) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Adds to the survey's rejections the candidate quads no tag explains that
+// have contrast enough to look like a tag nobody decoded.
+void AddUndecodedQuads(const cv::Mat& grey, const TagSurveyOptions& options,
+                       const std::vector<RefusedDetection>& refused, TagSurvey* survey) {
+  // A candidate is "the tag" when its centre lies within a quarter of the
+  // tag's side of a detection's centre (the tag's outer border quad);
+  // the tag's data bits also make small quads inside it, which are not
+  // rejections either.
+  for (const auto& q : CandidateQuads(grey, options)) {
+    const cv::Point2d c = Centre(q);
+    std::vector<std::array<cv::Point2d, 4>> known;
+    for (const SurveyedTag& t : survey->tags) known.push_back(t.corners_px);
+    for (const RefusedDetection& r : refused) known.push_back(r.detection.corners_px);
+    if (ExplainedByKnownTag(c, known)) continue;
+    const double contrast = EdgeContrast(grey, q);
+    if (contrast >= options.min_rejected_contrast)
+      survey->rejected.push_back(RejectedQuad{q, "no tag decoded", -1, contrast});
+  }
+}
+
+// The points' pixels and their Jacobian in (rvec, tvec) through the lens:
+// cv::projectPoints for plumb_bob (its Jacobian's first 6 columns),
+// cv::fisheye::projectPoints for the equidistant lens (columns 8..13 of
+// its 2N x 15: f, c, k1..k4, then om and T).
+struct PoseProjector {
+  const std::vector<cv::Point3d>& object_points;
+  cv::Mat K, D;
+  bool fisheye = false;
+
+  void operator()(const cv::Mat& r, const cv::Mat& t, std::vector<cv::Point2d>* px, cv::Mat* J6) const {
+    cv::Mat J;
+    if (fisheye) {
+      cv::fisheye::projectPoints(object_points, *px, r, t, K, D, 0.0, J);
+      *J6 = J.colRange(8, 14).clone();
+    } else {
+      cv::projectPoints(object_points, r, t, K, D, *px, J);
+      *J6 = J.colRange(0, 6).clone();
+    }
+  }
+};
+
+// IPPE's planar pose of the points (for the fisheye lens on the points
+// undistorted to the normalised plane); false with `why` when none.
+bool SolvePlanarPose(const Intrinsics& intrinsics, const std::vector<cv::Point3d>& object_points,
+                     const std::vector<cv::Point2d>& image_points, cv::Mat* rvec, cv::Mat* tvec, std::string* why) {
+  bool solved = false;
+  if (intrinsics.lens == LensModel::kEquidistant) {
+    // IPPE on the points undistorted to the normalised plane (K = I).
+    const CameraModel camera(intrinsics, CameraMount{});
+    const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(image_points);
+    for (const cv::Point2d& q : normalised) {
+      if (!std::isfinite(q.x) || !std::isfinite(q.y)) {
+        *why = "a point lies where the lens has no pinhole image (90 degrees or more off the axis)";
+        return false;
+      }
+    }
+    solved = cv::solvePnP(object_points, normalised, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), *rvec, *tvec, false,
+                          cv::SOLVEPNP_IPPE);
+  } else {
+    solved = cv::solvePnP(object_points, image_points, intrinsics.CameraMatrix(), intrinsics.DistortionCoeffs(), *rvec,
+                          *tvec, false, cv::SOLVEPNP_IPPE);
+  }
+  if (!solved) *why = "no planar pose fits these points";
+  return solved;
+}
+
+// Gauss-Newton on the reprojection errors weighted by `w` (1 / sigma), at
+// most 10 steps.
+void RefineWeighted(const PoseProjector& project, const std::vector<cv::Point2d>& image_points,
+                    const std::vector<double>& w, cv::Mat* rvec, cv::Mat* tvec) {
+  const size_t n = image_points.size();
+  cv::Mat J_w;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    std::vector<cv::Point2d> projected;
+    cv::Mat J;
+    project(*rvec, *tvec, &projected, &J);
+    J_w = cv::Mat(static_cast<int>(2 * n), 6, CV_64F);
+    cv::Mat r_w(static_cast<int>(2 * n), 1, CV_64F);
+    for (size_t i = 0; i < n; ++i) {
+      for (int a = 0; a < 2; ++a) {
+        const int row = static_cast<int>(2 * i) + a;
+        for (int c = 0; c < 6; ++c) J_w.at<double>(row, c) = w[i] * J.at<double>(row, c);
+        const cv::Point2d e = image_points[i] - projected[i];
+        r_w.at<double>(row) = w[i] * (a == 0 ? e.x : e.y);
+      }
+    }
+    cv::Mat step;
+    cv::solve(J_w, r_w, step, cv::DECOMP_SVD);
+    *rvec += step.rowRange(0, 3);
+    *tvec += step.rowRange(3, 6);
+    if (cv::norm(step) < 1e-12) break;
+  }
+}
+
+// The fit's residuals, rms, chi^2 per degree of freedom and the pose's
+// covariance (scaled by that chi^2 when there are points enough) into `pose`.
+void FitStatistics(const PoseProjector& project, const std::vector<cv::Point2d>& image_points,
+                   const std::vector<double>& w, const cv::Mat& rvec, const cv::Mat& tvec, ObjectPose* pose) {
+  const size_t n = image_points.size();
+  std::vector<cv::Point2d> projected;
+  cv::Mat J;
+  project(rvec, tvec, &projected, &J);
+  cv::Mat JtJ = cv::Mat::zeros(6, 6, CV_64F);
+  double sq = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const cv::Mat Ji = J.rowRange(static_cast<int>(2 * i), static_cast<int>(2 * i + 2)).colRange(0, 6);
+    JtJ += Ji.t() * Ji * (w[i] * w[i]);
+    const cv::Point2d e = image_points[i] - projected[i];
+    pose->residuals_px.push_back(e);
+    sq += e.dot(e);
+  }
+  pose->rms_residual_px = std::sqrt(sq / n);
+  double chi2 = 0.0;
+  for (size_t i = 0; i < n; ++i) chi2 += pose->residuals_px[i].dot(pose->residuals_px[i]) * w[i] * w[i];
+  const int dof = static_cast<int>(2 * n) - 6;
+  pose->chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
+  pose->covariance_scale = dof >= 10 ? std::max(1.0, pose->chi2_per_dof) : 1.0;
+  const cv::Mat cov = JtJ.inv(cv::DECOMP_SVD) * pose->covariance_scale;
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) pose->covariance(r, c) = cov.at<double>(r, c);
+}
+
 }  // namespace
 
 TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSurveyOptions& options) {
@@ -138,28 +305,7 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
     if (options.not_refined.count(d.id)) {
       t.refine_message = "left to the board's refinement";
     } else if (options.refine) {
-      std::array<cv::Matx22d, 4> cov;
-      const CornerRefineResult r =
-          internal::RefineTagCornersByEdgeModelWithCovariance(grey, d.corners_px, camera, refine, {0, 0}, &cov);
-      t.refined = r.ok;
-      if (r.ok) {
-        t.corners_px = r.corners_px;
-        for (int k = 0; k < 4; ++k) t.corner_sigma_px[k] = std::sqrt(0.5 * (cov[k](0, 0) + cov[k](1, 1)));
-        // The edge shift (edge_shift.h), measured in the tag and taken out of
-        // its corners: they are then the print's, and a pose from them has
-        // the print's distance.
-        std::string why;
-        if (const auto cells = TagCells::Of(options.family, d.id, &why)) {
-          const EdgeShiftResult shift = MeasureEdgeShift(grey, t.corners_px, *cells, camera);
-          if (shift.ok) {
-            t.edge_shift_px = shift.shift_px;
-            t.edge_shift_sigma_px = shift.sigma_px;
-            t.corners_px = RemoveEdgeShift(t.corners_px, shift.shift_px, camera);
-          }
-        }
-      } else {
-        t.refine_message = r.message;
-      }
+      RefineSurveyedTag(grey, camera, options.family, refine, &t);
     }
     survey.tags.push_back(t);
   }
@@ -169,34 +315,7 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
   for (const RefusedDetection& r : found.refused)
     survey.rejected.push_back(
         RejectedQuad{r.detection.corners_px, r.reason, r.detection.id, EdgeContrast(grey, r.detection.corners_px)});
-  if (options.collect_rejected) {
-    // A candidate is "the tag" when its centre lies within a quarter of the
-    // tag's side of a detection's centre (the tag's outer border quad);
-    // the tag's data bits also make small quads inside it, which are not
-    // rejections either.
-    for (const auto& q : CandidateQuads(grey, options)) {
-      const cv::Point2d c = Centre(q);
-      bool explained = false;
-      std::vector<std::array<cv::Point2d, 4>> known;
-      for (const SurveyedTag& t : survey.tags) known.push_back(t.corners_px);
-      for (const RefusedDetection& r : found.refused) known.push_back(r.detection.corners_px);
-      for (const auto& corners : known) {
-        const double side = 0.25 * (cv::norm(corners[0] - corners[1]) + cv::norm(corners[1] - corners[2]) +
-                                    cv::norm(corners[2] - corners[3]) + cv::norm(corners[3] - corners[0]));
-        std::vector<cv::Point2f> poly;
-        for (const auto& p : corners) poly.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
-        if (cv::norm(c - Centre(corners)) < 0.25 * side ||
-            cv::pointPolygonTest(poly, cv::Point2f(static_cast<float>(c.x), static_cast<float>(c.y)), false) >= 0) {
-          explained = true;
-          break;
-        }
-      }
-      if (explained) continue;
-      const double contrast = EdgeContrast(grey, q);
-      if (contrast >= options.min_rejected_contrast)
-        survey.rejected.push_back(RejectedQuad{q, "no tag decoded", -1, contrast});
-    }
-  }
+  if (options.collect_rejected) AddUndecodedQuads(grey, options, found.refused, &survey);
   survey.ok = true;
   return survey;
 }
@@ -215,90 +334,17 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
       return pose;
     }
   }
-  const cv::Mat K = intrinsics.CameraMatrix(), D = intrinsics.DistortionCoeffs();
-  const bool fisheye = intrinsics.lens == LensModel::kEquidistant;
-  // The points' pixels and their Jacobian in (rvec, tvec) through the lens:
-  // cv::projectPoints for plumb_bob (its Jacobian's first 6 columns),
-  // cv::fisheye::projectPoints for the equidistant lens (columns 8..13 of
-  // its 2N x 15: f, c, k1..k4, then om and T).
-  const auto project = [&](const cv::Mat& r, const cv::Mat& t, std::vector<cv::Point2d>* px, cv::Mat* J6) {
-    cv::Mat J;
-    if (fisheye) {
-      cv::fisheye::projectPoints(object_points, *px, r, t, K, D, 0.0, J);
-      *J6 = J.colRange(8, 14).clone();
-    } else {
-      cv::projectPoints(object_points, r, t, K, D, *px, J);
-      *J6 = J.colRange(0, 6).clone();
-    }
-  };
+  const PoseProjector project{object_points, intrinsics.CameraMatrix(), intrinsics.DistortionCoeffs(),
+                              intrinsics.lens == LensModel::kEquidistant};
   cv::Mat rvec, tvec;
   try {
-    bool solved = false;
-    if (fisheye) {
-      // IPPE on the points undistorted to the normalised plane (K = I).
-      const CameraModel camera(intrinsics, CameraMount{});
-      const std::vector<cv::Point2d> normalised = camera.UndistortToNormalized(image_points);
-      for (const cv::Point2d& q : normalised) {
-        if (!std::isfinite(q.x) || !std::isfinite(q.y)) {
-          pose.message = "a point lies where the lens has no pinhole image (90 degrees or more off the axis)";
-          return pose;
-        }
-      }
-      solved = cv::solvePnP(object_points, normalised, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false,
-                            cv::SOLVEPNP_IPPE);
-    } else {
-      solved = cv::solvePnP(object_points, image_points, K, D, rvec, tvec, false, cv::SOLVEPNP_IPPE);
-    }
-    if (!solved) {
-      pose.message = "no planar pose fits these points";
-      return pose;
-    }
+    if (!SolvePlanarPose(intrinsics, object_points, image_points, &rvec, &tvec, &pose.message)) return pose;
     // Weighted Gauss-Newton from IPPE's answer: OpenCV's LM refinement is
     // unweighted, so iterate here with each point's sigma.
     std::vector<double> w(n, 1.0);
     for (size_t i = 0; i < n && !sigma_px.empty(); ++i) w[i] = 1.0 / sigma_px[i];
-    cv::Mat J_w;
-    for (int iteration = 0; iteration < 10; ++iteration) {
-      std::vector<cv::Point2d> projected;
-      cv::Mat J;
-      project(rvec, tvec, &projected, &J);
-      J_w = cv::Mat(static_cast<int>(2 * n), 6, CV_64F);
-      cv::Mat r_w(static_cast<int>(2 * n), 1, CV_64F);
-      for (size_t i = 0; i < n; ++i) {
-        for (int a = 0; a < 2; ++a) {
-          const int row = static_cast<int>(2 * i) + a;
-          for (int c = 0; c < 6; ++c) J_w.at<double>(row, c) = w[i] * J.at<double>(row, c);
-          const cv::Point2d e = image_points[i] - projected[i];
-          r_w.at<double>(row) = w[i] * (a == 0 ? e.x : e.y);
-        }
-      }
-      cv::Mat step;
-      cv::solve(J_w, r_w, step, cv::DECOMP_SVD);
-      rvec += step.rowRange(0, 3);
-      tvec += step.rowRange(3, 6);
-      if (cv::norm(step) < 1e-12) break;
-    }
-    std::vector<cv::Point2d> projected;
-    cv::Mat J;
-    project(rvec, tvec, &projected, &J);
-    cv::Mat JtJ = cv::Mat::zeros(6, 6, CV_64F);
-    double sq = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      const cv::Mat Ji = J.rowRange(static_cast<int>(2 * i), static_cast<int>(2 * i + 2)).colRange(0, 6);
-      JtJ += Ji.t() * Ji * (w[i] * w[i]);
-      const cv::Point2d e = image_points[i] - projected[i];
-      pose.residuals_px.push_back(e);
-      sq += e.dot(e);
-    }
-    pose.rms_residual_px = std::sqrt(sq / n);
-    double chi2 = 0.0;
-    for (size_t i = 0; i < n; ++i) chi2 += pose.residuals_px[i].dot(pose.residuals_px[i]) * w[i] * w[i];
-    const int dof = static_cast<int>(2 * n) - 6;
-    pose.chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
-    pose.covariance_scale = dof >= 10 ? std::max(1.0, pose.chi2_per_dof) : 1.0;
-    const cv::Mat cov = JtJ.inv(cv::DECOMP_SVD) * pose.covariance_scale;
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) pose.covariance(r, c) = cov.at<double>(r, c);
+    RefineWeighted(project, image_points, w, &rvec, &tvec);
+    FitStatistics(project, image_points, w, rvec, tvec, &pose);
   } catch (const cv::Exception& e) {
     pose.message = "OpenCV: " + e.err;
     return pose;

@@ -312,6 +312,66 @@ void PlaneSigmas(ceres::Problem& problem, double* camera, double* readout_s, boo
   }
 }
 
+// `mount` with the camera over the tag plane (roll, pitch, height above the
+// plane in m) put in: roll, pitch and height above the floor.
+CameraMount MountOf(const CameraMount& mount, const double* camera, const TagSpec& tag) {
+  CameraMount out = mount;
+  out.roll_deg = camera[0] * kRadToDeg;
+  out.pitch_deg = camera[1] * kRadToDeg;
+  out.height_mm = (camera[2] + tag.height_m()) * kMToMm;
+  return out;
+}
+
+// The adjustment's unknowns as Ceres holds them: the rolling shutter's
+// readout (s), fitted when `fit_readout`, the camera over the tag plane
+// (roll, pitch, height m), and each used view's tag pose (x, y, heading) with
+// its index among the views. The readout lies before the camera in memory
+// on purpose: ceres::Covariance orders the parameter blocks by their
+// addresses, and this order gives the sigmas the bits they have always had.
+struct PlaneUnknowns {
+  double readout_s[1] = {0.0};
+  double camera[3] = {0.0, 0.0, 0.0};
+  bool fit_readout = false;
+  std::vector<std::array<double, 3>> views;
+  std::vector<size_t> view_index;
+};
+
+// What the corner residuals compare: the tag's corners in its frame, every
+// view's undistorted corners, each used view's corners' shear, the gauge
+// (x, y, yaw) and the focal length (px) that scales them.
+struct PlaneObservations {
+  const std::array<Eigen::Vector2d, 4>& model;
+  const std::vector<std::vector<cv::Point2d>>& normalized;
+  const std::vector<std::array<cv::Point2d, 4>>& shear;
+  const Eigen::Vector3d& gauge;
+  double f;
+};
+
+// One residual per corner of each used view (with the readout when it is
+// fitted, bounded to +-0.1 s) into `problem`.
+void AddCornerResiduals(const PlaneObservations& obs, double huber_px, PlaneUnknowns* x, ceres::Problem* problem) {
+  for (size_t v = 0; v < x->views.size(); ++v) {
+    for (int k = 0; k < 4; ++k) {
+      CornerResidual corner(obs.model[k], obs.normalized[x->view_index[v]][k], obs.gauge, obs.f);
+      ceres::LossFunction* loss = huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr;
+      if (x->fit_readout) {
+        corner.shear = obs.shear[v][k];
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RollingShutterCornerResidual, 2, 3, 3, 1>(
+                                      new RollingShutterCornerResidual(corner)),
+                                  loss, x->camera, x->views[v].data(), x->readout_s);
+      } else {
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 3, 3>(new CornerResidual(corner)),
+                                  loss, x->camera, x->views[v].data());
+      }
+    }
+  }
+  if (x->fit_readout) {
+    // Either direction of readout; longer than any camera's frame is not one.
+    problem->SetParameterLowerBound(x->readout_s, 0, -0.1);
+    problem->SetParameterUpperBound(x->readout_s, 0, 0.1);
+  }
+}
+
 }  // namespace
 
 CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const TagSpec& tag,
@@ -343,54 +403,29 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     result.message = "too few views gave a pose for the starting estimate";
     return result;
   }
-  double camera[3] = {(*plane)[0], (*plane)[1], (*plane)[2]};
-  CameraMount start = nominal_mount;
-  start.roll_deg = camera[0] * kRadToDeg;
-  start.pitch_deg = camera[1] * kRadToDeg;
-  start.height_mm = (camera[2] + tag.height_m()) * kMToMm;
-  const CameraModel start_model(intrinsics, start);
+  PlaneUnknowns x;
+  x.camera[0] = (*plane)[0];
+  x.camera[1] = (*plane)[1];
+  x.camera[2] = (*plane)[2];
+  const CameraModel start_model(intrinsics, MountOf(nominal_mount, x.camera, tag));
 
   const Eigen::Vector3d gauge(nominal_mount.x_mm * kMmToM, nominal_mount.y_mm * kMmToM,
                               nominal_mount.yaw_deg / kRadToDeg);
-  std::vector<std::array<double, 3>> views;
-  std::vector<size_t> view_index;
   ceres::Problem problem;
   const double f = std::sqrt(intrinsics.fx * intrinsics.fy);
   for (size_t i = 0; i < views_corners_px.size(); ++i) {
     const auto pose = MeasureTagPose(start_model, tag, views_corners_px[i]);
     if (!pose.ok) continue;
-    views.push_back({pose.T_world_tag.x(), pose.T_world_tag.y(), pose.T_world_tag.heading()});
-    view_index.push_back(i);
+    x.views.push_back({pose.T_world_tag.x(), pose.T_world_tag.y(), pose.T_world_tag.heading()});
+    x.view_index.push_back(i);
   }
-  if (static_cast<int>(views.size()) < options.min_views) {
+  if (static_cast<int>(x.views.size()) < options.min_views) {
     result.message = "too few views fit the tag model";
     return result;
   }
-  bool fit_readout = false;
   const std::vector<std::array<cv::Point2d, 4>> shear =
-      CornerShears(intrinsics, nominal, views_corners_px, view_index, views_velocities, options, &fit_readout);
-  double readout_s[1] = {0.0};
-  for (size_t v = 0; v < views.size(); ++v) {
-    for (int k = 0; k < 4; ++k) {
-      CornerResidual corner(model[k], normalized[view_index[v]][k], gauge, f);
-      ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
-      if (fit_readout) {
-        corner.shear = shear[v][k];
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<RollingShutterCornerResidual, 2, 3, 3, 1>(
-                new RollingShutterCornerResidual(corner)),
-            loss, camera, views[v].data(), readout_s);
-      } else {
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 3, 3>(new CornerResidual(corner)),
-                                 loss, camera, views[v].data());
-      }
-    }
-  }
-  if (fit_readout) {
-    // Either direction of readout; longer than any camera's frame is not one.
-    problem.SetParameterLowerBound(readout_s, 0, -0.1);
-    problem.SetParameterUpperBound(readout_s, 0, 0.1);
-  }
+      CornerShears(intrinsics, nominal, views_corners_px, x.view_index, views_velocities, options, &x.fit_readout);
+  AddCornerResiduals(PlaneObservations{model, normalized, shear, gauge, f}, options.huber_px, &x, &problem);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_SCHUR;
   ApplyTo(options.solver, &solver_options);
@@ -400,18 +435,16 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
     result.message = "camera-plane adjustment failed: " + summary.message;
     return result;
   }
-  result.mount.roll_deg = camera[0] * kRadToDeg;
-  result.mount.pitch_deg = camera[1] * kRadToDeg;
-  result.mount.height_mm = (camera[2] + tag.height_m()) * kMToMm;
-  result.views_used = static_cast<int>(views.size());
+  result.mount = MountOf(result.mount, x.camera, tag);
+  result.views_used = static_cast<int>(x.views.size());
   const int n_res = 8 * result.views_used;
   result.rms_reprojection_px = std::sqrt(2.0 * summary.final_cost / n_res);
-  for (const auto& v : views) result.world_Ts_tag.push_back(Pose2::FromXYHeading(v[0], v[1], v[2]));
+  for (const auto& v : x.views) result.world_Ts_tag.push_back(Pose2::FromXYHeading(v[0], v[1], v[2]));
 
-  result.rolling_shutter_fitted = fit_readout;
-  result.rolling_shutter_ms = readout_s[0] * 1e3;
+  result.rolling_shutter_fitted = x.fit_readout;
+  result.rolling_shutter_ms = x.readout_s[0] * 1e3;
 
-  PlaneSigmas(problem, camera, readout_s, fit_readout, summary.final_cost, n_res, &result);
+  PlaneSigmas(problem, x.camera, x.readout_s, x.fit_readout, summary.final_cost, n_res, &result);
   result.ok = true;
   return result;
 }

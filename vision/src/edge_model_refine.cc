@@ -42,55 +42,107 @@ using FittedLine = internal::EdgeLine;
 // real 10 px Kalibr tags, 1 px a cell, 7-11: FitEdge's shorter margin).
 constexpr size_t kMinEdgePixels = 12;
 
-std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
-                                  const cv::Point2d& b_px, const cv::Point2d& centre_px,
-                                  const CameraModel* camera, double half_width,
-                                  const CornerRefineOptions& options, double* rms,
-                                  cv::Matx22d* cov_angle_offset = nullptr) {
+// The mean grey level inside (towards the tag's centre) minus outside, more
+// than half a pixel from the line.
+double BandContrast(const EdgePixels& band) {
+  double in = 0.0, out = 0.0;
+  int n_in = 0, n_out = 0;
+  for (size_t i = 0; i < band.value.size(); ++i) {
+    if (band.offset_px[i] < -0.5) in += band.value[i], ++n_in;
+    if (band.offset_px[i] > 0.5) out += band.value[i], ++n_out;
+  }
+  return n_in > 3 && n_out > 3 ? in / n_in - out / n_out : 0.0;
+}
+
+// Where an edge's pixels are sampled: the image (whose pixel (0, 0) is
+// `origin`), the detector's edge a-b of the tag centred at `centre_px`, the
+// lens, and the band's half width.
+struct EdgeBand {
+  const cv::Mat& grey;
+  const cv::Point& origin;
+  const cv::Point2d& a_px;
+  const cv::Point2d& b_px;
+  const cv::Point2d& centre_px;
+  const CameraModel* camera;
+  double half_width;
+
+  // The band's pixels along from-to, `end_margin` away from its ends.
+  EdgePixels Sample(const cv::Point2d& from, const cv::Point2d& to, double end_margin) const {
+    return internal::SampleEdgeBand(grey, origin, from, to, centre_px, camera, half_width, end_margin);
+  }
+};
+
+// Adds the line's continuation beyond each corner, polarity swapped: where it
+// is there. A stretch whose black is not outside the line by at least
+// half the tag's edge's contrast (no corner square printed, something in
+// the way, the image's border) is left out.
+void AddCollinearExtension(const EdgeBand& band, double extension, double extension_margin, EdgePixels* band_pixels) {
+  EdgePixels& pixels = *band_pixels;
+  pixels.polarity.assign(pixels.value.size(), 1.0);
+  const double own = -BandContrast(pixels);  // the tag's edge: light outside
+  const cv::Point2d ab = band.b_px - band.a_px;
+  const std::array<std::pair<cv::Point2d, cv::Point2d>, 2> stretches = {
+      std::pair{band.a_px - ab * (extension - extension_margin), band.a_px - ab * extension_margin},
+      std::pair{band.b_px + ab * extension_margin, band.b_px + ab * (extension - extension_margin)}};
+  for (const auto& [from, to] : stretches) {
+    const EdgePixels more = band.Sample(from, to, 0.0);
+    if (!(own > 0.0 && BandContrast(more) > 0.5 * own)) continue;
+    pixels.undistorted.insert(pixels.undistorted.end(), more.undistorted.begin(), more.undistorted.end());
+    pixels.jacobian.insert(pixels.jacobian.end(), more.jacobian.begin(), more.jacobian.end());
+    pixels.value.insert(pixels.value.end(), more.value.begin(), more.value.end());
+    pixels.offset_px.insert(pixels.offset_px.end(), more.offset_px.begin(), more.offset_px.end());
+    pixels.polarity.insert(pixels.polarity.end(), more.value.size(), -1.0);
+  }
+}
+
+// The pixels the edge model is fitted to: the band along the edge, and its
+// collinear extension when the options ask for it.
+EdgePixels SampleEdgePixels(const EdgeBand& band, const CornerRefineOptions& options) {
   const double extension = options.collinear_extension, extension_margin = options.extension_margin;
-  const double shift_px = options.edge_shift_px, shift_freedom_px = options.edge_shift_freedom_px;
   // The band: pixels whose centres lie within half_width of the segment
   // (in distorted pixels, where the detector's corners are), away from its ends.
-  EdgePixels pixels =
-      internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, options.end_margin);
+  EdgePixels pixels = band.Sample(band.a_px, band.b_px, options.end_margin);
   // A tag of ~10 px (a Kalibr tag far off a fisheye's axis) leaves 7-11
   // pixels in the band, fewer than the fit needs: the band then runs on
   // nearer the corners, half the end margin.
   if (pixels.value.size() < kMinEdgePixels && options.end_margin > 0.0)
-    pixels =
-        internal::SampleEdgeBand(grey, origin, a_px, b_px, centre_px, camera, half_width, 0.5 * options.end_margin);
-  // The mean grey level inside (towards the tag's centre) minus outside, more
-  // than half a pixel from the line.
-  const auto contrast = [](const EdgePixels& band) {
-    double in = 0.0, out = 0.0;
-    int n_in = 0, n_out = 0;
-    for (size_t i = 0; i < band.value.size(); ++i) {
-      if (band.offset_px[i] < -0.5) in += band.value[i], ++n_in;
-      if (band.offset_px[i] > 0.5) out += band.value[i], ++n_out;
-    }
-    return n_in > 3 && n_out > 3 ? in / n_in - out / n_out : 0.0;
-  };
-  if (extension > 0.0 && extension > 2.0 * extension_margin) {
-    // The line's continuation beyond each corner, polarity swapped: where it
-    // is there. A stretch whose black is not outside the line by at least
-    // half the tag's edge's contrast (no corner square printed, something in
-    // the way, the image's border) is left out.
-    pixels.polarity.assign(pixels.value.size(), 1.0);
-    const double own = -contrast(pixels);  // the tag's edge: light outside
-    const cv::Point2d ab = b_px - a_px;
-    const std::array<std::pair<cv::Point2d, cv::Point2d>, 2> stretches = {
-        std::pair{a_px - ab * (extension - extension_margin), a_px - ab * extension_margin},
-        std::pair{b_px + ab * extension_margin, b_px + ab * (extension - extension_margin)}};
-    for (const auto& [from, to] : stretches) {
-      const EdgePixels more = internal::SampleEdgeBand(grey, origin, from, to, centre_px, camera, half_width, 0.0);
-      if (!(own > 0.0 && contrast(more) > 0.5 * own)) continue;
-      pixels.undistorted.insert(pixels.undistorted.end(), more.undistorted.begin(), more.undistorted.end());
-      pixels.jacobian.insert(pixels.jacobian.end(), more.jacobian.begin(), more.jacobian.end());
-      pixels.value.insert(pixels.value.end(), more.value.begin(), more.value.end());
-      pixels.offset_px.insert(pixels.offset_px.end(), more.offset_px.begin(), more.offset_px.end());
-      pixels.polarity.insert(pixels.polarity.end(), more.value.size(), -1.0);
+    pixels = band.Sample(band.a_px, band.b_px, 0.5 * options.end_margin);
+  if (extension > 0.0 && extension > 2.0 * extension_margin)
+    AddCollinearExtension(band, extension, extension_margin, &pixels);
+  return pixels;
+}
+
+// Gauss-Newton covariance of the free parameters, scaled by the fit's
+// own residual variance (the image noise as these pixels show it, JPEG
+// and model error included); (angle, offset) is its marginal.
+cv::Matx22d AngleOffsetCovariance(ceres::Problem* problem, double* p, double* shift, bool free_shift, size_t n_pixels,
+                                  double final_cost) {
+  ceres::CRSMatrix jac;
+  ceres::Problem::EvaluateOptions evaluate;
+  evaluate.parameter_blocks = {p};
+  if (free_shift) evaluate.parameter_blocks.push_back(shift);
+  problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &jac);
+  const int k = free_shift ? 6 : 5;
+  cv::Mat jtj = cv::Mat::zeros(k, k, CV_64F);
+  for (int r = 0; r < jac.num_rows; ++r) {
+    for (int i = jac.rows[r]; i < jac.rows[r + 1]; ++i) {
+      for (int j = jac.rows[r]; j < jac.rows[r + 1]; ++j) {
+        jtj.at<double>(jac.cols[i], jac.cols[j]) += jac.values[i] * jac.values[j];
+      }
     }
   }
+  const int dof = std::max<int>(1, static_cast<int>(n_pixels) - k);
+  const cv::Mat cov = jtj.inv(cv::DECOMP_SVD) * (2.0 * final_cost / dof);
+  return cv::Matx22d(cov.at<double>(0, 0), cov.at<double>(0, 1), cov.at<double>(1, 0), cov.at<double>(1, 1));
+}
+
+std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, const cv::Point2d& a_px,
+                                  const cv::Point2d& b_px, const cv::Point2d& centre_px, const CameraModel* camera,
+                                  double half_width, const CornerRefineOptions& options, double* rms,
+                                  cv::Matx22d* cov_angle_offset = nullptr) {
+  const double shift_px = options.edge_shift_px, shift_freedom_px = options.edge_shift_freedom_px;
+  const EdgeBand band{grey, origin, a_px, b_px, centre_px, camera, half_width};
+  EdgePixels pixels = SampleEdgePixels(band, options);
   if (pixels.value.size() < kMinEdgePixels) return std::nullopt;
   double dark = 255.0, light = 0.0;
   for (double v : pixels.value) {
@@ -127,29 +179,8 @@ std::optional<FittedLine> FitEdge(const cv::Mat& grey, const cv::Point& origin, 
   ceres::Solve(solver, &problem, &summary);
   if (!summary.IsSolutionUsable() || !(p[3] > 10.0)) return std::nullopt;
   *rms = std::sqrt(2.0 * summary.final_cost / pixels.value.size());
-  if (cov_angle_offset) {
-    // Gauss-Newton covariance of the free parameters, scaled by the fit's
-    // own residual variance (the image noise as these pixels show it, JPEG
-    // and model error included); (angle, offset) is its marginal.
-    ceres::CRSMatrix jac;
-    ceres::Problem::EvaluateOptions evaluate;
-    evaluate.parameter_blocks = {p};
-    if (free_shift) evaluate.parameter_blocks.push_back(&shift);
-    problem.Evaluate(evaluate, nullptr, nullptr, nullptr, &jac);
-    const int k = free_shift ? 6 : 5;
-    cv::Mat jtj = cv::Mat::zeros(k, k, CV_64F);
-    for (int r = 0; r < jac.num_rows; ++r) {
-      for (int i = jac.rows[r]; i < jac.rows[r + 1]; ++i) {
-        for (int j = jac.rows[r]; j < jac.rows[r + 1]; ++j) {
-          jtj.at<double>(jac.cols[i], jac.cols[j]) += jac.values[i] * jac.values[j];
-        }
-      }
-    }
-    const int dof = std::max<int>(1, static_cast<int>(pixels.value.size()) - k);
-    const cv::Mat cov = jtj.inv(cv::DECOMP_SVD) * (2.0 * summary.final_cost / dof);
-    *cov_angle_offset = cv::Matx22d(cov.at<double>(0, 0), cov.at<double>(0, 1), cov.at<double>(1, 0),
-                                    cov.at<double>(1, 1));
-  }
+  if (cov_angle_offset)
+    *cov_angle_offset = AngleOffsetCovariance(&problem, p, &shift, free_shift, pixels.value.size(), summary.final_cost);
   const cv::Point2d n(std::cos(p[0]), std::sin(p[0]));
   return FittedLine{n * p[1], cv::Point2d(-n.y, n.x)};
 }

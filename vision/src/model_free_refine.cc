@@ -121,6 +121,68 @@ class CornersSettled : public ceres::IterationCallback {
   std::array<cv::Point2d, 4> corners_{};
   int settled_ = 0;
 };
+
+// The tag's fit: its four edges' bands, their parameters, and the shared
+// parameters (log s1, log s2, w, log gamma) from their start.
+struct ModelFreeFit {
+  std::array<EdgeBand, 4> bands;
+  std::array<std::array<double, kEdgeParams>, 4> p;
+  double shared[kSharedParams] = {std::log(0.6), std::log(1.5), 0.3, 0.0};
+};
+
+// Widths from a fifth of a pixel (a sharp lens still integrates over the
+// pixel) to beyond any usable blur; the mixture weight allows an overshoot
+// (w < 0) but not a second edge; gamma within any camera's tone curves.
+void BoundSharedParameters(ceres::Problem* problem, double* shared) {
+  for (int i : {0, 1}) {
+    problem->SetParameterLowerBound(shared, i, std::log(0.2));
+    problem->SetParameterUpperBound(shared, i, std::log(6.0));
+  }
+  problem->SetParameterLowerBound(shared, 2, -0.6);
+  problem->SetParameterUpperBound(shared, 2, 1.0);
+  problem->SetParameterLowerBound(shared, 3, std::log(0.3));
+  problem->SetParameterUpperBound(shared, 3, std::log(4.0));
+}
+
+// The fitted tag's image quality into `result` and its edges' lines into
+// `lines`; false with a message when an edge was fitted without contrast.
+bool ReadFittedEdges(const ModelFreeFit& fit, double cell_px, const CornerRefineOptions& options,
+                     std::array<internal::EdgeLine, 4>* lines, ModelFreeRefineResult* result) {
+  const auto& p = fit.p;
+  const double* shared = fit.shared;
+  TagImageQuality& q = result->quality;
+  q.cell_px = cell_px;
+  q.side_px = cell_px * options.width_at_border;
+  q.gamma = std::exp(shared[3]);
+  const double s1 = std::exp(shared[0]), s2 = std::exp(shared[1]), w = shared[2];
+  q.blur_sigma_px = std::sqrt(std::max(0.0, (1.0 - w) * s1 * s1 + w * s2 * s2));
+  auto encode = [&](double x) { return 255.0 * std::pow(std::max(x, 1e-3) / 255.0, 1.0 / q.gamma); };
+  q.contrast_grey = 1e9;
+  int pixels = 0, saturated = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (!(p[k][3] > 1.0)) {
+      result->message = "edge " + std::to_string(k) + " fitted without contrast";
+      return false;
+    }
+    const cv::Point2d n(std::cos(p[k][0]), std::sin(p[k][0]));
+    (*lines)[k] = internal::EdgeLine{n * p[k][1], cv::Point2d(-n.y, n.x)};
+    q.contrast_grey = std::min(q.contrast_grey, encode(p[k][2] + p[k][3]) - encode(p[k][2]));
+    // Each edge's own residual: an occluder spoils one edge, not the mean.
+    const size_t m = fit.bands[k].pixels.value.size();
+    std::vector<double> r(m);
+    const double* blocks[] = {p[k].data(), shared};
+    internal::ModelFreeCost(&fit.bands[k].pixels).Evaluate(blocks, r.data(), nullptr);
+    double sq = 0.0;
+    for (double v : r) sq += v * v;
+    q.rms_residual_grey = std::max(q.rms_residual_grey, std::sqrt(sq / m));
+    pixels += static_cast<int>(m);
+    saturated += fit.bands[k].saturated;
+  }
+  q.saturated_fraction = static_cast<double>(saturated) / std::max(1, pixels);
+  q.relative_residual = q.rms_residual_grey / std::max(1.0, q.contrast_grey);
+  return true;
+}
+
 }  // namespace
 
 ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
@@ -132,7 +194,7 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
   result.corners_px = corners_px;
   const auto extent = internal::CheckRefinementInput(grey, corners_px, options, &result.message);
   if (!extent) return result;
-  std::array<EdgeBand, 4> bands;
+  ModelFreeFit fit;
   for (int k = 0; k < 4; ++k) {
     auto band = PrepareEdge(grey, origin, corners_px[k], corners_px[(k + 1) % 4], extent->centre_px,
                             camera, extent->half_width_px, options.end_margin);
@@ -140,30 +202,18 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
       result.message = "edge " + std::to_string(k) + " has too few pixels or no contrast";
       return result;
     }
-    bands[k] = std::move(*band);
+    fit.bands[k] = std::move(*band);
   }
-  std::array<std::array<double, kEdgeParams>, 4> p;
-  double shared[kSharedParams] = {std::log(0.6), std::log(1.5), 0.3, 0.0};
   ceres::Problem problem;
   for (int k = 0; k < 4; ++k) {
-    std::copy(bands[k].start, bands[k].start + kEdgeParams, p[k].begin());
-    problem.AddResidualBlock(new internal::ModelFreeCost(&bands[k].pixels), nullptr, p[k].data(), shared);
+    std::copy(fit.bands[k].start, fit.bands[k].start + kEdgeParams, fit.p[k].begin());
+    problem.AddResidualBlock(new internal::ModelFreeCost(&fit.bands[k].pixels), nullptr, fit.p[k].data(), fit.shared);
   }
-  // Widths from a fifth of a pixel (a sharp lens still integrates over the
-  // pixel) to beyond any usable blur; the mixture weight allows an overshoot
-  // (w < 0) but not a second edge; gamma within any camera's tone curves.
-  for (int i : {0, 1}) {
-    problem.SetParameterLowerBound(shared, i, std::log(0.2));
-    problem.SetParameterUpperBound(shared, i, std::log(6.0));
-  }
-  problem.SetParameterLowerBound(shared, 2, -0.6);
-  problem.SetParameterUpperBound(shared, 2, 1.0);
-  problem.SetParameterLowerBound(shared, 3, std::log(0.3));
-  problem.SetParameterUpperBound(shared, 3, std::log(4.0));
+  BoundSharedParameters(&problem, fit.shared);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
   ApplyTo(options.model_free_solver, &solver);
-  CornersSettled settled(&p, options.model_free_settled_px);
+  CornersSettled settled(&fit.p, options.model_free_settled_px);
   if (options.model_free_settled_px > 0.0) {
     solver.update_state_every_iteration = true;
     solver.callbacks.push_back(&settled);
@@ -174,37 +224,8 @@ ModelFreeRefineResult RefineTagCornersModelFree(const cv::Mat& grey,
     result.message = "edge fit did not converge";
     return result;
   }
-  TagImageQuality& q = result.quality;
-  q.cell_px = extent->cell_px;
-  q.side_px = extent->cell_px * options.width_at_border;
-  q.gamma = std::exp(shared[3]);
-  const double s1 = std::exp(shared[0]), s2 = std::exp(shared[1]), w = shared[2];
-  q.blur_sigma_px = std::sqrt(std::max(0.0, (1.0 - w) * s1 * s1 + w * s2 * s2));
-  auto encode = [&](double x) { return 255.0 * std::pow(std::max(x, 1e-3) / 255.0, 1.0 / q.gamma); };
-  q.contrast_grey = 1e9;
-  int pixels = 0, saturated = 0;
   std::array<internal::EdgeLine, 4> lines;
-  for (int k = 0; k < 4; ++k) {
-    if (!(p[k][3] > 1.0)) {
-      result.message = "edge " + std::to_string(k) + " fitted without contrast";
-      return result;
-    }
-    const cv::Point2d n(std::cos(p[k][0]), std::sin(p[k][0]));
-    lines[k] = internal::EdgeLine{n * p[k][1], cv::Point2d(-n.y, n.x)};
-    q.contrast_grey = std::min(q.contrast_grey, encode(p[k][2] + p[k][3]) - encode(p[k][2]));
-    // Each edge's own residual: an occluder spoils one edge, not the mean.
-    const size_t m = bands[k].pixels.value.size();
-    std::vector<double> r(m);
-    double* blocks[] = {p[k].data(), shared};
-    internal::ModelFreeCost(&bands[k].pixels).Evaluate(blocks, r.data(), nullptr);
-    double sq = 0.0;
-    for (double v : r) sq += v * v;
-    q.rms_residual_grey = std::max(q.rms_residual_grey, std::sqrt(sq / m));
-    pixels += static_cast<int>(m);
-    saturated += bands[k].saturated;
-  }
-  q.saturated_fraction = static_cast<double>(saturated) / std::max(1, pixels);
-  q.relative_residual = q.rms_residual_grey / std::max(1.0, q.contrast_grey);
+  if (!ReadFittedEdges(fit, extent->cell_px, options, &lines, &result)) return result;
   internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
   return result;
 }

@@ -165,14 +165,13 @@ std::optional<CodeCheck> CheckTagCode(const cv::Mat& grey, const TagCorners& cor
   return out;
 }
 
-std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
-                                                const CameraModel* lens) {
-  const double h = 0.5 * cells.n;
-  const auto to_plane = CellsToPlane(corners, cells.n, lens);
-  if (!to_plane) return std::nullopt;
-  const cv::Matx33d& H = *to_plane;
-  DataCorrelation out;
-  // The border: the outer rings of the bitmap all one colour.
+namespace {
+
+// The bitmap drawn at `kScale` samples a cell, with `kPad` cells of white around.
+constexpr int kScale = 8, kPad = 2;
+
+// How many outer rings of the bitmap are all one colour: the border.
+int BorderRings(const TagCells& cells) {
   const auto ring_of = [&](int row, int col) { return std::min({row, col, cells.n - 1 - row, cells.n - 1 - col}); };
   std::vector<bool> uniform(static_cast<size_t>(cells.n), true);
   for (int row = 0; row < cells.n; ++row)
@@ -181,9 +180,22 @@ std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCo
         uniform[static_cast<size_t>(ring_of(row, col))] = false;
   int border = 0;
   while (border < cells.n / 2 && uniform[static_cast<size_t>(border)]) ++border;
-  // The data area pixel by pixel, each pixel's place on the tag through the
-  // inverse homography.
-  const double inner = h - border;  // the data bits
+  return border;
+}
+
+// The image's pixels over the data area: where each lies on the tag (cells)
+// and its grey level.
+struct DataSamples {
+  std::vector<cv::Point2d> where;  // cells
+  std::vector<double> observed;
+};
+
+// The data area pixel by pixel (every `stride`-th in a large tag), each
+// pixel's place on the tag through the inverse of `H` (cells -> the
+// undistorted plane); those within `inner` cells of the centre. Nullopt when
+// the tag's box misses the image.
+std::optional<DataSamples> SampleDataArea(const cv::Mat& grey, const TagCorners& corners, const cv::Matx33d& H,
+                                          double inner, const CameraModel* lens) {
   cv::Rect box = cv::boundingRect(std::vector<cv::Point2f>{
       cv::Point2f(static_cast<float>(corners[0].x), static_cast<float>(corners[0].y)),
       cv::Point2f(static_cast<float>(corners[1].x), static_cast<float>(corners[1].y)),
@@ -197,24 +209,64 @@ std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCo
     for (int x = box.x; x < box.x + box.width; x += stride) pixels.emplace_back(x, y);
   std::vector<cv::Point2d> plane = lens ? lens->UndistortToNormalized(pixels) : pixels;
   const cv::Matx33d Hinv = H.inv();
-  std::vector<cv::Point2d> where;  // cells
-  std::vector<double> observed;
+  DataSamples samples;
   for (size_t i = 0; i < pixels.size(); ++i) {
     if (!std::isfinite(plane[i].x) || !std::isfinite(plane[i].y)) continue;
     const cv::Point2d c = Apply(Hinv, plane[i]);
     if (!(std::abs(c.x) < inner && std::abs(c.y) < inner)) continue;
-    where.push_back(c);
-    observed.push_back(grey.at<std::uint8_t>(static_cast<int>(pixels[i].y), static_cast<int>(pixels[i].x)));
+    samples.where.push_back(c);
+    samples.observed.push_back(grey.at<std::uint8_t>(static_cast<int>(pixels[i].y), static_cast<int>(pixels[i].x)));
   }
-  if (where.size() < 16) return std::nullopt;
-  // The bitmap drawn at `kScale` samples a cell (white 1), blurred.
-  constexpr int kScale = 8, kPad = 2;
+  return samples;
+}
+
+// The tag's bitmap at `kScale` samples a cell (white 1), `kPad` cells of white around.
+cv::Mat DrawBitmap(const TagCells& cells) {
   const int side = (cells.n + 2 * kPad) * kScale;
   cv::Mat bitmap(side, side, CV_32F, cv::Scalar(1.0f));
   for (int row = 0; row < cells.n; ++row)
     for (int col = 0; col < cells.n; ++col)
       if (cells.Black(row, col))
         bitmap(cv::Rect((col + kPad) * kScale, (row + kPad) * kScale, kScale, kScale)).setTo(0.0f);
+  return bitmap;
+}
+
+// The blurred bitmap at tag point `where` (cells, centre at 0, y up; `h`
+// half the tag's cells), bilinearly.
+double BitmapAt(const cv::Mat& blurred, const cv::Point2d& where, double h) {
+  const int side = blurred.rows;
+  // Bitmap column/row of the point, in samples (pixel centres at +0.5).
+  const double x = (where.x + h + kPad) * kScale - 0.5, y = (h - where.y + kPad) * kScale - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  const auto at = [&](int yy, int xx) {
+    return static_cast<double>(blurred.at<float>(std::clamp(yy, 0, side - 1), std::clamp(xx, 0, side - 1)));
+  };
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
+         fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+}
+
+}  // namespace
+
+std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCorners& corners, const TagCells& cells,
+                                                const CameraModel* lens) {
+  const double h = 0.5 * cells.n;
+  const auto to_plane = CellsToPlane(corners, cells.n, lens);
+  if (!to_plane) return std::nullopt;
+  const cv::Matx33d& H = *to_plane;
+  DataCorrelation out;
+  // The border: the outer rings of the bitmap all one colour.
+  const int border = BorderRings(cells);
+  // The data area pixel by pixel, each pixel's place on the tag through the
+  // inverse homography.
+  const double inner = h - border;  // the data bits
+  const std::optional<DataSamples> samples = SampleDataArea(grey, corners, H, inner, lens);
+  if (!samples) return std::nullopt;
+  const std::vector<cv::Point2d>& where = samples->where;
+  const std::vector<double>& observed = samples->observed;
+  if (where.size() < 16) return std::nullopt;
+  // The bitmap drawn at `kScale` samples a cell (white 1), blurred.
+  const cv::Mat bitmap = DrawBitmap(cells);
   double perimeter = 0.0;
   for (int k = 0; k < 4; ++k) perimeter += cv::norm(corners[(k + 1) % 4] - corners[k]);
   const double cell_px = perimeter / 4.0 / cells.n;
@@ -228,15 +280,7 @@ std::optional<DataCorrelation> CorrelateTagData(const cv::Mat& grey, const TagCo
     cv::GaussianBlur(bitmap, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
     double sum_e = 0.0, sum_ee = 0.0, sum_oe = 0.0;
     for (size_t i = 0; i < where.size(); ++i) {
-      // Bitmap column/row of the point, in samples (pixel centres at +0.5).
-      const double x = (where[i].x + h + kPad) * kScale - 0.5, y = (h - where[i].y + kPad) * kScale - 0.5;
-      const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-      const double fx = x - x0, fy = y - y0;
-      const auto at = [&](int yy, int xx) {
-        return static_cast<double>(blurred.at<float>(std::clamp(yy, 0, side - 1), std::clamp(xx, 0, side - 1)));
-      };
-      const double e = (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
-                       fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
+      const double e = BitmapAt(blurred, where[i], h);
       sum_e += e, sum_ee += e * e, sum_oe += observed[i] * e;
     }
     const double var_e = sum_ee - sum_e * sum_e / n, cov = sum_oe - sum_o * sum_e / n;

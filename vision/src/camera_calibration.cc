@@ -735,50 +735,40 @@ BoardDetection DetectBoard(const cv::Mat& image, const CalibrationBoard& board,
 
 namespace {
 
-BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
-                                  const BoardDetectionOptions& options) {
+// A chessboard's inner corners in `gray`, refined, with their board points.
+BoardDetection DetectChessboard(const cv::Mat& gray, const CalibrationBoard& board,
+                                const BoardDetectionOptions& options) {
   BoardDetection out;
-  cv::Mat gray;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  } else {
-    gray = image;
-  }
-  if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
-
-  if (board.type == CalibrationBoard::Type::kAprilgrid) return DetectAprilgrid(gray, board, options);
-
-  if (board.type == CalibrationBoard::Type::kChessboard) {
-    const cv::Size pattern(board.cols, board.rows);
-    // FAST_CHECK rejects images without a board quickly; ADAPTIVE_THRESH and
-    // NORMALIZE_IMAGE cope with uneven lighting. The classic detector misses
-    // some strongly tilted views (2 of 96 rendered 10-40 degree views); the
-    // sector-based detector finds those, so it is the fallback.
-    const bool found =
-        cv::findChessboardCorners(gray, pattern, out.image_points,
-                                  cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE |
-                                      cv::CALIB_CB_FAST_CHECK) ||
-        (options.sector_fallback && cv::findChessboardCornersSB(gray, pattern, out.image_points));
-    if (!found) {
-      out.message = "chessboard " + std::to_string(board.cols) + "x" + std::to_string(board.rows) +
-                    " not found";
-      out.image_points.clear();
-      return out;
-    }
-    RefineCorners(gray, options.subpix_half_window_px, &out.image_points);
-    // Row-major, x fastest: the order findChessboardCorners returns.
-    for (int r = 0; r < board.rows; ++r) {
-      for (int c = 0; c < board.cols; ++c) {
-        out.object_points.emplace_back(static_cast<float>(c * board.square_m),
-                                       static_cast<float>(r * board.square_m), 0.0f);
-      }
-    }
-    out.found = true;
+  const cv::Size pattern(board.cols, board.rows);
+  // FAST_CHECK rejects images without a board quickly; ADAPTIVE_THRESH and
+  // NORMALIZE_IMAGE cope with uneven lighting. The classic detector misses
+  // some strongly tilted views (2 of 96 rendered 10-40 degree views); the
+  // sector-based detector finds those, so it is the fallback.
+  const bool found = cv::findChessboardCorners(
+                         gray, pattern, out.image_points,
+                         cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK) ||
+                     (options.sector_fallback && cv::findChessboardCornersSB(gray, pattern, out.image_points));
+  if (!found) {
+    out.message = "chessboard " + std::to_string(board.cols) + "x" + std::to_string(board.rows) + " not found";
+    out.image_points.clear();
     return out;
   }
+  RefineCorners(gray, options.subpix_half_window_px, &out.image_points);
+  // Row-major, x fastest: the order findChessboardCorners returns.
+  for (int r = 0; r < board.rows; ++r) {
+    for (int c = 0; c < board.cols; ++c) {
+      out.object_points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m),
+                                     0.0f);
+    }
+  }
+  out.found = true;
+  return out;
+}
 
+// A ChArUco board's corners in `gray` (interpolated from its markers), with
+// their board points; a message when the build has no aruco module.
+BoardDetection DetectCharuco(const cv::Mat& gray, const CalibrationBoard& board, const BoardDetectionOptions& options) {
+  BoardDetection out;
 #ifdef ODOCAL_HAVE_ARUCO
   const auto charuco = MakeCharucoBoard(board);
   std::vector<std::vector<cv::Point2f>> marker_corners;
@@ -812,9 +802,29 @@ BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& 
   for (int id : ids) out.object_points.push_back(charuco->chessboardCorners[id]);
   out.found = true;
 #else
+  (void)gray;
+  (void)board;
+  (void)options;
   out.message = "ChArUco boards are not available in this build (OpenCV without the aruco module)";
 #endif
   return out;
+}
+
+BoardDetection DetectBoardOrThrow(const cv::Mat& image, const CalibrationBoard& board,
+                                  const BoardDetectionOptions& options) {
+  cv::Mat gray;
+  if (image.channels() == 3) {
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+  } else {
+    gray = image;
+  }
+  if (gray.depth() != CV_8U) gray.convertTo(gray, CV_8U);
+
+  if (board.type == CalibrationBoard::Type::kAprilgrid) return DetectAprilgrid(gray, board, options);
+  if (board.type == CalibrationBoard::Type::kChessboard) return DetectChessboard(gray, board, options);
+  return DetectCharuco(gray, board, options);
 }
 
 }  // namespace
@@ -999,6 +1009,70 @@ void CalibrateFisheye(const std::vector<std::vector<cv::Point3f>>& objects,
   result->message = "ok";
 }
 
+// Each corner weighed by its stated sigma against the views' median
+// (min(1, median / sigma): the usual corner 1, an uncertain one less,
+// none more: the median stands for the model's own error), when every
+// view states them (the aprilgrid's edge fits); else none.
+std::vector<std::vector<double>> CornerWeights(const std::vector<BoardDetection>& views) {
+  std::vector<std::vector<double>> weights;
+  const bool have_sigmas = std::all_of(views.begin(), views.end(), [](const BoardDetection& v) {
+    return v.point_sigma_px.size() == v.image_points.size();
+  });
+  if (have_sigmas) {
+    std::vector<double> all;
+    for (const BoardDetection& v : views) all.insert(all.end(), v.point_sigma_px.begin(), v.point_sigma_px.end());
+    const double median = calibration::Median(all);
+    if (median > 0.0) {
+      for (const BoardDetection& v : views) {
+        weights.emplace_back();
+        for (double sigma : v.point_sigma_px) weights.back().push_back(sigma > median ? median / sigma : 1.0);
+      }
+    }
+  }
+  return weights;
+}
+
+// The plumb-bob lens by cv::calibrateCamera (from the flat calibration when
+// the board is lifted) into `result`.
+void CalibratePinhole(const std::vector<std::vector<cv::Point3f>>& object_points,
+                      const std::vector<std::vector<cv::Point2f>>& image_points, const cv::Size& image_size,
+                      const CameraCalibrationOptions& options, CameraCalibrationResult* result) {
+  std::string why;
+  int flags = 0;
+  if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
+  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
+  cv::Mat K, D, std_intrinsics, std_extrinsics, per_view;
+  if (!options.board_lift_m.empty()) {
+    // A lifted board is not planar: OpenCV starts from the flat calibration.
+    K = options.initial->CameraMatrix();
+    D = options.initial->DistortionCoeffs();
+    flags |= cv::CALIB_USE_INTRINSIC_GUESS;
+  }
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    result->rms_reprojection_error_px = cv::calibrateCamera(
+        object_points, image_points, image_size, K, D, rvecs, tvecs, std_intrinsics, std_extrinsics, per_view, flags,
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  } catch (const cv::Exception& e) {
+    result->status = StatusCode::kFailed;
+    result->message = "cv::calibrateCamera failed: " + e.err;
+    return;
+  }
+  const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
+  if (!intrinsics || !std::isfinite(result->rms_reprojection_error_px)) {
+    result->status = StatusCode::kFailed;
+    result->message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
+    return;
+  }
+  result->intrinsics = *intrinsics;
+  for (int i = 0; i < static_cast<int>(per_view.total()); ++i)
+    result->per_view_rms_px.push_back(per_view.at<double>(i));
+  for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i)
+    result->sigma[i] = std_intrinsics.at<double>(i);
+  result->status = StatusCode::kOk;
+  result->message = "ok";
+}
+
 }  // namespace
 
 CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views,
@@ -1041,63 +1115,12 @@ CameraCalibrationResult CalibrateCamera(const std::vector<BoardDetection>& views
     return result;
   }
   if (options.lens == LensModel::kEquidistant) {
-    // Each corner weighed by its stated sigma against the views' median
-    // (min(1, median / sigma): the usual corner 1, an uncertain one less,
-    // none more: the median stands for the model's own error), when every
-    // view states them (the aprilgrid's edge fits).
-    std::vector<std::vector<double>> weights;
-    const bool have_sigmas = std::all_of(views.begin(), views.end(), [](const BoardDetection& v) {
-      return v.point_sigma_px.size() == v.image_points.size();
-    });
-    if (options.weight_by_corner_sigma && have_sigmas) {
-      std::vector<double> all;
-      for (const BoardDetection& v : views) all.insert(all.end(), v.point_sigma_px.begin(), v.point_sigma_px.end());
-      const double median = calibration::Median(all);
-      if (median > 0.0) {
-        for (const BoardDetection& v : views) {
-          weights.emplace_back();
-          for (double sigma : v.point_sigma_px)
-            weights.back().push_back(sigma > median ? median / sigma : 1.0);
-        }
-      }
-    }
+    const std::vector<std::vector<double>> weights =
+        options.weight_by_corner_sigma ? CornerWeights(views) : std::vector<std::vector<double>>{};
     CalibrateFisheye(object_points, image_points, weights, image_size, options.threads, &result);
     return result;
   }
-  int flags = 0;
-  if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
-  if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
-  cv::Mat K, D, std_intrinsics, std_extrinsics, per_view;
-  if (!options.board_lift_m.empty()) {
-    // A lifted board is not planar: OpenCV starts from the flat calibration.
-    K = options.initial->CameraMatrix();
-    D = options.initial->DistortionCoeffs();
-    flags |= cv::CALIB_USE_INTRINSIC_GUESS;
-  }
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    result.rms_reprojection_error_px = cv::calibrateCamera(
-        object_points, image_points, image_size, K, D, rvecs, tvecs, std_intrinsics,
-        std_extrinsics, per_view, flags,
-        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
-  } catch (const cv::Exception& e) {
-    result.status = StatusCode::kFailed;
-    result.message = "cv::calibrateCamera failed: " + e.err;
-    return result;
-  }
-  const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
-  if (!intrinsics || !std::isfinite(result.rms_reprojection_error_px)) {
-    result.status = StatusCode::kFailed;
-    result.message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
-    return result;
-  }
-  result.intrinsics = *intrinsics;
-  for (int i = 0; i < static_cast<int>(per_view.total()); ++i)
-    result.per_view_rms_px.push_back(per_view.at<double>(i));
-  for (int i = 0; i < 9 && i < static_cast<int>(std_intrinsics.total()); ++i)
-    result.sigma[i] = std_intrinsics.at<double>(i);
-  result.status = StatusCode::kOk;
-  result.message = "ok";
+  CalibratePinhole(object_points, image_points, image_size, options, &result);
   return result;
 }
 

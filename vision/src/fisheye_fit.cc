@@ -49,27 +49,49 @@ struct EquidistantCorner {
   double w;
 };
 
-}  // namespace
+// The adjustment's state: the views, the lens as it stands (fx, fy, cx,
+// cy, k1..k4) and each view's pose (angle-axis, t) once it has one.
+struct EquidistantAdjustment {
+  const std::vector<std::vector<cv::Point3f>>& objects;
+  const std::vector<std::vector<cv::Point2f>>& images;
+  const std::vector<std::vector<double>>& weights;
+  const Intrinsics& start;
+  double lens[8];
+  std::vector<std::array<double, 6>> poses;
+  std::vector<bool> posed;
 
-std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
-                                             const std::vector<std::vector<cv::Point2f>>& images,
-                                             const std::vector<std::vector<double>>& weights,
-                                             const Intrinsics& start, std::string* why) {
-  double lens[8] = {start.fx, start.fy, start.cx, start.cy, start.distortion[0], start.distortion[1],
-                    start.distortion[2], start.distortion[3]};
-  const auto current = [&] {
+  EquidistantAdjustment(const std::vector<std::vector<cv::Point3f>>& objects_,
+                        const std::vector<std::vector<cv::Point2f>>& images_,
+                        const std::vector<std::vector<double>>& weights_, const Intrinsics& start_)
+      : objects(objects_),
+        images(images_),
+        weights(weights_),
+        start(start_),
+        lens{start_.fx,
+             start_.fy,
+             start_.cx,
+             start_.cy,
+             start_.distortion[0],
+             start_.distortion[1],
+             start_.distortion[2],
+             start_.distortion[3]},
+        poses(objects_.size()),
+        posed(objects_.size(), false) {}
+
+  // The lens as it stands.
+  Intrinsics Current() const {
     Intrinsics in = start;
     in.fx = lens[0], in.fy = lens[1], in.cx = lens[2], in.cy = lens[3];
     in.distortion = {lens[4], lens[5], lens[6], lens[7], 0.0};
     return in;
-  };
-  std::vector<std::array<double, 6>> poses(objects.size());
-  std::vector<bool> posed(objects.size(), false);
+  }
+
   // Each view's pose through the lens as it stands: its corners undistorted
   // to the normalised plane, where the board is a homography away. A view
   // the start lens cannot pose (its corners beyond where a lens fitted
   // without it undistorts) is tried again through the adjusted lens.
-  const auto pose_views = [&](const CameraModel& camera) {
+  // Returns how many views gained a pose.
+  int PoseViews(const CameraModel& camera) {
     int added = 0;
     for (size_t v = 0; v < objects.size(); ++v) {
       if (posed[v]) continue;
@@ -93,24 +115,54 @@ std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::P
       ++added;
     }
     return added;
-  };
-  EquidistantFit out;
-  for (int round = 0; round < 3; ++round) {
-    if (pose_views(CameraModel(current(), CameraMount{})) == 0 && round > 0) break;
-    ceres::Problem problem;
+  }
+
+  // A weighted residual for every corner of every posed view into
+  // `problem`; returns the number of views, `n_points` the corners.
+  int AddResiduals(ceres::Problem* problem, size_t* n_points) {
     int n_views = 0;
-    size_t n_points = 0;
     for (size_t v = 0; v < objects.size(); ++v) {
       if (!posed[v]) continue;
       ++n_views;
       for (size_t i = 0; i < objects[v].size(); ++i) {
         const double w = weights.empty() ? 1.0 : weights[v][i];
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
-                                     new EquidistantCorner(objects[v][i], images[v][i], w)),
-                                 nullptr, lens, poses[v].data());
-        ++n_points;
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<EquidistantCorner, 2, 8, 6>(
+                                      new EquidistantCorner(objects[v][i], images[v][i], w)),
+                                  nullptr, lens, poses[v].data());
+        ++*n_points;
       }
     }
+    return n_views;
+  }
+
+  // The unweighted sum of squared residuals over the posed views (px^2).
+  double UnweightedSquares() const {
+    double sq = 0.0;
+    for (size_t v = 0; v < objects.size(); ++v) {
+      if (!posed[v]) continue;
+      for (size_t i = 0; i < objects[v].size(); ++i) {
+        double r[2];
+        EquidistantCorner(objects[v][i], images[v][i])(lens, poses[v].data(), r);
+        sq += r[0] * r[0] + r[1] * r[1];
+      }
+    }
+    return sq;
+  }
+};
+
+}  // namespace
+
+std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::Point3f>>& objects,
+                                             const std::vector<std::vector<cv::Point2f>>& images,
+                                             const std::vector<std::vector<double>>& weights, const Intrinsics& start,
+                                             std::string* why) {
+  EquidistantAdjustment fit(objects, images, weights, start);
+  EquidistantFit out;
+  for (int round = 0; round < 3; ++round) {
+    if (fit.PoseViews(CameraModel(fit.Current(), CameraMount{})) == 0 && round > 0) break;
+    ceres::Problem problem;
+    size_t n_points = 0;
+    const int n_views = fit.AddResiduals(&problem, &n_points);
     if (n_views < 3) {
       if (why) *why = "fewer than 3 views with a pose through the first lens";
       return std::nullopt;
@@ -129,22 +181,13 @@ std::optional<EquidistantFit> FitEquidistant(const std::vector<std::vector<cv::P
       return std::nullopt;
     }
     // The unweighted RMS, the figure every calibration reports.
-    double sq = 0.0;
-    for (size_t v = 0; v < objects.size(); ++v) {
-      if (!posed[v]) continue;
-      for (size_t i = 0; i < objects[v].size(); ++i) {
-        double r[2];
-        EquidistantCorner(objects[v][i], images[v][i])(lens, poses[v].data(), r);
-        sq += r[0] * r[0] + r[1] * r[1];
-      }
-    }
-    out.rms_px = std::sqrt(sq / static_cast<double>(n_points));
+    out.rms_px = std::sqrt(fit.UnweightedSquares() / static_cast<double>(n_points));
     out.weighted_rms_px = std::sqrt(2.0 * summary.final_cost / static_cast<double>(n_points));
   }
   out.views_left_out.clear();
   for (size_t v = 0; v < objects.size(); ++v)
-    if (!posed[v]) out.views_left_out.push_back(static_cast<int>(v));
-  out.intrinsics = current();
+    if (!fit.posed[v]) out.views_left_out.push_back(static_cast<int>(v));
+  out.intrinsics = fit.Current();
   if (!out.intrinsics.IsValid(why)) return std::nullopt;
   return out;
 }

@@ -395,103 +395,120 @@ static void sleep_callback(avr_t* avr, avr_cycle_count_t how_long) {
 
 /* ---- Main ------------------------------------------------------------ */
 
-int main(int argc, char** argv) {
+/* The command line. */
+typedef struct {
+  const char* elf_path;
+  const char* eeprom_path;
+  const char* mcu;
+  unsigned long freq;
+  unsigned long cut_after;
+  unsigned long eeprom_write_us;
+} board_args_t;
+
+/* Reads the options into `a`; -1 to go on, else the exit code (help, misuse). */
+static int parse_args(int argc, char** argv, board_args_t* a) {
   static const struct option options[] = {
       {"elf", required_argument, NULL, 'e'},   {"eeprom", required_argument, NULL, 'p'},
       {"mcu", required_argument, NULL, 'm'},   {"freq", required_argument, NULL, 'f'},
       {"cut-after-writes", required_argument, NULL, 'c'},
       {"eeprom-write-us", required_argument, NULL, 'w'},
       {"help", no_argument, NULL, 'h'},        {NULL, 0, NULL, 0}};
-  const char* elf_path = NULL;
-  const char* eeprom_path = NULL;
-  const char* mcu = "atmega328p";
-  unsigned long freq = 16000000ul;
-  unsigned long cut_after = 0;
-  unsigned long eeprom_write_us = 3400;
-  static elf_firmware_t fw;
-  static bridge_t bridge;
-  avr_t* avr;
-  uint8_t* eeprom;
-  size_t eeprom_size;
-  FILE* out;
-  sigset_t block, old;
-  struct sigaction sa;
-  int opt, saved_stdout;
-
+  int opt;
+  a->elf_path = NULL;
+  a->eeprom_path = NULL;
+  a->mcu = "atmega328p";
+  a->freq = 16000000ul;
+  a->cut_after = 0;
+  a->eeprom_write_us = 3400;
   while ((opt = getopt_long(argc, argv, "", options, NULL)) != -1) {
     switch (opt) {
-      case 'e': elf_path = optarg; break;
-      case 'p': eeprom_path = optarg; break;
-      case 'm': mcu = optarg; break;
+      case 'e':
+        a->elf_path = optarg;
+        break;
+      case 'p':
+        a->eeprom_path = optarg;
+        break;
+      case 'm':
+        a->mcu = optarg;
+        break;
       case 'f': {
         char* end;
-        freq = strtoul(optarg, &end, 10);
-        if (*end != '\0' || freq == 0) die("--freq: not a frequency in Hz: %s", optarg);
+        a->freq = strtoul(optarg, &end, 10);
+        if (*end != '\0' || a->freq == 0) die("--freq: not a frequency in Hz: %s", optarg);
         break;
       }
       case 'c': {
         char* end;
-        cut_after = strtoul(optarg, &end, 10);
-        if (*end != '\0' || cut_after == 0) die("--cut-after-writes: not a count: %s", optarg);
+        a->cut_after = strtoul(optarg, &end, 10);
+        if (*end != '\0' || a->cut_after == 0) die("--cut-after-writes: not a count: %s", optarg);
         break;
       }
       case 'w': {
         char* end;
-        eeprom_write_us = strtoul(optarg, &end, 10);
-        if (*end != '\0' || eeprom_write_us > 1000000ul) die("--eeprom-write-us: not a time in us: %s", optarg);
+        a->eeprom_write_us = strtoul(optarg, &end, 10);
+        if (*end != '\0' || a->eeprom_write_us > 1000000ul) die("--eeprom-write-us: not a time in us: %s", optarg);
         break;
       }
       case 'h': usage(stdout); return 0;
       default: usage(stderr); return 2;
     }
   }
-  if (elf_path == NULL || eeprom_path == NULL || optind != argc) {
+  if (a->elf_path == NULL || a->eeprom_path == NULL || optind != argc) {
     usage(stderr);
     return 2;
   }
+  return -1;
+}
 
-  /* simavr and uart_pty print progress on stdout; stdout is ours for the one
-   * "pty" line, so everything else goes to stderr. */
-  saved_stdout = dup(STDOUT_FILENO);
+/* simavr and uart_pty print progress on stdout; stdout is ours for the one
+ * "pty" line, so everything else goes to stderr. The returned stream is the
+ * real stdout. */
+static FILE* take_stdout(void) {
+  FILE* out;
+  const int saved_stdout = dup(STDOUT_FILENO);
   if (saved_stdout < 0 || dup2(STDERR_FILENO, STDOUT_FILENO) < 0) die("dup: %s", strerror(errno));
   out = fdopen(saved_stdout, "w");
   if (out == NULL) die("fdopen: %s", strerror(errno));
+  return out;
+}
 
-  if (access(elf_path, R_OK) != 0) die("%s: %s", elf_path, strerror(errno));
-  if (elf_read_firmware(elf_path, &fw) != 0) die("%s: not a readable AVR ELF file", elf_path);
-  avr = avr_make_mcu_by_name(mcu);
-  if (avr == NULL) die("unknown part: %s", mcu);
+/* The part with the firmware loaded, at the given clock. */
+static avr_t* load_part(const board_args_t* a, elf_firmware_t* fw) {
+  avr_t* avr;
+  if (access(a->elf_path, R_OK) != 0) die("%s: %s", a->elf_path, strerror(errno));
+  if (elf_read_firmware(a->elf_path, fw) != 0) die("%s: not a readable AVR ELF file", a->elf_path);
+  avr = avr_make_mcu_by_name(a->mcu);
+  if (avr == NULL) die("unknown part: %s", a->mcu);
   avr_init(avr);
   avr->log = LOG_ERROR;
-  snprintf(fw.mmcu, sizeof fw.mmcu, "%s", mcu);
-  fw.frequency = (uint32_t)freq;
-  avr_load_firmware(avr, &fw);
-  avr->frequency = (uint32_t)freq;
-  sim_frequency = freq;
+  snprintf(fw->mmcu, sizeof fw->mmcu, "%s", a->mcu);
+  fw->frequency = (uint32_t)a->freq;
+  avr_load_firmware(avr, fw);
+  avr->frequency = (uint32_t)a->freq;
+  sim_frequency = a->freq;
+  return avr;
+}
 
-  eeprom = map_eeprom(avr, eeprom_path, &eeprom_size);
-  wrap_eeprom(avr, eeprom, eeprom_size, (uint32_t)eeprom_write_us, cut_after);
-
-  /* The pty thread must not take SIGTERM / SIGINT (its select would fail
-   * and the thread end): block them while it is created, then take them here. */
+/* The pty thread must not take SIGTERM / SIGINT (its select would fail
+ * and the thread end): block them while it is created, then take them here. */
+static void start_bridge(avr_t* avr, bridge_t* bridge) {
+  sigset_t block, old;
+  struct sigaction sa;
   sigemptyset(&block);
   sigaddset(&block, SIGTERM);
   sigaddset(&block, SIGINT);
   pthread_sigmask(SIG_BLOCK, &block, &old);
-  bridge_init(avr, &bridge);
+  bridge_init(avr, bridge);
   memset(&sa, 0, sizeof sa);
   sa.sa_handler = on_signal;
   sigaction(SIGTERM, &sa, NULL);
   sigaction(SIGINT, &sa, NULL);
   pthread_sigmask(SIG_SETMASK, &old, NULL);
+}
 
-  sleep_bridge = &bridge;
-  avr->sleep = sleep_callback;
-  clock_gettime(CLOCK_MONOTONIC, &wall_base);
-
-  fprintf(out, "pty %s\n", bridge.pty.pty.slavename);
-  fflush(out);
-
+/* Runs the core until a signal stops it: 0, or 3 when the firmware can never
+ * wake up or the core crashed. */
+static int run_until_stopped(avr_t* avr, bridge_t* bridge) {
   while (!stop_signal) {
     int i, state = cpu_Running;
     /* ~2000 instructions (about 0.15 ms at 16 MHz) between pumps. */
@@ -509,7 +526,7 @@ int main(int argc, char** argv) {
               (unsigned)avr->pc, (unsigned long long)avr->cycle);
       return 3;
     }
-    bridge_pump(&bridge);
+    bridge_pump(bridge);
     /* Running code: hold simulated time within ~1 ms ahead of the wall. */
     {
       struct timespec now;
@@ -518,6 +535,35 @@ int main(int argc, char** argv) {
       if (ts_ns(&wall_base) + sim_ns > ts_ns(&now) + 1000000u) sync_to_wall(avr->cycle);
     }
   }
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  static elf_firmware_t fw;
+  static bridge_t bridge;
+  board_args_t args;
+  avr_t* avr;
+  uint8_t* eeprom;
+  size_t eeprom_size;
+  FILE* out;
+  int code = parse_args(argc, argv, &args);
+  if (code >= 0) return code;
+
+  out = take_stdout();
+  avr = load_part(&args, &fw);
+  eeprom = map_eeprom(avr, args.eeprom_path, &eeprom_size);
+  wrap_eeprom(avr, eeprom, eeprom_size, (uint32_t)args.eeprom_write_us, args.cut_after);
+  start_bridge(avr, &bridge);
+
+  sleep_bridge = &bridge;
+  avr->sleep = sleep_callback;
+  clock_gettime(CLOCK_MONOTONIC, &wall_base);
+
+  fprintf(out, "pty %s\n", bridge.pty.pty.slavename);
+  fflush(out);
+
+  code = run_until_stopped(avr, &bridge);
+  if (code != 0) return code;
   msync(eeprom, eeprom_size, MS_SYNC);
   return 0;
 }

@@ -74,7 +74,7 @@ struct KalibrGrid {
     board.cols = board.rows = 6;
     board.square_m = 0.088;
     board.spacing = 0.3;
-    pattern = vision::AprilgridPattern(board);
+    pattern = vision::AprilgridPattern(board).value;
     for (int id = 0; id < 36; ++id)
       for (int k = 0; k < 4; ++k)
         points.push_back(vision::AprilgridPointInPattern(board, *board.AprilgridCorner(id, k)));

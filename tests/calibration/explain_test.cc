@@ -81,23 +81,23 @@ std::vector<RunSpec> Circles() {
 // held-out run from 1.4 to 4.0 mm), so it is tested with PreciseCamera.
 std::vector<HiddenEffect> HiddenEffects() {
   std::vector<HiddenEffect> list(11);
-  list[0] = {"tag_offset", {}, {{"x_m", 0.030}, {"y_m", -0.015}}, {}};
+  list[0] = {"tag_offset", {}, {{"x_m", 0.030}, {"y_m", -0.015}}, {}, std::nullopt};
   list[0].effects.tag_offset = sim::TagOffsetEffect{0.030, -0.015};
-  list[1] = {"camera_latency", {}, {{"latency_s", 0.080}}, {}};
+  list[1] = {"camera_latency", {}, {{"latency_s", 0.080}}, {}, std::nullopt};
   list[1].effects.camera_latency = sim::CameraLatencyEffect{0.080};
-  list[2] = {"turn_slip", {}, {{"fraction_at_1rad_s", 0.03}}, {}};
+  list[2] = {"turn_slip", {}, {{"fraction_at_1rad_s", 0.03}}, {}, std::nullopt};
   list[2].effects.turn_slip = sim::TurnSlipEffect{0.03};
-  list[3] = {"lens_distortion", {}, {{"k1", 0.01}}, {}};
+  list[3] = {"lens_distortion", {}, {{"k1", 0.01}}, {}, std::nullopt};
   list[3].effects.lens_distortion = sim::LensDistortionEffect{0.01};
-  list[4] = {"encoder_backlash", {}, {{"ticks", 12.0}}, {}};
+  list[4] = {"encoder_backlash", {}, {{"ticks", 12.0}}, {}, std::nullopt};
   list[4].effects.encoder_backlash = sim::EncoderBacklashEffect{12.0};
-  list[5] = {"carpet_drift", {}, {{"grain_rad", 30.0 * M_PI / 180.0}, {"rate_m_per_m", 0.010}}, {}};
+  list[5] = {"carpet_drift", {}, {{"grain_rad", 30.0 * M_PI / 180.0}, {"rate_m_per_m", 0.010}}, {}, std::nullopt};
   list[5].effects.carpet_drift = sim::CarpetDriftEffect{30.0 * M_PI / 180.0, 0.010};
-  list[6] = {"tracker_yaw", {}, {{"yaw_rad", 2.0 * M_PI / 180.0}}, {}};
+  list[6] = {"tracker_yaw", {}, {{"yaw_rad", 2.0 * M_PI / 180.0}}, {}, std::nullopt};
   list[6].effects.tracker_yaw = sim::TrackerYawEffect{2.0 * M_PI / 180.0};
-  list[7] = {"speed_slip", {}, {{"fraction_at_1m_s", 0.04}}, SlowOutAndBack()};
+  list[7] = {"speed_slip", {}, {{"fraction_at_1m_s", 0.04}}, SlowOutAndBack(), std::nullopt};
   list[7].effects.speed_slip = sim::SpeedSlipEffect{0.04};
-  list[8] = {"arc_scale", {}, {{"fraction_at_1_per_m", 0.002}}, Circles()};
+  list[8] = {"arc_scale", {}, {{"fraction_at_1_per_m", 0.002}}, Circles(), std::nullopt};
   list[8].effects.arc_scale = sim::ArcScaleEffect{0.002};
   list[9] = {"rolling_shutter", {}, {{"readout_s", 0.020}}, {}, PreciseCamera()};
   list[9].effects.rolling_shutter = sim::RollingShutterEffect{0.020};

@@ -113,9 +113,8 @@ TEST(CameraIo, ReadsFilesWrittenByCvFileStorage) {
   const auto file = config::ReadCameraFile(path);
   ASSERT_TRUE(file) << file.message;
   EXPECT_EQ(file->format, config::CameraFileFormat::kOpenCv);
-  std::string why;
-  const auto expected = Intrinsics::FromCv(K, D, 1280, 720, &why);
-  ASSERT_TRUE(expected) << why;
+  const auto expected = Intrinsics::FromCv(K, D, 1280, 720);
+  ASSERT_TRUE(expected) << expected.message;
   ExpectSameIntrinsics(file->intrinsics, *expected);
   EXPECT_NEAR(*file->rms_reprojection_error_px, 0.25, 1e-12);
 

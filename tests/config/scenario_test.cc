@@ -120,7 +120,9 @@ TEST(Scenario, EveryRegisteredEffectHasItsSimulatorCounterpart) {
     std::string text = kIssueScenario;
     text.replace(text.find("effects: []"), 11, "effects: [{name: " + std::string(d.name) + "}]");
     const auto s = config::LoadScenario(WriteTemp(text));
-    if (!s) EXPECT_EQ(s.message.find("unknown effect"), std::string::npos) << d.name << ": " << s.message;
+    if (!s) {
+      EXPECT_EQ(s.message.find("unknown effect"), std::string::npos) << d.name << ": " << s.message;
+    }
   }
 }
 

@@ -92,8 +92,8 @@ TEST(CameraModel, BehindTheCameraIsNotProjected) {
 TEST(Intrinsics, OpenCvMatrixRoundTripAndValidation) {
   const Intrinsics in = testing::StandardIntrinsics();
   std::string why;
-  const auto back = Intrinsics::FromCv(in.CameraMatrix(), in.DistortionCoeffs(), 1920, 1080, &why);
-  ASSERT_TRUE(back) << why;
+  const auto back = Intrinsics::FromCv(in.CameraMatrix(), in.DistortionCoeffs(), 1920, 1080);
+  ASSERT_TRUE(back) << back.message;
   EXPECT_NEAR(back->fx, 1400.0, 1e-12);
   EXPECT_NEAR(back->cy, 540.0, 1e-12);
   EXPECT_NEAR(back->distortion[0], -0.12, 1e-12);
@@ -101,11 +101,13 @@ TEST(Intrinsics, OpenCvMatrixRoundTripAndValidation) {
   // ROS camera_info "plumb_bob" D has 5 entries; 8-entry rational models
   // with non-zero k4..k6 are not representable and must be refused.
   cv::Mat d8 = (cv::Mat_<double>(1, 8) << -0.1, 0.01, 0, 0, 0, 0.2, 0, 0);
-  EXPECT_FALSE(Intrinsics::FromCv(in.CameraMatrix(), d8, 1920, 1080, &why));
-  EXPECT_THAT(why, ::testing::HasSubstr("higher"));
+  const auto higher = Intrinsics::FromCv(in.CameraMatrix(), d8, 1920, 1080);
+  EXPECT_FALSE(higher);
+  EXPECT_EQ(higher.status, StatusCode::kInvalidArgument);
+  EXPECT_THAT(higher.message, ::testing::HasSubstr("higher"));
   cv::Mat k_bad = in.CameraMatrix();
   k_bad.at<double>(0, 0) = -5;
-  EXPECT_FALSE(Intrinsics::FromCv(k_bad, cv::Mat(), 1920, 1080, &why));
+  EXPECT_FALSE(Intrinsics::FromCv(k_bad, cv::Mat(), 1920, 1080));
   Intrinsics zero;
   EXPECT_FALSE(zero.IsValid(&why));
   EXPECT_FALSE(why.empty());

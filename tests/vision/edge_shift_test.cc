@@ -66,9 +66,8 @@ Figures MeasureRendered(const ImageFormationOptions& formation, double print_sca
   o.formation = formation;
   auto r = Renderer::Create(camera, tag, o);
   EXPECT_TRUE(r.ok) << r.message;
-  std::string why;
-  const auto cells = TagCells::Of(tag.family, tag.id, &why);
-  EXPECT_TRUE(cells) << why;
+  const auto cells = TagCells::Of(tag.family, tag.id);
+  EXPECT_TRUE(cells) << cells.message;
   Figures f;
   for (const Pose2& pose : Places()) {
     const RenderedFrame frame = r.renderer->Render(pose);
@@ -97,12 +96,11 @@ Figures MeasureRendered(const ImageFormationOptions& formation, double print_sca
 }
 
 TEST(EdgeShift, TagCellsFollowTheBitmap) {
-  std::string why;
-  const auto one = TagCells::Of("tag36h11", 5, &why);
-  ASSERT_TRUE(one) << why;
+  const auto one = TagCells::Of("tag36h11", 5);
+  ASSERT_TRUE(one) << one.message;
   EXPECT_EQ(one->n, 8);
-  const auto two = TagCells::Of("tag36h11b2", 5, &why);
-  ASSERT_TRUE(two) << why;
+  const auto two = TagCells::Of("tag36h11b2", 5);
+  ASSERT_TRUE(two) << two.message;
   EXPECT_EQ(two->n, 10);
   // The border is black all round; the data cells are the same bits.
   for (int i = 0; i < 10; ++i) {
@@ -110,9 +108,11 @@ TEST(EdgeShift, TagCellsFollowTheBitmap) {
   }
   for (int r = 1; r < 7; ++r)
     for (int c = 1; c < 7; ++c) EXPECT_EQ(one->Black(r, c), two->Black(r + 1, c + 1)) << r << "," << c;
-  EXPECT_FALSE(TagCells::Of("tag99h1", 0, &why));
-  EXPECT_NE(why.find("tag99h1"), std::string::npos);
-  EXPECT_FALSE(TagCells::Of("tag36h11", 100000, &why));
+  const auto unknown = TagCells::Of("tag99h1", 0);
+  EXPECT_FALSE(unknown);
+  EXPECT_EQ(unknown.status, StatusCode::kInvalidArgument);
+  EXPECT_NE(unknown.message.find("tag99h1"), std::string::npos);
+  EXPECT_FALSE(TagCells::Of("tag36h11", 100000));
 }
 
 // odocal's own renderer draws the print exactly: no shift to find.
@@ -225,9 +225,8 @@ TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
   };
   for (const Case& c : {Case{"tag36h11", 8.0, 0.3, 0.8}, Case{"tag36h11", 8.0, -0.25, 0.8},
                         Case{"tag36h11b2", 3.0, -0.15, 0.8}, Case{"tag36h11b2", 3.0, 0.2, 1.0}}) {
-    std::string why;
-    const auto cells = TagCells::Of(c.family, 7, &why);
-    ASSERT_TRUE(cells) << why;
+    const auto cells = TagCells::Of(c.family, 7);
+    ASSERT_TRUE(cells) << cells.message;
     const double half = 0.5 * cells->n;
     for (double angle : {0.0, 0.37, 1.1}) {
       // A slightly perspective square about (60, 60) px.
@@ -280,9 +279,8 @@ TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
 // removes) within 0.02 px.
 TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
   std::mt19937 rng(5);
-  std::string why;
-  const auto cells = TagCells::Of("tag36h11b2", 7, &why);
-  ASSERT_TRUE(cells) << why;
+  const auto cells = TagCells::Of("tag36h11b2", 7);
+  ASSERT_TRUE(cells) << cells.message;
   const double half = 0.5 * cells->n;
   struct Case {
     double cell_px, d_px, blur_px;
@@ -355,9 +353,8 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
 // edges' corners are the print's. (At 9 px a turn fails even so.)
 TEST(SmallTag, ANineAndAHalfPixelKalibrTagIsRefinedOnAShorterMargin) {
   std::mt19937 rng(17);
-  std::string why;
-  const auto cells = TagCells::Of("tag36h11b2", 3, &why);
-  ASSERT_TRUE(cells) << why;
+  const auto cells = TagCells::Of("tag36h11b2", 3);
+  ASSERT_TRUE(cells) << cells.message;
   double worst = 0.0, sq = 0.0;
   int n = 0;
   for (double angle : {0.15, 0.6, 1.0, 1.4, 2.3}) {
@@ -384,8 +381,7 @@ TEST(SmallTag, ANineAndAHalfPixelKalibrTagIsRefinedOnAShorterMargin) {
 }
 
 TEST(EdgeShift, RefusesWhatItCannotMeasure) {
-  std::string why;
-  const auto cells = TagCells::Of("tag36h11", 0, &why);
+  const auto cells = TagCells::Of("tag36h11", 0);
   ASSERT_TRUE(cells);
   const cv::Mat flat(100, 100, CV_8U, cv::Scalar(128));
   const std::array<cv::Point2d, 4> c{cv::Point2d(20, 80), {80, 80}, {80, 20}, {20, 20}};

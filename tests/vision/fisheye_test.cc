@@ -71,9 +71,10 @@ TEST(FisheyeLens, ProjectsAsOpenCvsFisheyeModelAndInvertsToMachinePrecision) {
   five.distortion[4] = 0.1;
   EXPECT_FALSE(five.IsValid(&why));
   EXPECT_THAT(why, ::testing::HasSubstr("four coefficients"));
-  EXPECT_FALSE(Intrinsics::FromCv(Fisheye().CameraMatrix(), cv::Mat::zeros(1, 5, CV_64F), 1600, 1200, &why,
-                                  LensModel::kEquidistant));
-  EXPECT_THAT(why, ::testing::HasSubstr("exactly 4 coefficients"));
+  const auto five_coefficients =
+      Intrinsics::FromCv(Fisheye().CameraMatrix(), cv::Mat::zeros(1, 5, CV_64F), 1600, 1200, LensModel::kEquidistant);
+  EXPECT_FALSE(five_coefficients);
+  EXPECT_THAT(five_coefficients.message, ::testing::HasSubstr("exactly 4 coefficients"));
   EXPECT_EQ(ParseLensModel("pinhole-equi"), LensModel::kEquidistant);
   EXPECT_EQ(ParseLensModel("radtan"), LensModel::kPlumbBob);
   EXPECT_FALSE(ParseLensModel("kannala"));

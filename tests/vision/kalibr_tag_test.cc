@@ -163,11 +163,11 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
   const CameraModel camera = testing::StandardCamera();
   auto r = Renderer::Create(camera, tag, testing::StandardRender());
   ASSERT_TRUE(r.ok) << r.message;
-  std::string error;
   for (const Pose2& truth : {Pose2::FromXYHeading(0.02, -1.0, 0.4), Pose2::FromXYHeading(-1.05, -0.6, -2.0),
                              Pose2::FromXYHeading(1.0, -1.45, 2.9)}) {
-    auto observer = TagObserver::Create(tag, camera.intrinsics(), VideoTrackOptions{}, &error);
-    ASSERT_TRUE(observer) << error;
+    auto created = TagObserver::Create(tag, camera.intrinsics(), VideoTrackOptions{});
+    ASSERT_TRUE(created) << created.message;
+    std::unique_ptr<TagObserver>& observer = *created;
     double sx = 0, sy = 0, sh = 0;
     constexpr int kFrames = 10;
     for (int i = 0; i < kFrames; ++i) {
@@ -217,7 +217,7 @@ std::vector<Eigen::Vector3d> AprilgridTruthPoints(const CalibrationBoard& board)
 
 RenderedGridScene GridScene(int count, unsigned seed) {
   RenderedGridScene scene;
-  scene.pattern = AprilgridPattern(scene.board);
+  scene.pattern = AprilgridPattern(scene.board).value;
   scene.truth_points = AprilgridTruthPoints(scene.board);
   BoardPoseSampling sampling;
   sampling.count = count;
@@ -322,7 +322,7 @@ TEST(KalibrTagRendered, FisheyeAprilgridCornersThroughTheLens) {
   RenderedGridScene scene;
   scene.intrinsics = Intrinsics{640, 480, 300.0, 301.0, 318.5, 242.25, {-0.03, 0.006, -0.002, 0.0004, 0.0}};
   scene.intrinsics.lens = LensModel::kEquidistant;
-  scene.pattern = AprilgridPattern(scene.board);
+  scene.pattern = AprilgridPattern(scene.board).value;
   scene.truth_points = AprilgridTruthPoints(scene.board);
   BoardPoseSampling sampling;
   sampling.count = 10;

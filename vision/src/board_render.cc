@@ -71,9 +71,10 @@ std::optional<AprilgridCells> GridCells(const CalibrationBoard& board, std::stri
 
 }  // namespace
 
-std::optional<BoardPattern> AprilgridPattern(const CalibrationBoard& board, std::string* why) {
-  const auto g = GridCells(board, why);
-  if (!g) return std::nullopt;
+Result<BoardPattern> AprilgridPattern(const CalibrationBoard& board) {
+  std::string why;
+  const auto g = GridCells(board, &why);
+  if (!g) return Result<BoardPattern>::Error(StatusCode::kInvalidArgument, why);
   const int pitch = g->width + g->gap;
   BoardPattern p;
   p.cells = cv::Mat(board.rows * pitch + g->gap, board.cols * pitch + g->gap, CV_8U, cv::Scalar(255));
@@ -99,7 +100,7 @@ std::optional<BoardPattern> AprilgridPattern(const CalibrationBoard& board, std:
   }
   p.cell_m = board.square_m / g->width;
   p.margin_m = g->gap * p.cell_m;
-  return p;
+  return Result<BoardPattern>::Ok(std::move(p));
 }
 
 Eigen::Vector3d AprilgridPointInPattern(const CalibrationBoard& board, const cv::Point3f& kalibr_point) {

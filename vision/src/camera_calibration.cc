@@ -369,8 +369,7 @@ struct AprilgridSearch {
         FoundTag f;
         f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, *predicted, lens, refine, {0, 0}, &f.cov);
         if (!f.refined.ok) continue;
-        std::string why;
-        const auto cells = TagCells::Of(board.tag_family, id, &why);
+        const auto cells = TagCells::Of(board.tag_family, id);
         const auto code = cells ? internal::CheckTagCode(gray, f.refined.corners_px, *cells, lens) : std::nullopt;
         // The bits read at their centres; for a small tag, its whole data
         // area against its bitmap's and every other id's.
@@ -383,7 +382,7 @@ struct AprilgridSearch {
             double rival = 0.0;
             for (int other = board.first_id; other < board.first_id + board.cols * board.rows; ++other) {
               if (other == id) continue;
-              const auto other_cells = TagCells::Of(board.tag_family, other, &why);
+              const auto other_cells = TagCells::Of(board.tag_family, other);
               const auto r = other_cells ? internal::CorrelateTagData(gray, f.refined.corners_px, *other_cells, lens)
                                          : std::nullopt;
               if (r) rival = std::max(rival, r->correlation);
@@ -481,8 +480,7 @@ struct AprilgridSearch {
   void FitWholeTags() {
     std::vector<EdgeShiftResult> shifts;
     for (size_t t = 0; t < out.tag_ids.size(); ++t) {
-      std::string why;
-      const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t], &why);
+      const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t]);
       if (!cells) continue;
       const TagPatternResult r = RefineTagByPattern(gray, refined[t], *cells, lens);
       shifts.push_back(r.shift);
@@ -506,8 +504,7 @@ struct AprilgridSearch {
     const size_t stride = std::max<size_t>(
         1, out.tag_ids.size() / static_cast<size_t>(std::max(1, options.aprilgrid_edge_shift_tags)));
     for (size_t t = 0; t < out.tag_ids.size(); t += stride) {
-      std::string why;
-      if (const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t], &why))
+      if (const auto cells = TagCells::Of(board.tag_family, out.tag_ids[t]))
         shifts.push_back(MeasureEdgeShift(gray, refined[t], *cells, lens));
     }
     const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
@@ -890,10 +887,9 @@ std::optional<Intrinsics> FisheyeFit(const std::vector<std::vector<cv::Point3f>>
           obj, img, size, K, D, rvecs, tvecs,
           cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW | cv::fisheye::CALIB_CHECK_COND,
           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12));
-      std::string ignored;
       if (std::isfinite(e))
         if (const auto start = Intrinsics::FromCv(cv::Mat(K), cv::Mat(D).reshape(1, 1), size.width, size.height,
-                                                  &ignored, LensModel::kEquidistant))
+                                                  LensModel::kEquidistant))
           starts.push_back(*start);
       break;
     } catch (const cv::Exception& e) {
@@ -1037,7 +1033,6 @@ std::vector<std::vector<double>> CornerWeights(const std::vector<BoardDetection>
 void CalibratePinhole(const std::vector<std::vector<cv::Point3f>>& object_points,
                       const std::vector<std::vector<cv::Point2f>>& image_points, const cv::Size& image_size,
                       const CameraCalibrationOptions& options, CameraCalibrationResult* result) {
-  std::string why;
   int flags = 0;
   if (options.fix_k3) flags |= cv::CALIB_FIX_K3;
   if (options.fix_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
@@ -1058,10 +1053,11 @@ void CalibratePinhole(const std::vector<std::vector<cv::Point3f>>& object_points
     result->message = "cv::calibrateCamera failed: " + e.err;
     return;
   }
-  const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height, &why);
+  const auto intrinsics = Intrinsics::FromCv(K, D, image_size.width, image_size.height);
   if (!intrinsics || !std::isfinite(result->rms_reprojection_error_px)) {
     result->status = StatusCode::kFailed;
-    result->message = "calibration gave no valid camera: " + (intrinsics ? "non-finite error" : why);
+    result->message =
+        "calibration gave no valid camera: " + (intrinsics ? std::string("non-finite error") : intrinsics.message);
     return;
   }
   result->intrinsics = *intrinsics;

@@ -73,20 +73,18 @@ cv::Mat Intrinsics::DistortionCoeffs() const {
           distortion[4]);
 }
 
-std::optional<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix,
-                                             const cv::Mat& dist_coeffs, int width, int height,
-                                             std::string* why, LensModel lens) {
+Result<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix, const cv::Mat& dist_coeffs, int width, int height,
+                                      LensModel lens) {
+  using R = Result<Intrinsics>;
   if (camera_matrix.rows != 3 || camera_matrix.cols != 3) {
-    if (why) *why = "camera matrix must be 3x3";
-    return std::nullopt;
+    return R::Error(StatusCode::kInvalidArgument, "camera matrix must be 3x3");
   }
   cv::Mat k;
   camera_matrix.convertTo(k, CV_64F);
   if (std::abs(k.at<double>(0, 1)) > 1e-9 || std::abs(k.at<double>(1, 0)) > 1e-9 ||
       std::abs(k.at<double>(2, 0)) > 1e-9 || std::abs(k.at<double>(2, 1)) > 1e-9 ||
       std::abs(k.at<double>(2, 2) - 1.0) > 1e-9) {
-    if (why) *why = "camera matrix must be [fx 0 cx; 0 fy cy; 0 0 1] (no skew)";
-    return std::nullopt;
+    return R::Error(StatusCode::kInvalidArgument, "camera matrix must be [fx 0 cx; 0 fy cy; 0 0 1] (no skew)");
   }
   Intrinsics in;
   in.width = width;
@@ -100,9 +98,9 @@ std::optional<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix,
     cv::Mat d;
     dist_coeffs.reshape(1, 1).convertTo(d, CV_64F);
     if (d.cols != 4) {
-      if (why) *why = "an equidistant (fisheye) lens has exactly 4 coefficients k1 k2 k3 k4, got " +
-                      std::to_string(d.cols);
-      return std::nullopt;
+      return R::Error(
+          StatusCode::kInvalidArgument,
+          "an equidistant (fisheye) lens has exactly 4 coefficients k1 k2 k3 k4, got " + std::to_string(d.cols));
     }
     for (int i = 0; i < 4; ++i) in.distortion[i] = d.at<double>(0, i);
   } else if (!dist_coeffs.empty()) {
@@ -110,23 +108,19 @@ std::optional<Intrinsics> Intrinsics::FromCv(const cv::Mat& camera_matrix,
     dist_coeffs.reshape(1, 1).convertTo(d, CV_64F);
     const int n = d.cols;
     if (n != 4 && n < 5) {
-      if (why) *why = "distortion must have 4, 5 or more coefficients";
-      return std::nullopt;
+      return R::Error(StatusCode::kInvalidArgument, "distortion must have 4, 5 or more coefficients");
     }
     for (int i = 0; i < std::min(n, 5); ++i) in.distortion[i] = d.at<double>(0, i);
     for (int i = 5; i < n; ++i) {
       if (std::abs(d.at<double>(0, i)) > 1e-12) {
-        if (why) *why = "only k1 k2 p1 p2 k3 are modelled; higher coefficients must be zero";
-        return std::nullopt;
+        return R::Error(StatusCode::kInvalidArgument,
+                        "only k1 k2 p1 p2 k3 are modelled; higher coefficients must be zero");
       }
     }
   }
   std::string reason;
-  if (!in.IsValid(&reason)) {
-    if (why) *why = reason;
-    return std::nullopt;
-  }
-  return in;
+  if (!in.IsValid(&reason)) return R::Error(StatusCode::kInvalidArgument, reason);
+  return R::Ok(in);
 }
 
 Eigen::Isometry3d CameraMount::T_world_camera() const {

@@ -39,20 +39,14 @@ bool EdgeShiftOptions::IsValid(std::string* why) const {
   return solver.IsValid(why);
 }
 
-std::optional<TagCells> TagCells::Of(const std::string& family, int id, std::string* why) {
+Result<TagCells> TagCells::Of(const std::string& family, int id) {
+  using R = Result<TagCells>;
   auto f = internal::CreateFamily(family);
-  if (!f) {
-    if (why) *why = "unknown tag family '" + family + "'";
-    return std::nullopt;
-  }
-  if (id < 0 || id >= static_cast<int>(f->ncodes)) {
-    if (why) *why = "tag id " + std::to_string(id) + " is not in family " + family;
-    return std::nullopt;
-  }
-  if (f->reversed_border) {
-    if (why) *why = "family " + family + " has its black border inside (not measured)";
-    return std::nullopt;
-  }
+  if (!f) return R::Error(StatusCode::kInvalidArgument, "unknown tag family '" + family + "'");
+  if (id < 0 || id >= static_cast<int>(f->ncodes))
+    return R::Error(StatusCode::kInvalidArgument, "tag id " + std::to_string(id) + " is not in family " + family);
+  if (f->reversed_border)
+    return R::Error(StatusCode::kInvalidArgument, "family " + family + " has its black border inside (not measured)");
   internal::ImageU8Ptr im(apriltag_to_image(f.get(), id));
   TagCells cells;
   cells.n = static_cast<int>(f->width_at_border);
@@ -61,7 +55,7 @@ std::optional<TagCells> TagCells::Of(const std::string& family, int id, std::str
   for (int r = 0; r < cells.n; ++r)
     for (int c = 0; c < cells.n; ++c)
       cells.black[static_cast<size_t>(r * cells.n + c)] = im->buf[(r + start) * im->stride + c + start] < 128;
-  return cells;
+  return R::Ok(std::move(cells));
 }
 
 namespace {

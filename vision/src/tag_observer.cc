@@ -20,28 +20,22 @@ bool VideoTrackOptions::IsValid(std::string* why) const {
   return true;
 }
 
-std::unique_ptr<TagObserver> TagObserver::Create(const TagSpec& tag, const Intrinsics& intrinsics,
-                                                 const VideoTrackOptions& options, std::string* error) {
+Result<std::unique_ptr<TagObserver>> TagObserver::Create(const TagSpec& tag, const Intrinsics& intrinsics,
+                                                         const VideoTrackOptions& options) {
+  using R = Result<std::unique_ptr<TagObserver>>;
   std::string why;
-  if (!options.IsValid(&why)) {
-    if (error) *error = "options: " + why;
-    return nullptr;
-  }
+  if (!options.IsValid(&why)) return R::Error(StatusCode::kInvalidArgument, "options: " + why);
   DetectorOptions detector_options = options.detector;
   detector_options.family = tag.family;
   TagDetectorResult created = TagDetector::Create(detector_options);
-  if (!created.ok) {
-    if (error) *error = created.message;
-    return nullptr;
-  }
+  if (!created.ok) return R::Error(StatusCode::kInvalidArgument, created.message);
   // The refinement sized for the family's black border (a cell is the side
   // over it), unless the caller chose a width; families with the border
   // inside the data (tagStandard41h12) keep the default.
   VideoTrackOptions sized = options;
-  std::string no_cells;
-  if (options.refine.width_at_border == CornerRefineOptions{}.width_at_border && TagCells::Of(tag.family, tag.id, &no_cells))
+  if (options.refine.width_at_border == CornerRefineOptions{}.width_at_border && TagCells::Of(tag.family, tag.id))
     sized.refine.width_at_border = TagWidthAtBorder(tag.family);
-  return std::unique_ptr<TagObserver>(new TagObserver(tag, intrinsics, sized, std::move(created.detector)));
+  return R::Ok(std::unique_ptr<TagObserver>(new TagObserver(tag, intrinsics, sized, std::move(created.detector))));
 }
 
 TagObserver::TagObserver(const TagSpec& tag, const Intrinsics& intrinsics,

@@ -126,8 +126,7 @@ void RefineSurveyedTag(const cv::Mat& grey, const CameraModel* camera, const std
   // The edge shift (edge_shift.h), measured in the tag and taken out of
   // its corners: they are then the print's, and a pose from them has
   // the print's distance.
-  std::string why;
-  if (const auto cells = TagCells::Of(family, t.id, &why)) {
+  if (const auto cells = TagCells::Of(family, t.id)) {
     const EdgeShiftResult shift = MeasureEdgeShift(grey, t.corners_px, *cells, camera);
     if (shift.ok) {
       t.edge_shift_px = shift.shift_px;

@@ -163,9 +163,8 @@ CameraFile ParseKalibr(const YAML::Node& cam, const std::string& name) {
   const cv::Mat K = (cv::Mat_<double>(3, 3) << k[0], 0.0, k[2], 0.0, k[1], k[3], 0.0, 0.0, 1.0);
   // Kalibr's radtan is [k1 k2 r1 r2] = OpenCV's k1 k2 p1 p2.
   const cv::Mat D = (cv::Mat_<double>(1, 4) << d[0], d[1], d[2], d[3]);
-  std::string why;
-  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, *lens);
-  if (!intrinsics) Throw(key + "intrinsics", why);
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, *lens);
+  if (!intrinsics) Throw(key + "intrinsics", intrinsics.message);
   CameraFile file;
   file.format = CameraFileFormat::kRos;
   file.intrinsics = *intrinsics;
@@ -256,8 +255,8 @@ CameraFile ParseRoot(const YAML::Node& root) {
   const cv::Mat K = ReadMatrix(k_node, k_key);
   if (K.rows != 3 || K.cols != 3)
     Throw(k_key, "expected a 3x3 matrix, got " + std::to_string(K.rows) + "x" + std::to_string(K.cols));
-  std::string why;
-  if (!vision::Intrinsics::FromCv(K, cv::Mat(), width, height, &why)) Throw(k_key, why);
+  if (const auto k_only = vision::Intrinsics::FromCv(K, cv::Mat(), width, height); !k_only)
+    Throw(k_key, k_only.message);
 
   std::string d_key = "distortion_coefficients";
   const auto d_node = Find(root, kDistortionKeys, &d_key);
@@ -266,8 +265,8 @@ CameraFile ParseRoot(const YAML::Node& root) {
   const cv::Mat D = ReadMatrix(*d_node, d_key);
   if (D.rows != 1 && D.cols != 1)
     Throw(d_key, "expected a 1xN or Nx1 vector, got " + std::to_string(D.rows) + "x" + std::to_string(D.cols));
-  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, &why, lens);
-  if (!intrinsics) Throw(d_key, why);
+  const auto intrinsics = vision::Intrinsics::FromCv(K, D, width, height, lens);
+  if (!intrinsics) Throw(d_key, intrinsics.message);
   file.intrinsics = *intrinsics;
 
   ReadCalibrationNotes(root, file);

@@ -92,9 +92,13 @@ records::Limits ParseStationLimits(const YAML::Node& limits) {
   using namespace yaml_util;
   ExpectMap(limits, "limits");
   std::string text;
-  for (const auto& kv : limits)
-    text += (text.empty() ? "" : ",") + kv.first.as<std::string>() + "=" +
-            String(kv.second, "limits." + kv.first.as<std::string>());
+  for (const auto& kv : limits) {
+    const std::string key = kv.first.as<std::string>();
+    if (!text.empty()) text += ',';
+    text += key;
+    text += '=';
+    text += String(kv.second, "limits." + key);
+  }
   const Result<records::Limits> parsed = records::ParseLimits(text);
   if (!parsed) yaml_util::Fail(limits, "limits", parsed.message);
   return *parsed;

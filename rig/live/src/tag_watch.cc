@@ -45,11 +45,10 @@ Result<std::unique_ptr<TagWatch>> TagWatch::Create(const vision::TagSpec& tag, c
                                                    LiveState* state) {
   vision::VideoTrackOptions track;
   track.keep_crops = false;
-  std::string why;
-  std::unique_ptr<vision::TagObserver> observer = vision::TagObserver::Create(tag, intrinsics, track, &why);
-  if (!observer) return Result<std::unique_ptr<TagWatch>>::Error(StatusCode::kInvalidArgument, why);
+  auto observer = vision::TagObserver::Create(tag, intrinsics, track);
+  if (!observer) return Result<std::unique_ptr<TagWatch>>::From(observer);
   return Result<std::unique_ptr<TagWatch>>::Ok(
-      std::unique_ptr<TagWatch>(new TagWatch(tag, intrinsics, mount_guess, state, std::move(observer))));
+      std::unique_ptr<TagWatch>(new TagWatch(tag, intrinsics, mount_guess, state, std::move(*observer))));
 }
 
 TagWatch::TagWatch(const vision::TagSpec& tag, const vision::Intrinsics& intrinsics,

@@ -318,10 +318,9 @@ vision::EdgeShiftEstimate MeasureTagEdgeShift(const std::vector<const vision::Fr
                                               const vision::TagSpec& tag, const vision::CameraModel& lens,
                                               int max_frames) {
   vision::EdgeShiftEstimate none;
-  std::string why;
-  const std::optional<vision::TagCells> cells = vision::TagCells::Of(tag.family, tag.id, &why);
+  const Result<vision::TagCells> cells = vision::TagCells::Of(tag.family, tag.id);
   if (!cells) {
-    none.message = why;
+    none.message = cells.message;
     return none;
   }
   std::vector<vision::EdgeShiftResult> measured;

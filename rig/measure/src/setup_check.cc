@@ -140,8 +140,7 @@ double RemoveTheEdgeShift(const std::vector<SetupFrame>& frames, const SetupChec
   const std::vector<size_t>& frame_of = still->frame_of;
   double print_side_px = r->quality.side_px;
   {
-    std::string why;
-    if (const auto cells = vision::TagCells::Of(options.tag.family, options.tag.id, &why)) {
+    if (const auto cells = vision::TagCells::Of(options.tag.family, options.tag.id)) {
       std::vector<vision::EdgeShiftResult> shifts;
       const size_t step = std::max<size_t>(1, corners.size() / 8);
       for (size_t k = 0; k < corners.size(); k += step)

@@ -67,11 +67,12 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
     track.message = opened.message;
     return track;
   }
-  std::unique_ptr<vision::TagObserver> observer = vision::TagObserver::Create(tag, intrinsics, options, &why);
-  if (!observer) {
-    track.message = why;
+  auto created = vision::TagObserver::Create(tag, intrinsics, options);
+  if (!created) {
+    track.message = created.message;
     return track;
   }
+  std::unique_ptr<vision::TagObserver> observer = std::move(*created);
   const double fps = reader.fps() > 0.0 ? reader.fps() : 30.0;
 
   const Clock::time_point start = Clock::now();

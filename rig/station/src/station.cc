@@ -829,8 +829,9 @@ std::optional<Station::Failure> Station::CheckInputs(StationResult* result) {
     return Failure{StationStatus::kInvalidInput, "the plan's UMBMark squares need both cw and ccw runs"};
   if (!driver_->CanApply() && options_.max_rounds > 1)
     Log("the driver cannot apply parameters: one round, then the corrected set is written for you to load");
-  observer_ = vision::TagObserver::Create(setup_.tag, setup_.intrinsics, options_.track, &why);
-  if (!observer_) return Failure{StationStatus::kInvalidInput, "tag detector: " + why};
+  auto observer = vision::TagObserver::Create(setup_.tag, setup_.intrinsics, options_.track);
+  if (!observer) return Failure{StationStatus::kInvalidInput, "tag detector: " + observer.message};
+  observer_ = std::move(*observer);
   guess_camera_.emplace(setup_.intrinsics, setup_.mount_guess);
   return std::nullopt;
 }

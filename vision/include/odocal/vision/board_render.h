@@ -29,6 +29,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 
@@ -52,10 +53,10 @@ struct BoardPattern {
 // board.tag_family, without their white ring), and a black corner square of
 // spacing x tag side at every crossing of the gaps, as Kalibr prints it. The
 // gap must be a whole number of cells (spacing x width_at_border, e.g.
-// 0.3 x 10 = 3); nullopt with `why` otherwise. No margin: the outer corner
+// 0.3 x 10 = 3); kInvalidArgument saying why otherwise. No margin: the outer corner
 // squares are the pattern's edge (a white quiet zone is `margin_m`, added
 // here as one gap).
-std::optional<BoardPattern> AprilgridPattern(const CalibrationBoard& board, std::string* why = nullptr);
+Result<BoardPattern> AprilgridPattern(const CalibrationBoard& board);
 // A point of the aprilgrid's own (Kalibr) frame, e.g. AprilgridCorner(),
 // in the frame of AprilgridPattern(): the same plane turned 180 degrees about
 // x (Kalibr's y runs up the print, the pattern's rows down it).

@@ -42,6 +42,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
+
 namespace odocal::vision {
 
 enum class LensModel { kPlumbBob, kEquidistant };
@@ -69,10 +71,9 @@ struct Intrinsics {
   cv::Mat DistortionCoeffs() const;
   // From K (3x3) and D: plumb_bob 4, 5 or more coefficients (extra ones must
   // be zero since only k1..k3 are modelled), equidistant exactly 4.
-  // nullopt with `why` set otherwise.
-  static std::optional<Intrinsics> FromCv(const cv::Mat& camera_matrix, const cv::Mat& dist_coeffs,
-                                          int width, int height, std::string* why,
-                                          LensModel lens = LensModel::kPlumbBob);
+  // kInvalidArgument saying what is wrong otherwise.
+  static Result<Intrinsics> FromCv(const cv::Mat& camera_matrix, const cv::Mat& dist_coeffs, int width, int height,
+                                   LensModel lens = LensModel::kPlumbBob);
 };
 
 // The camera's pose over the floor, in the config-file units.

@@ -38,6 +38,7 @@
 #include <opencv2/core.hpp>
 
 #include "odocal/base/solver_settings.h"
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -55,8 +56,9 @@ struct TagCells {
     return row >= 0 && col >= 0 && row < n && col < n && black[static_cast<size_t>(row * n + col)] != 0;
   }
   // From libapriltag's bitmap of the family's tag `id` (any family tag.h
-  // knows, the 2-bit-border ones included); nullopt with `why` otherwise.
-  static std::optional<TagCells> Of(const std::string& family, int id, std::string* why);
+  // knows, the 2-bit-border ones included); kInvalidArgument naming the
+  // family or the id otherwise.
+  static Result<TagCells> Of(const std::string& family, int id);
 };
 
 struct EdgeShiftOptions {

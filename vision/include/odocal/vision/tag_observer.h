@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/corner_refine.h"
 #include "odocal/vision/detector.h"
@@ -64,9 +65,10 @@ struct FrameObservation {
 // exactly as the video path does them.
 class TagObserver {
  public:
-  // nullptr with `*error` set when the options or the detector are invalid.
-  static std::unique_ptr<TagObserver> Create(const TagSpec& tag, const Intrinsics& intrinsics,
-                                             const VideoTrackOptions& options, std::string* error);
+  // kInvalidArgument naming what is wrong when the options or the detector
+  // are invalid.
+  static Result<std::unique_ptr<TagObserver>> Create(const TagSpec& tag, const Intrinsics& intrinsics,
+                                                     const VideoTrackOptions& options);
   ~TagObserver();
   TagObserver(const TagObserver&) = delete;
   TagObserver& operator=(const TagObserver&) = delete;

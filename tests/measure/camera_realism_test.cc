@@ -176,7 +176,7 @@ TEST(RestQuality, OverexposedRestHasAFatalFlagAndNoNumber) {
   const auto rest = measure::MeasureRestExactly(RestFrames(over, camera, tag, 4), -1, 1, camera, tag, &q);
   EXPECT_FALSE(rest);
   ASSERT_FALSE(q.flags.empty());
-  EXPECT_EQ(q.flags.front(), "overexposed");
+  EXPECT_EQ(q.flags.front(), vision::ObservationFlag::kOverexposed);
   EXPECT_TRUE(measure::IsFatalFlag("image_quality:end_rest:overexposed"));
 }
 

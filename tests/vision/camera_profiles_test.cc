@@ -39,7 +39,7 @@ struct Measured {
   std::string why;
   Pose2 pose;
   TagImageQuality quality;
-  std::vector<std::string> flags;
+  std::vector<ObservationFlag> flags;
 };
 
 // Detection, the per-frame refinement, then the PSF- and tone-free one.
@@ -66,7 +66,7 @@ Measured Measure(const cv::Mat& image, const CameraModel& camera, const TagSpec&
   const PlanarPoseResult pose = MeasureTagPose(camera, tag, fine.corners_px);
   m.ok = pose.ok && m.flags.empty();
   m.pose = pose.T_world_robot;
-  if (!m.flags.empty()) m.why = m.flags.front();
+  if (!m.flags.empty()) m.why = ToString(m.flags.front());
   return m;
 }
 

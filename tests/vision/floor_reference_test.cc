@@ -104,7 +104,7 @@ TEST(FloorReference, CentresAreUnbiasedWhateverTheImageModelAndPrintScale) {
     ASSERT_EQ(seen.size(), kTags.size());
     for (size_t i = 0; i < kTags.size(); ++i) {
       SCOPED_TRACE(name + ", tag " + std::to_string(kTags[i].id));
-      ASSERT_TRUE(seen[i].usable()) << ::testing::PrintToString(seen[i].flags);
+      ASSERT_TRUE(seen[i].usable()) << ::testing::PrintToString(ToStrings(seen[i].flags));
       EXPECT_EQ(seen[i].frames_used, 4);
       const cv::Point2d truth = TrueCentre(camera, kTags[i]);
       // Within 2.5 of the stated sigma per axis (0.05 px floor: 0.09 mm on this floor).
@@ -179,7 +179,8 @@ TEST(FloorReference, UnseenOrDuplicatedTagsAreNamed) {
   const std::vector<FloorTagSighting> seen =
       ObserveFloorTags(RenderFrames(camera, testing::StandardRender(), 1.0, 2), camera.intrinsics(), r);
   ASSERT_EQ(seen.size(), 5u);
-  EXPECT_THAT(seen[4].flags, ::testing::ElementsAre("not_seen"));
+  EXPECT_THAT(seen[4].flags, ::testing::ElementsAre(ObservationFlag::kNotSeen));
+  EXPECT_STREQ(ToString(seen[4].flags[0]), "not_seen");
   const FloorScaleResult result = EstimateFloorScale(camera, seen, r, 0.0, 0.0);
   EXPECT_FALSE(result.ok);
   EXPECT_THAT(result.message, HasSubstr("1-9"));

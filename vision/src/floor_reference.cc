@@ -44,7 +44,7 @@ CameraModel Tilted(const CameraModel& camera, double droll_deg, double dpitch_de
 struct FloorTagEvidence {
   std::vector<cv::Point2d> centres;
   std::vector<TagImageQuality> qualities;
-  std::map<std::string, int> reasons;
+  std::map<ObservationFlag, int> reasons;
   int duplicates = 0;
 };
 
@@ -57,9 +57,9 @@ struct SightingRefiner {
   // Adds one frame's single detection of the tag to its evidence.
   void Add(const cv::Mat& frame, const TagDetection& hit, FloorTagEvidence* evidence) const {
     const ModelFreeRefineResult r = RefineTagCornersModelFree(frame, hit.corners_px, &lens, refine);
-    const std::vector<std::string> flags =
-        r.ok ? QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
-    for (const std::string& f : flags) ++evidence->reasons[f];
+    const std::vector<ObservationFlag> flags =
+        r.ok ? QualityFlags(r.quality, gate) : std::vector<ObservationFlag>{ObservationFlag::kEdgesNotFitted};
+    for (const ObservationFlag f : flags) ++evidence->reasons[f];
     if (!flags.empty()) return;
     const std::vector<cv::Point2d> undistorted = lens.UndistortToNormalized({r.corners_px.begin(), r.corners_px.end()});
     const std::optional<cv::Point2d> c = DiagonalCrossing(undistorted);
@@ -95,16 +95,16 @@ void SummariseSighting(const FloorTagEvidence& evidence, const Intrinsics& intri
   FloorTagSighting& s = *sighting;
   s.frames_used = static_cast<int>(evidence.centres.size());
   if (s.frames_seen == 0) {
-    s.flags.push_back("not_seen");
+    s.flags.push_back(ObservationFlag::kNotSeen);
     return;
   }
   if (evidence.duplicates > 0) {
-    s.flags.push_back("duplicate_id");
+    s.flags.push_back(ObservationFlag::kDuplicateId);
     return;
   }
   if (2 * s.frames_used < s.frames_seen || s.frames_used < 2) {
     // The commonest reason the frames were refused.
-    std::string reason = "edges_not_fitted";
+    ObservationFlag reason = ObservationFlag::kEdgesNotFitted;
     int most = 0;
     for (const auto& [name, count] : evidence.reasons)
       if (count > most) most = count, reason = name;
@@ -258,7 +258,7 @@ std::vector<FloorTagSighting> ObserveFloorTags(const std::vector<cv::Mat>& frame
   TagDetectorResult created = TagDetector::Create(detector_options);
   auto family = internal::CreateFamily(reference.family);
   if (!created.ok || !family) {
-    for (FloorTagSighting& s : out) s.flags.push_back("detector_unavailable");
+    for (FloorTagSighting& s : out) s.flags.push_back(ObservationFlag::kDetectorUnavailable);
     return out;
   }
   CornerRefineOptions refine;

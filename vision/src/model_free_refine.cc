@@ -27,12 +27,40 @@ bool QualityGate::IsValid(std::string* why) const {
   return true;
 }
 
-std::vector<std::string> QualityFlags(const TagImageQuality& q, const QualityGate& gate) {
-  std::vector<std::string> flags;
-  if (q.saturated_fraction > gate.max_saturated_fraction) flags.push_back("overexposed");
-  if (q.contrast_grey < gate.min_contrast_grey) flags.push_back("low_contrast");
-  if (q.blur_sigma_px > gate.max_blur_cells * q.cell_px) flags.push_back("defocused");
-  if (q.relative_residual > gate.max_relative_residual) flags.push_back("edge_not_straight");
+const char* ToString(ObservationFlag flag) {
+  switch (flag) {
+    case ObservationFlag::kDefocused:
+      return "defocused";
+    case ObservationFlag::kDetectorUnavailable:
+      return "detector_unavailable";
+    case ObservationFlag::kDuplicateId:
+      return "duplicate_id";
+    case ObservationFlag::kEdgeNotStraight:
+      return "edge_not_straight";
+    case ObservationFlag::kEdgesNotFitted:
+      return "edges_not_fitted";
+    case ObservationFlag::kLowContrast:
+      return "low_contrast";
+    case ObservationFlag::kNotSeen:
+      return "not_seen";
+    case ObservationFlag::kOverexposed:
+      return "overexposed";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> ToStrings(const std::vector<ObservationFlag>& flags) {
+  std::vector<std::string> out;
+  for (const ObservationFlag f : flags) out.emplace_back(ToString(f));
+  return out;
+}
+
+std::vector<ObservationFlag> QualityFlags(const TagImageQuality& q, const QualityGate& gate) {
+  std::vector<ObservationFlag> flags;
+  if (q.saturated_fraction > gate.max_saturated_fraction) flags.push_back(ObservationFlag::kOverexposed);
+  if (q.contrast_grey < gate.min_contrast_grey) flags.push_back(ObservationFlag::kLowContrast);
+  if (q.blur_sigma_px > gate.max_blur_cells * q.cell_px) flags.push_back(ObservationFlag::kDefocused);
+  if (q.relative_residual > gate.max_relative_residual) flags.push_back(ObservationFlag::kEdgeNotStraight);
   return flags;
 }
 

@@ -90,11 +90,10 @@ nlohmann::json BatchMeasuredJson(const std::vector<measure::SessionMeasurement>&
                            {"runs", nlohmann::json::array()},
                            {"trajectories", nlohmann::json::array()}};
   for (const measure::SessionMeasurement& sm : measured) {
-    report["sessions"].push_back(
-        {{"session", sm.session.path},
-         {"camera_plane", report::PlaneJson(sm)},
-         {"camera_scale", report::CameraScaleJson(sm)},
-         {"flags", sm.flags}});
+    report["sessions"].push_back({{"session", sm.session.path},
+                                  {"camera_plane", report::PlaneJson(sm)},
+                                  {"camera_scale", report::CameraScaleJson(sm)},
+                                  {"flags", measure::ToStrings(sm.flags)}});
     if (!sm.segments.empty()) {
       nlohmann::json found = nlohmann::json::array();
       for (const measure::SegmentAssignment& a : sm.segments)

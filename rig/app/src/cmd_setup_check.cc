@@ -145,7 +145,7 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                   {"blur_sigma_px", r.quality.blur_sigma_px},
                   {"saturated_fraction", r.quality.saturated_fraction},
                   {"grid_angle_deg", r.grid_angle_deg},
-                  {"flags", r.quality_flags}};
+                  {"flags", vision::ToStrings(r.quality_flags)}};
   j["camera_mount"] = {{"x_mm", r.mount.x_mm},         {"y_mm", r.mount.y_mm},
                        {"height_mm", r.mount.height_mm}, {"roll_deg", r.mount.roll_deg},
                        {"pitch_deg", r.mount.pitch_deg}, {"yaw_deg", r.mount.yaw_deg},

@@ -152,9 +152,9 @@ void MeasureRestsAndReturnError(const MeasureOptions& options, const vision::Cam
         **rest = *exact;
       } else if (q && !quality.flags.empty()) {
         // The images cannot support the number: no value, say why.
-        for (const std::string& f : quality.flags)
-          m.flags.push_back(
-              RunFlag::Of(RunFlagKind::kImageQuality, std::string(start ? "start_rest:" : "end_rest:") + f));
+        for (const vision::ObservationFlag f : quality.flags)
+          m.flags.push_back(RunFlag::Of(RunFlagKind::kImageQuality,
+                                        std::string(start ? "start_rest:" : "end_rest:") + vision::ToString(f)));
       } else {
         m.flags.push_back(RunFlag::Of(RunFlagKind::kExactRefinementFailed));
       }
@@ -214,7 +214,7 @@ std::string Percent(double fraction, int decimals) {
 // The scale from a usable floor reference: the camera's height above the
 // reference's tags (to `mount`), and what the robot tag's print then measures.
 void ScaleFromFloorReference(const vision::FloorReference& reference, double tag_mm, double apparent_sigma,
-                             vision::CameraMount* mount, std::vector<std::string>* flags, CameraScale& scale) {
+                             vision::CameraMount* mount, std::vector<SessionFlag>* flags, CameraScale& scale) {
   const vision::FloorScaleResult& f = *scale.floor;
   const double above_ref = f.camera_height_mm - tag_mm;
   const double above_tag = mount->height_mm - tag_mm;
@@ -233,7 +233,7 @@ void ScaleFromFloorReference(const vision::FloorReference& reference, double tag
                       Percent(*scale.tag_print_scale_sigma, 2) + (off >= 0.0 ? " large" : " small") +
                       " (or looks it: tone curve, blur)";
   if (f.inconsistent) {
-    if (flags) flags->push_back("floor_reference_inconsistent");
+    if (flags) flags->push_back(SessionFlag::kFloorReferenceInconsistent);
     scale.explanation += "; the measured distances disagree beyond their sigmas (a tag moved? a misread tape?)";
   }
   mount->height_mm = f.camera_height_mm;
@@ -254,13 +254,29 @@ std::string EdgeShiftText(const vision::EdgeShiftEstimate& shift) {
 
 }  // namespace
 
+const char* ToString(SessionFlag flag) {
+  switch (flag) {
+    case SessionFlag::kCameraPlaneNotEstimated:
+      return "camera_plane_not_estimated:using_operator_guess";
+    case SessionFlag::kFloorReferenceUnusable:
+      return "floor_reference_unusable";
+    case SessionFlag::kFloorReferenceInconsistent:
+      return "floor_reference_inconsistent";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> ToStrings(const std::vector<SessionFlag>& flags) {
+  std::vector<std::string> out;
+  for (const SessionFlag f : flags) out.emplace_back(ToString(f));
+  return out;
+}
+
 CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
-                                std::optional<double> tag_size_sigma_mm,
-                                const vision::CameraPlaneResult* plane,
-                                const vision::FloorReference* reference,
-                                const std::vector<cv::Mat>& floor_frames,
+                                std::optional<double> tag_size_sigma_mm, const vision::CameraPlaneResult* plane,
+                                const vision::FloorReference* reference, const std::vector<cv::Mat>& floor_frames,
                                 const CameraScaleOptions& options, vision::CameraMount* mount,
-                                std::vector<std::string>* flags, const vision::EdgeShiftEstimate* edge_shift) {
+                                std::vector<SessionFlag>* flags, const vision::EdgeShiftEstimate* edge_shift) {
   CameraScale scale;
   scale.with_floor_reference = reference != nullptr;
   if (edge_shift) scale.edge_shift = *edge_shift;
@@ -286,7 +302,7 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
       ScaleFromFloorReference(*reference, tag_mm, apparent_sigma, mount, flags, scale);
       return scale;
     }
-    if (flags) flags->push_back("floor_reference_unusable");
+    if (flags) flags->push_back(SessionFlag::kFloorReferenceUnusable);
   }
   const std::string shift_text = edge_shift ? EdgeShiftText(*edge_shift) : std::string();
   scale.source = CameraScale::Source::kTagSize;
@@ -399,14 +415,15 @@ namespace {
 // A refined frame's quality, to quality.per_frame (its flags counted in
 // `reasons`): its corners when the gate raises no flag.
 std::optional<vision::TagCorners> GateFrame(const vision::ModelFreeRefineResult& r, double t_s,
-                                            const vision::QualityGate& gate, std::map<std::string, int>& reasons,
-                                            RestQuality& quality) {
+                                            const vision::QualityGate& gate,
+                                            std::map<vision::ObservationFlag, int>& reasons, RestQuality& quality) {
   FrameQuality fq;
   fq.t_s = t_s;
   fq.fitted = r.ok;
   fq.quality = r.quality;
-  fq.flags = r.ok ? vision::QualityFlags(r.quality, gate) : std::vector<std::string>{"edges_not_fitted"};
-  for (const std::string& reason : fq.flags) ++reasons[reason];
+  fq.flags = r.ok ? vision::QualityFlags(r.quality, gate)
+                  : std::vector<vision::ObservationFlag>{vision::ObservationFlag::kEdgesNotFitted};
+  for (const vision::ObservationFlag reason : fq.flags) ++reasons[reason];
   std::optional<vision::TagCorners> corners;
   if (fq.flags.empty()) corners = r.corners_px;
   quality.per_frame.push_back(std::move(fq));
@@ -415,7 +432,8 @@ std::optional<vision::TagCorners> GateFrame(const vision::ModelFreeRefineResult&
 
 // The rest's quality: frames tried and usable, the median fitted frame, and
 // the frames' reasons when most were unusable.
-void SummariseRestQuality(int tried, int usable, const std::map<std::string, int>& reasons, RestQuality& quality) {
+void SummariseRestQuality(int tried, int usable, const std::map<vision::ObservationFlag, int>& reasons,
+                          RestQuality& quality) {
   quality.frames = tried;
   quality.usable = usable;
   std::vector<vision::TagImageQuality> fitted;
@@ -453,7 +471,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
   std::vector<calibration::PoseSample> samples;
   std::vector<std::array<Eigen::Vector2d, 4>> closures;
   int tried = 0;
-  std::map<std::string, int> reasons;
+  std::map<vision::ObservationFlag, int> reasons;
   // A still scene through a codec often decodes to the same image frame
   // after frame, and the same input gives the same fit: the previous
   // frame's, when its crop, place and starting corners are this frame's to
@@ -686,7 +704,7 @@ vision::CameraModel SessionCamera(const MeasureOptions& options, SessionMeasurem
   vision::CameraMount mount = fit.mount;
   sm.plane = fit.plane;
   sm.plane_estimated = fit.estimated();
-  if (!sm.plane_estimated) sm.flags.push_back("camera_plane_not_estimated:using_operator_guess");
+  if (!sm.plane_estimated) sm.flags.push_back(SessionFlag::kCameraPlaneNotEstimated);
   {
     const config::Session& session = sm.session;
     const std::vector<cv::Mat> floor_frames =

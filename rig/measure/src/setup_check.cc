@@ -120,7 +120,8 @@ void MedianQuality(const std::vector<vision::TagImageQuality>& qualities, SetupC
     r->quality.rms_residual_grey = med(&vision::TagImageQuality::rms_residual_grey);
     r->quality.relative_residual = med(&vision::TagImageQuality::relative_residual);
     r->quality_flags = vision::QualityFlags(r->quality);
-    for (const std::string& flag : r->quality_flags) r->warnings.push_back("image quality: " + flag);
+    for (const vision::ObservationFlag flag : r->quality_flags)
+      r->warnings.push_back(std::string("image quality: ") + vision::ToString(flag));
     if (r->quality.side_px < 60.0)
       r->warnings.push_back(
           Format("the tag is %.0f px across: below ~60 px the heading error grows (docs/vision.md, "

@@ -70,7 +70,7 @@ nlohmann::json RestQualityJson(const measure::RestQuality& q) {
   for (const measure::FrameQuality& f : q.per_frame) {
     nlohmann::json j = f.fitted ? entry(f.quality) : nlohmann::json::object();
     j["t_s"] = f.t_s;
-    j["flags"] = f.flags;
+    j["flags"] = vision::ToStrings(f.flags);
     frames.push_back(j);
   }
   nlohmann::json j = entry(q.median);
@@ -78,7 +78,7 @@ nlohmann::json RestQualityJson(const measure::RestQuality& q) {
   j["usable_frames"] = q.usable;
   j["shared_error_mm"] = q.shared_error_mm;
   j["independent_error_mm"] = q.independent_error_mm;
-  j["flags"] = q.flags;
+  j["flags"] = vision::ToStrings(q.flags);
   j["per_frame"] = frames;
   return j;
 }
@@ -143,7 +143,7 @@ nlohmann::json CameraScaleJson(const measure::CameraScale& c) {
     nlohmann::json tag = {{"id", t.id},
                           {"frames_seen", t.frames_seen},
                           {"frames_used", t.frames_used},
-                          {"flags", t.flags}};
+                          {"flags", vision::ToStrings(t.flags)}};
     if (t.usable()) {
       tag["centre_px"] = {t.centre_px.x, t.centre_px.y};
       tag["sigma_centre_px"] = t.sigma_centre_px;

@@ -113,7 +113,7 @@ nlohmann::json StationReportJson(const StationResult& result) {
         {"height_mm", result.plane.mount.height_mm},
         {"views", result.plane.views_used}}},
       {"camera_scale", result.camera_scale ? report::CameraScaleJson(*result.camera_scale) : nlohmann::json()},
-      {"flags", result.flags},
+      {"flags", measure::ToStrings(result.flags)},
       {"driver", result.driver},
       {"findings", result.findings},
       {"robot_params_recommended",

@@ -249,7 +249,7 @@ class Station {
   bool plane_estimated_ = false;
   std::vector<cv::Mat> floor_frames_;
   std::optional<measure::CameraScale> camera_scale_;
-  std::vector<std::string> flags_;
+  std::vector<measure::SessionFlag> flags_;
   std::string plan_summary_;
 };
 
@@ -643,10 +643,10 @@ void Station::EstimateScale(vision::CameraMount* mount, const vision::EdgeShiftE
     std::string seen;
     for (const vision::FloorTagSighting& t : camera_scale_->floor_tags) {
       seen += Format("%s%d: %d/%d frames", seen.empty() ? "" : ", ", t.id, t.frames_used, t.frames_seen);
-      for (const std::string& flag : t.flags) seen += " " + flag;
+      for (const vision::ObservationFlag flag : t.flags) seen += std::string(" ") + vision::ToString(flag);
     }
     Log("floor tags " + seen);
-    for (size_t i = flags_before; i < flags_.size(); ++i) Log("flag: " + flags_[i]);
+    for (size_t i = flags_before; i < flags_.size(); ++i) Log(std::string("flag: ") + measure::ToString(flags_[i]));
     if (camera_scale_->source == measure::CameraScale::Source::kFloorReference)
       Log(Format("camera height %.1f mm from the floor reference (sigma %.2f mm); the plane said %.1f mm",
                  mount->height_mm, camera_scale_->sigma_camera_height_mm, plane_.mount.height_mm));

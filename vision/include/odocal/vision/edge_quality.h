@@ -70,8 +70,27 @@ struct QualityGate {
   bool IsValid(std::string* why) const;
 };
 
-// Reasons (flag names) why `quality` fails `gate`; empty when usable.
-std::vector<std::string> QualityFlags(const TagImageQuality& quality, const QualityGate& gate = {});
+// Why an observation of a tag is not used. Each has a stable text
+// (ToString: what report.json and the floor reference's sightings print);
+// nothing matches that text. Declared in the order of their texts, so that a
+// std::map keyed by them lists them as the texts sort.
+enum class ObservationFlag {
+  kDefocused,            // "defocused": blurred wider than the gate's fraction of a cell
+  kDetectorUnavailable,  // "detector_unavailable": the tag family's detector could not be made
+  kDuplicateId,          // "duplicate_id": a floor tag's id seen twice in a frame
+  kEdgeNotStraight,      // "edge_not_straight": the fit's residual too large for a straight edge
+  kEdgesNotFitted,       // "edges_not_fitted": the four edges could not be fitted at all
+  kLowContrast,          // "low_contrast"
+  kNotSeen,              // "not_seen": a floor tag in no frame
+  kOverexposed,          // "overexposed": clipped pixels flatten one side of an edge
+};
+const char* ToString(ObservationFlag flag);
+// The texts, in order (report.json's "flags").
+std::vector<std::string> ToStrings(const std::vector<ObservationFlag>& flags);
+
+// Why `quality` fails `gate` (overexposed, low_contrast, defocused,
+// edge_not_straight, in that order); empty when usable.
+std::vector<ObservationFlag> QualityFlags(const TagImageQuality& quality, const QualityGate& gate = {});
 
 struct ModelFreeRefineResult : CornerRefineResult {
   TagImageQuality quality;  // filled whenever the four edges could be fitted

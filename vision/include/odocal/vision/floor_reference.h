@@ -81,7 +81,7 @@ struct FloorTagSighting {
   cv::Point2d centre_px;          // distorted pixel of the mean centre
   double sigma_centre_px = 0.0;   // of the mean, per axis, floor included
   TagImageQuality median_quality;
-  std::vector<std::string> flags;  // why it was not used ("not_seen", "duplicate_id", quality flags)
+  std::vector<ObservationFlag> flags;  // why it was not used (not_seen, duplicate_id, the quality gate's)
   bool usable() const { return flags.empty(); }
 };
 

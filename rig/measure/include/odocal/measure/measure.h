@@ -108,7 +108,7 @@ struct FrameQuality {
   double t_s = 0.0;
   bool fitted = false;  // false: the edges could not be fitted at all
   vision::TagImageQuality quality;
-  std::vector<std::string> flags;  // QualityFlags; empty = usable
+  std::vector<vision::ObservationFlag> flags;  // QualityFlags; empty = usable
 };
 struct RestQuality {
   int frames = 0, usable = 0;
@@ -120,7 +120,7 @@ struct RestQuality {
   // frame's own. The shared part is in the rest's covariance.
   double shared_error_mm = 0.0;
   double independent_error_mm = 0.0;
-  std::vector<std::string> flags;  // the reasons, when fewer than half are usable
+  std::vector<vision::ObservationFlag> flags;  // the reasons, when fewer than half are usable
   std::vector<FrameQuality> per_frame;
 };
 
@@ -131,6 +131,16 @@ struct RunMeasurement {
   calibration::MeasuredRun measured;
   std::optional<RestQuality> start_quality, end_quality;  // with model_free_rest_refinement
 };
+
+// What is wrong with a session as a whole (report.json's session "flags"),
+// each with a stable text (ToString); nothing matches that text.
+enum class SessionFlag {
+  kCameraPlaneNotEstimated,     // "camera_plane_not_estimated:using_operator_guess"
+  kFloorReferenceUnusable,      // "floor_reference_unusable": the robot tag's print sets the scale
+  kFloorReferenceInconsistent,  // "floor_reference_inconsistent": its distances disagree beyond their sigmas
+};
+const char* ToString(SessionFlag flag);
+std::vector<std::string> ToStrings(const std::vector<SessionFlag>& flags);
 
 // Where the camera's length scale comes from, and how well it is known:
 // what Es's uncertainty rests on (report.json "camera_scale").
@@ -175,13 +185,10 @@ struct CameraScaleOptions {
 // reference is then not used). Appends floor_reference_unusable or
 // floor_reference_inconsistent to `flags` (may be null).
 CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
-                                std::optional<double> tag_size_sigma_mm,
-                                const vision::CameraPlaneResult* plane,
-                                const vision::FloorReference* reference,
-                                const std::vector<cv::Mat>& floor_frames,
+                                std::optional<double> tag_size_sigma_mm, const vision::CameraPlaneResult* plane,
+                                const vision::FloorReference* reference, const std::vector<cv::Mat>& floor_frames,
                                 const CameraScaleOptions& options, vision::CameraMount* mount,
-                                std::vector<std::string>* flags,
-                                const vision::EdgeShiftEstimate* edge_shift = nullptr);
+                                std::vector<SessionFlag>* flags, const vision::EdgeShiftEstimate* edge_shift = nullptr);
 
 struct SessionMeasurement {
   config::Session session;
@@ -192,7 +199,7 @@ struct SessionMeasurement {
   CameraScale camera_scale;
   vision::EdgeShiftEstimate edge_shift;  // in the plane's views (camera_scale.edge_shift when used)
   std::vector<RunMeasurement> runs;
-  std::vector<std::string> flags;  // session-wide
+  std::vector<SessionFlag> flags;  // session-wide
   // Runs found in a shared recording (segment_runs.h): what each was matched to.
   std::vector<SegmentAssignment> segments;
 

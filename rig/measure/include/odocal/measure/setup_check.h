@@ -88,7 +88,7 @@ struct SetupCheckResult {
   // no closure shows: 1.8x the predicted on the webcam preset within 3 deg,
   // docs/vision.md), and a warning says so.
   double grid_angle_deg = 0.0;
-  std::vector<std::string> quality_flags;
+  std::vector<vision::ObservationFlag> quality_flags;
   std::vector<std::string> warnings;  // in words, for the operator
 
   vision::CameraMount mount;  // used for the floor geometry

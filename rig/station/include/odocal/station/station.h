@@ -275,7 +275,7 @@ struct StationResult {
   // Where the camera's length scale came from (set once the first round was
   // measured); the camera model's height is camera_scale->camera_height_mm.
   std::optional<measure::CameraScale> camera_scale;
-  std::vector<std::string> flags;  // floor_reference_unusable, floor_reference_inconsistent
+  std::vector<measure::SessionFlag> flags;  // floor_reference_unusable, floor_reference_inconsistent
   std::vector<StationIteration> iterations;
   std::optional<double> improvement;  // first E_max,syst / last
   double wall_s = 0.0;

@@ -11,6 +11,7 @@
 
 #include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/pose2.h"
 
@@ -277,14 +278,14 @@ std::string ExplainResult::BriefReport() const {
     os << "explain: " << message << "\n";
     return os.str();
   }
-  os << "base model: gap " << Fixed(gap_before_m() * 1e3, 3) << " mm (noise floor "
-     << Fixed(base.noise_floor_m * 1e3, 3) << " mm)\n";
+  os << "base model: gap " << Fixed(gap_before_m() * kMToMm, 3) << " mm (noise floor "
+     << Fixed(base.noise_floor_m * kMToMm, 3) << " mm)\n";
   for (const auto& g : base_residuals.by_motion)
-    os << "  during " << std::left << std::setw(9) << g.label << std::right << Fixed(g.rms_m * 1e3, 3)
+    os << "  during " << std::left << std::setw(9) << g.label << std::right << Fixed(g.rms_m * kMToMm, 3)
        << " mm RMS over " << g.n << " frames\n";
   for (const ExplainStep& s : steps) {
-    os << "+ " << ToString(s.effect) << ": score " << Fixed(s.score, 1) << ", gap "
-       << Fixed(s.gap_after_m * 1e3, 3) << " mm;";
+    os << "+ " << ToString(s.effect) << ": score " << Fixed(s.score, 1) << ", gap " << Fixed(s.gap_after_m * kMToMm, 3)
+       << " mm;";
     for (const ParameterEstimate& p : s.params) {
       os << " " << p.name << " " << std::setprecision(5) << p.value << " +/- "
          << std::setprecision(2) << 1.959963985 * p.sigma;
@@ -295,9 +296,8 @@ std::string ExplainResult::BriefReport() const {
       os << "; NOT from run to run (" << Fixed(s.between_runs_z, 1) << " sigma between runs)";
     const CrossValidation& cv = s.cross_validation;
     if (cv.possible())
-      os << "; held-out RMS " << Fixed(cv.heldout_rms_before_m * 1e3, 3) << " -> "
-         << Fixed(cv.heldout_rms_after_m * 1e3, 3) << " mm (" << cv.method << ", " << cv.folds
-         << " folds)";
+      os << "; held-out RMS " << Fixed(cv.heldout_rms_before_m * kMToMm, 3) << " -> "
+         << Fixed(cv.heldout_rms_after_m * kMToMm, 3) << " mm (" << cv.method << ", " << cv.folds << " folds)";
     else
       os << "; " << cv.note;
     os << "\n";
@@ -306,8 +306,8 @@ std::string ExplainResult::BriefReport() const {
     if (t.cross_validation && t.cross_validation->possible())
       os << "- " << ToString(t.effect) << ": passed the fit's gates (score " << Fixed(t.score, 1)
          << ") but does not predict held-out runs better: RMS "
-         << Fixed(t.cross_validation->heldout_rms_before_m * 1e3, 3) << " -> "
-         << Fixed(t.cross_validation->heldout_rms_after_m * 1e3, 3) << " mm\n";
+         << Fixed(t.cross_validation->heldout_rms_before_m * kMToMm, 3) << " -> "
+         << Fixed(t.cross_validation->heldout_rms_after_m * kMToMm, 3) << " mm\n";
   if (steps.empty()) os << "no effect explains a significant part of the gap\n";
   for (const AliasReport& a : aliased) {
     os << "? " << ToString(a.effect) << ": "
@@ -321,15 +321,14 @@ std::string ExplainResult::BriefReport() const {
     os << "; to tell: " << a.distinguishing_runs << "\n";
   }
   const UnexplainedReport& u = unexplained;
-  os << "remainder: gap " << Fixed(u.gap_m * 1e3, 3) << " mm against " << Fixed(u.expected_gap_m * 1e3, 3)
-     << " mm expected from the camera and wheel noise (wheels " << Fixed(u.wheel_noise_gap_m * 1e3, 3)
-     << " mm); F " << Fixed(u.ratio, 2) << " vs " << Fixed(u.threshold, 2) << " ("
+  os << "remainder: gap " << Fixed(u.gap_m * kMToMm, 3) << " mm against " << Fixed(u.expected_gap_m * kMToMm, 3)
+     << " mm expected from the camera and wheel noise (wheels " << Fixed(u.wheel_noise_gap_m * kMToMm, 3) << " mm); F "
+     << Fixed(u.ratio, 2) << " vs " << Fixed(u.threshold, 2) << " ("
      << (u.significant ? "significant" : "not significant") << ")\n";
   for (const UnexplainedSegment& w : u.where)
-    os << "! unexplained: " << w.run << " " << Fixed(w.t_from_s, 2) << "-" << Fixed(w.t_to_s, 2)
-       << " s, " << w.motion << ", " << Fixed(w.size_m * 1e3, 3) << " mm RMS over " << w.frames
-       << " frames\n";
-  os << "final: gap " << Fixed(gap_after_m() * 1e3, 3) << " mm\n" << final_fit.BriefReport();
+    os << "! unexplained: " << w.run << " " << Fixed(w.t_from_s, 2) << "-" << Fixed(w.t_to_s, 2) << " s, " << w.motion
+       << ", " << Fixed(w.size_m * kMToMm, 3) << " mm RMS over " << w.frames << " frames\n";
+  os << "final: gap " << Fixed(gap_after_m() * kMToMm, 3) << " mm\n" << final_fit.BriefReport();
   return os.str();
 }
 
@@ -571,8 +570,7 @@ std::vector<FlaggedSegment> FlagSegments(std::vector<ResidualSegment> segments, 
     const double ms = g.sum_sq / g.s.frames;
     g.s.size_m = std::sqrt(ms);
     g.s.motion = std::string(ToString(g.kind));
-    if (g.kind == MotionKind::kStraight && std::abs(g.turned_rad) > 15.0 * M_PI / 180.0)
-      g.s.motion = "curve";
+    if (g.kind == MotionKind::kStraight && std::abs(g.turned_rad) > DegToRad(15.0)) g.s.motion = "curve";
     const double excess = std::sqrt(std::max(0.0, ms - expected_sq));
     const FlaggedSegment f{g.s.frames * (ms - expected_sq), g.s};
     if (excess < options.unexplained_min_excess_m) continue;

@@ -14,6 +14,7 @@
 
 #include "effects/effects.h"
 #include "odocal/base/format.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/arc.h"
 #include "odocal/calibration/effect_registry.h"
 #include "odocal/calibration/internal/trajectory_fit_stages.h"
@@ -1178,9 +1179,9 @@ std::string TrajectoryFitResult::BriefReport() const {
      << (status == StatusCode::kOk ? "ok" : status == StatusCode::kInvalidArgument ? "invalid input"
                                                                          : "no convergence");
   if (!message.empty()) os << " (" << message << ")";
-  os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap "
-     << Fixed(gap_m * 1e3, 3) << " mm (noise floor " << Fixed(noise_floor_m * 1e3, 3)
-     << " mm), condition " << std::setprecision(3) << condition_number;
+  os << ", " << n_frames << " frames, " << n_parameters << " parameters, gap " << Fixed(gap_m * kMToMm, 3)
+     << " mm (noise floor " << Fixed(noise_floor_m * kMToMm, 3) << " mm), condition " << std::setprecision(3)
+     << condition_number;
   if (jackknife_runs > 0) {
     os << ", jackknifed over " << jackknife_runs << " runs";
     if (jackknife_groups < jackknife_runs) os << " in " << jackknife_groups << " groups";

@@ -81,6 +81,7 @@
 
 #include "odocal/base/solver_settings.h"
 #include "odocal/base/status.h"
+#include "odocal/base/units.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/robot_model.h"
@@ -184,7 +185,7 @@ struct TrajectoryFitOptions {
   bool use_heading = true;
   // Stand-ins for a frame whose stated sigma is zero.
   double default_position_sigma_m = 1e-3;
-  double default_heading_sigma_rad = 0.2 * M_PI / 180.0;
+  double default_heading_sigma_rad = DegToRad(0.2);
   // The robot's wheel noise: each wheel's ground travel random-walks about
   // what its ticks say, with this standard deviation after 1 m (the
   // scenario default, 0.05 mm/sqrt(m)). The model cannot fit it; it enters

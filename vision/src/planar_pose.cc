@@ -308,7 +308,7 @@ void PlaneSigmas(ceres::Problem& problem, double* camera, double* readout_s, boo
   if (fit_readout) {
     double t_cov = 0.0;
     covariance.GetCovarianceBlock(readout_s, readout_s, &t_cov);
-    result->sigma_rolling_shutter_ms = std::sqrt(t_cov * s2) * 1e3;
+    result->sigma_rolling_shutter_ms = std::sqrt(t_cov * s2) * kSToMs;
   }
 }
 
@@ -442,7 +442,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   for (const auto& v : x.views) result.world_Ts_tag.push_back(Pose2::FromXYHeading(v[0], v[1], v[2]));
 
   result.rolling_shutter_fitted = x.fit_readout;
-  result.rolling_shutter_ms = x.readout_s[0] * 1e3;
+  result.rolling_shutter_ms = x.readout_s[0] * kSToMs;
 
   PlaneSigmas(problem, x.camera, x.readout_s, x.fit_readout, summary.final_cost, n_res, &result);
   result.ok = true;

@@ -7,6 +7,8 @@
 #include <random>
 #include <sstream>
 
+#include "odocal/base/units.h"
+
 namespace odocal::robot_link {
 namespace {
 
@@ -98,18 +100,22 @@ RunCommand RunCommand::FromRunSpec(const calibration::RunSpec& spec) {
   c.procedure = spec.procedure;
   c.direction = spec.direction;
   switch (spec.procedure) {
-    case calibration::Procedure::kUmbmark: c.amount_mm = spec.side_m * 1e3; break;
-    case calibration::Procedure::kStraight: c.amount_mm = spec.distance_m * 1e3; break;
+    case calibration::Procedure::kUmbmark:
+      c.amount_mm = spec.side_m * kMToMm;
+      break;
+    case calibration::Procedure::kStraight:
+      c.amount_mm = spec.distance_m * kMToMm;
+      break;
     case calibration::Procedure::kSpin: c.count = static_cast<uint32_t>(spec.turns); break;
     case calibration::Procedure::kOutAndBack:
-      c.amount_mm = spec.distance_m * 1e3;
+      c.amount_mm = spec.distance_m * kMToMm;
       c.count = static_cast<uint32_t>(spec.repeats);
       break;
     case calibration::Procedure::kRecorded: break;
     case calibration::Procedure::kCircle: break;  // refused by WireProcedure
   }
-  if (spec.speed_m_s) c.speed_mm_s = *spec.speed_m_s * 1e3;
-  if (spec.turn_rate_rad_s) c.turn_rate_deg_s = *spec.turn_rate_rad_s * 180.0 / M_PI;
+  if (spec.speed_m_s) c.speed_mm_s = *spec.speed_m_s * kMToMm;
+  if (spec.turn_rate_rad_s) c.turn_rate_deg_s = RadToDeg(*spec.turn_rate_rad_s);
   return c;
 }
 

@@ -10,6 +10,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "odocal/base/units.h"
+
 namespace odocal::robot_link {
 namespace {
 
@@ -29,11 +31,13 @@ olf_params_t ToC(const ParamSet& p) {
 calibration::RunSpec ToRunSpec(const RunCommand& c) {
   using calibration::RunSpec;
   switch (c.procedure) {
-    case calibration::Procedure::kUmbmark: return RunSpec::Umbmark(c.direction, c.amount_mm * 1e-3);
-    case calibration::Procedure::kStraight: return RunSpec::Straight(c.amount_mm * 1e-3);
+    case calibration::Procedure::kUmbmark:
+      return RunSpec::Umbmark(c.direction, c.amount_mm * kMmToM);
+    case calibration::Procedure::kStraight:
+      return RunSpec::Straight(c.amount_mm * kMmToM);
     case calibration::Procedure::kSpin: return RunSpec::Spin(static_cast<int>(c.count), c.direction);
     case calibration::Procedure::kOutAndBack:
-      return RunSpec::OutAndBack(c.amount_mm * 1e-3, static_cast<int>(c.count), c.direction);
+      return RunSpec::OutAndBack(c.amount_mm * kMmToM, static_cast<int>(c.count), c.direction);
     case calibration::Procedure::kRecorded: break;  // never decoded from the wire
     case calibration::Procedure::kCircle: break;    // never decoded from the wire
   }
@@ -67,10 +71,10 @@ StepResult FakeMotionBackend::Step(double dt_s) {
     const double total = std::abs(p.amount);
     const double sign = p.amount < 0.0 ? -1.0 : 1.0;
     const bool straight = p.kind == calibration::Primitive::Kind::kStraight;
-    const double rate = straight ? options_.speed_mm_s * 1e-3 : options_.turn_rate_rad_s;
+    const double rate = straight ? options_.speed_mm_s * kMmToM : options_.turn_rate_rad_s;
     const double step = std::min(rate * dt_s, total - done_in_primitive_);
     if (straight) {
-      const double d_mm = sign * step * 1e3;
+      const double d_mm = sign * step * kMToMm;
       x_mm_ += d_mm * std::cos(heading_rad_);
       y_mm_ += d_mm * std::sin(heading_rad_);
       left_mm_ += d_mm;

@@ -5,6 +5,8 @@
 #include <ostream>
 #include <sstream>
 
+#include "odocal/base/units.h"
+
 namespace odocal::robot_link {
 
 const std::array<ParamInfo, 4>& ParamTable() {
@@ -125,15 +127,15 @@ Bytes ParamBody(size_t index, const ParamValue& value) {
 
 calibration::WheelParams ToWheelParams(const ParamSet& p) {
   calibration::WheelParams w;
-  w.left_wheel_diameter_m = p.left_wheel_diameter_mm * 1e-3;
-  w.right_wheel_diameter_m = p.right_wheel_diameter_mm * 1e-3;
-  w.track_m = p.track_mm * 1e-3;
+  w.left_wheel_diameter_m = p.left_wheel_diameter_mm * kMmToM;
+  w.right_wheel_diameter_m = p.right_wheel_diameter_mm * kMmToM;
+  w.track_m = p.track_mm * kMmToM;
   w.ticks_per_rev = p.ticks_per_rev;
   return w;
 }
 
 ParamSet ToParamSet(const calibration::WheelParams& w, uint32_t ticks_per_rev) {
-  return ParamSet{w.left_wheel_diameter_m * 1e3, w.right_wheel_diameter_m * 1e3, w.track_m * 1e3,
+  return ParamSet{w.left_wheel_diameter_m * kMToMm, w.right_wheel_diameter_m * kMToMm, w.track_m * kMToMm,
                   ticks_per_rev};
 }
 

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "odocal/base/status.h"
+#include "odocal/base/units.h"
 #include "odocal/robot_link/client.h"
 #include "odocal/robot_link/params.h"
 #include "odocal/robot_link/pty.h"
@@ -169,7 +170,7 @@ class FirmwareRobot {
   ParamSet active() const;
   bool running() const { return ctx_.state == OLF_STATE_RUNNING; }
   const olf_ctx_t& ctx() const { return ctx_; }
-  uint32_t now_ms() const { return static_cast<uint32_t>(clock_s_ * 1e3); }
+  uint32_t now_ms() const { return static_cast<uint32_t>(clock_s_ * kSToMs); }
 
  private:
   static void WriteCb(void* user, const uint8_t* data, size_t len);

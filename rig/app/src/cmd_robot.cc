@@ -189,9 +189,8 @@ void DriveOneRun(const LinkFlags& link, const RunFlags& f) {
   if (!f.telemetry.empty()) {
     s.client->SetTelemetryCallback([&csv](const rl::TelemetrySample& t) {
       char line[160];
-      std::snprintf(line, sizeof(line), "%.3f,%d,%d,%.4f,%.4f,%.6f,%d\n", t.t_ms * 1e-3, t.left_ticks,
-                    t.right_ticks, t.x_mm, t.y_mm, RadToDeg(t.heading_rad),
-                    t.state == rl::RunState::kRunning ? 1 : 0);
+      std::snprintf(line, sizeof(line), "%.3f,%d,%d,%.4f,%.4f,%.6f,%d\n", t.t_ms * kMsToS, t.left_ticks, t.right_ticks,
+                    t.x_mm, t.y_mm, RadToDeg(t.heading_rad), t.state == rl::RunState::kRunning ? 1 : 0);
       csv << line;
     });
     Check(s.client->SetTelemetryRate(50));

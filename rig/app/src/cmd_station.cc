@@ -174,7 +174,7 @@ station::ExternalDriverOptions ExternalOptions(const std::string& run, const std
   o.run_command = run;
   o.stop_command = stop;
   o.apply_command = apply;
-  o.apply_timeout = std::chrono::milliseconds(static_cast<long>(apply_timeout_s * 1e3));
+  o.apply_timeout = std::chrono::milliseconds(static_cast<long>(apply_timeout_s * kSToMs));
   const Result<robot_link::ParamSet> set = robot_link::ToParamSet(params);
   if (!set) Fail("station", kExitBadInput, "robot.params: " + set.message);
   o.params = *set;
@@ -281,7 +281,7 @@ void RunVirtualStation(const StationArgs& args, const records::Limits& limits, s
   if (!(args.time_scale > 0.0) || args.time_scale > 1000.0)
     Fail(name, kExitBadInput, "--time-scale must be in (0, 1000]");
   StationPlanFromScenario(args.plan, *s, &setup);
-  options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * 1e3));
+  options.run_timeout = std::chrono::milliseconds(static_cast<long>(args.run_timeout_s * kSToMs));
   // The virtual robot's fastest turn is known: the heading check unwraps
   // every gap it could not turn 120 deg in.
   options.max_turn_rate_rad_s = 1.25 * s->robot.limits.turn_rate_rad_s;
@@ -362,7 +362,7 @@ void RunRealStation(const StationArgs& args, records::Limits limits, station::St
     driver = MakeExternalDriver(c->driver == config::StationDriver::kCommand, o);
     setup.driver = driver.get();
   }
-  options.run_timeout = std::chrono::milliseconds(static_cast<long>(c->run_timeout_s * 1e3));
+  options.run_timeout = std::chrono::milliseconds(static_cast<long>(c->run_timeout_s * kSToMs));
   auto camera = media::CaptureSource::Open(c->camera_device);
   if (!camera) Fail(name, kExitBadInput, camera.message);
   StationPlanFromConfig(*c, &setup);

@@ -122,7 +122,7 @@ void ParseCameraExposure(const YAML::Node& node, std::uint64_t seed, CameraScena
   if (c->render.noise_sigma < 0.0) Fail(node["noise_sigma"], "camera.noise_sigma", "must not be negative");
   c->render.blur_sigma_px = OptionalNumber(node, path, "blur_sigma_px", 0.8);
   if (c->render.blur_sigma_px < 0.0) Fail(node["blur_sigma_px"], "camera.blur_sigma_px", "must not be negative");
-  c->render.exposure_s = OptionalNumber(node, path, "exposure_ms", 4.0) * 1e-3;
+  c->render.exposure_s = OptionalNumber(node, path, "exposure_ms", 4.0) * kMsToS;
   if (c->render.exposure_s < 0.0 || c->render.exposure_s * c->fps > 1.0)
     Fail(node["exposure_ms"], "camera.exposure_ms", "must be between 0 and one frame period");
   c->render.seed = seed;
@@ -162,7 +162,8 @@ void ParseImageFormation(const YAML::Node& node, CameraScenario* c) {
     if (!p.IsValid(&why)) Fail(psf, "camera.psf", why);
     f.psf = p;
   }
-  if (node["rolling_shutter_ms"]) f.rolling_shutter_s = Number(node["rolling_shutter_ms"], "camera.rolling_shutter_ms") * 1e-3;
+  if (node["rolling_shutter_ms"])
+    f.rolling_shutter_s = Number(node["rolling_shutter_ms"], "camera.rolling_shutter_ms") * kMsToS;
   if (const YAML::Node bayer = node["bayer"]) {
     const std::string pattern = String(bayer, "camera.bayer");
     if (pattern != "rggb" && pattern != "none") Fail(bayer, "camera.bayer", "expected rggb or none");
@@ -301,7 +302,7 @@ bool ParseSensorEffect(const EffectEntry& x, sim::Effects& out) {
   } else if (name == "camera_latency") {
     CheckKeys(e, path, {"name", "ms"});
     x.FailIfListedTwice(out.camera_latency.has_value());
-    out.camera_latency = sim::CameraLatencyEffect{RequiredNumber(e, path, "ms") * 1e-3};
+    out.camera_latency = sim::CameraLatencyEffect{RequiredNumber(e, path, "ms") * kMsToS};
   } else if (name == "lens_distortion") {
     CheckKeys(e, path, {"name", "k1"});
     x.FailIfListedTwice(out.lens_distortion.has_value());
@@ -318,7 +319,7 @@ bool ParseSensorEffect(const EffectEntry& x, sim::Effects& out) {
     // The readout of the rows, top to bottom (as camera.rolling_shutter_ms).
     const double ms = RequiredNumber(e, path, "ms");
     if (!(ms >= 0.0 && ms <= 1000.0)) Fail(e["ms"], Join(path, "ms"), "must be in [0, 1000]");
-    out.rolling_shutter = sim::RollingShutterEffect{ms * 1e-3};
+    out.rolling_shutter = sim::RollingShutterEffect{ms * kMsToS};
   } else {
     return false;
   }

@@ -52,9 +52,9 @@ nlohmann::json TrajectoryFitJson(const calibration::WheelParams& nominal,
   j["runs_used"] = runs_used;
   // camera_latency: a frame stamped s shows the robot at telemetry time s + latency.
   if (const calibration::ParameterEstimate* p = fit.Find("camera_latency.latency_s")) {
-    j["clock_offset_ms"] = {{"value", p->value * 1e3},
-                            {"sigma", p->identifiable ? nlohmann::json(p->sigma * 1e3) : nlohmann::json(nullptr)},
-                            {"sigma_between_runs", FiniteOrNull(p->sigma_between_runs * 1e3)},
+    j["clock_offset_ms"] = {{"value", p->value * kSToMs},
+                            {"sigma", p->identifiable ? nlohmann::json(p->sigma * kSToMs) : nlohmann::json(nullptr)},
+                            {"sigma_between_runs", FiniteOrNull(p->sigma_between_runs * kSToMs)},
                             {"meaning", "a pose stamped s shows the robot at telemetry time s + offset"}};
   }
   bool all_identifiable = true;

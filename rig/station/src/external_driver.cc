@@ -210,9 +210,9 @@ class ExternalDriver : public RobotDriver {
     while (!(status = child.Poll())) {
       if (Clock::now() > until) {
         child.Kill();
-        return DriverError{DriverFault::kApplyFailed,
-                           "apply: no answer within " + Number(options_.apply_timeout.count() * 1e-3) +
-                               " s, killed (log: " + log + ")"};
+        return DriverError{DriverFault::kApplyFailed, "apply: no answer within " +
+                                                          Number(options_.apply_timeout.count() * kMsToS) +
+                                                          " s, killed (log: " + log + ")"};
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }

@@ -15,7 +15,7 @@ class LinkDriver final : public RobotDriver {
       : transport_(transport), client_(transport, options) {
     client_.SetTelemetryCallback([this](const robot_link::TelemetrySample& t) {
       if (!running_ || t.run_id != run_id_) return;
-      telemetry_.push_back({t.t_ms * 1e-3, std::chrono::steady_clock::now(), t.left_ticks, t.right_ticks,
+      telemetry_.push_back({t.t_ms * kMsToS, std::chrono::steady_clock::now(), t.left_ticks, t.right_ticks,
                             calibration::Pose2::FromXYHeading(t.x_mm * kMmToM, t.y_mm * kMmToM, t.heading_rad)});
     });
   }

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "odocal/base/units.h"
 #include "odocal/vision/tag_survey.h"
 
 namespace odocal::vision {
@@ -151,8 +152,8 @@ void ReportLifts(const LiftFit& fit, const CalibrationBoard& board, double sigma
   for (size_t k = 0; k < ids.size(); ++k) {
     TagLift t;
     t.id = ids[k];
-    t.lift_mm = 1e3 * (h[k] - rows[k].dot(plane));
-    t.sigma_mm = 1e3 * sigma[k];
+    t.lift_mm = kMToMm * (h[k] - rows[k].dot(plane));
+    t.sigma_mm = kMToMm * sigma[k];
     t.corners = fit.sums.at(ids[k]).n;
     chi2 += std::pow(t.lift_mm / t.sigma_mm, 2);
     sq += t.lift_mm * t.lift_mm;

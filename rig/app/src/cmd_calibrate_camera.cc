@@ -22,6 +22,7 @@
 #include "commands.h"
 #include "odocal/base/format.h"
 #include "odocal/base/parallel.h"
+#include "odocal/base/units.h"
 #include "odocal/config/camera_file.h"
 #include "odocal/media/image_file.h"
 #include "odocal/vision/board_shape.h"
@@ -322,7 +323,7 @@ void BoardShapeOf(const CalibrateCameraArgs& args, const vision::CalibrationBoar
               << "; calibrated as flat\n";
   if (args.board_shape == "fit" && c->shape && !c->shape->flat) {
     vision::CameraCalibrationOptions lifted = options;
-    for (const vision::TagLift& t : c->shape->tags) lifted.board_lift_m[t.id] = 1e-3 * t.lift_mm;
+    for (const vision::TagLift& t : c->shape->tags) lifted.board_lift_m[t.id] = kMmToM * t.lift_mm;
     lifted.initial = c->result.intrinsics;
     vision::CameraCalibrationResult fitted = vision::CalibrateCamera(views, size, lifted);
     if (!fitted.ok())

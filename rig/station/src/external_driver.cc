@@ -279,10 +279,11 @@ class CommandDriver final : public ExternalDriver {
                            (log_.empty() ? "" : " (log: " + log_ + ")")};
   }
 
-  bool Stop(std::string* what) override {
-    *what = (child_ && child_->Kill() ? "the run's command killed" : "no command running") + RunStopCommand();
+  Result<std::string> Stop() override {
+    std::string what =
+        (child_ && child_->Kill() ? "the run's command killed" : "no command running") + RunStopCommand();
     child_.reset();
-    return true;
+    return Result<std::string>::Ok(std::move(what));
   }
 
   // The {telemetry} CSV, when the command wrote one (robot clock; no arrival times).
@@ -318,15 +319,11 @@ class OperatorDriver final : public ExternalDriver {
   }
   std::variant<RunProgress, DriverError> Poll() override { return RunProgress::kRunning; }
   bool EndsByCamera() const override { return true; }
-  bool Stop(std::string* what) override {
-    if (!running_) {
-      *what = "no run in progress" + RunStopCommand();
-      return true;
-    }
+  Result<std::string> Stop() override {
+    if (!running_) return Result<std::string>::Ok("no run in progress" + RunStopCommand());
     running_ = false;
     Say("==> STOP the robot now and leave it where it is.");
-    *what = "the operator was told to stop the robot" + RunStopCommand();
-    return true;
+    return Result<std::string>::Ok("the operator was told to stop the robot" + RunStopCommand());
   }
 
  private:

@@ -75,19 +75,15 @@ class LinkDriver final : public RobotDriver {
   }
 
   // Stop whatever runs, even when we believe nothing does: a stop is harmless.
-  bool Stop(std::string* what) override {
-    if (!line_ok_) {
-      *what = "the line is gone: the robot could not be stopped or read over the link";
-      return false;
-    }
+  Result<std::string> Stop() override {
+    using R = Result<std::string>;
+    if (!line_ok_)
+      return R::Error(StatusCode::kLineCut, "the line is gone: the robot could not be stopped or read over the link");
     const auto stop = client_.Stop();
-    if (!stop) {
-      *what = "could not stop the robot over the link (" + stop.message + ")";
-      return false;
-    }
-    *what = running_ ? "robot stopped" : "robot idle";
+    if (!stop) return R::Error(stop.status, "could not stop the robot over the link (" + stop.message + ")");
+    const bool was_running = running_;
     running_ = false;
-    return true;
+    return R::Ok(was_running ? "robot stopped" : "robot idle");
   }
 
   bool CanApply() const override { return true; }

@@ -739,8 +739,9 @@ void Station::BuildRecordedSession(const StationIteration& iteration,
 }
 
 void Station::Cleanup(StationResult* result) {
-  std::vector<std::string> done(1);
-  result->robot_stopped = driver_->Stop(&done.front());
+  const Result<std::string> stopped = driver_->Stop();
+  result->robot_stopped = stopped.ok();
+  std::vector<std::string> done = {stopped.ok() ? *stopped : stopped.message};
   if (!driver_->Reachable()) {
     result->cleanup = done.front();
     return;

@@ -38,6 +38,7 @@
 #include <variant>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/robot_link/client.h"
@@ -96,9 +97,9 @@ class RobotDriver {
   // decides (EndsByCamera).
   virtual std::variant<RunProgress, DriverError> Poll() = 0;
   virtual bool EndsByCamera() const { return false; }
-  // Best effort, never throws: stops whatever runs; `what` says what it
-  // did. False when the robot could not be told to stop.
-  virtual bool Stop(std::string* what) = 0;
+  // Best effort, never throws: stops whatever runs. What it did; an error
+  // (kLineCut, kFailed) saying why when the robot could not be told to stop.
+  virtual Result<std::string> Stop() = 0;
   // Whether Apply can change the robot's parameters.
   virtual bool CanApply() const = 0;
   // Makes `target` the robot's set; `round` names the files written.

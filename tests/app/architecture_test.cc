@@ -50,23 +50,25 @@ Graph ReadGraph() {
   return g;
 }
 
-// The odocal modules a folder's sources include ("odocal/<module>/...").
-std::set<std::string> IncludedModules(const std::string& dir, std::set<std::string>* third_party) {
-  static const std::regex kOdocal(R"re(#include\s+"odocal/(\w+)/)re");
-  static const std::regex kAngle(R"re(#include\s+<([\w\-]+)[/.>])re");
-  std::set<std::string> used;
+// The first group of every match of `pattern` in a folder's C and C++ sources.
+std::set<std::string> MatchesInSources(const std::string& dir, const std::regex& pattern) {
+  std::set<std::string> found;
   for (const auto& e : fs::recursive_directory_iterator(test_util::SourceDir() + "/" + dir)) {
     const std::string ext = e.path().extension();
     if (!e.is_regular_file() || (ext != ".h" && ext != ".cc" && ext != ".c")) continue;
     const std::string text = test_util::Slurp(e.path());
-    for (auto it = std::sregex_iterator(text.begin(), text.end(), kOdocal); it != std::sregex_iterator(); ++it)
-      used.insert((*it)[1]);
-    if (third_party) {
-      for (auto it = std::sregex_iterator(text.begin(), text.end(), kAngle); it != std::sregex_iterator(); ++it)
-        third_party->insert((*it)[1]);
-    }
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), pattern); it != std::sregex_iterator(); ++it)
+      found.insert((*it)[1]);
   }
-  return used;
+  return found;
+}
+
+// The odocal modules a folder's sources include ("odocal/<module>/...").
+std::set<std::string> IncludedModules(const std::string& dir, std::set<std::string>* third_party) {
+  static const std::regex kOdocal(R"re(#include\s+"odocal/(\w+)/)re");
+  static const std::regex kAngle(R"re(#include\s+<([\w\-]+)[/.>])re");
+  if (third_party) third_party->merge(MatchesInSources(dir, kAngle));
+  return MatchesInSources(dir, kOdocal);
 }
 
 // Rows of a markdown table whose first cell is a module in backticks: module -> the
@@ -157,15 +159,7 @@ TEST(Architecture, CalibrationIsPureMath) {
 // The system headers a module's sources include, whole ("opencv2/videoio.hpp").
 std::set<std::string> IncludedHeaders(const std::string& dir) {
   static const std::regex kAngle(R"re(#include\s+<([^>]+)>)re");
-  std::set<std::string> headers;
-  for (const auto& e : fs::recursive_directory_iterator(test_util::SourceDir() + "/" + dir)) {
-    const std::string ext = e.path().extension();
-    if (!e.is_regular_file() || (ext != ".h" && ext != ".cc" && ext != ".c")) continue;
-    const std::string text = test_util::Slurp(e.path());
-    for (auto it = std::sregex_iterator(text.begin(), text.end(), kAngle); it != std::sregex_iterator(); ++it)
-      headers.insert((*it)[1]);
-  }
-  return headers;
+  return MatchesInSources(dir, kAngle);
 }
 
 // docs/architecture.md, "I/O": who parses the files people write, who touches video and

@@ -130,7 +130,7 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
   ro.seed = seed;
   ro.formation = formation;
   auto created = Renderer::Create(camera, tag, ro);
-  if (!created.ok) {
+  if (!created.ok()) {
     std::printf("cannot render: %s\n", created.message.c_str());
     return;
   }
@@ -164,7 +164,7 @@ void RunPreset(const std::string& label, const ImageFormationOptions& formation,
         const auto corners = estimators[e].refine(image, found.detection->corners_px, camera);
         if (!corners) continue;
         const PlanarPoseResult m = MeasureTagPose(camera, tag, *corners);
-        if (!m.ok) continue;
+        if (!m.ok()) continue;
         closures.push_back(m.closure_mm);
         errors.emplace_back((m.T_world_robot.x() - pose.x()) * 1e3, (m.T_world_robot.y() - pose.y()) * 1e3,
                             WrapAngle(m.T_world_robot.heading() - pose.heading()) * kRadToDeg);
@@ -215,23 +215,23 @@ int main(int argc, char** argv) {
       {"half-level (per frame)",
        [](const cv::Mat& im, const TagCorners& c, const CameraModel& cam) -> std::optional<TagCorners> {
          const auto r = RefineTagCorners(im, c, &cam);
-         if (!r.ok) return std::nullopt;
+         if (!r.ok()) return std::nullopt;
          return r.corners_px;
        }},
       {"exact Gaussian model",
        [](const cv::Mat& im, const TagCorners& c, const CameraModel& cam) -> std::optional<TagCorners> {
          const auto r0 = RefineTagCorners(im, c, &cam);
-         if (!r0.ok) return std::nullopt;
+         if (!r0.ok()) return std::nullopt;
          const auto r = RefineTagCornersByEdgeModel(im, r0.corners_px, &cam);
-         if (!r.ok) return std::nullopt;
+         if (!r.ok()) return std::nullopt;
          return r.corners_px;
        }},
       {"PSF/tone-free (symmetric ESF)",
        [](const cv::Mat& im, const TagCorners& c, const CameraModel& cam) -> std::optional<TagCorners> {
          const auto r0 = RefineTagCorners(im, c, &cam);
-         if (!r0.ok) return std::nullopt;
+         if (!r0.ok()) return std::nullopt;
          const auto r = RefineTagCornersModelFree(im, r0.corners_px, &cam);
-         if (!r.ok) return std::nullopt;
+         if (!r.ok()) return std::nullopt;
          return r.corners_px;
        }},
   };

@@ -90,7 +90,7 @@ void RunCamera(const std::string& name, int frames, int rests, uint64_t seed, bo
     return;
   }
   auto created = Renderer::Create(camera, tag, ro);
-  if (!created.ok) {
+  if (!created.ok()) {
     std::printf("cannot render: %s\n", created.message.c_str());
     return;
   }
@@ -144,11 +144,11 @@ void RunCamera(const std::string& name, int frames, int rests, uint64_t seed, bo
       const FindResult found = detector->Find(image, tag.id);
       if (found.status != DetectStatus::kOk) continue;
       const auto half = RefineTagCorners(image, found.detection->corners_px, &camera);
-      if (!half.ok) continue;
+      if (!half.ok()) continue;
       const auto exact = RefineTagCornersModelFree(image, half.corners_px, &camera);
-      if (!exact.ok) continue;
+      if (!exact.ok()) continue;
       const PlanarPoseResult m = MeasureTagPose(camera, tag, exact.corners_px);
-      if (!m.ok) continue;
+      if (!m.ok()) continue;
       for (int k = 0; k < 4; ++k)
         corner_err[k] += to_tag * (camera.UnprojectToWorldPlane({exact.corners_px[k].x, exact.corners_px[k].y},
                                                                 tag.height_m())->head<2>() - true_plane[k]) * 1e3;
@@ -284,7 +284,7 @@ void RunVideo(const std::string& dir, std::array<VideoClass, 3>* classes) {
   }
   auto detector = TagDetector::Create(DetectorOptions{}).detector;
   struct Frame {
-    bool ok = false;
+    bool measured = false;
     Eigen::Vector3d error;  // mm, mm, deg
     std::array<Eigen::Vector2d, 4> closure;
   };
@@ -299,19 +299,20 @@ void RunVideo(const std::string& dir, std::array<VideoClass, 3>* classes) {
     const FindResult found = detector->Find(grey, tag.id);
     if (found.status == DetectStatus::kOk) {
       const auto half = RefineTagCorners(grey, found.detection->corners_px, &camera);
-      const auto exact = half.ok ? RefineTagCornersModelFree(grey, half.corners_px, &camera) : ModelFreeRefineResult{};
-      if (exact.ok) {
+      const auto exact =
+          half.ok() ? RefineTagCornersModelFree(grey, half.corners_px, &camera) : ModelFreeRefineResult{};
+      if (exact.ok()) {
         const PlanarPoseResult m = MeasureTagPose(camera, tag, exact.corners_px);
         const Eigen::Vector3d& t = truth[frames.size()];
-        if (m.ok) {
-          f.ok = true;
+        if (m.ok()) {
+          f.measured = true;
           f.error = Eigen::Vector3d(m.T_world_robot.x() * 1e3 - t.x(), m.T_world_robot.y() * 1e3 - t.y(),
                                     WrapAngle(m.T_world_robot.heading() - t.z() / kRadToDeg) * kRadToDeg);
           f.closure = m.closure_mm;
         }
       }
     }
-    if (std::getenv("ODOCAL_BENCH_FRAMES") && f.ok)
+    if (std::getenv("ODOCAL_BENCH_FRAMES") && f.measured)
       std::printf("    frame %zu: %+.4f %+.4f mm %+.5f deg\n", frames.size(), f.error.x(), f.error.y(), f.error.z());
     frames.push_back(f);
   }
@@ -322,7 +323,7 @@ void RunVideo(const std::string& dir, std::array<VideoClass, 3>* classes) {
     std::vector<std::array<Eigen::Vector2d, 4>> closures;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (size_t k = from; k <= to; ++k)
-      if (frames[k].ok) mean += frames[k].error, closures.push_back(frames[k].closure);
+      if (frames[k].measured) mean += frames[k].error, closures.push_back(frames[k].closure);
     const int n = static_cast<int>(closures.size());
     if (n < 3) return;
     mean /= n;

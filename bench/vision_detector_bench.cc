@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   RenderOptions ro;
   ro.seed = seed;
   auto created = Renderer::Create(camera, tag, ro);
-  if (!created.ok) {
+  if (!created.ok()) {
     std::fprintf(stderr, "renderer: %s\n", created.message.c_str());
     return 1;
   }
@@ -166,14 +166,14 @@ int main(int argc, char** argv) {
     double t0 = NowMs();
     const auto plain = RefineTagCorners(f.image, r.detection->corners_px, nullptr);
     plain_row.ms += NowMs() - t0;
-    if (plain.ok) ++plain_row.found, plain_row.Add(plain.corners_px, f.corners_px);
+    if (plain.ok()) ++plain_row.found, plain_row.Add(plain.corners_px, f.corners_px);
     t0 = NowMs();
     const auto withcam = RefineTagCorners(f.image, r.detection->corners_px, &camera);
     cam_row.ms += NowMs() - t0;
-    if (withcam.ok) ++cam_row.found, cam_row.Add(withcam.corners_px, f.corners_px);
+    if (withcam.ok()) ++cam_row.found, cam_row.Add(withcam.corners_px, f.corners_px);
     for (auto [corners, acc] : {std::pair{r.detection->corners_px, &pose_lib}, std::pair{withcam.corners_px, &pose_ref}}) {
       const auto p = MeasureTagPose(camera, tag, corners);
-      if (!p.ok) continue;
+      if (!p.ok()) continue;
       const double e_mm = 1e3 * (p.T_world_tag.translation() - f.T_world_tag.translation()).norm();
       const double e_deg = WrapAngle(p.T_world_tag.heading() - f.T_world_tag.heading()) * 180 / M_PI;
       acc->sq_mm += e_mm * e_mm, acc->sq_deg += e_deg * e_deg, acc->max_mm = std::max(acc->max_mm, e_mm), ++acc->n;
@@ -231,7 +231,7 @@ int main(int argc, char** argv) {
       if (tr.find.status == DetectStatus::kOk) {
         const auto ref = RefineTagCorners(grey, tr.find.detection->corners_px, &camera);
         const auto p = MeasureTagPose(camera, tag, ref.corners_px);
-        if (p.ok && i < static_cast<int>(truth.size())) {
+        if (p.ok() && i < static_cast<int>(truth.size())) {
           const double e = 1e3 * (p.T_world_tag.translation() - truth[i].translation()).norm();
           const double h = WrapAngle(p.T_world_tag.heading() - truth[i].heading()) * 180 / M_PI;
           sq_mm += e * e, max_mm = std::max(max_mm, e), sq_deg += h * h, ++measured;
@@ -286,7 +286,7 @@ int main(int argc, char** argv) {
       if (tr.find.status != DetectStatus::kOk) continue;
       const auto ref = RefineTagCorners(grey, tr.find.detection->corners_px, &camera);
       const auto p = MeasureTagPose(camera, tag, ref.corners_px);
-      if (!p.ok) continue;
+      if (!p.ok()) continue;
       sx += p.T_world_robot.x() - truth.x(), sy += p.T_world_robot.y() - truth.y();
       sh += WrapAngle(p.T_world_robot.heading() - truth.heading()), ++n;
     }

@@ -105,7 +105,7 @@ bool RoundTrip(const Clip& clip, const Setting& s, const CameraModel& camera, co
     if (tr.find.status != DetectStatus::kOk) continue;
     const auto ref = RefineTagCorners(decoded[i], tr.find.detection->corners_px, &camera);
     const auto p = MeasureTagPose(camera, tag, ref.corners_px);
-    if (!p.ok) continue;
+    if (!p.ok()) continue;
     const Eigen::Vector2d e = p.T_world_tag.translation() - clip.truth[i].translation();
     const double h = WrapAngle(p.T_world_tag.heading() - clip.truth[i].heading()) * 180 / M_PI;
     sx += e.x() * 1e3, sy += e.y() * 1e3, sh += h, sq += e.squaredNorm() * 1e6, sqh += h * h, ++m->n;
@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
     RenderOptions ro;
     ro.seed = seed;
     auto r = Renderer::Create(camera, tag, ro);
-    if (!r.ok) {
+    if (!r.ok()) {
       std::fprintf(stderr, "renderer: %s\n", r.message.c_str());
       return 1;
     }

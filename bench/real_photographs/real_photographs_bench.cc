@@ -211,7 +211,7 @@ Calibrated Calibrate(const Method& m, const vision::CalibrationBoard& board, cv:
   Calibrated out{vision::CalibrateCamera(views, size, options), {}};
   if (!shape || !out.ok() || board.type != vision::CalibrationBoard::Type::kAprilgrid) return out;
   const vision::BoardShape measured = vision::MeasureBoardShape(views, board, out.result.intrinsics);
-  if (!measured.ok) return out;
+  if (!measured.ok()) return out;
   for (const vision::TagLift& t : measured.tags) options.board_lift_m[t.id] = 1e-3 * t.lift_mm;
   options.initial = out.result.intrinsics;
   vision::CameraCalibrationResult lifted = vision::CalibrateCamera(views, size, options);

@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
       o.seed = seed * 1000 + static_cast<uint64_t>(attempt);
       o.supersample = supersample;
       const auto r = RenderBoard(lens.intrinsics, *pattern, T, truth_points, o);
-      if (!r.ok) continue;
+      if (!r.ok()) continue;
       // The tags whose four corners are in the image (3 px in) and in front.
       std::vector<bool> in_view(36, false);
       int n_in = 0;

@@ -150,7 +150,7 @@ CrossValidation CrossValidate(const MeasuredSession& session, const TrajectoryFi
                                     {without.scales, without.effects}, session.camera, ro);
       const RunReplay b = ReplayRun(session.runs[i], session.believed, {with.scales, with.effects},
                                     session.camera, ro);
-      if (!a.ok || !b.ok) {
+      if (!a.ok() || !b.ok()) {
         ++out.failed_replays;
         continue;
       }

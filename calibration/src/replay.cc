@@ -207,14 +207,14 @@ void ScoreReplay(const ReplayModel& model, const std::vector<double>& rows, doub
 RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const ReplayModel& model,
                     const std::optional<FloorCamera>& camera, const ReplayOptions& options) {
   RunReplay out;
-  auto fail = [&](const std::string& why) {
-    out.ok = false;
+  auto fail = [&](const std::string& why, StatusCode code = StatusCode::kFailed) {
+    out.status = code;
     out.message = run.name + ": " + why;
     return out;
   };
   std::string why;
-  if (!options.IsValid(&why)) return fail("replay options: " + why);
-  if (!believed.IsValid(&why)) return fail("believed parameters: " + why);
+  if (!options.IsValid(&why)) return fail("replay options: " + why, StatusCode::kInvalidArgument);
+  if (!believed.IsValid(&why)) return fail("believed parameters: " + why, StatusCode::kInvalidArgument);
   if (run.telemetry.size() < 2) return fail("fewer than 2 telemetry samples");
 
   const WheelMotion motion = FindWheelMotion(run, believed);
@@ -238,7 +238,7 @@ RunReplay ReplayRun(const MeasuredRun& run, const WheelParams& believed, const R
                                        out.start, stamps, options.left_direction0,
                                        options.right_direction0, rows);
   ScoreReplay(model, rows, *motion.last_motion_s, &out);
-  out.ok = true;
+  out.status = StatusCode::kOk;
   return out;
 }
 

@@ -80,11 +80,4 @@ bool AnyFatal(const std::vector<RunFlag>& flags) {
   return false;
 }
 
-std::vector<std::string> ToStrings(const std::vector<RunFlag>& flags) {
-  std::vector<std::string> out;
-  out.reserve(flags.size());
-  for (const RunFlag& f : flags) out.push_back(f.ToString());
-  return out;
-}
-
 }  // namespace odocal::calibration

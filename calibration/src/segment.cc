@@ -388,7 +388,7 @@ PlanMatch MatchSegmentsToPlan(const std::vector<MotionSegment>& segments, const 
   match.problems = readings.front().problems;
   for (size_t k = 1; k < readings.size(); ++k) match.other_readings.push_back(readings[k].problems);
   match.more_readings = walk.truncated;
-  match.ok = match.problems.empty();
+  match.status = match.problems.empty() ? StatusCode::kOk : StatusCode::kFailed;
   return match;
 }
 

@@ -194,6 +194,23 @@ TEST(Architecture, EachKindOfIoLivesInTheModulesTheDocsName) {
   }
 }
 
+// docs/architecture.md, "Errors": a public fallible function returns Result/Status, or a
+// struct of the same shape (StatusCode status, message, ok()); none returns its error through
+// a std::string* (options' IsValid aside), and no struct keeps a bool ok of its own.
+TEST(Architecture, PublicHeadersSpeakTheOneErrorVocabulary) {
+  static const std::regex kBoolOk(R"re(\n([ \t]*bool ok\s*(=|;|\{)[^\n]*))re");
+  static const std::regex kStringOut(
+      R"re(\n([^\n]*std::string\s*\*\s*(why|error|err|error_message|message|reason)\b[^\n]*))re");
+  for (const auto& [module, dir] : ModuleDirs()) {
+    if (!fs::exists(test_util::SourceDir() + "/" + dir + "/include")) continue;
+    for (const std::string& line : MatchesInSources(dir + "/include", kBoolOk))
+      ADD_FAILURE() << module << ": a struct keeps a bool ok (use StatusCode status and ok()): " << line;
+    for (const std::string& line : MatchesInSources(dir + "/include", kStringOut))
+      EXPECT_NE(line.find("IsValid("), std::string::npos)
+          << module << ": an error through a std::string* (return Result/Status): " << line;
+  }
+}
+
 TEST(Architecture, ReadmeAndArchitectureDocTablesMatchTheBuild) {
   const Graph graph = ReadGraph();
   for (const char* doc : {"README.md", "docs/architecture.md"}) {

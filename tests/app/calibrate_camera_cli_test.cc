@@ -42,7 +42,7 @@ std::vector<std::string> WriteViews(const std::string& dir, int count, uint64_t 
     o.seed = seed * 100 + i;
     const auto r = vision::RenderBoard(Truth(), vision::BoardPattern::Chessboard(9, 6, 0.025),
                                        (*poses)[i], corners, o);
-    EXPECT_TRUE(r.ok) << r.message;
+    EXPECT_TRUE(r.ok()) << r.message;
     paths.push_back(dir + "/view" + std::to_string(i) + ".png");
     EXPECT_TRUE(cv::imwrite(paths.back(), r.frame.image));
   }
@@ -305,7 +305,7 @@ class FisheyeViews : public ::testing::Test {
       o.seed = 70 + i;
       o.supersample = 8;
       const auto r = vision::RenderBoard(lens_, *grid.pattern, (*poses)[i], grid.points, o);
-      ASSERT_TRUE(r.ok) << r.message;
+      ASSERT_TRUE(r.ok()) << r.message;
       const std::string path = dir_ + "/view" + std::to_string(i) + ".png";
       ASSERT_TRUE(cv::imwrite(path, r.frame.image));
       truth_[path] = r.frame.points_px;
@@ -374,7 +374,7 @@ TEST_F(FisheyeViews, AViewTheQuickLookMissesIsFoundByTheFullSearch) {
   o.seed = 7000;
   o.supersample = 8;
   const auto r = vision::RenderBoard(lens_, *grid.pattern, (*poses)[2], grid.points, o);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   const std::string dir = test_util::MakeTempDir("odocal_calcam_quick_");
   std::string images;
   for (int i = 0; i < 5; ++i) images += " " + dir_ + "/view" + std::to_string(i) + ".png";
@@ -483,7 +483,7 @@ TEST(CliCalibrateCamera, FromMoreImagesThanMaxViewsTheViewsThatDifferAreChosen) 
     o.seed = 300 + i;
     o.supersample = 4;
     const auto r = vision::RenderBoard(Truth(), *pattern, (*poses)[pose_of[i]], points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     ASSERT_TRUE(cv::imwrite(dir + "/frame" + (i < 10 ? "0" : "") + std::to_string(i) + ".png", r.frame.image));
   }
   std::filesystem::copy_file(WriteBlank(dir), dir + "/frame11.png");

@@ -44,7 +44,7 @@ Rendered Render(const std::string& dir, const std::string& family, double x, dou
   o.noise_sigma = 2.0;
   o.blur_sigma_px = 0.8;
   auto r = vision::Renderer::Create(SmallCamera(), tag, o);
-  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.ok()) << r.message;
   Rendered out{dir + "/" + family + ".png", r.renderer->Render(calibration::Pose2::FromXYHeading(x, y, heading))};
   EXPECT_TRUE(out.frame.tag_visible);
   EXPECT_TRUE(cv::imwrite(out.path, out.frame.image));

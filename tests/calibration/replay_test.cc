@@ -39,8 +39,8 @@ TEST(Replay, TrueParametersMeetTheCameraNominalOnesMissByTheSquareError) {
     const calibration::MeasuredRun& run = s.session.runs[i];
     const RunReplay right = ReplayRun(run, s.session.believed, {truth, {}});
     const RunReplay nominal = ReplayRun(run, s.session.believed, {WheelScales{}, {}});
-    ASSERT_TRUE(right.ok) << right.message;
-    ASSERT_TRUE(nominal.ok) << nominal.message;
+    ASSERT_TRUE(right.ok()) << right.message;
+    ASSERT_TRUE(nominal.ok()) << nominal.message;
     // The analytic return error (exact square model, procedures.h).
     const double analytic =
         calibration::PredictReturnError(plan[i], truth, s.session.believed.track_m)
@@ -78,7 +78,7 @@ TEST(Replay, ATagOffsetReplayedWithItsParametersVanishes) {
   for (const calibration::MeasuredRun& run : s.session.runs) {
     const RunReplay a = ReplayRun(run, s.session.believed, without);
     const RunReplay b = ReplayRun(run, s.session.believed, with);
-    ASSERT_TRUE(a.ok && b.ok) << a.message << b.message;
+    ASSERT_TRUE(a.ok() && b.ok()) << a.message << b.message;
     std::printf("[figure] replay %s: RMS %.3f mm without the tag offset, %.3f mm with it\n",
                 run.name.c_str(), a.rms_position_error_m * 1e3, b.rms_position_error_m * 1e3);
     EXPECT_LT(b.rms_position_error_m, 5e-3);
@@ -103,7 +103,7 @@ TEST(Replay, AnchorsOnTheFirstFramesWithoutAStartRest) {
     if (f.t_s > first_motion + 0.3) kept.push_back(f);
   run.camera = kept;
   const RunReplay r = ReplayRun(run, s.session.believed, {TrueScales(), {}});
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   std::printf("[figure] replay without a start rest: final %.3f mm, RMS %.3f mm\n",
               r.final_position_error_m * 1e3, r.rms_position_error_m * 1e3);
   // Five moving frames anchor the heading far worse than a rest: 0.3 deg /
@@ -117,11 +117,11 @@ TEST(Replay, SaysWhyARunCannotBeReplayed) {
   calibration::MeasuredRun run = s.session.runs[0];
   run.camera.clear();
   RunReplay r = ReplayRun(run, s.session.believed, {});
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_THAT(r.message, ::testing::HasSubstr(run.name)) << r.message;
   run.telemetry.resize(1);
   r = ReplayRun(run, s.session.believed, {});
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_THAT(r.message, ::testing::HasSubstr("telemetry")) << r.message;
 }
 

@@ -147,7 +147,7 @@ TEST(RunFlag, AnyFatalAndToStrings) {
   EXPECT_TRUE(AnyFatal(mixed));
   EXPECT_THAT(ToStrings(mixed), testing::ElementsAre("short_start_rest", "tag_out_of_view_mid_run:0.4s",
                                                      "no_end_rest"));
-  EXPECT_TRUE(ToStrings({}).empty());
+  EXPECT_TRUE(ToStrings(std::vector<RunFlag>{}).empty());
 }
 
 }  // namespace

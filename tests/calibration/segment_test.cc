@@ -110,7 +110,7 @@ TEST(Segment, TenRunsAreFoundAndTheirProceduresReadFromThePoses) {
   EXPECT_EQ(segments[4].inferred.direction, Direction::kCcw);
   EXPECT_NEAR(segments[8].inferred.radius_m, 0.5, 0.05);
   const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
-  EXPECT_TRUE(match.ok) << ::testing::PrintToString(match.problems);
+  EXPECT_TRUE(match.ok()) << ::testing::PrintToString(match.problems);
   for (size_t k = 0; k < plan.size(); ++k) EXPECT_EQ(match.segment_of_run[k], static_cast<int>(k));
 }
 
@@ -125,7 +125,7 @@ TEST(Segment, AMissingRunAndOneDrivenTheWrongWayAreNamed) {
   const std::vector<MotionSegment> segments = SegmentMotion(rec.samples);
   ASSERT_EQ(segments.size(), driven.size());
   const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
-  EXPECT_FALSE(match.ok);
+  EXPECT_FALSE(match.ok());
   ASSERT_EQ(match.problems.size(), 2u) << ::testing::PrintToString(match.problems);
   EXPECT_THAT(match.problems[0], HasSubstr("run 'run4' (spin ccw, 2 turns): missing"));
   EXPECT_THAT(match.problems[1], HasSubstr("run 'run7' (umbmark ccw, side 1000 mm): the segment at"));
@@ -174,7 +174,7 @@ TEST(Segment, AMissingRunNextToAReversedSquareIsReadAsThat) {
 TEST(Segment, ReadingsAsGoodAreAllGiven) {
   const RunSpec cw = RunSpec::Umbmark(Direction::kCw, 1.0), ccw = RunSpec::Umbmark(Direction::kCcw, 1.0);
   const PlanMatch match = MatchSegmentsToPlan(Read({cw, cw, ccw}), {cw, ccw}, {"cw", "ccw"});
-  EXPECT_FALSE(match.ok);
+  EXPECT_FALSE(match.ok());
   ASSERT_EQ(match.problems.size(), 1u);
   ASSERT_EQ(match.other_readings.size(), 1u);
   ASSERT_EQ(match.other_readings[0].size(), 1u);
@@ -188,7 +188,7 @@ TEST(Segment, ReadingsAsGoodAreAllGiven) {
   EXPECT_TRUE(many.more_readings);
   // A recording as planned has one reading.
   const PlanMatch exact = MatchSegmentsToPlan(Read({cw, ccw}), {cw, ccw}, {"cw", "ccw"});
-  EXPECT_TRUE(exact.ok);
+  EXPECT_TRUE(exact.ok());
   EXPECT_TRUE(exact.other_readings.empty());
   EXPECT_FALSE(exact.more_readings);
 }
@@ -321,19 +321,19 @@ TEST(Segment, RunsThatLeaveTheViewAreTakenFromThePlanUnlessWhatWasSeenContradict
     EXPECT_GE(segments[k].end_s(), rec.run_times[k].second - 1.0);
   }
   const PlanMatch match = MatchSegmentsToPlan(segments, plan, Names(plan.size()));
-  EXPECT_TRUE(match.ok) << ::testing::PrintToString(match.problems);
+  EXPECT_TRUE(match.ok()) << ::testing::PrintToString(match.problems);
   EXPECT_EQ(match.segment_of_run, (std::vector<int>{0, 1, 2, 3}));
   // Run 3 driven ccw: its last corner, turned left in view, names it.
   const Recording wrong = Drive({cw, ccw, ccw, ccw}, 9, HomeArea(0.9));
   const PlanMatch caught = MatchSegmentsToPlan(SegmentMotion(wrong.samples), plan, Names(plan.size()));
-  EXPECT_FALSE(caught.ok);
+  EXPECT_FALSE(caught.ok());
   ASSERT_EQ(caught.problems.size(), 1u) << ::testing::PrintToString(caught.problems);
   EXPECT_THAT(caught.problems[0], HasSubstr("run 'run3' (umbmark cw, side 2000 mm): the segment at"));
   EXPECT_THAT(caught.problems[0], HasSubstr("contradicts it: while in view"));
   // A straight where the plan has a square: it ends 2 m from where it started.
   const Recording straight = Drive({cw, RunSpec::Straight(0.5)}, 10, HomeArea(0.9));
   const PlanMatch other = MatchSegmentsToPlan(SegmentMotion(straight.samples), {cw, ccw}, Names(2));
-  EXPECT_FALSE(other.ok);
+  EXPECT_FALSE(other.ok());
 }
 
 }  // namespace

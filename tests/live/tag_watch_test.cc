@@ -43,7 +43,7 @@ TEST(TagWatch, FitsTheCameraOnceAndMeasuresTheTagOnItsPlane) {
   o.noise_sigma = 1.0;
   o.blur_sigma_px = 0.7;
   auto rendered = vision::Renderer::Create(TrueCamera(), tag, o);
-  ASSERT_TRUE(rendered.ok) << rendered.message;
+  ASSERT_TRUE(rendered.ok()) << rendered.message;
   LiveState state;
   const vision::CameraMount guess{0.0, 0.0, 1200.0, 0.0, 0.0, 0.0};  // level, 200 mm low
   auto watch = TagWatch::Create(tag, TrueCamera().intrinsics(), guess, &state);
@@ -81,7 +81,7 @@ TEST(TagWatch, FitsTheCameraOnceAndMeasuresTheTagOnItsPlane) {
 TEST(TagWatch, AnotherTagInViewIsSaidAndNoPoseIsMade) {
   vision::TagSpec shown = Tag();
   auto rendered = vision::Renderer::Create(TrueCamera(), shown, {});
-  ASSERT_TRUE(rendered.ok) << rendered.message;
+  ASSERT_TRUE(rendered.ok()) << rendered.message;
   vision::TagSpec asked = shown;
   asked.id = 4;
   LiveState state;

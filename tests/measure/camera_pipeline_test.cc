@@ -323,7 +323,7 @@ TEST_F(CameraBadInput, TwoTagsWithTheSameIdAreNotMeasured) {
     vision::RenderOptions options;
     options.body_radius_mm = 60.0;
     auto created = vision::Renderer::Create(camera, tag, options);
-    ASSERT_TRUE(created.ok) << created.message;
+    ASSERT_TRUE(created.ok()) << created.message;
     media::Mp4Writer writer;
     media::Mp4WriterOptions wo;
     wo.backend = media::Mp4WriterOptions::Backend::kFfmpegCli;
@@ -396,7 +396,7 @@ TEST(CameraRollingShutter, TheReadoutDoesNotTiltTheCameraPlane) {
   const std::string rolling =
       SimulateInto("rs_plane", "seed: 4\n" + robot + runs + Camera(960, 540) + "  rolling_shutter_ms: 20\n");
   const vision::CameraPlaneResult rs_plain = plane(rolling, false), rs_aware = plane(rolling, true);
-  ASSERT_TRUE(rs_plain.ok && rs_aware.ok);
+  ASSERT_TRUE(rs_plain.ok() && rs_aware.ok());
   auto tilt_error = [](const vision::CameraPlaneResult& p) {
     return std::hypot(p.mount.roll_deg - 0.0, p.mount.pitch_deg - 3.0);
   };

@@ -234,7 +234,7 @@ TEST(EstimatorChoice, AScaleTheClosedRunsCannotSeeChoosesTheTrajectoryFitOnATie)
       const CandidateScore& s = c.candidates[static_cast<size_t>(k)];
       const calibration::ReplayModel model{calibration::WheelScalesFrom(pooled.believed, *s.params), {}};
       const calibration::RunReplay r = calibration::ReplayRun(run, pooled.believed, model);
-      ASSERT_TRUE(r.ok) << r.message;
+      ASSERT_TRUE(r.ok()) << r.message;
       error[k] = r.final_position_error_m;
     }
     std::printf("  unseen straight %s: umbmark %.2f mm, trajectory %.2f mm\n", run.name.c_str(), error[0] * 1e3,

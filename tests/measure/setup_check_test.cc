@@ -83,13 +83,13 @@ TEST(SetupCheck, SaysWhereAWideLensShrinksTheTagAtTheSquaresCorners) {
     const vision::CameraMount mount{0.0, 0.0, c.height_mm, 0.0, 1.5, 0.0};
     const vision::CameraModel camera(Fisheye(), mount);
     auto r = vision::Renderer::Create(camera, Tag(), render);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     options.mount_guess = mount;
     std::vector<SetupFrame> frames;
     for (int i = 0; i < 6; ++i) frames.push_back({r.renderer->Render(start).image, i / 30.0});
     options.square_side_m = side_m;
     const SetupCheckResult check = CheckSetup(frames, options);
-    ASSERT_TRUE(check.ok) << check.message;
+    ASSERT_TRUE(check.ok()) << check.message;
     ASSERT_TRUE(check.squares_fit) << ::testing::PrintToString(check.warnings);
     // The truth: the tag rendered at every corner of the squares and found
     // there by libapriltag at full resolution, in a window around it; under
@@ -106,7 +106,7 @@ TEST(SetupCheck, SaysWhereAWideLensShrinksTheTagAtTheSquaresCorners) {
       const cv::Rect window = cv::Rect(static_cast<int>(centre->x()) - 100, static_cast<int>(centre->y()) - 100, 200, 200) &
                               cv::Rect(0, 0, image.cols, image.rows);
       const vision::TagSurvey found = vision::SurveyTags(image(window).clone(), nullptr, survey);
-      ASSERT_TRUE(found.ok);
+      ASSERT_TRUE(found.ok());
       std::vector<std::array<cv::Point2d, 4>> outlines;
       for (const auto& t : found.tags) outlines.push_back(t.corners_px);
       if (outlines.empty())

@@ -83,7 +83,7 @@ TEST(ValidateTape, RecoversAKnownBiasAndScatter) {
   constexpr double kBias = 1.2, kBiasY = -0.5, kSd = 1.5;
   const Sample s = MakeSample(kN, kBias, kBiasY, kSd, 20261123);
   const TapeValidation v = ValidateTape(s.Pairs(), {});
-  ASSERT_TRUE(v.ok) << testing::PrintToString(v.notes);
+  ASSERT_TRUE(v.ok()) << testing::PrintToString(v.notes);
   EXPECT_TRUE(v.notes.empty());
   ASSERT_EQ(v.axes.size(), 2u) << "no reading has theta";
   EXPECT_EQ(v.axes[0].key, "x");
@@ -154,7 +154,7 @@ TEST(ValidateTape, APerfectTapeHasNoBiasAndATightVerdict) {
     s.readings[i].y_mm = s.camera[i].pose.y() * 1e3;
   }
   const TapeValidation v = ValidateTape(s.Pairs(), {});
-  ASSERT_TRUE(v.ok) << testing::PrintToString(v.notes);
+  ASSERT_TRUE(v.ok()) << testing::PrintToString(v.notes);
   ASSERT_EQ(v.axes.size(), 2u);
   for (const AxisAgreement& a : v.axes) {
     EXPECT_NEAR(a.agreement.bias, 0.0, 1e-9) << a.key;
@@ -168,7 +168,7 @@ TEST(ValidateTape, APerfectTapeHasNoBiasAndATightVerdict) {
 TEST(ValidateTape, TooFewReadingsHaveNoStatisticsAndSaySo) {
   const Sample s = MakeSample(2, 1.2, 0.0, 1.5, 3);
   const TapeValidation v = ValidateTape(s.Pairs(), {});
-  EXPECT_FALSE(v.ok);
+  EXPECT_FALSE(v.ok());
   EXPECT_TRUE(v.axes.empty());
   ASSERT_EQ(v.notes.size(), 2u);
   EXPECT_THAT(v.notes[0], testing::StartsWith("x: "));
@@ -181,7 +181,7 @@ TEST(ValidateTape, TooFewReadingsHaveNoStatisticsAndSaySo) {
 
 TEST(ValidateTape, NoPairsIsNotOk) {
   const TapeValidation v = ValidateTape({}, {});
-  EXPECT_FALSE(v.ok);
+  EXPECT_FALSE(v.ok());
   EXPECT_TRUE(v.axes.empty());
   EXPECT_EQ(v.notes.size(), 2u);
 }
@@ -189,7 +189,7 @@ TEST(ValidateTape, NoPairsIsNotOk) {
 TEST(ValidateTape, ThreeReadingsAreEnoughButFew) {
   const Sample s = MakeSample(3, 1.2, 0.0, 1.5, 5);
   const TapeValidation v = ValidateTape(s.Pairs(), {});
-  EXPECT_TRUE(v.ok);
+  EXPECT_TRUE(v.ok());
   EXPECT_EQ(v.position_n, 3);
   EXPECT_TRUE(v.few_readings()) << "below " << TapeValidation::kFewReadings;
 }
@@ -198,7 +198,7 @@ TEST(ValidateTape, ThetaOnlyFromTheReadingsThatHaveIt) {
   Sample s = MakeSample(10, 1.2, 0.0, 1.5, 11, /*with_theta=*/true);
   for (size_t i = 4; i < s.readings.size(); ++i) s.readings[i].theta_deg.reset();
   const TapeValidation v = ValidateTape(s.Pairs(), {});
-  ASSERT_TRUE(v.ok);
+  ASSERT_TRUE(v.ok());
   ASSERT_EQ(v.axes.size(), 3u);
   const AxisAgreement& theta = v.axes[2];
   EXPECT_EQ(theta.key, "theta");
@@ -214,7 +214,7 @@ TEST(ValidateTape, ThetaOnlyFromTheReadingsThatHaveIt) {
   s.readings[2].theta_deg.reset();
   s.readings[3].theta_deg.reset();
   const TapeValidation w = ValidateTape(s.Pairs(), {});
-  EXPECT_TRUE(w.ok);
+  EXPECT_TRUE(w.ok());
   ASSERT_EQ(w.axes.size(), 2u);
   ASSERT_EQ(w.notes.size(), 1u);
   EXPECT_THAT(w.notes[0], testing::StartsWith("theta: "));

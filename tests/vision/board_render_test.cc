@@ -37,7 +37,7 @@ TEST(BoardRender, TruthIsTheProjectedCornerAndMatchesOpenCvDetection) {
   BoardRenderOptions o;
   o.noise_sigma = 0.0;
   const BoardRenderResult r = RenderBoard(in, pattern, T, corners, o);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   ASSERT_TRUE(r.frame.all_visible);
   ASSERT_EQ(r.frame.points_px.size(), corners.size());
   for (size_t i = 0; i < corners.size(); ++i) {
@@ -95,7 +95,7 @@ TEST(BoardRender, AntiAliasingIsAreaCorrect) {
     for (int seed = 1; seed <= kSeeds; ++seed) {
       o.seed = seed;
       const BoardRenderResult r = RenderBoard(in, pattern, T, {}, o);
-      ASSERT_TRUE(r.ok);
+      ASSERT_TRUE(r.ok());
       cv::Mat f;
       r.frame.image.convertTo(f, CV_64F);
       darkness += cv::sum((o.white - f) / (o.white - o.black))[0] / kSeeds;
@@ -147,13 +147,12 @@ TEST(BoardRender, SampledPosesKeepTheBoardInsideAndAreSeeded) {
 TEST(BoardRender, RejectsInvalidInput) {
   BoardPattern empty;
   const auto r = RenderBoard(TestIntrinsics(), empty, Eigen::Isometry3d::Identity(), {}, {});
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_THAT(r.message, ::testing::HasSubstr("pattern")) << r.message;
   BoardRenderOptions o;
   o.supersample = 0;
-  EXPECT_FALSE(RenderBoard(TestIntrinsics(), BoardPattern::Chessboard(3, 2, 0.01),
-                           Eigen::Isometry3d::Identity(), {}, o)
-                   .ok);
+  EXPECT_FALSE(
+      RenderBoard(TestIntrinsics(), BoardPattern::Chessboard(3, 2, 0.01), Eigen::Isometry3d::Identity(), {}, o).ok());
 }
 
 }  // namespace

@@ -105,7 +105,7 @@ TEST(BoardShape, AFlatBoardIsFlat) {
   const CameraCalibrationResult cal = CalibrateCamera(views, cv::Size(640, 480));
   ASSERT_TRUE(cal.ok()) << cal.message;
   const BoardShape shape = MeasureBoardShape(views, board, cal.intrinsics);
-  ASSERT_TRUE(shape.ok) << shape.message;
+  ASSERT_TRUE(shape.ok()) << shape.message;
   std::printf("flat board: %zu tags, lifts RMS %.4f mm (sigma ~%.4f), chi2/dof %.2f over %d\n", shape.tags.size(),
               shape.rms_lift_mm, shape.tags.front().sigma_mm, shape.chi2_per_dof, shape.dof);
   EXPECT_EQ(shape.tags.size(), 36u);
@@ -122,7 +122,7 @@ TEST(BoardShape, EachTagsLiftIsFoundWhereTheBoardIsNotFlat) {
   const CameraCalibrationResult cal = CalibrateCamera(views, cv::Size(640, 480));
   ASSERT_TRUE(cal.ok()) << cal.message;
   const BoardShape shape = MeasureBoardShape(views, board, cal.intrinsics);
-  ASSERT_TRUE(shape.ok) << shape.message;
+  ASSERT_TRUE(shape.ok()) << shape.message;
   EXPECT_FALSE(shape.flat);
   ASSERT_EQ(shape.tags.size(), 36u);
   const std::map<int, double> truth = WithoutPlane(board, lift_m);
@@ -165,7 +165,7 @@ TEST(BoardShape, CalibratingWithTheLiftsTakesTheShapeOutOfTheIntrinsics) {
     const CameraCalibrationResult flat = CalibrateCamera(views, cv::Size(640, 480));
     ASSERT_TRUE(flat.ok()) << flat.message;
     const BoardShape shape = MeasureBoardShape(views, board, flat.intrinsics);
-    ASSERT_TRUE(shape.ok) << shape.message;
+    ASSERT_TRUE(shape.ok()) << shape.message;
     CameraCalibrationOptions options;
     for (const TagLift& t : shape.tags) options.board_lift_m[t.id] = 1e-3 * t.lift_mm;
     options.initial = flat.intrinsics;
@@ -189,10 +189,10 @@ TEST(BoardShape, OtherBoardsAndBadOptionsAreRefusedByName) {
   CalibrationBoard chess;
   chess.type = CalibrationBoard::Type::kChessboard;
   const BoardShape shape = MeasureBoardShape({}, chess, kCamera);
-  EXPECT_FALSE(shape.ok);
+  EXPECT_FALSE(shape.ok());
   EXPECT_NE(shape.message.find("aprilgrid"), std::string::npos) << shape.message;
   const BoardShape none = MeasureBoardShape({}, KalibrBoard(), kCamera);
-  EXPECT_FALSE(none.ok);
+  EXPECT_FALSE(none.ok());
   EXPECT_NE(none.message.find("fewer than 4 tags"), std::string::npos) << none.message;
   test_util::ExpectValidAndEachEditRejected<BoardShapeOptions>(
       BoardShapeOptions{}, {{[](BoardShapeOptions* o) { o->min_sightings = 3; }, "min_sightings"},

@@ -38,7 +38,7 @@ std::vector<cv::Mat> RenderViews(const BoardPattern& pattern, const std::vector<
   for (size_t i = 0; poses && i < poses->size(); ++i) {
     o.seed = seed * 1000 + i;
     const auto r = RenderBoard(Truth(), pattern, (*poses)[i], points, o);
-    EXPECT_TRUE(r.ok) << r.message;
+    EXPECT_TRUE(r.ok()) << r.message;
     images.push_back(r.frame.image);
   }
   return images;
@@ -110,7 +110,7 @@ TEST(CameraCalibration, RecoversAFisheyeLensWithJackknifeSigmas) {
   for (size_t i = 0; i < poses->size(); ++i) {
     o.seed = 5000 + i;
     const auto r = RenderBoard(truth, BoardPattern::Chessboard(9, 6, 0.025), (*poses)[i], points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     BoardDetection d = DetectBoard(r.frame.image, board);
     if (d.found) views.push_back(d);
   }
@@ -311,7 +311,7 @@ TEST(CameraCalibration, RecoversIntrinsicsFromRenderedCharucoBoards) {
     BoardRenderOptions o;
     o.seed = 40 + i;
     const auto r = RenderBoard(Truth(), pattern, (*poses)[i], points, o);
-    ASSERT_TRUE(r.ok);
+    ASSERT_TRUE(r.ok());
     BoardDetection d = DetectBoard(r.frame.image, board);
     if (!d.found) continue;
     // Each detected corner is where the renderer put the corner with its id.

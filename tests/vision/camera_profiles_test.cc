@@ -30,12 +30,13 @@ std::unique_ptr<Renderer> MakeRenderer(const ImageFormationOptions& formation, u
   o.seed = seed;
   o.formation = formation;
   auto r = Renderer::Create(testing::SmallCamera(), tag, o);
-  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.ok()) << r.message;
   return std::move(r.renderer);
 }
 
 struct Measured {
-  bool ok = false;
+  bool usable = false;  // measured, and no quality flag
+  bool ok() const { return usable; }
   std::string why;
   Pose2 pose;
   TagImageQuality quality;
@@ -52,19 +53,19 @@ Measured Measure(const cv::Mat& image, const CameraModel& camera, const TagSpec&
     return m;
   }
   const CornerRefineResult coarse = RefineTagCorners(image, found.detection->corners_px, &camera);
-  if (!coarse.ok) {
+  if (!coarse.ok()) {
     m.why = coarse.message;
     return m;
   }
   const ModelFreeRefineResult fine = RefineTagCornersModelFree(image, coarse.corners_px, &camera);
   m.quality = fine.quality;
-  if (!fine.ok) {
+  if (!fine.ok()) {
     m.why = fine.message;
     return m;
   }
   m.flags = QualityFlags(fine.quality);
   const PlanarPoseResult pose = MeasureTagPose(camera, tag, fine.corners_px);
-  m.ok = pose.ok && m.flags.empty();
+  m.usable = pose.ok() && m.flags.empty();
   m.pose = pose.T_world_robot;
   if (!m.flags.empty()) m.why = ToString(m.flags.front());
   return m;
@@ -152,7 +153,7 @@ TEST(CameraProfiles, PoseBiasDoesNotDependOnThePsfModel) {
       Eigen::Vector3d rest = Eigen::Vector3d::Zero();
       for (int k = 0; k < kFrames; ++k) {
         const Measured m = Measure(renderer->Render(pose).image, camera, tag);
-        ASSERT_TRUE(m.ok) << ToString(psfs[i].model) << ": " << m.why;
+        ASSERT_TRUE(m.ok()) << ToString(psfs[i].model) << ": " << m.why;
         rest += Eigen::Vector3d((m.pose.x() - pose.x()) * 1e3, (m.pose.y() - pose.y()) * 1e3,
                                 WrapAngle(m.pose.heading() - pose.heading()) * kRadToDeg) /
                 kFrames;
@@ -191,7 +192,7 @@ TEST(CameraProfiles, RollingShutterTruthIsTheFramesMidExposure) {
   const CameraModel camera = testing::SmallCamera();
   const Measured mr = Measure(rs.image, camera, testing::StandardTag());
   const Measured mg = Measure(gs.image, camera, testing::StandardTag());
-  ASSERT_TRUE(mr.ok && mg.ok) << mr.why << " / " << mg.why;
+  ASSERT_TRUE(mr.ok() && mg.ok()) << mr.why << " / " << mg.why;
   const cv::Point2d centre = (rs.corners_px[0] + rs.corners_px[1] + rs.corners_px[2] + rs.corners_px[3]) * 0.25;
   const double t_rows = (centre.y / (480 - 1) - 0.5) * f.rolling_shutter_s;
   EXPECT_GT(t_rows, 0.005);
@@ -226,7 +227,7 @@ TEST(CameraProfiles, PaperBowActsAsARaisedTag) {
   for (const Pose2& place : Places()) {
     const Measured f = Measure(flat->Render(place).image, camera, tag);
     const Measured b = Measure(bowed->Render(place).image, camera, tag);
-    ASSERT_TRUE(f.ok && b.ok) << f.why << " / " << b.why;
+    ASSERT_TRUE(f.ok() && b.ok()) << f.why << " / " << b.why;
     // The bowed tag's corners, lifted, are what the renderer says is true.
     const auto lifted = bowed->TrueCorners(place);
     const auto level = flat->TrueCorners(place);
@@ -262,7 +263,7 @@ TEST(CameraProfiles, BadFramesAreFlaggedNotMeasured) {
   good.psf = PsfOptions{PsfOptions::Model::kDisk, 1.0, 0.0};
   {
     const Measured m = Measure(MakeRenderer(good)->Render(pose).image, camera, tag);
-    EXPECT_TRUE(m.ok) << m.why;
+    EXPECT_TRUE(m.ok()) << m.why;
     EXPECT_GT(m.quality.contrast_grey, 100.0);
     EXPECT_NEAR(m.quality.blur_sigma_px, 0.5, 0.25);  // a 1 px disk: sigma 0.5
     EXPECT_NEAR(m.quality.side_px, 700.0 * 80.0 / (1200.0 - 150.0), 1.0);  // f * size / distance
@@ -271,14 +272,14 @@ TEST(CameraProfiles, BadFramesAreFlaggedNotMeasured) {
     ImageFormationOptions over = good;
     over.gain = 2.5;  // the white plate clips
     const Measured m = Measure(MakeRenderer(over)->Render(pose).image, camera, tag);
-    EXPECT_FALSE(m.ok);
+    EXPECT_FALSE(m.ok());
     EXPECT_EQ(m.why, "overexposed");
   }
   {
     ImageFormationOptions blurred = good;
     blurred.psf = PsfOptions{PsfOptions::Model::kDisk, 3.5, 0.0};
     const Measured m = Measure(MakeRenderer(blurred)->Render(pose).image, camera, tag);
-    EXPECT_FALSE(m.ok);
+    EXPECT_FALSE(m.ok());
     if (!m.flags.empty()) {
       EXPECT_EQ(m.why, "defocused");
     }
@@ -289,7 +290,7 @@ TEST(CameraProfiles, BadFramesAreFlaggedNotMeasured) {
     const cv::Point2d a = (f.corners_px[0] * 0.6 + f.corners_px[1] * 0.4);
     cv::line(f.image, a + cv::Point2d(-6, -6), a + cv::Point2d(6, 6), cv::Scalar(90), 3);
     const Measured m = Measure(f.image, camera, tag);
-    EXPECT_FALSE(m.ok) << "occluded edge measured as if clean";
+    EXPECT_FALSE(m.ok()) << "occluded edge measured as if clean";
   }
   {
     // A second tag with the same id.
@@ -302,7 +303,7 @@ TEST(CameraProfiles, BadFramesAreFlaggedNotMeasured) {
     other.image(box).copyTo(f.image(box));
     auto detector = TagDetector::Create(DetectorOptions{}).detector;
     EXPECT_EQ(detector->Find(f.image, tag.id).status, DetectStatus::kDuplicateId);
-    EXPECT_FALSE(Measure(f.image, camera, tag).ok);
+    EXPECT_FALSE(Measure(f.image, camera, tag).ok());
   }
 }
 

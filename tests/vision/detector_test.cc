@@ -28,7 +28,7 @@ struct Stats {
 
 std::unique_ptr<TagDetector> MakeDetector(const DetectorOptions& o = {}) {
   auto d = TagDetector::Create(o);
-  EXPECT_TRUE(d.ok) << d.message;
+  EXPECT_TRUE(d.ok()) << d.message;
   return std::move(d.detector);
 }
 
@@ -36,7 +36,7 @@ class StandardCondition : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     auto r = Renderer::Create(testing::StandardCamera(), testing::StandardTag(), testing::StandardRender());
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     renderer_ = r.renderer.release();
     // Poses spread over the whole view (the camera sees x in about
     // [-1.2, 1.2] m and y in [-1.6, -0.4] m at the tag's height).
@@ -65,7 +65,7 @@ class StandardCondition : public ::testing::Test {
       auto corners = found.detection->corners_px;
       if (refine_mode) {
         const auto refined = RefineTagCorners(f.image, corners, camera);
-        EXPECT_TRUE(refined.ok) << refined.message;
+        EXPECT_TRUE(refined.ok()) << refined.message;
         corners = refined.corners_px;
       }
       for (int k = 0; k < 4; ++k) {
@@ -150,7 +150,7 @@ TEST_F(StandardCondition, RoiDetectionMatchesFullFrame) {
 
 TEST(Tracker, FollowsInRoiLosesAndReacquires) {
   auto r = Renderer::Create(testing::SmallCamera(), testing::StandardTag(), testing::StandardRender());
-  ASSERT_TRUE(r.ok);
+  ASSERT_TRUE(r.ok());
   auto detector = MakeDetector();
   TagTracker tracker(detector.get(), 5);
   int roi_frames = 0;
@@ -179,7 +179,7 @@ TEST(Tracker, FollowsInRoiLosesAndReacquires) {
 
 TEST(DetectorBadInput, WrongIdWrongFamilyNotInViewDuplicateAndEmpty) {
   auto r = Renderer::Create(testing::SmallCamera(), testing::StandardTag(), testing::StandardRender());
-  ASSERT_TRUE(r.ok);
+  ASSERT_TRUE(r.ok());
   const RenderedFrame f = r.renderer->Render(Pose2::FromXYHeading(0.0, 0.0, 0.3));
   auto detector = MakeDetector();
 
@@ -211,7 +211,7 @@ TEST(DetectorBadInput, WrongIdWrongFamilyNotInViewDuplicateAndEmpty) {
   DetectorOptions bad;
   bad.family = "tag36h12";
   const auto created = TagDetector::Create(bad);
-  EXPECT_FALSE(created.ok);
+  EXPECT_FALSE(created.ok());
   EXPECT_THAT(created.message, ::testing::HasSubstr("family"));
   bad = DetectorOptions{};
   bad.quad_decimate = 0.5f;
@@ -225,7 +225,7 @@ TEST(CornerRefine, LeavesTinyTagsAlone) {
   const std::array<cv::Point2d, 4> tiny{cv::Point2d(10, 10), cv::Point2d(20, 10), cv::Point2d(20, 20),
                                         cv::Point2d(10, 20)};
   const auto r = RefineTagCorners(im, tiny, nullptr);
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_FALSE(r.message.empty());
   EXPECT_EQ(r.corners_px[2], tiny[2]);
 }

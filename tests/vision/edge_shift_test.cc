@@ -46,9 +46,9 @@ std::optional<std::array<cv::Point2d, 4>> Corners(const cv::Mat& image, const Ca
   const FindResult found = detector->Find(image, id);
   if (found.status != DetectStatus::kOk) return std::nullopt;
   const CornerRefineResult coarse = RefineTagCorners(image, found.detection->corners_px, &camera);
-  if (!coarse.ok) return std::nullopt;
+  if (!coarse.ok()) return std::nullopt;
   const CornerRefineResult fine = RefineTagCornersByEdgeModel(image, coarse.corners_px, &camera);
-  if (!fine.ok) return std::nullopt;
+  if (!fine.ok()) return std::nullopt;
   return fine.corners_px;
 }
 
@@ -65,7 +65,7 @@ Figures MeasureRendered(const ImageFormationOptions& formation, double print_sca
   o.seed = 3;
   o.formation = formation;
   auto r = Renderer::Create(camera, tag, o);
-  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.ok()) << r.message;
   const auto cells = TagCells::Of(tag.family, tag.id);
   EXPECT_TRUE(cells) << cells.message;
   Figures f;
@@ -75,8 +75,8 @@ Figures MeasureRendered(const ImageFormationOptions& formation, double print_sca
     EXPECT_TRUE(corners);
     if (!corners) continue;
     const EdgeShiftResult s = MeasureEdgeShift(frame.image, *corners, *cells, &camera);
-    EXPECT_TRUE(s.ok) << s.message;
-    if (!s.ok) continue;
+    EXPECT_TRUE(s.ok()) << s.message;
+    if (!s.ok()) continue;
     const std::array<cv::Point2d, 4> truth = frame.corners_px;  // the printed square's
     const std::array<cv::Point2d, 4> fixed = RemoveEdgeShift(*corners, s.shift_px, &camera);
     const double before = SizeError(*corners, truth), after = SizeError(fixed, truth);
@@ -241,9 +241,9 @@ TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
       ro.min_cell_px = 2.0;
       const std::array<cv::Point2d, 4> grown = RemoveEdgeShift(truth, -c.d_px, nullptr);
       const CornerRefineResult fine = RefineTagCornersByEdgeModel(image, grown, nullptr, ro);
-      ASSERT_TRUE(fine.ok) << fine.message;
+      ASSERT_TRUE(fine.ok()) << fine.message;
       const EdgeShiftResult s = MeasureEdgeShift(image, fine.corners_px, *cells, nullptr);
-      ASSERT_TRUE(s.ok) << s.message;
+      ASSERT_TRUE(s.ok()) << s.message;
       const std::array<cv::Point2d, 4> fixed = RemoveEdgeShift(fine.corners_px, s.shift_px, nullptr);
       std::printf("  %s, %.0f px cells, ink %+.2f px, %.2f rad: shift %+.4f ± %.4f px; size error %+.4f -> %+.4f px\n",
                   c.family, c.cell_px, c.d_px, angle, s.shift_px, s.sigma_px, SizeError(fine.corners_px, truth),
@@ -252,7 +252,7 @@ TEST(EdgeShift, MeasuresInkThatGrowsOrThinsTheBlack) {
       EXPECT_LT(std::abs(SizeError(fixed, truth)), 0.04) << c.family << " " << angle;
       // The whole pattern, corners free: the print's corners themselves.
       const TagPatternResult whole = RefineTagByPattern(image, fine.corners_px, *cells, nullptr);
-      ASSERT_TRUE(whole.shift.ok) << whole.shift.message;
+      ASSERT_TRUE(whole.shift.ok()) << whole.shift.message;
       double worst = 0.0, worst_edges = 0.0;
       for (int k = 0; k < 4; ++k) {
         worst = std::max(worst, cv::norm(whole.corners_px[k] - truth[k]));
@@ -298,9 +298,9 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
       ro.min_cell_px = 0.5;
       const CornerRefineResult fine =
           RefineTagCornersByEdgeModel(image, RemoveEdgeShift(truth, -c.d_px, nullptr), nullptr, ro);
-      ASSERT_TRUE(fine.ok) << fine.message;
+      ASSERT_TRUE(fine.ok()) << fine.message;
       const EdgeShiftResult s = MeasureEdgeShift(image, fine.corners_px, *cells, nullptr);
-      ASSERT_TRUE(s.ok) << c.cell_px << " px cells: " << s.message;
+      ASSERT_TRUE(s.ok()) << c.cell_px << " px cells: " << s.message;
       std::printf("  %.2f px cells, ink %+.2f px, blur %.2f, %.2f rad: shift %+.4f ± %.4f px (blur %.2f)\n", c.cell_px,
                   c.d_px, c.blur_px, angle, s.shift_px, s.sigma_px, s.blur_px);
       views.push_back(s);
@@ -321,7 +321,7 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
     }
     EXPECT_LE(unsure, 2) << c.cell_px << " px cells";
     const EdgeShiftEstimate pooled = PoolEdgeShifts(views, 0.0);
-    ASSERT_TRUE(pooled.ok) << pooled.message;
+    ASSERT_TRUE(pooled.ok()) << pooled.message;
     std::printf("  pooled: %+.4f ± %.4f px (ink %+.2f)\n", pooled.shift_px, pooled.sigma_px, c.d_px);
     EXPECT_NEAR(pooled.shift_px, c.d_px, 0.02) << c.cell_px;
     EXPECT_LT(std::abs(pooled.shift_px - c.d_px), 3.0 * pooled.sigma_px + 0.005) << "the pooled sigma covers it";
@@ -339,7 +339,7 @@ TEST(EdgeShift, MeasuresTheShiftInTagsOfOneAndAThirdPixelCells) {
   cv::getPerspectiveTransform(from, to).convertTo(cv::Mat(3, 3, CV_64F, H.val), CV_64F);
   const cv::Mat tiny = InkPrint(*cells, H, 0.0, 0.5, cv::Size(40, 40), &rng);
   const EdgeShiftResult refused = MeasureEdgeShift(tiny, small, *cells, nullptr);
-  EXPECT_FALSE(refused.ok);
+  EXPECT_FALSE(refused.ok());
   EXPECT_NE(refused.message.find("cell"), std::string::npos) << refused.message;
 }
 
@@ -367,7 +367,7 @@ TEST(SmallTag, ANineAndAHalfPixelKalibrTagIsRefinedOnAShorterMargin) {
     ro.width_at_border = cells->n / 2;
     ro.min_cell_px = 8.0 / ro.width_at_border;
     const CornerRefineResult r = RefineTagCornersByEdgeModel(image, start, nullptr, ro);
-    ASSERT_TRUE(r.ok) << angle << " rad: " << r.message;
+    ASSERT_TRUE(r.ok()) << angle << " rad: " << r.message;
     for (int k = 0; k < 4; ++k) {
       const double e = cv::norm(r.corners_px[k] - truth[k]);
       worst = std::max(worst, e);
@@ -386,11 +386,11 @@ TEST(EdgeShift, RefusesWhatItCannotMeasure) {
   const cv::Mat flat(100, 100, CV_8U, cv::Scalar(128));
   const std::array<cv::Point2d, 4> c{cv::Point2d(20, 80), {80, 80}, {80, 20}, {20, 20}};
   const EdgeShiftResult s = MeasureEdgeShift(flat, c, *cells, nullptr);
-  EXPECT_FALSE(s.ok);
+  EXPECT_FALSE(s.ok());
   EXPECT_NE(s.message.find("contrast"), std::string::npos) << s.message;
   const std::array<cv::Point2d, 4> tiny{cv::Point2d(20, 28), {28, 28}, {28, 20}, {20, 20}};
-  EXPECT_FALSE(MeasureEdgeShift(flat, tiny, *cells, nullptr).ok);
-  EXPECT_FALSE(MeasureEdgeShift(cv::Mat(), c, *cells, nullptr).ok);
+  EXPECT_FALSE(MeasureEdgeShift(flat, tiny, *cells, nullptr).ok());
+  EXPECT_FALSE(MeasureEdgeShift(cv::Mat(), c, *cells, nullptr).ok());
 }
 
 }  // namespace

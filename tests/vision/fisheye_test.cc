@@ -108,7 +108,7 @@ TEST(FisheyeLens, ObjectPoseThroughTheLens) {
   std::normal_distribution<double> noise(0.0, 0.02);
   for (cv::Point2d& p : pixels) p += cv::Point2d(noise(rng), noise(rng));
   const ObjectPose pose = EstimateObjectPose(lens, board, pixels, std::vector<double>(board.size(), 0.02));
-  ASSERT_TRUE(pose.ok) << pose.message;
+  ASSERT_TRUE(pose.ok()) << pose.message;
   EXPECT_LT(pose.rms_residual_px, 0.04);
   const Eigen::Vector3d t = pose.T_camera_object.translation();
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(t[k], tvec[k], 4.0 * std::sqrt(pose.covariance(3 + k, 3 + k))) << k;
@@ -123,9 +123,9 @@ TEST(FisheyeLens, RenderedTagPoseIsUnbiasedAcrossTheField) {
   const CameraModel camera(Fisheye(), FisheyeMount());
   RenderOptions options = testing::StandardRender();
   auto r = Renderer::Create(camera, testing::StandardTag(), options);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   auto d = TagDetector::Create(DetectorOptions{});
-  ASSERT_TRUE(d.ok);
+  ASSERT_TRUE(d.ok());
   const Pose2 truths[] = {Pose2::FromXYHeading(0.01, 0.02, 0.3), Pose2::FromXYHeading(0.7, -0.35, -1.9),
                           Pose2::FromXYHeading(-0.75, 0.5, 2.6)};
   for (const Pose2& truth : truths) {
@@ -139,11 +139,11 @@ TEST(FisheyeLens, RenderedTagPoseIsUnbiasedAcrossTheField) {
       // As a rest is measured (measure::MeasureRestExactly): the half-level
       // lines, then the exact model-free fit through the lens.
       const auto half = RefineTagCorners(f.image, t.find.detection->corners_px, &camera);
-      ASSERT_TRUE(half.ok) << half.message << " at " << ::testing::PrintToString(truth);
+      ASSERT_TRUE(half.ok()) << half.message << " at " << ::testing::PrintToString(truth);
       const auto refined = RefineTagCornersModelFree(f.image, half.corners_px, &camera);
-      ASSERT_TRUE(refined.ok) << refined.message << " at " << ::testing::PrintToString(truth);
+      ASSERT_TRUE(refined.ok()) << refined.message << " at " << ::testing::PrintToString(truth);
       const PlanarPoseResult p = MeasureTagPose(camera, testing::StandardTag(), refined.corners_px);
-      ASSERT_TRUE(p.ok) << p.message;
+      ASSERT_TRUE(p.ok()) << p.message;
       ex.push_back((p.T_world_robot.x() - truth.x()) * 1e3);
       ey.push_back((p.T_world_robot.y() - truth.y()) * 1e3);
       eh.push_back(WrapAngle(p.T_world_robot.heading() - truth.heading()) * kRadToDeg);
@@ -180,9 +180,9 @@ TEST(FisheyeLens, RenderedTagPoseIsUnbiasedAcrossTheField) {
 TEST(FisheyeLens, ASmallTagAtTheRimIsFoundAtFullResolutionAndMeasured) {
   const CameraModel camera(Fisheye(), FisheyeMount());
   auto r = Renderer::Create(camera, testing::StandardTag(), testing::StandardRender());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   auto d = TagDetector::Create(DetectorOptions{});
-  ASSERT_TRUE(d.ok);
+  ASSERT_TRUE(d.ok());
   // A rest's mean pose over a second of frames (the tracker and refiners as
   // measure's), with the standard error of its position [m] and heading.
   struct Rest {
@@ -202,11 +202,11 @@ TEST(FisheyeLens, ASmallTagAtTheRimIsFoundAtFullResolutionAndMeasured) {
       // A frame whose edges cannot be fitted is left out of the rest, as
       // measure leaves it out.
       const auto half = RefineTagCorners(f.image, t.find.detection->corners_px, &camera);
-      if (!half.ok) continue;
+      if (!half.ok()) continue;
       const auto refined = RefineTagCornersModelFree(f.image, half.corners_px, &camera);
-      if (!refined.ok) continue;
+      if (!refined.ok()) continue;
       const PlanarPoseResult p = MeasureTagPose(camera, testing::StandardTag(), refined.corners_px);
-      if (!p.ok) continue;
+      if (!p.ok()) continue;
       xs.push_back(p.T_world_robot.x());
       ys.push_back(p.T_world_robot.y());
       hs.push_back(truth.heading() + WrapAngle(p.T_world_robot.heading() - truth.heading()));
@@ -260,7 +260,7 @@ TEST(FisheyeLens, CornerSigmaIsInTheImagesPixels) {
   RenderOptions options = testing::StandardRender();
   options.noise_sigma = 4.0;
   auto r = Renderer::Create(camera, testing::StandardTag(), options);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   TagSurveyOptions survey;
   survey.quad_decimate = 2.0f;  // the refinement is on the full image anyway
   survey.collect_rejected = false;
@@ -272,7 +272,7 @@ TEST(FisheyeLens, CornerSigmaIsInTheImagesPixels) {
     for (int i = 0; i < kFrames; ++i) {
       const RenderedFrame f = r.renderer->Render(truth);
       const TagSurvey s = SurveyTags(f.image, &camera, survey);
-      ASSERT_TRUE(s.ok) << s.message;
+      ASSERT_TRUE(s.ok()) << s.message;
       ASSERT_EQ(s.tags.size(), 1u);
       ASSERT_TRUE(s.tags[0].refined) << s.tags[0].refine_message;
       for (int k = 0; k < 4; ++k) {

@@ -79,7 +79,7 @@ std::vector<cv::Mat> RenderFrames(const CameraModel& camera, const RenderOptions
   for (int k = 0; k < n; ++k) {
     o.seed = 100 + k;  // fresh noise each frame (the floor texture changes too: harmless)
     auto created = Renderer::Create(camera, robot_tag, o);
-    EXPECT_TRUE(created.ok) << created.message;
+    EXPECT_TRUE(created.ok()) << created.message;
     frames.push_back(created.renderer->Render(Pose2::FromXYHeading(0.0, 0.0, 0.3)).image);
   }
   return frames;
@@ -129,7 +129,7 @@ TEST(FloorReference, HeightFromTheTapeIsExactOnExactCentres) {
     CameraMount trial = truth_mount;
     trial.height_mm = trial_mm;
     const FloorScaleResult r = EstimateFloorScale(CameraModel(truth.intrinsics(), trial), seen, Reference(0.3), 0.0, 0.0);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     EXPECT_NEAR(r.camera_height_mm, 1200.0, 1e-6) << "trial " << trial_mm;
     EXPECT_EQ(r.pairs.size(), 4u);
     for (const auto& p : r.pairs) EXPECT_NEAR(p.seen_mm, p.tape_mm, 1e-6);
@@ -155,7 +155,7 @@ TEST(FloorReference, RenderedFloorTagsGiveTheCameraHeight) {
   CameraMount guess = truth.mount();
   guess.height_mm = 1150.0;  // what a tag printed 4 % large would have said
   const FloorScaleResult r = EstimateFloorScale(CameraModel(truth.intrinsics(), guess), seen, Reference(0.3), 0.0, 0.0);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   EXPECT_LT(r.sigma_camera_height_mm, 0.8);
   EXPECT_GT(r.sigma_camera_height_mm, 0.25);  // 4 pairs at 0.3 mm: ~0.27 mm, plus the centres
   EXPECT_NEAR(r.camera_height_mm, 1200.0, 3.0 * r.sigma_camera_height_mm);
@@ -182,7 +182,7 @@ TEST(FloorReference, UnseenOrDuplicatedTagsAreNamed) {
   EXPECT_THAT(seen[4].flags, ::testing::ElementsAre(ObservationFlag::kNotSeen));
   EXPECT_STREQ(ToString(seen[4].flags[0]), "not_seen");
   const FloorScaleResult result = EstimateFloorScale(camera, seen, r, 0.0, 0.0);
-  EXPECT_FALSE(result.ok);
+  EXPECT_FALSE(result.ok());
   EXPECT_THAT(result.message, HasSubstr("1-9"));
 }
 

@@ -54,7 +54,7 @@ std::unique_ptr<TagDetector> MakeDetector(const std::string& family, float decim
   o.family = family;
   o.quad_decimate = decimate;
   auto d = TagDetector::Create(o);
-  EXPECT_TRUE(d.ok) << d.message;
+  EXPECT_TRUE(d.ok()) << d.message;
   return std::move(d.detector);
 }
 
@@ -93,7 +93,7 @@ TEST(KalibrTagRendered, CornersAreUnbiasedAgainstRenderedTruth) {
   TagSpec tag = testing::StandardTag();
   tag.family = "tag36h11b2";
   auto r = Renderer::Create(testing::StandardCamera(), tag, testing::StandardRender());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   const CameraModel camera = testing::StandardCamera();
   auto detector = MakeDetector("tag36h11b2");
   auto one_bit = MakeDetector("tag36h11");
@@ -114,9 +114,9 @@ TEST(KalibrTagRendered, CornersAreUnbiasedAgainstRenderedTruth) {
     // The 1-bit layout reads the second black ring as data: nothing decodes.
     one_bit_found += one_bit->Detect(f.image, roi).detections.size();
     const auto refined = RefineTagCorners(f.image, found.detection->corners_px, &camera, refine);
-    ASSERT_TRUE(refined.ok) << refined.message;
+    ASSERT_TRUE(refined.ok()) << refined.message;
     const auto exact = RefineTagCornersByEdgeModel(f.image, found.detection->corners_px, &camera, refine);
-    ASSERT_TRUE(exact.ok) << exact.message;
+    ASSERT_TRUE(exact.ok()) << exact.message;
     for (int k = 0; k < 4; ++k) {
       lib.Add(found.detection->corners_px[k] - f.corners_px[k]);
       half_level.Add(refined.corners_px[k] - f.corners_px[k]);
@@ -143,7 +143,7 @@ TEST(KalibrTagRendered, CornersAreUnbiasedAgainstRenderedTruth) {
 
 TEST(KalibrTagRendered, OneBitTagIsNotABorderTwoTag) {
   auto r = Renderer::Create(testing::SmallCamera(), testing::StandardTag(), testing::StandardRender());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   const RenderedFrame f = r.renderer->Render(Pose2::FromXYHeading(0.0, 0.0, 0.3));
   ASSERT_EQ(MakeDetector("tag36h11")->Find(f.image, 5).status, DetectStatus::kOk);
   const DetectResult wrong = MakeDetector("tag36h11b2")->Detect(f.image);
@@ -162,7 +162,7 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
   tag.family = "tag36h11b2";
   const CameraModel camera = testing::StandardCamera();
   auto r = Renderer::Create(camera, tag, testing::StandardRender());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   for (const Pose2& truth : {Pose2::FromXYHeading(0.02, -1.0, 0.4), Pose2::FromXYHeading(-1.05, -0.6, -2.0),
                              Pose2::FromXYHeading(1.0, -1.45, 2.9)}) {
     auto created = TagObserver::Create(tag, camera.intrinsics(), VideoTrackOptions{});
@@ -175,7 +175,7 @@ TEST(KalibrTagRendered, RobotTagPoseThroughTheMeasurementPath) {
       ASSERT_TRUE(o.corners_px) << ToString(o.status);
       EXPECT_TRUE(o.refined);
       const PlanarPoseResult p = MeasureTagPose(camera, tag, *o.corners_px);
-      ASSERT_TRUE(p.ok) << p.message;
+      ASSERT_TRUE(p.ok()) << p.message;
       sx += p.T_world_robot.x() - truth.x();
       sy += p.T_world_robot.y() - truth.y();
       sh += calibration::WrapAngle(p.T_world_robot.heading() - truth.heading());
@@ -244,7 +244,7 @@ TEST(KalibrTagRendered, AprilgridCornersAreUnbiasedAgainstRenderedTruth) {
     BoardRenderOptions o;
     o.seed = 100 + v;
     const auto r = RenderBoard(intrinsics, *pattern, (*poses)[v], truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     const BoardDetection d = DetectBoard(r.frame.image, board);
     ASSERT_TRUE(d.found) << "view " << v << ": " << d.message << " " << d.tag_ids.size();
     tags += d.tag_ids.size();
@@ -297,7 +297,7 @@ TEST(KalibrTagRendered, AGridWithoutCornerSquaresKeepsTheTagsOwnEdges) {
     BoardRenderOptions o;
     o.seed = 700 + v;
     const auto r = RenderBoard(scene.intrinsics, plain, (*scene.poses)[v], scene.truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     const BoardDetection d = DetectBoard(r.frame.image, scene.board);
     ASSERT_TRUE(d.found) << d.message;
     for (size_t t = 0; t < d.tag_ids.size(); ++t)
@@ -340,7 +340,7 @@ TEST(KalibrTagRendered, FisheyeAprilgridCornersThroughTheLens) {
     BoardRenderOptions o;
     o.seed = 300 + v;
     const auto r = RenderBoard(scene.intrinsics, *scene.pattern, (*scene.poses)[v], scene.truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     BoardDetectionOptions with_lens;
     with_lens.lens = scene.intrinsics;
     const BoardDetection a = DetectBoard(r.frame.image, scene.board);
@@ -439,7 +439,7 @@ TEST(KalibrTagRendered, WideFisheyeFindsTheCurvedTagsAndCalibratesFromEveryView)
     o.seed = 500 + v;
     o.supersample = 8;
     const auto r = RenderBoard(lens, *pattern, (*poses)[v], truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     BoardDetectionOptions with_lens;
     with_lens.lens = lens;
     const BoardDetection plain = DetectBoard(r.frame.image, board);
@@ -520,7 +520,7 @@ TEST(KalibrTagRendered, AVignettedFisheyeFindsItsDarkTags) {
     o.seed = 900 + v;
     o.supersample = 8;
     const auto r = RenderBoard(lens, *pattern, (*poses)[v], truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     cv::Mat darkened(r.frame.image.size(), CV_8U);
     for (int y = 0; y < darkened.rows; ++y)
       for (int x = 0; x < darkened.cols; ++x) {
@@ -567,7 +567,7 @@ TEST(KalibrTagRendered, ABlackSquareWhereATagShouldBeIsNotATag) {
   BoardRenderOptions o;
   o.seed = 41;
   const auto r = RenderBoard(scene.intrinsics, *scene.pattern, scene.poses->front(), scene.truth_points, o);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   const BoardDetection d = DetectBoard(r.frame.image, scene.board);
   ASSERT_TRUE(d.found) << d.message;
   const std::set<int> ids(d.tag_ids.begin(), d.tag_ids.end());
@@ -615,7 +615,7 @@ TEST(KalibrTagRendered, SmallTagsAtAFisheyesRimAreReadByTheirWholeBitmap) {
     BoardRenderOptions o;
     o.seed = 700 + v;
     const auto r = RenderBoard(lens, *pattern, (*poses)[v], truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     const BoardDetection d = DetectBoard(r.frame.image, board, with_lens);
     ASSERT_TRUE(d.found) << "view " << v << ": " << d.message;
     const std::set<int> ids(d.tag_ids.begin(), d.tag_ids.end());
@@ -667,7 +667,7 @@ TEST(KalibrTagRendered, SmallTagsAtAFisheyesRimAreReadByTheirWholeBitmap) {
     BoardRenderOptions o;
     o.seed = 700 + v;
     const auto r = RenderBoard(lens, *pattern, (*poses)[v], truth_points, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     const BoardDetection d = DetectBoard(r.frame.image, board, with_lens);
     ASSERT_TRUE(d.found) << d.message;
     EXPECT_EQ(std::count(d.tag_ids.begin(), d.tag_ids.end(), inked), 0) << "view " << v;
@@ -705,7 +705,7 @@ TEST(KalibrTagRendered, EdgeCornersBeatXCornersThroughJpegAndSharpening) {
       BoardRenderOptions o;
       o.seed = 200 + v;
       const auto r = RenderBoard(intrinsics, *pattern, (*poses)[v], truth_points, o);
-      ASSERT_TRUE(r.ok) << r.message;
+      ASSERT_TRUE(r.ok()) << r.message;
       cv::Mat image = r.frame.image;
       if (c.sharpen > 0.0) {
         cv::Mat blurred;
@@ -1009,8 +1009,8 @@ TEST(KalibrTagRealAprilgrid, CalibrationFromOdocalAndFromYacCorners) {
   // yac's, each under its own calibration.
   const BoardShape ours_shape = MeasureBoardShape(ours, board, a.intrinsics);
   const BoardShape yac_shape = MeasureBoardShape(yac_tags, board, b.intrinsics);
-  ASSERT_TRUE(ours_shape.ok) << ours_shape.message;
-  ASSERT_TRUE(yac_shape.ok) << yac_shape.message;
+  ASSERT_TRUE(ours_shape.ok()) << ours_shape.message;
+  ASSERT_TRUE(yac_shape.ok()) << yac_shape.message;
   std::map<int, double> yac_lift;
   for (const TagLift& t : yac_shape.tags) yac_lift[t.id] = t.lift_mm;
   double sq = 0.0, ours_sq = 0.0, sigma_sq = 0.0;

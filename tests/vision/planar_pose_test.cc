@@ -28,7 +28,7 @@ std::optional<TagCorners> Corners(TagTracker* tracker, const RenderedFrame& f, c
   const TrackResult t = tracker->Track(f.image);
   if (t.find.status != DetectStatus::kOk) return std::nullopt;
   const auto refined = RefineTagCorners(f.image, t.find.detection->corners_px, &camera);
-  if (!refined.ok) return std::nullopt;
+  if (!refined.ok()) return std::nullopt;
   return refined.corners_px;
 }
 
@@ -36,10 +36,10 @@ class PlanarPose : public ::testing::Test {
  protected:
   void SetUp() override {
     auto r = Renderer::Create(camera_, testing::StandardTag(), options_);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.ok()) << r.message;
     renderer_ = std::move(r.renderer);
     auto d = TagDetector::Create(DetectorOptions{});
-    ASSERT_TRUE(d.ok);
+    ASSERT_TRUE(d.ok());
     detector_ = std::move(d.detector);
   }
   CameraModel camera_ = testing::StandardCamera();
@@ -61,7 +61,7 @@ TEST_F(PlanarPose, StaticTagAveragedOverNoisyFramesIsWithinATenthOfAMillimetre) 
       const auto corners = Corners(&tracker, f, camera_);
       ASSERT_TRUE(corners);
       const PlanarPoseResult p = MeasureTagPose(camera_, testing::StandardTag(), *corners);
-      ASSERT_TRUE(p.ok) << p.message;
+      ASSERT_TRUE(p.ok()) << p.message;
       sx += p.T_world_robot.x() - truth.x();
       sy += p.T_world_robot.y() - truth.y();
       sh += WrapAngle(p.T_world_robot.heading() - truth.heading());
@@ -91,7 +91,7 @@ TEST_F(PlanarPose, MovingTagPerFramePoseWithinOneMillimetre) {
     const auto corners = Corners(&tracker, f, camera_);
     ASSERT_TRUE(corners) << "frame " << i;
     const PlanarPoseResult p = MeasureTagPose(camera_, testing::StandardTag(), *corners);
-    ASSERT_TRUE(p.ok) << p.message;
+    ASSERT_TRUE(p.ok()) << p.message;
     EXPECT_THAT(p.T_world_robot, IsNearPose(f.T_world_robot, 1.0, 0.2)) << "frame " << i;
     worst_mm = std::max(worst_mm, 1e3 * (p.T_world_robot.translation() - f.T_world_robot.translation()).norm());
     worst_deg = std::max(worst_deg, std::abs(WrapAngle(p.T_world_robot.heading() - f.T_world_robot.heading())) * kRadToDeg);
@@ -105,7 +105,7 @@ TEST_F(PlanarPose, TagOffsetAndYawOnTheRobotAreUndone) {
   tag.offset_y_mm = -25.0;
   tag.yaw_deg = 90.0;
   auto r = Renderer::Create(camera_, tag, options_);
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.ok()) << r.message;
   const Pose2 truth = Pose2::FromXYHeading(-0.4, -1.2, -0.8);
   const RenderedFrame f = r.renderer->Render(truth);
   // The tag is where the offset puts it...
@@ -115,7 +115,7 @@ TEST_F(PlanarPose, TagOffsetAndYawOnTheRobotAreUndone) {
   const auto corners = Corners(&tracker, f, camera_);
   ASSERT_TRUE(corners);
   const PlanarPoseResult p = MeasureTagPose(camera_, tag, *corners);
-  ASSERT_TRUE(p.ok) << p.message;
+  ASSERT_TRUE(p.ok()) << p.message;
   // ...and the measurement gives the robot back, not the tag.
   EXPECT_THAT(p.T_world_tag, IsNearPose(expected_tag, 0.05, 0.05));
   EXPECT_THAT(p.T_world_robot, IsNearPose(truth, 0.05, 0.05));
@@ -125,10 +125,10 @@ TEST_F(PlanarPose, RejectsCornersThatAreNotTheTag) {
   const TagCorners skewed{cv::Point2d(100, 100), cv::Point2d(300, 100), cv::Point2d(110, 120),
                           cv::Point2d(100, 400)};
   const PlanarPoseResult p = MeasureTagPose(camera_, testing::StandardTag(), skewed);
-  EXPECT_FALSE(p.ok);
+  EXPECT_FALSE(p.ok());
   EXPECT_FALSE(p.message.empty());
   const TagCorners nan{cv::Point2d(NAN, 1), cv::Point2d(1, 1), cv::Point2d(1, 1), cv::Point2d(1, 1)};
-  EXPECT_FALSE(MeasureTagPose(camera_, testing::StandardTag(), nan).ok);
+  EXPECT_FALSE(MeasureTagPose(camera_, testing::StandardTag(), nan).ok());
 }
 
 // The operator knows intrinsics, tag size and height, not the camera's tilt
@@ -150,7 +150,7 @@ TEST_F(PlanarPose, CameraPlaneEstimatorRecoversTiltAndHeight) {
                                                                    cvRound(f.corners_px[0].y) - 90, 180, 180));
     ASSERT_EQ(found.status, DetectStatus::kOk) << found.message;
     const auto refined = RefineTagCorners(f.image, found.detection->corners_px, &camera_);
-    ASSERT_TRUE(refined.ok);
+    ASSERT_TRUE(refined.ok());
     views.push_back(refined.corners_px);
     truth_poses.push_back(f.T_world_tag);
   }
@@ -159,7 +159,7 @@ TEST_F(PlanarPose, CameraPlaneEstimatorRecoversTiltAndHeight) {
   const CameraMount nominal{30.0, -1030.0, 2100.0, 0.0, 0.0, 1.0};
   const CameraPlaneResult est =
       EstimateCameraOverTagPlane(testing::StandardIntrinsics(), testing::StandardTag(), views, nominal);
-  ASSERT_TRUE(est.ok) << est.message;
+  ASSERT_TRUE(est.ok()) << est.message;
   std::printf("camera plane: %s\n", est.BriefReport().c_str());
   EXPECT_NEAR(est.mount.roll_deg, truth.roll_deg, 0.01);
   EXPECT_NEAR(est.mount.pitch_deg, truth.pitch_deg, 0.01);
@@ -175,7 +175,7 @@ TEST_F(PlanarPose, CameraPlaneEstimatorRecoversTiltAndHeight) {
   std::vector<Pose2> measured;
   for (const auto& v : views) {
     const PlanarPoseResult p = MeasureTagPose(estimated, testing::StandardTag(), v);
-    ASSERT_TRUE(p.ok);
+    ASSERT_TRUE(p.ok());
     measured.push_back(p.T_world_tag);
   }
   // Gauge-free comparison: distances between all pairs of tag positions and
@@ -267,7 +267,7 @@ TEST(CameraPlane, RollingShutterShearIsTakenOut) {
   const CameraPlaneResult plain = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, sheared, nominal);
   const CameraPlaneResult aware =
       EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, sheared, nominal, {}, &velocities);
-  ASSERT_TRUE(plain.ok && aware.ok) << plain.message << aware.message;
+  ASSERT_TRUE(plain.ok() && aware.ok()) << plain.message << aware.message;
   std::printf("sheared views: without the readout roll %+.3f pitch %+.3f deg, height %+.2f mm off; with it "
               "%+.4f, %+.4f deg, %+.3f mm, readout %.3f +- %.3f ms\n",
               plain.mount.roll_deg - truth.roll_deg, plain.mount.pitch_deg - truth.pitch_deg,
@@ -289,7 +289,7 @@ TEST(CameraPlane, RollingShutterShearIsTakenOut) {
   const std::vector<CornerVelocities> none(still.size());
   const CameraPlaneResult global =
       EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, still, nominal, {}, &none);
-  ASSERT_TRUE(global.ok);
+  ASSERT_TRUE(global.ok());
   EXPECT_FALSE(global.rolling_shutter_fitted);
   EXPECT_NEAR(global.mount.roll_deg, truth.roll_deg, 1e-4);
   // Moving views from a global shutter: the readout comes out 0.
@@ -303,7 +303,7 @@ TEST(CameraPlane, RollingShutterShearIsTakenOut) {
 TEST(CameraPlane, TooFewViewsIsAClearFailure) {
   const CameraPlaneResult r = EstimateCameraOverTagPlane(testing::StandardIntrinsics(), testing::StandardTag(),
                                                          {}, testing::StandardMount());
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_THAT(r.message, ::testing::HasSubstr("views"));
 }
 
@@ -372,7 +372,7 @@ Coverage FrozenRestCoverage(const EdgeErrors& errors, int rests, uint32_t seed, 
       phi[k] = errors.sigma_angle_rad * unit(rng);
     }
     const PlanarPoseResult m = MeasureTagPose(camera, tag, CornersWithEdgeErrors(camera, tag, robot, delta, phi));
-    EXPECT_TRUE(m.ok) << m.message;
+    EXPECT_TRUE(m.ok()) << m.message;
     // Five frames of one image.
     const std::vector<std::array<Eigen::Vector2d, 4>> closures(5, m.closure_mm);
     const RestCornerError e = EstimateRestCornerError(closures, tag, m.T_world_robot.heading());
@@ -450,7 +450,7 @@ TEST(RestCornerError, TheExpectationHoldsWhenEachCornerErrsOnItsOwn) {
     for (int r = 0; r < kRests; ++r) {
       const Pose2 robot = Pose2::FromXYHeading(ux(rng), uy(rng), uh(rng));
       const PlanarPoseResult m = MeasureTagPose(camera, tag, CornersWithOwnErrors(camera, tag, robot, 0.05, &rng));
-      ASSERT_TRUE(m.ok) << m.message;
+      ASSERT_TRUE(m.ok()) << m.message;
       const RestCornerError e = EstimateRestCornerError({m.closure_mm, m.closure_mm}, tag, m.T_world_robot.heading());
       err_p += (m.T_world_robot.translation() - robot.translation()).squaredNorm();
       err_h += std::pow(WrapAngle(m.T_world_robot.heading() - robot.heading()), 2);
@@ -487,9 +487,9 @@ TEST(RestCornerError, ATiltFittedToTheSameFramesIsCounted) {
     const TagCorners px = CornersWithOwnErrors(camera, tag, robot, kSigmaMm, &rng);
     const CameraPlaneResult plane =
         EstimateCameraOverTagPlane(testing::StandardIntrinsics(), tag, {px, px, px}, testing::StandardMount());
-    ASSERT_TRUE(plane.ok) << plane.message;
+    ASSERT_TRUE(plane.ok()) << plane.message;
     const PlanarPoseResult m = MeasureTagPose(CameraModel(testing::StandardIntrinsics(), plane.mount), tag, px);
-    ASSERT_TRUE(m.ok);
+    ASSERT_TRUE(m.ok());
     fitted += std::pow(EstimateRestCornerError({m.closure_mm}, tag, 0.0, 2).sigma_shared_mm, 2) / kRests;
     uncounted += std::pow(EstimateRestCornerError({m.closure_mm}, tag, 0.0).sigma_shared_mm, 2) / kRests;
   }

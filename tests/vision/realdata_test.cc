@@ -107,7 +107,7 @@ TEST(RealData, WrapperMatchesReferenceCornersOnRealPhotographs) {
   options.refine_edges = false;
   options.max_hamming = 2;  // the reference detector's default
   auto created = TagDetector::Create(options);
-  ASSERT_TRUE(created.ok) << created.message;
+  ASSERT_TRUE(created.ok()) << created.message;
   // Measured: 44 of the 47 reference tags agree to < 0.003 px; three (odd,
   // overlapping quads in clutter) differ by 0.05-0.14 px, plausibly from a
   // different JPEG decoder or libapriltag build behind the reference.
@@ -143,7 +143,7 @@ TEST(RealData, ConventionOffsetIsHalfAPixel) {
   options.refine_edges = false;
   options.max_hamming = 2;
   auto created = TagDetector::Create(options);
-  ASSERT_TRUE(created.ok);
+  ASSERT_TRUE(created.ok());
   double sx = 0.0, sy = 0.0;
   int n = 0;
   for (const fs::path& jpg : ReferencedPhotos(dir)) {
@@ -201,9 +201,9 @@ std::vector<RefinedTag> RefineAll(const cv::Mat& grey, TagDetector* detector) {
   std::vector<RefinedTag> out;
   for (const TagDetection& d : detector->Detect(grey).detections) {
     const CornerRefineResult h = RefineTagCorners(grey, d.corners_px, nullptr);
-    if (!h.ok) continue;
+    if (!h.ok()) continue;
     const ModelFreeRefineResult m = RefineTagCornersModelFree(grey, h.corners_px, nullptr);
-    if (!m.ok) continue;
+    if (!m.ok()) continue;
     out.push_back({h.corners_px, m.corners_px, m.quality, QualityFlags(m.quality).empty()});
   }
   return out;
@@ -224,7 +224,7 @@ TEST(RealData, RefinedCornersTurnWithTheImage) {
   const fs::path dir = RealDataDir();
   if (dir.empty()) GTEST_SKIP() << "shared/realdata/apriltag-test not found";
   auto created = TagDetector::Create(DetectorOptions{});
-  ASSERT_TRUE(created.ok) << created.message;
+  ASSERT_TRUE(created.ok()) << created.message;
   std::vector<double> half_level, usable, refused;
   size_t tried = 0;  // tag orientations that had to be found again
   for (const fs::path& photo : ReferencedPhotos(dir)) {

@@ -35,7 +35,7 @@ using calibration::Pose2;
 std::unique_ptr<Renderer> MakeRenderer(const CameraModel& cam, const TagSpec& tag,
                                        const RenderOptions& options) {
   auto r = Renderer::Create(cam, tag, options);
-  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.ok()) << r.message;
   return std::move(r.renderer);
 }
 
@@ -175,14 +175,14 @@ TEST(Renderer, RejectsInvalidInput) {
   TagSpec bad_tag = testing::StandardTag();
   bad_tag.family = "tag99h99";
   auto r = Renderer::Create(testing::SmallCamera(), bad_tag, RenderOptions{});
-  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.ok());
   EXPECT_THAT(r.message, ::testing::HasSubstr("family"));
   TagSpec big_id = testing::StandardTag();
   big_id.id = 100000;
-  EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), big_id, RenderOptions{}).ok);
+  EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), big_id, RenderOptions{}).ok());
   RenderOptions o;
   o.noise_sigma = -1;
-  EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), testing::StandardTag(), o).ok);
+  EXPECT_FALSE(Renderer::Create(testing::SmallCamera(), testing::StandardTag(), o).ok());
 }
 
 class Video : public ::testing::TestWithParam<media::Mp4WriterOptions::Backend> {};

@@ -228,6 +228,7 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
                               const BoardRenderOptions& options, double margin_px) {
   BoardRenderResult result;
   if (!intrinsics.IsValid(&result.message) || !pattern.IsValid(&result.message) || !options.IsValid(&result.message)) {
+    result.status = StatusCode::kInvalidArgument;
     return result;
   }
   // The mount is irrelevant here: everything happens in the camera frame.
@@ -236,7 +237,7 @@ BoardRenderResult RenderBoard(const Intrinsics& intrinsics, const BoardPattern& 
   BlurAndNoise(options, &acc);
   acc.convertTo(result.frame.image, CV_8U);  // rounds and saturates
   ProjectBoardPoints(camera, T_camera_board, points_board, margin_px, &result.frame);
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 

@@ -55,7 +55,7 @@ ObjectPose SolveFlat(const BoardDetection& view, const std::vector<cv::Point3d>&
                      std::vector<Eigen::Vector2d>* J) {
   constexpr double kStepM = 1e-3;
   ObjectPose pose = EstimateObjectPose(intrinsics, object, points, view.point_sigma_px);
-  if (!pose.ok) return pose;
+  if (!pose.ok()) return pose;
   const Eigen::Vector3d normal = pose.T_camera_object.linear().col(2);
   J->assign(object.size(), Eigen::Vector2d::Zero());
   for (size_t i = 0; i < object.size(); ++i) {
@@ -63,7 +63,7 @@ ObjectPose SolveFlat(const BoardDetection& view, const std::vector<cv::Point3d>&
     const auto up = camera.ProjectCamera(p + kStepM * normal);
     const auto down = camera.ProjectCamera(p - kStepM * normal);
     if (!up || !down) {
-      pose.ok = false;
+      pose.status = StatusCode::kFailed;
       break;
     }
     (*J)[i] = (*up - *down) / (2.0 * kStepM);
@@ -85,14 +85,14 @@ void AddView(const BoardDetection& view, const Intrinsics& intrinsics, const Cam
   };
   std::vector<Eigen::Vector2d> J;
   ObjectPose pose = SolveFlat(view, object, image, intrinsics, camera, &J);
-  if (!pose.ok) return;
+  if (!pose.ok()) return;
   if (!lifts.empty()) {
     // The corners moved back by the lifts so far: where the flat board
     // would show them.
     std::vector<cv::Point2d> flat = image;
     for (size_t i = 0; i < flat.size(); ++i) flat[i] -= cv::Point2d(lift_of(i) * J[i].x(), lift_of(i) * J[i].y());
     pose = SolveFlat(view, object, flat, intrinsics, camera, &J);
-    if (!pose.ok) return;
+    if (!pose.ok()) return;
   }
   ++fit->poses;
   for (size_t i = 0; i < object.size(); ++i) {
@@ -177,8 +177,12 @@ void ReportLifts(const LiftFit& fit, const CalibrationBoard& board, double sigma
 BoardShape MeasureBoardShape(const std::vector<BoardDetection>& views, const CalibrationBoard& board,
                              const Intrinsics& intrinsics, const BoardShapeOptions& options) {
   BoardShape shape;
-  if (!options.IsValid(&shape.message)) return shape;
+  if (!options.IsValid(&shape.message)) {
+    shape.status = StatusCode::kInvalidArgument;
+    return shape;
+  }
   if (board.type != CalibrationBoard::Type::kAprilgrid) {
+    shape.status = StatusCode::kInvalidArgument;
     shape.message = "the board's shape is measured on aprilgrids only";
     return shape;
   }
@@ -205,7 +209,7 @@ BoardShape MeasureBoardShape(const std::vector<BoardDetection>& views, const Cal
   }
   shape.explained_fraction = total > 0.0 ? 1.0 - left / total : 0.0;
   ReportLifts(fit, board, std::sqrt(left / dof_px), options, &shape);
-  shape.ok = true;
+  shape.status = StatusCode::kOk;
   return shape;
 }
 

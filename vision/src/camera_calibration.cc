@@ -136,7 +136,7 @@ struct AprilgridSearch {
     detector_options.family = board.tag_family;
     detector_options.quad_decimate = static_cast<float>(up);
     created = TagDetector::Create(detector_options);
-    if (!created.ok) {
+    if (!created.ok()) {
       out.message = "aprilgrid: " + created.message;
       return false;
     }
@@ -183,20 +183,20 @@ struct AprilgridSearch {
     for (const TagDetection& d : pass) {
       if (!board.AprilgridCorner(d.id, 0)) continue;  // another board's tag, or a stray one
       auto it = tags.find(d.id);
-      if (it != tags.end() && it->second.refined.ok) continue;
+      if (it != tags.end() && it->second.refined.ok()) continue;
       if (count[d.id] > 1) ambiguous[d.id] = std::max(ambiguous[d.id], count[d.id]);
       if (ambiguous.count(d.id)) continue;
       std::array<cv::Point2d, 4> corners;
       for (int k = 0; k < 4; ++k) corners[k] = ToImage(d.corners_px[k]);
       FoundTag f;
       if (quick) {
-        f.refined.ok = true;
+        f.refined.status = StatusCode::kOk;
         f.refined.corners_px = corners;
         f.cov.fill(cv::Matx22d(0.25, 0.0, 0.0, 0.25));
       } else {
         f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, corners, lens, refine, {0, 0}, &f.cov);
       }
-      added += f.refined.ok ? 1 : 0;
+      added += f.refined.ok() ? 1 : 0;
       tags[d.id] = f;
     }
     return added;
@@ -241,7 +241,7 @@ struct AprilgridSearch {
     if (!paper.empty()) return paper;
     std::vector<double> sides;
     for (const auto& [id, f] : tags)
-      if (f.refined.ok)
+      if (f.refined.ok())
         sides.push_back(0.5 *
                         (cv::norm(f.refined.corners_px[2] - f.refined.corners_px[0]) +
                          cv::norm(f.refined.corners_px[3] - f.refined.corners_px[1])) /
@@ -298,7 +298,7 @@ struct AprilgridSearch {
       };
       std::vector<Local> local;
       for (const auto& [id, f] : tags) {
-        if (!f.refined.ok) continue;
+        if (!f.refined.ok()) continue;
         std::vector<cv::Point2f> tag_board, tag_image;
         for (int k = 0; k < 4; ++k) {
           const cv::Point3f b = *board.AprilgridCorner(id, k);
@@ -357,7 +357,7 @@ struct AprilgridSearch {
     for (int round = 0; round < (quick ? 0 : options.aprilgrid_predict_rounds); ++round) {
       std::map<int, internal::TagCorners> measured;
       for (const auto& [id, f] : tags)
-        if (f.refined.ok && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
+        if (f.refined.ok() && !ambiguous.count(id)) measured[id] = f.refined.corners_px;
       const auto prediction = internal::BoardPrediction::Fit(board, measured, lens);
       if (!prediction) break;
       int added = 0;
@@ -368,7 +368,7 @@ struct AprilgridSearch {
         if (!predicted) continue;
         FoundTag f;
         f.refined = internal::RefineTagCornersByEdgeModelWithCovariance(gray, *predicted, lens, refine, {0, 0}, &f.cov);
-        if (!f.refined.ok) continue;
+        if (!f.refined.ok()) continue;
         const auto cells = TagCells::Of(board.tag_family, id);
         const auto code = cells ? internal::CheckTagCode(gray, f.refined.corners_px, *cells, lens) : std::nullopt;
         // The bits read at their centres; for a small tag, its whole data
@@ -411,7 +411,7 @@ struct AprilgridSearch {
     for (const auto& [id, f] : tags) {
       ++on_board;
       if (ambiguous.count(id)) continue;
-      if (!f.refined.ok) {
+      if (!f.refined.ok()) {
         out.tags_refused.emplace_back(id, "corners not refined: " + f.refined.message);
         continue;
       }
@@ -508,7 +508,7 @@ struct AprilgridSearch {
         shifts.push_back(MeasureEdgeShift(gray, refined[t], *cells, lens));
     }
     const EdgeShiftEstimate shift = PoolEdgeShifts(shifts, 0.0);
-    if (!shift.ok) return true;
+    if (!shift.ok()) return true;
     out.edge_shift_px = shift.shift_px;
     out.edge_shift_sigma_px = shift.sigma_px;
     return RefitThroughCornerSquares(shift);
@@ -538,7 +538,7 @@ struct AprilgridSearch {
       // px. A large tag's refit may move further: through a lens not
       // modelled its longer lines are straight where its own edges bend.
       const auto fixed = RemoveEdgeShift(refined[t], shift.shift_px, lens);
-      if (!r.ok) {
+      if (!r.ok()) {
         for (int k = 0; k < 4; ++k)
           out.image_points[4 * t + k] = cv::Point2f(static_cast<float>(fixed[k].x), static_cast<float>(fixed[k].y));
         continue;

@@ -57,7 +57,7 @@ void CornersFromEdges(const std::array<EdgeLine, 4>& lines, const CameraModel* c
       return;
     }
   }
-  result->ok = true;
+  result->status = StatusCode::kOk;
   result->corners_px = refined;
 }
 

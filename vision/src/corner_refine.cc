@@ -158,7 +158,7 @@ CornerRefineResult RefineTagCorners(const cv::Mat& grey, const std::array<cv::Po
     n_sum += static_cast<int>(pts.size());
   }
   internal::CornersFromEdges(lines, camera, corners_px, cell_px, &result);
-  if (!result.ok) return result;
+  if (!result.ok()) return result;
   result.edge_points_used = n_sum;
   result.rms_line_residual_px = std::sqrt(sq_sum / std::max(1, n_sum));
   return result;

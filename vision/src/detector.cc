@@ -127,6 +127,7 @@ TagDetectorResult TagDetector::Create(const DetectorOptions& options) {
   TagDetectorResult result;
   std::string why;
   if (!options.IsValid(&why)) {
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
@@ -143,7 +144,7 @@ TagDetectorResult TagDetector::Create(const DetectorOptions& options) {
   td->nthreads = options.nthreads;
   td->debug = false;
   result.detector.reset(new TagDetector(std::move(impl)));
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 

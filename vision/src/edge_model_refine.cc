@@ -252,7 +252,7 @@ CornerRefineResult RefineTagCornersByEdgeModelWithCovariance(
     sq += rms * rms;
   }
   internal::CornersFromEdges(lines, camera, corners_px, extent->cell_px, &result);
-  if (!result.ok) return result;
+  if (!result.ok()) return result;
   result.rms_line_residual_px = std::sqrt(sq / 4.0);  // here: grey-level rms of the fits
   if (corner_covariance_px) {
     for (int k = 0; k < 4; ++k) {

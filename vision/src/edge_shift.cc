@@ -315,8 +315,12 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
                               const CameraModel* camera, const EdgeShiftOptions& options, const cv::Point& origin,
                               std::array<cv::Point2d, 4>* print_corners) {
   EdgeShiftResult result;
-  if (!options.IsValid(&result.message)) return result;
+  if (!options.IsValid(&result.message)) {
+    result.status = StatusCode::kInvalidArgument;
+    return result;
+  }
   if (grey.empty() || grey.type() != CV_8UC1) {
+    result.status = StatusCode::kInvalidArgument;
     result.message = "edge shift needs an 8-bit grey image";
     return result;
   }
@@ -368,7 +372,7 @@ EdgeShiftResult FitTagPattern(const cv::Mat& grey, const std::array<cv::Point2d,
       }
     }
   }
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 
@@ -386,7 +390,7 @@ TagPatternResult RefineTagByPattern(const cv::Mat& grey, const std::array<cv::Po
   TagPatternResult r;
   r.corners_px = corners_px;
   r.shift = FitTagPattern(grey, corners_px, cells, camera, options, origin, &r.corners_px);
-  if (!r.shift.ok) r.corners_px = corners_px;
+  if (!r.shift.ok()) r.corners_px = corners_px;
   return r;
 }
 
@@ -401,12 +405,12 @@ EdgeShiftEstimate PoolEdgeShifts(const std::vector<EdgeShiftResult>& views, doub
   constexpr double kOutlierSigmaRatio = 4.0;
   std::vector<double> sigmas;
   for (const EdgeShiftResult& v : views)
-    if (v.ok) sigmas.push_back(v.sigma_px);
+    if (v.ok()) sigmas.push_back(v.sigma_px);
   const double limit =
       sigmas.size() >= 3 ? kOutlierSigmaRatio * calibration::Median(sigmas) : std::numeric_limits<double>::infinity();
   double sum = 0.0, sum2 = 0.0, fit2 = 0.0, side = 0.0;
   for (const EdgeShiftResult& v : views) {
-    if (!v.ok || !(v.sigma_px <= limit)) continue;
+    if (!v.ok() || !(v.sigma_px <= limit)) continue;
     ++e.views;
     sum += v.shift_px;
     sum2 += v.shift_px * v.shift_px;
@@ -423,7 +427,7 @@ EdgeShiftEstimate PoolEdgeShifts(const std::vector<EdgeShiftResult>& views, doub
   const double statistical = std::max(e.spread_px, std::sqrt(fit2 / n)) / std::sqrt(n);
   e.sigma_px = std::hypot(statistical, systematic_px);
   e.side_px = side / n;
-  e.ok = true;
+  e.status = StatusCode::kOk;
   return e;
 }
 

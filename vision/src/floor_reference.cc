@@ -58,7 +58,7 @@ struct SightingRefiner {
   void Add(const cv::Mat& frame, const TagDetection& hit, FloorTagEvidence* evidence) const {
     const ModelFreeRefineResult r = RefineTagCornersModelFree(frame, hit.corners_px, &lens, refine);
     const std::vector<ObservationFlag> flags =
-        r.ok ? QualityFlags(r.quality, gate) : std::vector<ObservationFlag>{ObservationFlag::kEdgesNotFitted};
+        r.ok() ? QualityFlags(r.quality, gate) : std::vector<ObservationFlag>{ObservationFlag::kEdgesNotFitted};
     for (const ObservationFlag f : flags) ++evidence->reasons[f];
     if (!flags.empty()) return;
     const std::vector<cv::Point2d> undistorted = lens.UndistortToNormalized({r.corners_px.begin(), r.corners_px.end()});
@@ -257,7 +257,7 @@ std::vector<FloorTagSighting> ObserveFloorTags(const std::vector<cv::Mat>& frame
   detector_options.quad_decimate = 2.0f;  // the refinement makes the corners exact
   TagDetectorResult created = TagDetector::Create(detector_options);
   auto family = internal::CreateFamily(reference.family);
-  if (!created.ok || !family) {
+  if (!created.ok() || !family) {
     for (FloorTagSighting& s : out) s.flags.push_back(ObservationFlag::kDetectorUnavailable);
     return out;
   }
@@ -292,6 +292,7 @@ FloorScaleResult EstimateFloorScale(const CameraModel& camera,
   FloorScaleResult result;
   std::string why;
   if (!reference.IsValid(&why)) {
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
@@ -329,7 +330,7 @@ FloorScaleResult EstimateFloorScale(const CameraModel& camera,
   const double var_tilt = std::pow(HeightSeenBy(Tilted(camera, sigma_roll_deg, 0.0), used, height) - base, 2) +
                           std::pow(HeightSeenBy(Tilted(camera, 0.0, sigma_pitch_deg), used, height) - base, 2);
   const double var = pooled.var_tape + pooled.var_centres + var_tilt;
-  result.ok = true;
+  result.status = StatusCode::kOk;
   result.camera_height_mm = height;
   result.sigma_camera_height_mm = std::sqrt(var);
   if (var > 0.0) {

@@ -49,12 +49,6 @@ const char* ToString(ObservationFlag flag) {
   return "unknown";
 }
 
-std::vector<std::string> ToStrings(const std::vector<ObservationFlag>& flags) {
-  std::vector<std::string> out;
-  for (const ObservationFlag f : flags) out.emplace_back(ToString(f));
-  return out;
-}
-
 std::vector<ObservationFlag> QualityFlags(const TagImageQuality& q, const QualityGate& gate) {
   std::vector<ObservationFlag> flags;
   if (q.saturated_fraction > gate.max_saturated_fraction) flags.push_back(ObservationFlag::kOverexposed);

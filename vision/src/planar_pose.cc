@@ -134,7 +134,7 @@ PlanarPoseResult MeasureTagPose(const CameraModel& camera, const TagSpec& tag,
                      std::to_string(result.rms_fit_mm) + " mm)";
     return result;
   }
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 
@@ -209,10 +209,9 @@ bool CameraPlaneOptions::IsValid(std::string* why) const {
 
 std::string CameraPlaneResult::BriefReport() const {
   std::ostringstream os;
-  os << (ok ? "ok" : "FAILED") << ": " << views_used << " views, rms " << rms_reprojection_px
-     << " px; roll " << mount.roll_deg << " +- " << sigma_roll_deg << " deg, pitch "
-     << mount.pitch_deg << " +- " << sigma_pitch_deg << " deg, height " << mount.height_mm
-     << " +- " << sigma_height_mm << " mm";
+  os << (ok() ? "ok" : "FAILED") << ": " << views_used << " views, rms " << rms_reprojection_px << " px; roll "
+     << mount.roll_deg << " +- " << sigma_roll_deg << " deg, pitch " << mount.pitch_deg << " +- " << sigma_pitch_deg
+     << " deg, height " << mount.height_mm << " +- " << sigma_height_mm << " mm";
   if (rolling_shutter_fitted)
     os << ", rolling shutter " << rolling_shutter_ms << " +- " << sigma_rolling_shutter_ms << " ms";
   if (!message.empty()) os << " (" << message << ")";
@@ -383,6 +382,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   result.mount = nominal_mount;
   std::string why;
   if (!intrinsics.IsValid(&why) || !tag.IsValid(&why) || !options.IsValid(&why)) {
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
@@ -415,7 +415,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   const double f = std::sqrt(intrinsics.fx * intrinsics.fy);
   for (size_t i = 0; i < views_corners_px.size(); ++i) {
     const auto pose = MeasureTagPose(start_model, tag, views_corners_px[i]);
-    if (!pose.ok) continue;
+    if (!pose.ok()) continue;
     x.views.push_back({pose.T_world_tag.x(), pose.T_world_tag.y(), pose.T_world_tag.heading()});
     x.view_index.push_back(i);
   }
@@ -445,7 +445,7 @@ CameraPlaneResult EstimateCameraOverTagPlane(const Intrinsics& intrinsics, const
   result.rolling_shutter_ms = x.readout_s[0] * kSToMs;
 
   PlaneSigmas(problem, x.camera, x.readout_s, x.fit_readout, summary.final_cost, n_res, &result);
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 

@@ -512,6 +512,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   RendererResult result;
   std::string why;
   if (!camera.intrinsics().IsValid(&why) || !tag.IsValid(&why) || !options.IsValid(&why)) {
+    result.status = StatusCode::kInvalidArgument;
     result.message = why;
     return result;
   }
@@ -541,7 +542,7 @@ RendererResult Renderer::Create(const CameraModel& camera, const TagSpec& tag,
   impl->Blur(impl->bg_sharp, &impl->bg_blur, 1);
   impl->SeedNoise();
   result.renderer.reset(new Renderer(std::move(impl)));
-  result.ok = true;
+  result.status = StatusCode::kOk;
   return result;
 }
 

@@ -28,7 +28,7 @@ Result<std::unique_ptr<TagObserver>> TagObserver::Create(const TagSpec& tag, con
   DetectorOptions detector_options = options.detector;
   detector_options.family = tag.family;
   TagDetectorResult created = TagDetector::Create(detector_options);
-  if (!created.ok) return R::Error(StatusCode::kInvalidArgument, created.message);
+  if (!created.ok()) return R::Error(StatusCode::kInvalidArgument, created.message);
   // The refinement sized for the family's black border (a cell is the side
   // over it), unless the caller chose a width; families with the border
   // inside the data (tagStandard41h12) keep the default.
@@ -77,7 +77,7 @@ FrameObservation TagObserver::Observe(const cv::Mat& grey, double t_s) {
   }
   if (obs.corners_px && options_.refine_corners) {
     const CornerRefineResult refined = RefineTagCorners(grey, *obs.corners_px, &camera_, options_.refine);
-    if (refined.ok) {
+    if (refined.ok()) {
       obs.corners_px = refined.corners_px;
       obs.refined = true;
     }
@@ -109,7 +109,7 @@ std::optional<TagCorners> RefineObservationExactly(const FrameObservation& obser
   if (!observation.corners_px || observation.crop.empty()) return std::nullopt;
   const CornerRefineResult r = RefineTagCornersByEdgeModel(
       observation.crop, *observation.corners_px, &camera, RefineOptionsFor(observation), observation.crop_origin);
-  if (!r.ok) return std::nullopt;
+  if (!r.ok()) return std::nullopt;
   return r.corners_px;
 }
 

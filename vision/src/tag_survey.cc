@@ -116,8 +116,8 @@ void RefineSurveyedTag(const cv::Mat& grey, const CameraModel* camera, const std
   std::array<cv::Matx22d, 4> cov;
   const CornerRefineResult r =
       internal::RefineTagCornersByEdgeModelWithCovariance(grey, t.corners_px, camera, refine, {0, 0}, &cov);
-  t.refined = r.ok;
-  if (!r.ok) {
+  t.refined = r.ok();
+  if (!r.ok()) {
     t.refine_message = r.message;
     return;
   }
@@ -128,7 +128,7 @@ void RefineSurveyedTag(const cv::Mat& grey, const CameraModel* camera, const std
   // the print's distance.
   if (const auto cells = TagCells::Of(family, t.id)) {
     const EdgeShiftResult shift = MeasureEdgeShift(grey, t.corners_px, *cells, camera);
-    if (shift.ok) {
+    if (shift.ok()) {
       t.edge_shift_px = shift.shift_px;
       t.edge_shift_sigma_px = shift.sigma_px;
       t.corners_px = RemoveEdgeShift(t.corners_px, shift.shift_px, camera);
@@ -278,8 +278,12 @@ void FitStatistics(const PoseProjector& project, const std::vector<cv::Point2d>&
 
 TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSurveyOptions& options) {
   TagSurvey survey;
-  if (!options.IsValid(&survey.message)) return survey;
+  if (!options.IsValid(&survey.message)) {
+    survey.status = StatusCode::kInvalidArgument;
+    return survey;
+  }
   if (grey.empty() || grey.type() != CV_8UC1) {
+    survey.status = StatusCode::kInvalidArgument;
     survey.message = "needs a non-empty 8-bit grey image";
     return survey;
   }
@@ -288,7 +292,7 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
   detector_options.quad_decimate = options.quad_decimate;
   detector_options.max_hamming = options.max_hamming;
   auto created = TagDetector::Create(detector_options);
-  if (!created.ok) {
+  if (!created.ok()) {
     survey.message = created.message;
     return survey;
   }
@@ -315,7 +319,7 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
     survey.rejected.push_back(
         RejectedQuad{r.detection.corners_px, r.reason, r.detection.id, EdgeContrast(grey, r.detection.corners_px)});
   if (options.collect_rejected) AddUndecodedQuads(grey, options, found.refused, &survey);
-  survey.ok = true;
+  survey.status = StatusCode::kOk;
   return survey;
 }
 
@@ -355,7 +359,7 @@ ObjectPose EstimateObjectPose(const Intrinsics& intrinsics, const std::vector<cv
     for (int c = 0; c < 3; ++c) Re(r, c) = R.at<double>(r, c);
   pose.T_camera_object.linear() = Re;
   pose.T_camera_object.translation() = Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
-  pose.ok = true;
+  pose.status = StatusCode::kOk;
   return pose;
 }
 

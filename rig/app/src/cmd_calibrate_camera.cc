@@ -313,7 +313,7 @@ void BoardShapeOf(const CalibrateCameraArgs& args, const vision::CalibrationBoar
                   const vision::CameraCalibrationOptions& options, Calibrated* c) {
   if (board.type == vision::CalibrationBoard::Type::kAprilgrid) {
     c->shape = vision::MeasureBoardShape(views, board, c->result.intrinsics);
-    if (!c->shape->ok) c->shape.reset();
+    if (!c->shape->ok()) c->shape.reset();
   }
   if (args.board_shape == "fit" && !c->shape)
     std::cerr << "odocal " << kCalibrateCamera << ": --board-shape fit: "

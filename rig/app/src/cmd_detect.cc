@@ -301,7 +301,7 @@ json TagJson(const DetectRequest& request, const vision::SurveyedTag& t) {
     const std::vector<cv::Point2d> pixels(t.corners_px.begin(), t.corners_px.end());
     const vision::ObjectPose pose =
         vision::EstimateObjectPose(*request.intrinsics, object, pixels, SigmasOrOne(t.corner_sigma_px));
-    if (pose.ok) {
+    if (pose.ok()) {
       j["pose_in_camera"] = PoseJson(pose);
     } else {
       j["pose_in_camera"] = nullptr;
@@ -339,7 +339,7 @@ json BoardJson(const DetectRequest& request, const vision::TagSurvey& survey, js
   if (used < 4 || !request.camera) return b;
   const vision::ObjectPose pose =
       vision::EstimateObjectPose(*request.intrinsics, board_points, board_pixels, board_sigmas);
-  if (!pose.ok) {
+  if (!pose.ok()) {
     b["pose_in_camera"] = nullptr;
     b["pose_message"] = pose.message;
     return b;
@@ -412,7 +412,7 @@ struct DetectOutput {
 void AddImage(const DetectArgs& args, const DetectRequest& request, const Frame& f, Found found, DetectOutput* out) {
   ++out->frames;
   vision::TagSurvey& survey = found.survey;
-  if (!survey.ok) Fail(kDetect, kExitFailure, f.file + ": " + survey.message);
+  if (!survey.ok()) Fail(kDetect, kExitFailure, f.file + ": " + survey.message);
   json board_refused = json::array();
   if (request.board) board_refused = MergeBoardTags(*request.board, found.board, &survey);
   json image = {{"file", f.file}, {"width", f.grey.cols}, {"height", f.grey.rows}};
@@ -529,7 +529,7 @@ void RunDetect(const DetectArgs& args) {
   const auto find = [&](const cv::Mat& grey) {
     Found found;
     found.survey = SurveyTags(grey, request.camera ? &*request.camera : nullptr, survey_options);
-    if (board && found.survey.ok) {
+    if (board && found.survey.ok()) {
       // The board's tags as calibrate-camera sees them (vision::DetectBoard:
       // upsampled decoding, the edge model sized for the aprilgrid, the
       // edges through the lens when a calibration is given).
@@ -555,7 +555,7 @@ void RunDetect(const DetectArgs& args) {
       vision::BoardDetectionOptions through;
       through.lens = *refine_lens;
       ParallelFor(inputs.size(), static_cast<unsigned>(args.threads), [&](size_t i) {
-        if (IsVideo(inputs[i]) || done[i] || !found_in_image[i].survey.ok) return;
+        if (IsVideo(inputs[i]) || done[i] || !found_in_image[i].survey.ok()) return;
         found_in_image[i].board = vision::DetectBoard(media::ReadGreyImage(inputs[i]).grey, *board, through);
       });
     }

@@ -133,9 +133,9 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
       {"camera", args.camera},
       {"frames", {{"read", r.frames}, {"tag_found", r.frames_found}, {"refined", r.frames_refined}, {"fps", r.fps}}},
       {"tag", {{"family", o.tag.family}, {"id", o.tag.id}, {"size_mm", o.tag.size_mm}, {"height_mm", o.tag.height_mm}}},
-      {"ok", r.ok},
+      {"ok", r.ok()},
       {"warnings", r.warnings}};
-  if (!r.ok) {
+  if (!r.ok()) {
     j["message"] = r.message;
     return j;
   }
@@ -151,7 +151,7 @@ nlohmann::json ToJson(const measure::SetupCheckResult& r, const measure::SetupCh
                        {"pitch_deg", r.mount.pitch_deg}, {"yaw_deg", r.mount.yaw_deg},
                        {"from", r.mount_from_tag_size ? "tag_size" : "mount_guess"},
                        {"tilt_fitted", r.plane_from_tag}};
-  if (r.edge_shift.ok)
+  if (r.edge_shift.ok())
     j["edge_shift"] = {{"shift_px", r.edge_shift.shift_px},
                        {"sigma_px", r.edge_shift.sigma_px},
                        {"views", r.edge_shift.views},
@@ -205,7 +205,7 @@ void RunSetupCheck(const SetupCheckArgs& args) {
   const nlohmann::json j = ToJson(r, o, args);
   if (auto e = config::WriteFileAtomically(args.out + "/setup_check.json", j.dump(2) + "\n"))
     Fail(kSetupCheck, kExitFailure, *e);
-  if (!r.ok) {
+  if (!r.ok()) {
     for (const std::string& w : r.warnings) std::printf("warning: %s\n", w.c_str());
     Fail(kSetupCheck, kExitFailure, r.message + " (" + args.out + "/setup_check.json)");
   }
@@ -218,7 +218,7 @@ void RunSetupCheck(const SetupCheckArgs& args) {
               r.mount.roll_deg, r.mount.pitch_deg,
               r.mount_from_tag_size ? "from the tag's apparent size" : "from the mount guess",
               r.plane_from_tag ? ", tilt fitted to the still tag" : "");
-  if (r.edge_shift.ok)
+  if (r.edge_shift.ok())
     std::printf("the tag's edges lie %.3f ± %.3f px %s the print (tone curve, blur, ink: %.2f %% of the scale, "
                 "removed)\n",
                 std::abs(r.edge_shift.shift_px), r.edge_shift.sigma_px,

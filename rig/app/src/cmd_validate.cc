@@ -108,7 +108,7 @@ void RunValidate(const ValidateArgs& args) {
   }
 
   const measure::TapeValidation validation = measure::ValidateTape(pairs, ba_options);
-  if (!validation.ok)
+  if (!validation.ok())
     Fail(name, kExitFailure,
          "fewer than 3 readings with a camera measurement: no agreement statistics (" + std::to_string(pairs.size()) +
              " usable)");

@@ -19,7 +19,7 @@ namespace {
 std::optional<LivePose> PoseOf(const vision::CameraModel& camera, const vision::TagSpec& tag,
                                const vision::TagCorners& corners) {
   const vision::PlanarPoseResult m = vision::MeasureTagPose(camera, tag, corners);
-  if (!m.ok) return std::nullopt;
+  if (!m.ok()) return std::nullopt;
   const double heading = m.T_world_robot.heading();
   const vision::RestCornerError e = vision::EstimateRestCornerError({m.closure_mm}, tag, heading);
   LivePose p;

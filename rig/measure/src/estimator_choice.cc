@@ -254,7 +254,7 @@ std::optional<std::string> ScoreFolds(const calibration::MeasuredSession& pooled
     const Fold& f = results[i];
     std::string failed;
     for (size_t c = 0; c < kN; ++c)
-      if (!f.replay[c].ok) failed = f.replay[c].message;
+      if (!f.replay[c].ok()) failed = f.replay[c].message;
     if (!failed.empty()) {
       choice->notes.push_back(run.name + ": not scored (" + failed + ")");
       continue;

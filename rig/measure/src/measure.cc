@@ -59,7 +59,7 @@ std::optional<calibration::Pose2> FramePose(const vision::CameraModel& camera, c
                                             const vision::FrameObservation& f, double margin_px) {
   if (!f.corners_px || !AwayFromBorder(camera, *f.corners_px, margin_px)) return std::nullopt;
   const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *f.corners_px);
-  if (!pose.ok) return std::nullopt;
+  if (!pose.ok()) return std::nullopt;
   return pose.T_world_robot;
 }
 
@@ -113,7 +113,7 @@ std::vector<vision::TagCorners> PickViews(const std::vector<RunMeasurement>& run
     std::vector<const vision::FrameObservation*> observed;
     for (size_t k2 : view_frame) observed.push_back(&(*frames[k2].first)[frames[k2].second]);
     *shift = MeasureTagEdgeShift(observed, tag, lens, shift_views);
-    if (shift->ok)
+    if (shift->ok())
       for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift->shift_px, &lens);
   }
   return views;
@@ -266,12 +266,6 @@ const char* ToString(SessionFlag flag) {
   return "unknown";
 }
 
-std::vector<std::string> ToStrings(const std::vector<SessionFlag>& flags) {
-  std::vector<std::string> out;
-  for (const SessionFlag f : flags) out.emplace_back(ToString(f));
-  return out;
-}
-
 CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
                                 std::optional<double> tag_size_sigma_mm, const vision::CameraPlaneResult* plane,
                                 const vision::FloorReference* reference, const std::vector<cv::Mat>& floor_frames,
@@ -296,9 +290,9 @@ CameraScale EstimateCameraScale(const vision::Intrinsics& intrinsics, const visi
     } else {
       scale.floor = vision::EstimateFloorScale(vision::CameraModel(intrinsics, *mount), scale.floor_tags,
                                                *reference, plane->sigma_roll_deg, plane->sigma_pitch_deg);
-      if (!scale.floor->ok) fallback_reason = scale.floor->message;
+      if (!scale.floor->ok()) fallback_reason = scale.floor->message;
     }
-    if (scale.floor && scale.floor->ok) {
+    if (scale.floor && scale.floor->ok()) {
       ScaleFromFloorReference(*reference, tag_mm, apparent_sigma, mount, flags, scale);
       return scale;
     }
@@ -385,7 +379,7 @@ CameraPlaneOrGuess EstimateCameraPlaneOrGuess(const vision::Intrinsics& intrinsi
     return fit;
   }
   fit.plane = vision::EstimateCameraOverTagPlane(intrinsics, tag, views, guess, options, velocities);
-  if (fit.plane.ok) fit.mount = fit.plane.mount;
+  if (fit.plane.ok()) fit.mount = fit.plane.mount;
   return fit;
 }
 
@@ -419,10 +413,10 @@ std::optional<vision::TagCorners> GateFrame(const vision::ModelFreeRefineResult&
                                             std::map<vision::ObservationFlag, int>& reasons, RestQuality& quality) {
   FrameQuality fq;
   fq.t_s = t_s;
-  fq.fitted = r.ok;
+  fq.fitted = r.ok();
   fq.quality = r.quality;
-  fq.flags = r.ok ? vision::QualityFlags(r.quality, gate)
-                  : std::vector<vision::ObservationFlag>{vision::ObservationFlag::kEdgesNotFitted};
+  fq.flags = r.ok() ? vision::QualityFlags(r.quality, gate)
+                    : std::vector<vision::ObservationFlag>{vision::ObservationFlag::kEdgesNotFitted};
   for (const vision::ObservationFlag reason : fq.flags) ++reasons[reason];
   std::optional<vision::TagCorners> corners;
   if (fq.flags.empty()) corners = r.corners_px;
@@ -497,7 +491,7 @@ std::optional<calibration::RestWindow> MeasureRestExactly(
     }
     if (!corners) continue;
     const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, tag, *corners);
-    if (!pose.ok) continue;
+    if (!pose.ok()) continue;
     samples.push_back({f.t_s, pose.T_world_robot, true});
     closures.push_back(pose.closure_mm);
   }
@@ -713,7 +707,7 @@ vision::CameraModel SessionCamera(const MeasureOptions& options, SessionMeasurem
         session.intrinsics, session.tag, session.tag_size_sigma_mm, sm.plane_estimated ? &sm.plane : nullptr,
         session.floor_reference ? &*session.floor_reference : nullptr, floor_frames,
         {options.systematic_scale_sigma, options.tag_print_sigma, options.quality_gate}, &mount, &sm.flags,
-        sm.edge_shift.ok ? &sm.edge_shift : nullptr);
+        sm.edge_shift.ok() ? &sm.edge_shift : nullptr);
   }
   sm.camera_scale_sigma = sm.camera_scale.relative_sigma;
   return vision::CameraModel(sm.session.intrinsics, mount);
@@ -737,7 +731,7 @@ Status FindRunsInSharedVideos(const vision::CameraModel& camera, const MeasureOp
     std::vector<config::SessionRun*> runs;
     for (size_t i : group) runs.push_back(&sm.runs[i].run);
     const bool lone_auto = IsLoneAutoRun(runs);
-    if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok) continue;
+    if ((group.size() < 2 && !lone_auto) || !sm.runs[group.front()].track.ok()) continue;
     std::vector<calibration::PoseSample> samples;
     for (const vision::FrameObservation& f : sm.runs[group.front()].track.frames) {
       const auto pose = FramePose(camera, sm.session.tag, f, options.border_margin_px);
@@ -778,7 +772,7 @@ void MeasureVideoRun(const vision::CameraModel& camera, const MeasureOptions& op
   m.name = rm.run.name;
   m.spec = rm.run.spec;
   m.telemetry = ReadTelemetry(rm.run.telemetry, session.nominal, &m.flags);
-  if (!rm.track.ok) {
+  if (!rm.track.ok()) {
     m.flags.push_back(RunFlag::Of(RunFlagKind::kVideoUnreadable, rm.track.message));
     return;
   }

@@ -65,7 +65,7 @@ Status AssignSpansFromRecording(const std::string& source, const std::vector<cal
     names.push_back(run->name);
   }
   const calibration::PlanMatch match = calibration::MatchSegmentsToPlan(segments, plan, names);
-  if (!match.ok) {
+  if (!match.ok()) {
     std::string text = source + ": the runs found in it do not match the session's plan:";
     for (const std::string& p : match.problems) text += "\n  " + p;
     // Readings as good: the recording cannot tell which is right.

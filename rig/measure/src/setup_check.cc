@@ -62,7 +62,7 @@ struct StillFrames {
 bool RefineStillFrames(const std::vector<SetupFrame>& frames, const SetupCheckOptions& options,
                        const vision::CameraModel& camera, StillFrames* still, SetupCheckResult* r) {
   auto detector = vision::TagDetector::Create(vision::DetectorOptions{});
-  if (!detector.ok) {
+  if (!detector.ok()) {
     r->message = detector.message;
     return false;
   }
@@ -77,9 +77,9 @@ bool RefineStillFrames(const std::vector<SetupFrame>& frames, const SetupCheckOp
     if (found.status != vision::DetectStatus::kOk) continue;
     ++r->frames_found;
     const vision::CornerRefineResult half = vision::RefineTagCorners(frames[i].grey, found.detection->corners_px, &camera);
-    if (!half.ok) continue;
+    if (!half.ok()) continue;
     const vision::ModelFreeRefineResult exact = vision::RefineTagCornersModelFree(frames[i].grey, half.corners_px, &camera);
-    if (!exact.ok) continue;
+    if (!exact.ok()) continue;
     corners.push_back(exact.corners_px);
     qualities.push_back(exact.quality);
     frame_of.push_back(i);
@@ -147,7 +147,7 @@ double RemoveTheEdgeShift(const std::vector<SetupFrame>& frames, const SetupChec
       for (size_t k = 0; k < corners.size(); k += step)
         shifts.push_back(vision::MeasureEdgeShift(frames[frame_of[k]].grey, corners[k], *cells, &camera));
       r->edge_shift = vision::PoolEdgeShifts(shifts);
-      if (r->edge_shift.ok) {
+      if (r->edge_shift.ok()) {
         for (vision::TagCorners& c : corners) c = vision::RemoveEdgeShift(c, r->edge_shift.shift_px, &camera);
         print_side_px -= 2.0 * r->edge_shift.shift_px;
       }
@@ -196,7 +196,7 @@ bool StillTagNoise(const vision::CameraModel& camera, const SetupCheckOptions& o
   std::vector<size_t> posed;
   for (size_t k = 0; k < corners.size(); ++k) {
     const vision::PlanarPoseResult m = vision::MeasureTagPose(camera, options.tag, corners[k]);
-    if (!m.ok) continue;
+    if (!m.ok()) continue;
     poses.emplace_back(m.T_world_robot.x(), m.T_world_robot.y(), m.T_world_robot.heading());
     closures.push_back(m.closure_mm);
     posed.push_back(k);
@@ -388,7 +388,7 @@ SetupCheckResult CheckSetup(const std::vector<SetupFrame>& frames, const SetupCh
   GridAngle(still.corners[posed.back()], &r);
   r.last_frame = frames[still.frame_of[posed.back()]].grey;
   r.last_corners = still.corners[posed.back()];
-  r.ok = true;
+  r.status = StatusCode::kOk;
   return r;
 }
 

@@ -72,7 +72,7 @@ TapeValidation ValidateTape(const std::vector<TapePair>& pairs,
     }
     v.axes.push_back(std::move(axis));
   }
-  v.ok = position_ok && !v.axes.empty();
+  v.status = position_ok && !v.axes.empty() ? StatusCode::kOk : StatusCode::kFailed;
   // The tape is good for return errors well above its own error: a third
   // or less of what it measures keeps E_max,syst within ~30 %.
   v.usable_above_emax_mm = NiceCeil(3.0 * v.error_bound_mm);

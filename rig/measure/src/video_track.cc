@@ -58,6 +58,7 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
   VideoTrack track;
   std::string why;
   if (!options.IsValid(&why)) {
+    track.status = StatusCode::kInvalidArgument;
     track.message = "options: " + why;
     return track;
   }
@@ -112,7 +113,7 @@ VideoTrack TrackTagInVideo(const std::string& video_path, const std::vector<doub
     track.message = video_path + ": no frame could be decoded (empty or corrupt video)";
     return track;
   }
-  track.ok = true;
+  track.status = StatusCode::kOk;
   track.message = "ok";
   return track;
 }

@@ -165,7 +165,7 @@ std::string FinalErrorBars(const json& check) {
 int CheckResult::Replayed() const {
   int n = 0;
   for (const auto& per_set : replays)
-    for (const calibration::RunReplay& r : per_set) n += r.ok ? 1 : 0;
+    for (const calibration::RunReplay& r : per_set) n += r.ok() ? 1 : 0;
   return n;
 }
 
@@ -229,7 +229,7 @@ json CheckJson(const std::string& session_path, const calibration::MeasuredSessi
     json distance = nullptr;
     for (size_t s = 0; s < result.sets.size(); ++s) {
       const calibration::RunReplay& r = result.replays[s][k];
-      if (!r.ok) {
+      if (!r.ok()) {
         results.push_back({{"set", result.sets[s].name}, {"ok", false}, {"reason", r.message}});
         not_replayed.push_back(
             {{"run", run.name}, {"set", result.sets[s].name}, {"reason", r.message}});
@@ -258,7 +258,7 @@ json CheckJson(const std::string& session_path, const calibration::MeasuredSessi
   for (size_t s = 0; s < result.sets.size(); ++s) {
     json entry = {{"set", result.sets[s].name}};
     int replayed = 0;
-    for (const calibration::RunReplay& r : result.replays[s]) replayed += r.ok ? 1 : 0;
+    for (const calibration::RunReplay& r : result.replays[s]) replayed += r.ok() ? 1 : 0;
     entry["runs"] = replayed;
     entry["not_replayed"] = static_cast<int>(result.replays[s].size()) - replayed;
     for (const Quantity& q : kQuantities) {

@@ -128,7 +128,7 @@ nlohmann::json CameraScaleJson(const measure::CameraScale& c) {
                       {"camera_height_mm", c.camera_height_mm},
                       {"sigma_camera_height_mm", c.sigma_camera_height_mm},
                       {"explanation", c.explanation}};
-  if (c.edge_shift.ok)
+  if (c.edge_shift.ok())
     j["edge_shift"] = {{"shift_px", c.edge_shift.shift_px},
                        {"sigma_px", c.edge_shift.sigma_px},
                        {"spread_px", c.edge_shift.spread_px},
@@ -158,9 +158,9 @@ nlohmann::json CameraScaleJson(const measure::CameraScale& c) {
   j["floor_tags"] = tags;
   if (c.floor) {
     const vision::FloorScaleResult& f = *c.floor;
-    nlohmann::json reference = {{"ok", f.ok}};
-    if (!f.ok) reference["message"] = f.message;
-    if (f.ok) {
+    nlohmann::json reference = {{"ok", f.ok()}};
+    if (!f.ok()) reference["message"] = f.message;
+    if (f.ok()) {
       nlohmann::json pairs = nlohmann::json::array();
       for (const auto& p : f.pairs)
         pairs.push_back({{"between", {p.id_a, p.id_b}},

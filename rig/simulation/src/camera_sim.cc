@@ -42,7 +42,7 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   render.floor_tags = FloorTagPlacements(cam);
   vision::RendererResult created =
       vision::Renderer::Create(vision::CameraModel(true_lens, cam.mount), true_tag, render);
-  if (!created.ok) return name + ": cannot render: " + created.message;
+  if (!created.ok()) return name + ": cannot render: " + created.message;
   vision::Renderer& renderer = *created.renderer;
 
   out->video = dir + "/" + name + ".mp4";

@@ -19,7 +19,7 @@ Result<std::unique_ptr<SimCameraSource>> SimCameraSource::Create(const config::C
   render.floor_tags = FloorTagPlacements(camera);
   vision::RendererResult r =
       vision::Renderer::Create(vision::CameraModel(camera.intrinsics, camera.mount), printed, render);
-  if (!r.ok) return R::Error(StatusCode::kInvalidArgument, "virtual camera: " + r.message);
+  if (!r.ok()) return R::Error(StatusCode::kInvalidArgument, "virtual camera: " + r.message);
   return R::Ok(std::unique_ptr<SimCameraSource>(new SimCameraSource(std::move(r.renderer), camera.fps, backend)));
 }
 

@@ -293,7 +293,7 @@ void Station::ShowLive(const media::CameraFrame& frame, const vision::FrameObser
   std::optional<live::LivePose> pose;
   if (obs.corners_px) {
     const vision::PlanarPoseResult p = vision::MeasureTagPose(WatchCamera(), setup_.tag, *obs.corners_px);
-    if (p.ok) {
+    if (p.ok()) {
       pose = live::LivePose{};
       pose->x_mm = p.T_world_robot.x() * kMToMm;
       pose->y_mm = p.T_world_robot.y() * kMToMm;
@@ -324,14 +324,14 @@ void Station::ShowEstimates(const StationIteration& it) const {
 
 std::optional<double> Station::HeadingOf(const vision::TagCorners& corners) const {
   const vision::PlanarPoseResult pose = vision::MeasureTagPose(WatchCamera(), setup_.tag, corners);
-  if (!pose.ok) return std::nullopt;
+  if (!pose.ok()) return std::nullopt;
   return pose.T_world_robot.heading();
 }
 
 std::vector<calibration::RunSpec> Station::MakeDefaultPlan(const RestFrames& rest, std::string* why) {
   const vision::CameraModel& camera = WatchCamera();
   const vision::PlanarPoseResult pose = vision::MeasureTagPose(camera, setup_.tag, *rest.found.back().corners_px);
-  if (!pose.ok) {
+  if (!pose.ok()) {
     *why = "the default plan: the robot's pose at the start could not be measured (" + pose.message + ")";
     return {};
   }
@@ -542,7 +542,7 @@ void Station::FitCamera(const std::vector<std::pair<RestFrames, RestFrames>>& re
   const vision::CameraModel lens(setup_.intrinsics, setup_.mount_guess);
   const vision::EdgeShiftEstimate shift =
       measure::MeasureTagEdgeShift(rest_frames, setup_.tag, lens, options_.edge_shift_frames);
-  if (shift.ok)
+  if (shift.ok())
     for (vision::TagCorners& view : views) view = vision::RemoveEdgeShift(view, shift.shift_px, &lens);
   const measure::CameraPlaneOrGuess fit =
       measure::EstimateCameraPlaneOrGuess(setup_.intrinsics, setup_.tag, views, setup_.mount_guess, options_.plane);
@@ -556,7 +556,7 @@ void Station::FitCamera(const std::vector<std::pair<RestFrames, RestFrames>>& re
                plane_.views_used, mount.roll_deg, mount.pitch_deg, mount.height_mm, plane_.rms_reprojection_px));
   else
     Log(Format("camera plane: %zu distinct views, using the operator's mount guess", views.size()));
-  EstimateScale(&mount, shift.ok ? &shift : nullptr);
+  EstimateScale(&mount, shift.ok() ? &shift : nullptr);
   camera_.emplace(setup_.intrinsics, mount);
 }
 
@@ -669,7 +669,7 @@ calibration::MeasuredRun Station::RecordedRun(const StationRun& run, const Recor
     c.t_s = f.t_s;
     if (f.corners_px) {
       const vision::PlanarPoseResult pose = vision::MeasureTagPose(*camera_, setup_.tag, *f.corners_px);
-      c.valid = pose.ok;
+      c.valid = pose.ok();
       c.T_world_robot = pose.T_world_robot;
     }
     m.camera.push_back(c);

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/floor_camera.h"
 #include "odocal/calibration/measured_session.h"
@@ -57,7 +58,8 @@ struct ReplayOptions {
 };
 
 struct RunReplay {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;  // why not, naming the run
 
   Pose2 start;  // anchored robot start pose at the first telemetry sample

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/format.h"
+
 namespace odocal::calibration {
 
 enum class RunFlagKind {
@@ -73,7 +75,7 @@ std::optional<RunFlag> ParseRunFlag(const std::string& text);
 bool AnyFatal(const std::vector<RunFlag>& flags);
 
 // The text forms, in order (report.json's "flags").
-std::vector<std::string> ToStrings(const std::vector<RunFlag>& flags);
+using odocal::ToStrings;  // base/format.h: each flag's ToString()
 
 }  // namespace odocal::calibration
 

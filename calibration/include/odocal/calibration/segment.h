@@ -41,6 +41,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/procedures.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/calibration/seen_turning.h"
@@ -96,7 +97,8 @@ std::optional<std::string> SegmentContradicts(const RunSpec& planned, const Moti
                                               double size_tolerance = 0.25);
 
 struct PlanMatch {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   // Per planned run, the index of its segment (when ok: every run has one).
   std::vector<int> segment_of_run;
   // Every disagreement, one line each, naming the run and the segment's

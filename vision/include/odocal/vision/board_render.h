@@ -87,7 +87,8 @@ struct RenderedBoard {
 };
 
 struct BoardRenderResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   RenderedBoard frame;
 };

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_calibration.h"
 #include "odocal/vision/camera_model.h"
 
@@ -38,7 +39,8 @@ struct TagLift {
 };
 
 struct BoardShape {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;  // why not, when not ok
   std::vector<TagLift> tags;  // by id; tags seen in fewer than min_sightings corners left out
   double rms_lift_mm = 0.0;

@@ -20,6 +20,7 @@
 #include <opencv2/core.hpp>
 
 #include "odocal/base/solver_settings.h"
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -81,7 +82,8 @@ struct CornerRefineOptions {
 };
 
 struct CornerRefineResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   std::array<cv::Point2d, 4> corners_px{};  // refined, or the input when !ok
   int edge_points_used = 0;

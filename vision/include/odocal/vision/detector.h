@@ -19,6 +19,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
+
 namespace odocal::vision {
 
 // libapriltag reports corners with the top-left corner of the top-left pixel
@@ -92,7 +94,8 @@ struct FindResult {
 
 class TagDetector;
 struct TagDetectorResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   std::unique_ptr<TagDetector> detector;
 };

@@ -34,6 +34,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/corner_refine.h"
 
@@ -86,7 +87,7 @@ enum class ObservationFlag {
 };
 const char* ToString(ObservationFlag flag);
 // The texts, in order (report.json's "flags").
-std::vector<std::string> ToStrings(const std::vector<ObservationFlag>& flags);
+using odocal::ToStrings;  // base/format.h: each flag's ToString
 
 // Why `quality` fails `gate` (overexposed, low_contrast, defocused,
 // edge_not_straight, in that order); empty when usable.

@@ -87,7 +87,8 @@ struct EdgeShiftOptions {
 };
 
 struct EdgeShiftResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   // s (px, along the edges' normals, positive when the black looks larger),
   // and its 1-sigma from the fit (Gauss-Newton, scaled by the residual).
@@ -110,7 +111,7 @@ EdgeShiftResult MeasureEdgeShift(const cv::Mat& grey, const std::array<cv::Point
 // corners free too, so that every black/white boundary of the tag (some 80 on
 // tag36h11, not only the outer four edges) places and turns it. `corners_px`
 // (refined outer corners) is the start; the result's corners are the print's
-// (the shift removed), or the input when !shift.ok.
+// (the shift removed), or the input when !shift.ok().
 struct TagPatternResult {
   EdgeShiftResult shift;
   std::array<cv::Point2d, 4> corners_px{};
@@ -125,7 +126,8 @@ TagPatternResult RefineTagByPattern(const cv::Mat& grey, const std::array<cv::Po
 // `systematic_px` (what the model leaves on images it does not invert: a
 // gamma-2.2 disk-PSF camera leaves ~0.02 px, tests/vision/edge_shift_test.cc).
 struct EdgeShiftEstimate {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   double shift_px = 0.0;
   double sigma_px = 0.0;

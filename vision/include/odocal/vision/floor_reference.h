@@ -38,6 +38,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_quality.h"
 
@@ -94,7 +95,8 @@ std::vector<FloorTagSighting> ObserveFloorTags(const std::vector<cv::Mat>& frame
                                                const QualityGate& gate = {});
 
 struct FloorScaleResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;  // why not, when !ok
   double camera_height_mm = 0.0;  // above the floor
   double sigma_camera_height_mm = 0.0;

@@ -33,6 +33,7 @@
 #include <opencv2/core.hpp>
 
 #include "odocal/base/solver_settings.h"
+#include "odocal/base/status.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/tag.h"
@@ -42,7 +43,8 @@ namespace odocal::vision {
 using TagCorners = std::array<cv::Point2d, 4>;
 
 struct PlanarPoseResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   calibration::Pose2 T_world_tag;
   calibration::Pose2 T_world_robot;  // T_world_tag * T_robot_tag^-1
@@ -157,7 +159,8 @@ struct CameraPlaneOptions {
 using CornerVelocities = std::array<cv::Point2d, 4>;
 
 struct CameraPlaneResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   // The estimate: roll, pitch and height from the data; x, y, yaw copied from
   // the nominal mount (the gauge).

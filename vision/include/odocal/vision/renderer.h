@@ -39,6 +39,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/pose2.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/image_formation.h"
@@ -111,7 +112,8 @@ struct RenderedFrame {
 // Status-carrying factory result, like every odocal estimator.
 class Renderer;
 struct RendererResult {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   std::unique_ptr<Renderer> renderer;
 };

@@ -26,6 +26,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 
 namespace odocal::vision {
@@ -80,7 +81,8 @@ struct RejectedQuad {
 };
 
 struct TagSurvey {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;  // when !ok: bad options or image
   std::vector<SurveyedTag> tags;
   std::vector<RejectedQuad> rejected;
@@ -93,7 +95,8 @@ TagSurvey SurveyTags(const cv::Mat& grey, const CameraModel* camera, const TagSu
 // A planar object's pose from its points' pixels: IPPE (OpenCV's planar
 // solver) refined by Levenberg-Marquardt, weighted by each point's sigma.
 struct ObjectPose {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   Eigen::Isometry3d T_camera_object = Eigen::Isometry3d::Identity();
   // Of (rotation vector [rad], translation [m]) — OpenCV's rvec, tvec — from

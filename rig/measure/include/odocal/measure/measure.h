@@ -16,12 +16,13 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "odocal/base/format.h"
 #include "odocal/base/status.h"
 #include "odocal/calibration/measured_session.h"
 #include "odocal/calibration/rest.h"
-#include "odocal/measure/segment_runs.h"
 #include "odocal/config/session.h"
 #include "odocal/measure/pose_log.h"
+#include "odocal/measure/segment_runs.h"
 #include "odocal/measure/video_track.h"
 #include "odocal/vision/edge_quality.h"
 #include "odocal/vision/edge_shift.h"
@@ -140,7 +141,7 @@ enum class SessionFlag {
   kFloorReferenceInconsistent,  // "floor_reference_inconsistent": its distances disagree beyond their sigmas
 };
 const char* ToString(SessionFlag flag);
-std::vector<std::string> ToStrings(const std::vector<SessionFlag>& flags);
+using odocal::ToStrings;  // base/format.h: each flag's ToString
 
 // Where the camera's length scale comes from, and how well it is known:
 // what Es's uncertainty rests on (report.json "camera_scale").
@@ -245,7 +246,7 @@ struct CameraPlaneOrGuess {
   vision::CameraMount mount;  // the fitted plane's, or the guess
   // The fit; not ok: why (with too few views it was not tried, and says so).
   vision::CameraPlaneResult plane;
-  bool estimated() const { return plane.ok; }
+  bool estimated() const { return plane.ok(); }
 };
 CameraPlaneOrGuess EstimateCameraPlaneOrGuess(const vision::Intrinsics& intrinsics, const vision::TagSpec& tag,
                                               const std::vector<vision::TagCorners>& views,

@@ -38,6 +38,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/edge_quality.h"
 #include "odocal/vision/edge_shift.h"
@@ -77,7 +78,8 @@ struct SetupCheckOptions {
 };
 
 struct SetupCheckResult {
-  bool ok = false;      // a number could be given (the tag was found and refined)
+  StatusCode status = StatusCode::kFailed;  // a number could be given (the tag was found and refined)
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;  // why not, when !ok
   int frames = 0, frames_found = 0, frames_refined = 0;
   double fps = 0.0;

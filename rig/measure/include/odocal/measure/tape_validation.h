@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/bland_altman.h"
 #include "odocal/calibration/rest.h"
 #include "odocal/config/manual_csv.h"
@@ -44,7 +45,8 @@ struct AxisAgreement {
 
 struct TapeValidation {
   // False when x or y has no agreement statistics (fewer than 3 pairs).
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::vector<AxisAgreement> axes;  // only those whose statistics could be computed
   std::vector<std::string> notes;   // an axis without statistics, and why
   // Over x and y: how far one tape reading is from the camera at the

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/vision/camera_model.h"
 #include "odocal/vision/tag.h"
 #include "odocal/vision/tag_observer.h"
@@ -18,7 +19,8 @@
 namespace odocal::measure {
 
 struct VideoTrack {
-  bool ok = false;
+  StatusCode status = StatusCode::kFailed;
+  bool ok() const { return status == StatusCode::kOk; }
   std::string message;
   std::vector<vision::FrameObservation> frames;
   int found = 0;

@@ -149,7 +149,7 @@ TEST(CheckCli, RunWithoutTelemetryIsListedWithItsReason) {
   ASSERT_EQ(session->runs.size(), 2u);
   session->runs[1].telemetry.clear();
   session->camera_file = dir + "/camera.yaml";
-  ASSERT_FALSE(config::WriteSession(*session, dir + "/session.yaml"));
+  ASSERT_TRUE(config::WriteSession(*session, dir + "/session.yaml").ok());
   std::ofstream(dir + "/truth.yaml") << TruthFirmwareYaml();
   const auto r = RunCommand(Odocal("check " + dir + "/session.yaml --params " + dir +
                                    "/truth.yaml --out " + dir + "/check"));

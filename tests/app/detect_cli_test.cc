@@ -55,7 +55,7 @@ std::string WriteCamera(const std::string& dir) {
   config::CameraFile file;
   file.intrinsics = SmallCamera().intrinsics();
   const std::string path = dir + "/camera.yaml";
-  EXPECT_FALSE(config::WriteCameraFile(path, file, config::CameraFileFormat::kOpenCv));
+  EXPECT_TRUE(config::WriteCameraFile(path, file, config::CameraFileFormat::kOpenCv).ok());
   return path;
 }
 

@@ -62,7 +62,7 @@ TEST(CameraIo, RoundTripsBothFormats) {
     for (config::CameraFileFormat format : {config::CameraFileFormat::kOpenCv, config::CameraFileFormat::kRos}) {
       SCOPED_TRACE(config::CameraFileFormatName(format));
       const std::string path = dir + "/camera.yaml";
-      ASSERT_FALSE(config::WriteCameraFile(path, file, format));
+      ASSERT_TRUE(config::WriteCameraFile(path, file, format).ok());
       const auto back = config::ReadCameraFile(path);
       ASSERT_TRUE(back) << back.message;
       EXPECT_EQ(back->format, format);  // auto-detected
@@ -136,7 +136,7 @@ TEST(CameraIo, ReadsFilesWrittenByCvFileStorage) {
   config::CameraFile ours;
   ours.intrinsics = *expected;
   const std::string ours_path = dir + "/ours.yaml";
-  ASSERT_FALSE(config::WriteCameraFile(ours_path, ours, config::CameraFileFormat::kOpenCv));
+  ASSERT_TRUE(config::WriteCameraFile(ours_path, ours, config::CameraFileFormat::kOpenCv).ok());
   cv::FileStorage fs(ours_path, cv::FileStorage::READ);
   cv::Mat K2, D2;
   fs["camera_matrix"] >> K2;
@@ -328,9 +328,10 @@ distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]
 TEST(CameraIo, RefusesToWriteInvalidIntrinsicsAndLeavesNoPartialFile) {
   const std::string dir = test_util::MakeTempDir("odocal_camio_");
   config::CameraFile file;  // all zero: invalid
-  const auto error = config::WriteCameraFile(dir + "/camera.yaml", file, config::CameraFileFormat::kOpenCv);
-  ASSERT_TRUE(error);
-  EXPECT_THAT(*error, ::testing::HasSubstr("camera.yaml: not written")) << *error;
+  const Status written = config::WriteCameraFile(dir + "/camera.yaml", file, config::CameraFileFormat::kOpenCv);
+  ASSERT_FALSE(written.ok());
+  EXPECT_EQ(written.status, StatusCode::kInvalidArgument);
+  EXPECT_THAT(written.message, ::testing::HasSubstr("camera.yaml: not written")) << written.message;
   EXPECT_FALSE(std::ifstream(dir + "/camera.yaml").good());
 }
 

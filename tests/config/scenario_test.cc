@@ -228,7 +228,7 @@ TEST(Session, ACircleRunRoundTrips) {
   run.telemetry = dir + "/run01.telemetry.csv";
   run.end_s = 10.0;
   session.runs.push_back(run);
-  ASSERT_FALSE(config::WriteSession(session, dir + "/session.yaml"));
+  ASSERT_TRUE(config::WriteSession(session, dir + "/session.yaml").ok());
   const auto loaded = config::LoadSession(dir + "/session.yaml");
   ASSERT_TRUE(loaded) << loaded.message;
   ASSERT_EQ(loaded->runs.size(), 1u);
@@ -267,7 +267,7 @@ config::Session FloorSession(const std::string& dir) {
 
 TEST(Session, AFloorReferenceRoundTrips) {
   const std::string dir = test_util::MakeTempDir("odocal_session_floor_");
-  ASSERT_FALSE(config::WriteSession(FloorSession(dir), dir + "/session.yaml"));
+  ASSERT_TRUE(config::WriteSession(FloorSession(dir), dir + "/session.yaml").ok());
   const auto loaded = config::LoadSession(dir + "/session.yaml");
   ASSERT_TRUE(loaded) << loaded.message;
   ASSERT_TRUE(loaded->tag_size_sigma_mm);
@@ -289,7 +289,7 @@ TEST(Session, AFloorReferenceRoundTrips) {
 
 TEST(Session, BadFloorReferenceKeysAreNamed) {
   const std::string dir = test_util::MakeTempDir("odocal_session_floor_bad_");
-  ASSERT_FALSE(config::WriteSession(FloorSession(dir), dir + "/good.yaml"));
+  ASSERT_TRUE(config::WriteSession(FloorSession(dir), dir + "/good.yaml").ok());
   const std::string good = test_util::Slurp(dir + "/good.yaml");
   for (const auto& [from, to, expected] : std::vector<std::tuple<std::string, std::string, std::string>>{
            {"between: [2, 3]", "between: [2, 9]", "floor_reference.distances[1].between: tag 9 is not in floor_reference.tags"},
@@ -317,7 +317,7 @@ TEST(Session, WhoAndWhenRoundTripAndABadTimeIsNamed) {
   session.robot_id = "R-0042";
   session.odometer_km = 812.5;
   session.recorded_utc = "2026-03-02T09:00:00Z";
-  ASSERT_FALSE(config::WriteSession(session, dir + "/session.yaml"));
+  ASSERT_TRUE(config::WriteSession(session, dir + "/session.yaml").ok());
   const auto loaded = config::LoadSession(dir + "/session.yaml");
   ASSERT_TRUE(loaded) << loaded.message;
   EXPECT_EQ(loaded->robot_id, "R-0042");

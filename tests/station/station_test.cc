@@ -765,7 +765,7 @@ TEST(StationCli, RealRobotConfigNamesTheMissingDeviceAndCamera) {
   camera.intrinsics.fx = camera.intrinsics.fy = 1400;
   camera.intrinsics.cx = 480;
   camera.intrinsics.cy = 270;
-  ASSERT_FALSE(config::WriteCameraFile(dir + "/camera.yaml", camera, config::CameraFileFormat::kOpenCv));
+  ASSERT_TRUE(config::WriteCameraFile(dir + "/camera.yaml", camera, config::CameraFileFormat::kOpenCv).ok());
   auto config = [&](const std::string& port, const std::string& device) {
     std::ofstream(dir + "/station.yaml")
         << "robot: {port: " << port << ", baud: 115200}\n"

@@ -186,14 +186,14 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
   const std::string name = "batch";
   const records::Limits limits = LimitsOrFail(name, args.record);
   const std::vector<config::Session> sessions = LoadSessionsOrFail(name, session_paths);
-  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
+  if (const Status e = report::CheckExports(args.exports); !e) Fail(name, kExitBadInput, e.message);
   measure::MeasureOptions options;
   options.threads = args.threads;
   options.edge_shift_views = args.edge_shift_views;
   const auto measured = measure::MeasureSessions(sessions, options, TerminalProgressBar("measuring"));
   // A malformed pose log (or its telemetry) is the one way measuring fails.
   if (!measured) Fail(name, kExitBadInput, measured.message);
-  if (auto e = config::EnsureDirectory(out)) Fail(name, kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(out); !e) Fail(name, kExitFailure, e.message);
 
   nlohmann::json report = BatchMeasuredJson(*measured);
   const measure::SessionEstimate estimates = measure::EstimateSession(*measured);
@@ -242,12 +242,13 @@ int BatchOnce(const BatchArgs& args, const std::vector<std::string>& session_pat
   report["nominal"] = report::WheelParamsJson(nominal);
   const RunIdentity run = BatchRunIdentity(name, out, robot, sessions);
   if (!run.robot.empty()) report["robot_id"] = run.robot;
-  if (auto e = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n"))
-    Fail(name, kExitFailure, *e);
-  if (auto e = report::WriteReportHtml(report, "odocal batch", out + "/report.html"))
-    Fail(name, kExitFailure, *e);
+  if (const Status e = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n"); !e)
+    Fail(name, kExitFailure, e.message);
+  if (const Status e = report::WriteReportHtml(report, "odocal batch", out + "/report.html"); !e)
+    Fail(name, kExitFailure, e.message);
   if (!trajectory_missing)
-    if (auto e = report::WriteExports(args.exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+    if (const Status e = report::WriteExports(args.exports, nominal, corrected); !e)
+      Fail(name, kExitFailure, e.message);
   // A run that measured nothing is not a calibration: no record.
   const records::Record record =
       usable > 0 && !trajectory_missing ? KeepRecord(name, report, run, args.record, limits) : records::Record{};
@@ -295,7 +296,7 @@ void RegisterBatchCommand(CLI::App& app) {
   cmd->callback([args]() {
     const std::string name = "batch";
     // Bad input is refused before any session is measured.
-    if (auto e = report::CheckExports(args->exports)) Fail(name, kExitBadInput, *e);
+    if (const Status e = report::CheckExports(args->exports); !e) Fail(name, kExitBadInput, e.message);
     LimitsOrFail(name, args->record);
     const std::optional<FleetBatch> fleet = FleetBatchOrFail(name, args->sessions, args->list, args->shard, args->each);
     if (!fleet) {

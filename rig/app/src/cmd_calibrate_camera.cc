@@ -536,8 +536,8 @@ void RunCalibrateCamera(const CalibrateCameraArgs& args) {
   file.camera_name = args.camera_name;
   file.rms_reprojection_error_px = c.result.rms_reprojection_error_px;
   file.per_view_reprojection_errors_px = c.result.per_view_rms_px;
-  if (const auto error = config::WriteCameraFile(args.out, file, request.format))
-    Fail(kCalibrateCamera, kExitFailure, *error);
+  if (const Status error = config::WriteCameraFile(args.out, file, request.format); !error)
+    Fail(kCalibrateCamera, kExitFailure, error.message);
   if (args.json) {
     PrintJson(args, request, v, c);
     return;

@@ -55,7 +55,7 @@ void RunCheck(const CheckArgs& args) {
     if (!set) Fail("check", kExitBadInput, set.message);
     sets.push_back(*set);
   }
-  if (auto e = config::EnsureDirectory(args.out)) Fail("check", kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(args.out); !e) Fail("check", kExitFailure, e.message);
 
   const auto measured =
       measure::MeasureSessions({*session}, measure::MeasureOptions{}, TerminalProgressBar("measuring"));
@@ -67,10 +67,10 @@ void RunCheck(const CheckArgs& args) {
   const report::CheckResult result = report::RunCheck(ms, sets);
   const nlohmann::json j = report::CheckJson(args.session, ms, result);
   std::fputs(report::CheckTable(j).c_str(), stdout);
-  if (auto e = config::WriteFileAtomically(args.out + "/check.json", j.dump(2) + "\n"))
-    Fail("check", kExitFailure, *e);
-  if (auto e = config::WriteFileAtomically(args.out + "/report.html", report::CheckHtml(j)))
-    Fail("check", kExitFailure, *e);
+  if (const Status e = config::WriteFileAtomically(args.out + "/check.json", j.dump(2) + "\n"); !e)
+    Fail("check", kExitFailure, e.message);
+  if (const Status e = config::WriteFileAtomically(args.out + "/report.html", report::CheckHtml(j)); !e)
+    Fail("check", kExitFailure, e.message);
   std::printf("wrote %s/check.json and report.html\n", args.out.c_str());
   if (result.Replayed() > 0) {
     RunIdentity run;

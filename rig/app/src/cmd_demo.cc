@@ -56,7 +56,7 @@ struct DemoArgs {
 
 void RunDemo(const DemoArgs& args) {
   const std::string name = "demo";
-  if (auto e = report::CheckExports(args.exports)) Fail(name, kExitBadInput, *e);
+  if (const Status e = report::CheckExports(args.exports); !e) Fail(name, kExitBadInput, e.message);
   std::string error;
   const auto scenario = config::LoadScenario(args.scenario);
   if (!scenario) Fail(name, kExitBadInput, scenario.message);
@@ -78,8 +78,10 @@ void RunDemo(const DemoArgs& args) {
   if (!verify.ok()) Fail(name, kExitFailure, "verification: " + verify.message);
   const double improvement = estimate.emax_syst_m / verify.emax_syst_m;
 
-  if (auto e = simulation::WriteSimulation(*scenario, before, args.out + "/round1")) Fail(name, kExitFailure, *e);
-  if (auto e = simulation::WriteSimulation(again, after, args.out + "/round2")) Fail(name, kExitFailure, *e);
+  if (const Status e = simulation::WriteSimulation(*scenario, before, args.out + "/round1"); !e)
+    Fail(name, kExitFailure, e.message);
+  if (const Status e = simulation::WriteSimulation(again, after, args.out + "/round2"); !e)
+    Fail(name, kExitFailure, e.message);
   const nlohmann::json report = {
       {"command", "demo"},
       {"scenario", args.scenario},
@@ -97,11 +99,11 @@ void RunDemo(const DemoArgs& args) {
       {"ros2", report::Ros2Json(calibration::Ros2MultipliersFrom(nominal, corrected))},
       {"improvement", improvement},
   };
-  if (auto e = config::WriteFileAtomically(args.out + "/report.json", report.dump(2) + "\n"))
-    Fail(name, kExitFailure, *e);
-  if (auto e = report::WriteReportHtml(report, "odocal demo", args.out + "/report.html"))
-    Fail(name, kExitFailure, *e);
-  if (auto e = report::WriteExports(args.exports, nominal, corrected)) Fail(name, kExitFailure, *e);
+  if (const Status e = config::WriteFileAtomically(args.out + "/report.json", report.dump(2) + "\n"); !e)
+    Fail(name, kExitFailure, e.message);
+  if (const Status e = report::WriteReportHtml(report, "odocal demo", args.out + "/report.html"); !e)
+    Fail(name, kExitFailure, e.message);
+  if (const Status e = report::WriteExports(args.exports, nominal, corrected); !e) Fail(name, kExitFailure, e.message);
 
   std::printf("odocal demo: %zu UMBMark squares of %.0f mm on a virtual robot\n",
               input_before->cw.size() + input_before->ccw.size(), input_before->side_m * kMToMm);

@@ -480,11 +480,11 @@ void WriteOutputs(const DetectArgs& args, const DetectRequest& request, const De
   doc["calibration"] = args.calibration.empty() ? json(nullptr) : json(args.calibration);
   doc["lens"] = lens;
   if (!args.annotate_dir.empty()) {
-    if (const auto error = config::EnsureDirectory(args.annotate_dir))
-      Fail(kDetect, kExitFailure, "--annotate: " + *error);
+    if (const Status error = config::EnsureDirectory(args.annotate_dir); !error)
+      Fail(kDetect, kExitFailure, "--annotate: " + error.message);
     for (const auto& [path, png] : out.annotations) {
-      if (const auto error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())))
-        Fail(kDetect, kExitFailure, *error);
+      if (const Status error = config::WriteFileAtomically(path, std::string(png.begin(), png.end())); !error)
+        Fail(kDetect, kExitFailure, error.message);
     }
   }
   if (args.json_out == "-") {
@@ -492,8 +492,8 @@ void WriteOutputs(const DetectArgs& args, const DetectRequest& request, const De
     return;
   }
   if (!args.json_out.empty()) {
-    if (const auto error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"))
-      Fail(kDetect, kExitFailure, *error);
+    if (const Status error = config::WriteFileAtomically(args.json_out, doc.dump(2) + "\n"); !error)
+      Fail(kDetect, kExitFailure, error.message);
   }
   PrintSummary(args, request, out);
 }

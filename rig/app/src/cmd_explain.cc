@@ -175,11 +175,12 @@ void RunExplain(const ExplainArgs& args) {
     std::printf("camera refit (k1 corrected by %+.5f):\n", dk1);
     std::fputs(refit.BriefReport().c_str(), stdout);
   }
-  if (auto e = config::EnsureDirectory(args.out)) Fail("explain", kExitFailure, *e);
-  if (auto e = config::WriteFileAtomically(args.out + "/explain.json", j.dump(2) + "\n"))
-    Fail("explain", kExitFailure, *e);
-  if (auto e = config::WriteFileAtomically(args.out + "/explain.html", report::ExplainHtml(*session, result)))
-    Fail("explain", kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(args.out); !e) Fail("explain", kExitFailure, e.message);
+  if (const Status e = config::WriteFileAtomically(args.out + "/explain.json", j.dump(2) + "\n"); !e)
+    Fail("explain", kExitFailure, e.message);
+  if (const Status e = config::WriteFileAtomically(args.out + "/explain.html", report::ExplainHtml(*session, result));
+      !e)
+    Fail("explain", kExitFailure, e.message);
   std::printf("wrote %s/explain.json and explain.html\n", args.out.c_str());
   KeepRecord("explain", j, ExplainIdentity(args), args.record, {});
 }

@@ -66,10 +66,11 @@ records::HistoryOptions OptionsOrFail(const std::string& command, const ViewArgs
 void Emit(const std::string& command, const ViewArgs& args, const nlohmann::json& j, const std::string& table,
           const std::string& html) {
   if (!args.out.empty()) {
-    if (auto e = config::EnsureDirectory(args.out)) Fail(command, kExitFailure, *e);
-    if (auto e = config::WriteFileAtomically(args.out + "/" + command + ".json", j.dump(2) + "\n"))
-      Fail(command, kExitFailure, *e);
-    if (auto e = config::WriteFileAtomically(args.out + "/report.html", html)) Fail(command, kExitFailure, *e);
+    if (const Status e = config::EnsureDirectory(args.out); !e) Fail(command, kExitFailure, e.message);
+    if (const Status e = config::WriteFileAtomically(args.out + "/" + command + ".json", j.dump(2) + "\n"); !e)
+      Fail(command, kExitFailure, e.message);
+    if (const Status e = config::WriteFileAtomically(args.out + "/report.html", html); !e)
+      Fail(command, kExitFailure, e.message);
   }
   if (args.json) std::cout << j.dump(2) << std::endl;
   else std::fputs(table.c_str(), stdout);

@@ -200,11 +200,11 @@ void RunSetupCheck(const SetupCheckArgs& args) {
   o.track_m = args.track_mm * kMmToM;
   o.rest_s = args.rest_s;
   const std::vector<measure::SetupFrame> frames = Grab(args.camera, args.seconds);
-  if (auto e = config::EnsureDirectory(args.out)) Fail(kSetupCheck, kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(args.out); !e) Fail(kSetupCheck, kExitFailure, e.message);
   const measure::SetupCheckResult r = measure::CheckSetup(frames, o);
   const nlohmann::json j = ToJson(r, o, args);
-  if (auto e = config::WriteFileAtomically(args.out + "/setup_check.json", j.dump(2) + "\n"))
-    Fail(kSetupCheck, kExitFailure, *e);
+  if (const Status e = config::WriteFileAtomically(args.out + "/setup_check.json", j.dump(2) + "\n"); !e)
+    Fail(kSetupCheck, kExitFailure, e.message);
   if (!r.ok()) {
     for (const std::string& w : r.warnings) std::printf("warning: %s\n", w.c_str());
     Fail(kSetupCheck, kExitFailure, r.message + " (" + args.out + "/setup_check.json)");

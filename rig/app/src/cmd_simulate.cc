@@ -27,15 +27,18 @@ void RunSimulate(const SimulateArgs& args) {
   const auto scenario = config::LoadScenario(args.scenario);
   if (!scenario) Fail("simulate", kExitBadInput, scenario.message);
   const simulation::SimulationResult result = simulation::Simulate(*scenario);
-  if (auto dir_error = config::EnsureDirectory(args.out)) Fail("simulate", kExitFailure, *dir_error);
+  if (const Status dir_error = config::EnsureDirectory(args.out); !dir_error)
+    Fail("simulate", kExitFailure, dir_error.message);
   std::vector<simulation::RecordedRun> recorded;
   if (scenario->camera) {
-    if (auto record_error = simulation::RecordRuns(*scenario, result, args.out, isatty(2), &recorded))
-      Fail("simulate", kExitFailure, *record_error);
+    if (const Status record_error = simulation::RecordRuns(*scenario, result, args.out, isatty(2), &recorded);
+        !record_error)
+      Fail("simulate", kExitFailure, record_error.message);
   }
-  if (auto write_error =
-          simulation::WriteSimulation(*scenario, result, args.out, scenario->camera ? &recorded : nullptr))
-    Fail("simulate", kExitFailure, *write_error);
+  if (const Status write_error =
+          simulation::WriteSimulation(*scenario, result, args.out, scenario->camera ? &recorded : nullptr);
+      !write_error)
+    Fail("simulate", kExitFailure, write_error.message);
   std::printf("simulated %zu runs: Ed %.6f  Eb %.6f  Es %.6f (truth, relative to nominal)\n",
               result.runs.size(), result.truth.Ed, result.truth.Eb, result.truth.Es);
   std::printf("  %-24s %12s %12s %12s\n", "run", "x [mm]", "y [mm]", "theta [deg]");

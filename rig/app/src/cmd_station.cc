@@ -113,30 +113,31 @@ void Finish(station::StationSetup& setup, const station::StationOptions& options
   setup.live = nullptr;
   nlohmann::json report = station::StationReportJson(result);
   for (auto it = extra.begin(); it != extra.end(); ++it) report[it.key()] = it.value();
-  std::optional<std::string> write_error = config::EnsureDirectory(out);
-  if (!write_error) write_error = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n");
-  if (!write_error) write_error = report::WriteReportHtml(report, "odocal station", out + "/report.html");
+  Status written = config::EnsureDirectory(out);
+  if (written) written = config::WriteFileAtomically(out + "/report.json", report.dump(2) + "\n");
+  if (written) written = report::WriteReportHtml(report, "odocal station", out + "/report.html");
   // A set the driver could not apply: written for the user to load.
-  if (!write_error && result.params_recommended && result.params_initial) {
+  if (written && result.params_recommended && result.params_initial) {
     const calibration::WheelParams nominal = robot_link::ToWheelParams(*result.params_initial);
     const calibration::WheelParams corrected = robot_link::ToWheelParams(*result.params_recommended);
-    write_error = config::WriteFileAtomically(out + "/corrected.firmware.yaml", report::FirmwareExportYaml(corrected));
-    if (!write_error)
-      write_error = config::WriteFileAtomically(out + "/corrected.ros2.yaml", report::Ros2ExportYaml(nominal, corrected));
+    written = config::WriteFileAtomically(out + "/corrected.firmware.yaml", report::FirmwareExportYaml(corrected));
+    if (written)
+      written = config::WriteFileAtomically(out + "/corrected.ros2.yaml", report::Ros2ExportYaml(nominal, corrected));
   }
   if (!result.ok()) {
     Fail("station", ExitCode(result.status),
          result.message + (result.cleanup.empty() ? "" : " (" + result.cleanup + ")"));
   }
-  if (write_error) Fail("station", kExitFailure, *write_error);
+  if (!written) Fail("station", kExitFailure, written.message);
   // Exports: the robot's set at the start is the nominal; the read-back set,
   // or the one to load, the corrected.
   const std::optional<robot_link::ParamSet> corrected =
       result.params_recommended ? result.params_recommended : result.params_final;
   if (result.params_initial && corrected) {
-    if (auto e = report::WriteExports(exports, robot_link::ToWheelParams(*result.params_initial),
-                                      robot_link::ToWheelParams(*corrected)))
-      Fail("station", kExitFailure, *e);
+    if (const Status e = report::WriteExports(exports, robot_link::ToWheelParams(*result.params_initial),
+                                              robot_link::ToWheelParams(*corrected));
+        !e)
+      Fail("station", kExitFailure, e.message);
   }
   const station::StationIteration& first = result.iterations.front();
   const station::StationIteration& last = result.iterations.back();
@@ -377,7 +378,7 @@ void RunRealStation(const StationArgs& args, records::Limits limits, station::St
 }
 
 void RunStation(const StationArgs& args) {
-  if (auto e = report::CheckExports(args.exports)) Fail("station", kExitBadInput, *e);
+  if (const Status e = report::CheckExports(args.exports); !e) Fail("station", kExitBadInput, e.message);
   const std::string name = "station";
   if (args.scenario.empty() == args.config.empty())
     Fail(name, kExitBadInput, "give --scenario (virtual robot) or --config (real robot)");

@@ -44,7 +44,7 @@ struct UmbmarkArgs {
 };
 
 void RunUmbmark(const UmbmarkArgs& args) {
-  if (auto e = report::CheckExports(args.exports)) Fail("umbmark", kExitBadInput, *e);
+  if (const Status e = report::CheckExports(args.exports); !e) Fail("umbmark", kExitBadInput, e.message);
   calibration::UmbmarkInput input;
   input.side_m = args.side_mm * kMmToM;
   input.track_m = args.track_mm * kMmToM;
@@ -79,8 +79,8 @@ void RunUmbmark(const UmbmarkArgs& args) {
   if (!args.exports.raw.empty() && !have_wheels)
     Fail("umbmark", kExitBadInput,
          "--export needs the nominal wheels: --left-diameter-mm, --right-diameter-mm (and --ticks-per-rev)");
-  if (auto e = report::WriteExports(args.exports, nominal_params, corrected_params))
-    Fail("umbmark", kExitFailure, *e);
+  if (const Status e = report::WriteExports(args.exports, nominal_params, corrected_params); !e)
+    Fail("umbmark", kExitFailure, e.message);
   if (args.json) {
     std::cout << doc.dump(2) << std::endl;
   } else {

@@ -117,11 +117,11 @@ void RunValidate(const ValidateArgs& args) {
       report::MakeValidateReport(args.session, args.manual, args.confidence, pairs, validation, notes, sm);
   const nlohmann::json& report = written.json;
 
-  if (auto e = config::EnsureDirectory(args.out)) Fail(name, kExitFailure, *e);
-  if (auto e = config::WriteFileAtomically(args.out + "/report.json", report.dump(2) + "\n"))
-    Fail(name, kExitFailure, *e);
-  if (auto e = report::WriteReportHtml(report, "odocal validate", args.out + "/report.html"))
-    Fail(name, kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(args.out); !e) Fail(name, kExitFailure, e.message);
+  if (const Status e = config::WriteFileAtomically(args.out + "/report.json", report.dump(2) + "\n"); !e)
+    Fail(name, kExitFailure, e.message);
+  if (const Status e = report::WriteReportHtml(report, "odocal validate", args.out + "/report.html"); !e)
+    Fail(name, kExitFailure, e.message);
 
   PrintValidateSummary(report, written, readings->size(), pairs.size(), args.out);
 }

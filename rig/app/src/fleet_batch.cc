@@ -97,7 +97,7 @@ std::optional<FleetBatch> FleetBatchOrFail(const std::string& command, const std
 
 int RunFleetBatch(const std::string& command, const FleetBatch& fleet, const std::string& out,
                   const std::function<int(const FleetSession&, const std::string& out)>& one) {
-  if (auto e = config::EnsureDirectory(out)) Fail(command, kExitFailure, *e);
+  if (const Status e = config::EnsureDirectory(out); !e) Fail(command, kExitFailure, e.message);
   nlohmann::json summary = {{"shard", fleet.shard}, {"shards", fleet.shards}, {"sessions_in_list", fleet.total},
                             {"sessions", nlohmann::json::array()}};
   int failed = 0, outside = 0;
@@ -122,7 +122,8 @@ int RunFleetBatch(const std::string& command, const FleetBatch& fleet, const std
   }
   const std::string file =
       out + "/shard-" + std::to_string(fleet.shard) + "-of-" + std::to_string(fleet.shards) + ".json";
-  if (auto e = config::WriteFileAtomically(file, summary.dump(2) + "\n")) Fail(command, kExitFailure, *e);
+  if (const Status e = config::WriteFileAtomically(file, summary.dump(2) + "\n"); !e)
+    Fail(command, kExitFailure, e.message);
   std::printf("%s: %zu session(s), %d failed, %d outside the limits; %s\n", command.c_str(), fleet.sessions.size(),
               failed, outside, file.c_str());
   return failed > 0 ? kExitFailure : outside > 0 ? kExitOutsideLimits : 0;

@@ -32,12 +32,12 @@ const std::initializer_list<const char*> kRosOnlyKeys = {"camera_name", "rectifi
 
 // The reader's own failure: carries the "<key>: <message>" part; converted to
 // a returned string before leaving this file.
-struct KeyError {
+struct CameraKeyError {
   std::string text;
 };
 
 [[noreturn]] void Throw(const std::string& key, const std::string& message) {
-  throw KeyError{key + ": " + message};
+  throw CameraKeyError{key + ": " + message};
 }
 
 // nullopt when none of the spellings is present (a default YAML::Node would
@@ -326,7 +326,7 @@ std::optional<CameraFile> ParseCameraText(const std::string& text, const std::st
   if (!root.IsMap()) return fail("expected a mapping of keys (camera_matrix, ...) at the top level");
   try {
     return ParseRoot(root);
-  } catch (const KeyError& e) {
+  } catch (const CameraKeyError& e) {
     return fail(e.text);
   } catch (const YAML::Exception& e) {
     // Not expected (every access above is checked), but no exception leaves.
@@ -399,10 +399,10 @@ std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format) {
   return std::string(out.c_str()) + "\n";
 }
 
-std::optional<std::string> WriteCameraFile(const std::string& path, const CameraFile& file,
-                                           CameraFileFormat format) {
+Status WriteCameraFile(const std::string& path, const CameraFile& file, CameraFileFormat format) {
   std::string why;
-  if (!file.intrinsics.IsValid(&why)) return path + ": not written: " + why;
+  if (!file.intrinsics.IsValid(&why))
+    return Status::Error(StatusCode::kInvalidArgument, path + ": not written: " + why);
   return WriteFileAtomically(path, FormatCameraFile(file, format));
 }
 

@@ -162,12 +162,12 @@ std::optional<ConvertedRun> ConvertRun(const std::string& path, const std::strin
     return std::nullopt;
   }
   run.net_heading_rad = last_theta - first_theta;  // theta is logged unwrapped
-  if (auto e = WriteFileAtomically(poses_path, poses)) {
-    *error = *e;
+  if (const Status e = WriteFileAtomically(poses_path, poses); !e) {
+    *error = e.message;
     return std::nullopt;
   }
-  if (auto e = WriteFileAtomically(telemetry_path, telemetry)) {
-    *error = *e;
+  if (const Status e = WriteFileAtomically(telemetry_path, telemetry); !e) {
+    *error = e.message;
     return std::nullopt;
   }
   return run;
@@ -196,8 +196,8 @@ std::optional<int> ImportSet(const fs::path& set_dir, const std::string& categor
       return std::nullopt;
     }
   }
-  if (auto e = EnsureDirectory(out_dir.string())) {
-    *error = *e;
+  if (const Status e = EnsureDirectory(out_dir.string()); !e) {
+    *error = e.message;
     *code = StatusCode::kIoError;
     return std::nullopt;
   }
@@ -237,8 +237,8 @@ std::optional<int> ImportSet(const fs::path& set_dir, const std::string& categor
       kAttribution,
       "Imported by `odocal import optiodom` from " + (category.empty() ? "" : category + "/") + set +
           " (see SOURCE.md)"};
-  if (auto e = WriteSession(session, session.path, comment)) {
-    *error = *e;
+  if (const Status e = WriteSession(session, session.path, comment); !e) {
+    *error = e.message;
     *code = StatusCode::kIoError;
     return std::nullopt;
   }
@@ -250,8 +250,8 @@ std::optional<int> ImportSet(const fs::path& set_dir, const std::string& categor
       "50 ms control cycles) as `runNN.poses.csv` in millimetres and degrees, the per-cycle "
       "encoder increments summed into cumulative ticks as `runNN.telemetry.csv`; the nominal "
       "parameters from `" + set + "_metadata.csv` (Di right, left; Li; encRes x ngear).\n";
-  if (auto e = WriteFileAtomically((out_dir / "SOURCE.md").string(), source_md)) {
-    *error = *e;
+  if (const Status e = WriteFileAtomically((out_dir / "SOURCE.md").string(), source_md); !e) {
+    *error = e.message;
     *code = StatusCode::kIoError;
     return std::nullopt;
   }

@@ -86,13 +86,13 @@ void EmitRun(YAML::Emitter& out, const SessionRun& run, const fs::path& dir) {
 
 }  // namespace
 
-std::optional<std::string> WriteSession(const Session& session, const std::string& path,
-                                        const std::vector<std::string>& comment) {
+Status WriteSession(const Session& session, const std::string& path, const std::vector<std::string>& comment) {
   const fs::path dir = fs::absolute(path).lexically_normal().parent_path();
   if (session.has_camera) {
     CameraFile camera;
     camera.intrinsics = session.intrinsics;
-    if (auto e = WriteCameraFile(session.camera_file, camera, CameraFileFormat::kOpenCv)) return e;
+    if (Status written = WriteCameraFile(session.camera_file, camera, CameraFileFormat::kOpenCv); !written)
+      return written;
   }
   YAML::Emitter out;
   out << YAML::Comment("odocal session: what the operator knows (no truth)");

@@ -18,14 +18,14 @@ std::string Number(double v) {
 
 }  // namespace
 
-std::optional<std::string> CheckExports(const ExportRequests& requests) {
-  if (requests.raw.size() % 2 != 0) return "--export takes KIND FILE";
+Status CheckExports(const ExportRequests& requests) {
+  if (requests.raw.size() % 2 != 0) return Status::Error(StatusCode::kInvalidArgument, "--export takes KIND FILE");
   for (size_t i = 0; i < requests.raw.size(); i += 2) {
     const std::string& kind = requests.raw[i];
     if (kind != "ros2" && kind != "firmware")
-      return "--export " + kind + ": unknown kind (ros2 or firmware)";
+      return Status::Error(StatusCode::kInvalidArgument, "--export " + kind + ": unknown kind (ros2 or firmware)");
   }
-  return std::nullopt;
+  return Status::Ok();
 }
 
 std::string Ros2ExportYaml(const calibration::WheelParams& nominal,
@@ -53,20 +53,20 @@ std::string FirmwareExportYaml(const calibration::WheelParams& c) {
          "ticks_per_rev: " + ticks + "\n";
 }
 
-std::optional<std::string> WriteExports(const ExportRequests& requests,
-                                        const calibration::WheelParams& nominal,
-                                        const std::optional<calibration::WheelParams>& corrected) {
-  if (auto e = CheckExports(requests)) return e;
+Status WriteExports(const ExportRequests& requests, const calibration::WheelParams& nominal,
+                    const std::optional<calibration::WheelParams>& corrected) {
+  if (Status checked = CheckExports(requests); !checked) return checked;
   for (size_t i = 0; i < requests.raw.size(); i += 2) {
     const std::string& kind = requests.raw[i];
     const std::string& file = requests.raw[i + 1];
     if (!corrected)
-      return "--export " + kind + " " + file + ": no corrected parameters to export";
+      return Status::Error(StatusCode::kFailed,
+                           "--export " + kind + " " + file + ": no corrected parameters to export");
     const std::string text =
         kind == "ros2" ? Ros2ExportYaml(nominal, *corrected) : FirmwareExportYaml(*corrected);
-    if (auto e = config::WriteFileAtomically(file, text)) return e;
+    if (Status written = config::WriteFileAtomically(file, text); !written) return written;
   }
-  return std::nullopt;
+  return Status::Ok();
 }
 
 }  // namespace odocal::report

@@ -25,8 +25,7 @@ std::optional<double> Get(const json& j, const std::string& key) {
   return j[key].get<double>();
 }
 
-std::string WithSigma(const std::optional<double>& v, const std::optional<double>& sigma,
-                      int precision) {
+std::string WithSigmaHtml(const std::optional<double>& v, const std::optional<double>& sigma, int precision) {
   if (!v) return "&ndash;";
   std::string s = Fixed(*v, precision);
   if (sigma) s += " &plusmn; " + Fixed(*sigma, precision);
@@ -108,22 +107,22 @@ std::string UmbmarkTable(const json& u) {
   const json sigma = u.value("sigma_cg", json::object());
   os << "<table><tr><th></th><th>x c.g. [mm]</th><th>y c.g. [mm]</th><th>runs</th></tr>";
   os << "<tr><td style='color:" << kCw << "'>cw</td><td>"
-     << WithSigma(Get(u, "x_cg_cw_mm"), Get(sigma, "x_cw_mm"), 3) << "</td><td>"
-     << WithSigma(Get(u, "y_cg_cw_mm"), Get(sigma, "y_cw_mm"), 3) << "</td><td>"
-     << u.value("n_cw", 0) << "</td></tr>";
+     << WithSigmaHtml(Get(u, "x_cg_cw_mm"), Get(sigma, "x_cw_mm"), 3) << "</td><td>"
+     << WithSigmaHtml(Get(u, "y_cg_cw_mm"), Get(sigma, "y_cw_mm"), 3) << "</td><td>" << u.value("n_cw", 0)
+     << "</td></tr>";
   os << "<tr><td style='color:" << kCcw << "'>ccw</td><td>"
-     << WithSigma(Get(u, "x_cg_ccw_mm"), Get(sigma, "x_ccw_mm"), 3) << "</td><td>"
-     << WithSigma(Get(u, "y_cg_ccw_mm"), Get(sigma, "y_ccw_mm"), 3) << "</td><td>"
-     << u.value("n_ccw", 0) << "</td></tr></table>\n";
-  os << "<p>E_max,syst <b>" << WithSigma(Get(u, "emax_syst_mm"), std::nullopt, 3) << " mm</b>; square "
-     << WithSigma(Get(u, "side_mm"), std::nullopt, 0) << " mm, track "
-     << WithSigma(Get(u, "track_mm"), std::nullopt, 1) << " mm.</p>\n";
+     << WithSigmaHtml(Get(u, "x_cg_ccw_mm"), Get(sigma, "x_ccw_mm"), 3) << "</td><td>"
+     << WithSigmaHtml(Get(u, "y_cg_ccw_mm"), Get(sigma, "y_ccw_mm"), 3) << "</td><td>" << u.value("n_ccw", 0)
+     << "</td></tr></table>\n";
+  os << "<p>E_max,syst <b>" << WithSigmaHtml(Get(u, "emax_syst_mm"), std::nullopt, 3) << " mm</b>; square "
+     << WithSigmaHtml(Get(u, "side_mm"), std::nullopt, 0) << " mm, track "
+     << WithSigmaHtml(Get(u, "track_mm"), std::nullopt, 1) << " mm.</p>\n";
   if (u.contains("estimate")) {
     const json& e = u["estimate"];
     os << "<table><tr><th>estimate</th><th>value &plusmn; &sigma;</th><th>95 % interval</th></tr>";
     for (const char* k : {"Ed", "Eb"}) {
-      os << "<tr><td>" << k << "</td><td>"
-         << WithSigma(Get(e, k), Get(e, std::string("sigma_") + k), 6) << "</td><td>";
+      os << "<tr><td>" << k << "</td><td>" << WithSigmaHtml(Get(e, k), Get(e, std::string("sigma_") + k), 6)
+         << "</td><td>";
       if (e.contains("interval95") && e["interval95"].is_object() && e["interval95"].contains(k))
         os << Fixed(e["interval95"][k][0].get<double>(), 6) << " to "
            << Fixed(e["interval95"][k][1].get<double>(), 6);
@@ -267,7 +266,7 @@ std::string RunsTable(const json& runs) {
     const json e = r.value("return_error", json());
     const json s = r.value("sigma", json());
     for (const char* k : {"x_mm", "y_mm", "theta_deg"})
-      os << "<td>" << WithSigma(Get(e, k), Get(s, k), std::string(k) == "theta_deg" ? 4 : 3) << "</td>";
+      os << "<td>" << WithSigmaHtml(Get(e, k), Get(s, k), std::string(k) == "theta_deg" ? 4 : 3) << "</td>";
     std::string flags;
     for (const json& f : r.value("flags", json::array())) flags += (flags.empty() ? "" : ", ") + f.get<std::string>();
     os << "<td" << (flags.empty() ? "" : " class='flag'") << ">" << (flags.empty() ? "ok" : Escape(flags))
@@ -365,13 +364,13 @@ std::string ReportHtml(const json& report, const std::string& title) {
         const json& e = k["heldout_final_error_mm"];
         if (!e.is_object()) continue;
         os << "<tr><td>" << Escape(k.value("name", std::string())) << "</td><td>"
-           << WithSigma(Get(e, "mean"), Get(e, "sigma"), 2) << "</td><td>" << Fixed(e.value("max", 0.0), 2)
+           << WithSigmaHtml(Get(e, "mean"), Get(e, "sigma"), 2) << "</td><td>" << Fixed(e.value("max", 0.0), 2)
            << "</td><td>";
         if (k.contains("versus_lowest_mm") && k["versus_lowest_mm"].is_object())
-          os << WithSigma(Get(k["versus_lowest_mm"], "mean"), Get(k["versus_lowest_mm"], "sigma"), 2);
+          os << WithSigmaHtml(Get(k["versus_lowest_mm"], "mean"), Get(k["versus_lowest_mm"], "sigma"), 2);
         os << "</td><td>";
         if (k.contains("travel_scale") && k["travel_scale"].is_object())
-          os << WithSigma(Get(k["travel_scale"], "value"), Get(k["travel_scale"], "sigma_between_runs"), 5);
+          os << WithSigmaHtml(Get(k["travel_scale"], "value"), Get(k["travel_scale"], "sigma_between_runs"), 5);
         os << "</td></tr>";
       }
       os << "</table>\n<p>Decided by: " << Escape(c.value("basis", std::string())) << "</p>\n";
@@ -397,8 +396,7 @@ std::string ReportHtml(const json& report, const std::string& title) {
   return os.str();
 }
 
-std::optional<std::string> WriteReportHtml(const json& report, const std::string& title,
-                                           const std::string& path) {
+Status WriteReportHtml(const json& report, const std::string& title, const std::string& path) {
   return config::WriteFileAtomically(path, ReportHtml(report, title));
 }
 

@@ -18,9 +18,8 @@ namespace {
 
 
 // Records `runs` (consecutive in the robot's time) as one video `name`.
-std::optional<std::string> RecordOne(const config::Scenario& scenario, const std::vector<const sim::RunRecord*>& runs,
-                                     const std::string& name, const std::string& dir,
-                                     RecordedRun* out) {
+Status RecordOne(const config::Scenario& scenario, const std::vector<const sim::RunRecord*>& runs,
+                 const std::string& name, const std::string& dir, RecordedRun* out) {
   const config::CameraScenario& cam = *scenario.camera;
   const sim::Effects& effects = scenario.robot.effects;
   // The world as it is, not as the operator's files say.
@@ -42,7 +41,7 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   render.floor_tags = FloorTagPlacements(cam);
   vision::RendererResult created =
       vision::Renderer::Create(vision::CameraModel(true_lens, cam.mount), true_tag, render);
-  if (!created.ok()) return name + ": cannot render: " + created.message;
+  if (!created.ok()) return Status::Error(created.status, name + ": cannot render: " + created.message);
   vision::Renderer& renderer = *created.renderer;
 
   out->video = dir + "/" + name + ".mp4";
@@ -57,7 +56,7 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   const odocal::Status opened =
       writer.Open(out->video, cam.fps, cv::Size(cam.intrinsics.width, cam.intrinsics.height),
                   writer_options);
-  if (!opened.ok()) return opened.message;
+  if (!opened.ok()) return opened;
 
   std::string truth =
       "frame,t_capture_s,stamp_s,visible,robot_x_mm,robot_y_mm,robot_heading_deg,tag_x_mm,"
@@ -75,7 +74,7 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
     const vision::RenderedFrame frame = renderer.RenderExposure(trajectory, t);
     const double stamp = t - latency_s;
     const odocal::Status wrote = writer.Write(frame.image, stamp);
-    if (!wrote.ok()) return wrote.message;
+    if (!wrote.ok()) return wrote;
     const auto& c = frame.corners_px;
     std::snprintf(line, sizeof(line),
                   "%d,%.6f,%.6f,%d,%.5f,%.5f,%.6f,%.5f,%.5f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
@@ -91,9 +90,9 @@ std::optional<std::string> RecordOne(const config::Scenario& scenario, const std
   }
   out->frames_written = frame_count;
   const odocal::Status closed = writer.Close();
-  if (!closed.ok()) return closed.message;
+  if (!closed.ok()) return closed;
   const odocal::Status stamps = writer.WriteTimestamps(out->timestamps);
-  if (!stamps.ok()) return stamps.message;
+  if (!stamps.ok()) return stamps;
   return config::WriteFileAtomically(out->frames, truth);
 }
 
@@ -131,10 +130,10 @@ vision::FloorReference TapedFloorReference(const config::CameraScenario::FloorTa
   return reference;
 }
 
-std::optional<std::string> RecordRuns(const config::Scenario& scenario, const SimulationResult& result,
-                                      const std::string& dir, bool progress,
-                                      std::vector<RecordedRun>* recorded) {
-  if (!scenario.camera || !scenario.tag) return "scenario has no camera and tag";
+Status RecordRuns(const config::Scenario& scenario, const SimulationResult& result, const std::string& dir,
+                  bool progress, std::vector<RecordedRun>* recorded) {
+  if (!scenario.camera || !scenario.tag)
+    return Status::Error(StatusCode::kInvalidArgument, "scenario has no camera and tag");
   const size_t n = result.runs.size();
   recorded->assign(n, RecordedRun{});
   if (scenario.camera->one_video) {
@@ -142,16 +141,16 @@ std::optional<std::string> RecordRuns(const config::Scenario& scenario, const Si
     std::vector<const sim::RunRecord*> runs;
     for (const sim::RunRecord& r : result.runs) runs.push_back(&r);
     RecordedRun all;
-    if (auto e = RecordOne(scenario, runs, "recording", dir, &all)) return e;
+    if (Status e = RecordOne(scenario, runs, "recording", dir, &all); !e) return e;
     for (size_t i = 0; i < n; ++i) {
       (*recorded)[i] = all;
       (*recorded)[i].start_s = result.runs[i].start_time_s;
       (*recorded)[i].end_s = result.runs[i].end_time_s;
     }
     if (progress) std::cerr << "recorded " << n << " runs in one video (" << all.frames_written << " frames)\n";
-    return std::nullopt;
+    return Status::Ok();
   }
-  std::vector<std::optional<std::string>> errors(n);
+  std::vector<Status> errors(n);
   std::atomic<size_t> done{0};
   std::mutex print;
   ParallelFor(n, 0, [&](size_t i) {
@@ -163,9 +162,9 @@ std::optional<std::string> RecordRuns(const config::Scenario& scenario, const Si
                 << (*recorded)[i].frames_written << " frames)\n";
     }
   });
-  for (const auto& e : errors)
-    if (e) return e;
-  return std::nullopt;
+  for (const Status& e : errors)
+    if (!e) return e;
+  return Status::Ok();
 }
 
 vision::CameraMount OperatorMountGuess(const vision::CameraMount& truth) {

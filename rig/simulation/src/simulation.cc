@@ -142,18 +142,19 @@ std::vector<config::SessionRun> SessionRuns(const SimulationResult& result, cons
 
 }  // namespace
 
-std::optional<std::string> WriteSimulation(const config::Scenario& scenario, const SimulationResult& result,
-                                           const std::string& dir,
-                                           const std::vector<RecordedRun>* recorded) {
-  if (auto error = config::EnsureDirectory(dir)) return error;
+Status WriteSimulation(const config::Scenario& scenario, const SimulationResult& result, const std::string& dir,
+                       const std::vector<RecordedRun>* recorded) {
+  if (const Status error = config::EnsureDirectory(dir); !error) return error;
   nlohmann::json runs = nlohmann::json::array();
   for (size_t i = 0; i < result.runs.size(); ++i) {
     const sim::RunRecord& run = result.runs[i];
     const std::string& name = result.run_names[i];
     runs.push_back(RunTruthJson(run, name, recorded ? &(*recorded)[i] : nullptr));
-    if (auto error = config::WriteFileAtomically(dir + "/" + name + ".telemetry.csv", TelemetryCsv(run)))
+    if (const Status error = config::WriteFileAtomically(dir + "/" + name + ".telemetry.csv", TelemetryCsv(run));
+        !error)
       return error;
-    if (auto error = config::WriteFileAtomically(dir + "/" + name + ".trajectory.csv", TrajectoryCsv(run)))
+    if (const Status error = config::WriteFileAtomically(dir + "/" + name + ".trajectory.csv", TrajectoryCsv(run));
+        !error)
       return error;
   }
   nlohmann::json truth = {
@@ -191,7 +192,7 @@ std::optional<std::string> WriteSimulation(const config::Scenario& scenario, con
     }
     session.nominal = scenario.robot.nominal;
     session.runs = SessionRuns(result, dir, *recorded, cam.one_video);
-    if (auto error = config::WriteSession(session, dir + "/session.yaml")) return error;
+    if (const Status error = config::WriteSession(session, dir + "/session.yaml"); !error) return error;
   }
   return config::WriteFileAtomically(dir + "/truth.json", truth.dump(2) + "\n");
 }

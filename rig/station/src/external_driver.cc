@@ -171,27 +171,27 @@ class ExternalDriver : public RobotDriver {
  public:
   explicit ExternalDriver(const ExternalDriverOptions& options) : options_(options) {}
 
-  std::optional<DriverError> Connect(ParamSet* params,
-                                     const std::function<void(const std::string&)>& log) override {
+  Status Connect(ParamSet* params, const std::function<void(const std::string&)>& log) override {
     *params = options_.params;
     log("driver: " + Describe() + "; the robot's parameters as configured (this driver cannot read them)");
     if (options_.apply_command.empty())
       log("no apply command: the station measures, writes the corrected set and stops");
-    return std::nullopt;
+    return Status::Ok();
   }
 
   bool CanApply() const override { return !options_.apply_command.empty(); }
 
-  std::optional<DriverError> Apply(const ParamSet& target, int round, ParamSet* active) override {
+  Status Apply(const ParamSet& target, int round, ParamSet* active) override {
     const std::string stem = options_.work_dir + "/apply/round" + std::to_string(round);
-    if (auto e = config::EnsureDirectory(options_.work_dir + "/apply"))
-      return DriverError{DriverFault::kApplyFailed, *e};
+    if (const Status e = config::EnsureDirectory(options_.work_dir + "/apply"); !e)
+      return Status::Error(StatusCode::kFailed, e.message);
     const calibration::WheelParams corrected = robot_link::ToWheelParams(target);
     const std::string firmware = stem + ".firmware.yaml", ros2 = stem + ".ros2.yaml", log = stem + ".log";
     for (const auto& [path, text] :
          {std::pair{firmware, report::FirmwareExportYaml(corrected)},
           std::pair{ros2, report::Ros2ExportYaml(robot_link::ToWheelParams(options_.params), corrected)}}) {
-      if (auto e = config::WriteFileAtomically(path, text)) return DriverError{DriverFault::kApplyFailed, *e};
+      if (const Status e = config::WriteFileAtomically(path, text); !e)
+        return Status::Error(StatusCode::kFailed, e.message);
     }
     const auto command =
         ExpandTemplate(options_.apply_command, {{"file", firmware},
@@ -200,29 +200,29 @@ class ExternalDriver : public RobotDriver {
                                                 {"right_wheel_diameter_mm", Exact(target.right_wheel_diameter_mm)},
                                                 {"track_mm", Exact(target.track_mm)},
                                                 {"ticks_per_rev", std::to_string(target.ticks_per_rev)}});
-    if (!command) return DriverError{DriverFault::kApplyFailed, "apply: " + command.message};
+    if (!command) return Status::Error(StatusCode::kInvalidArgument, "apply: " + command.message);
     Child child;
     std::string why;
     if (!child.Spawn(*command, log, options_.environment, &why))
-      return DriverError{DriverFault::kApplyFailed, "apply: " + why};
+      return Status::Error(StatusCode::kFailed, "apply: " + why);
     const Clock::time_point until = Clock::now() + options_.apply_timeout;
     std::optional<int> status;
     while (!(status = child.Poll())) {
       if (Clock::now() > until) {
         child.Kill();
-        return DriverError{DriverFault::kApplyFailed, "apply: no answer within " +
-                                                          Number(options_.apply_timeout.count() * kMsToS) +
-                                                          " s, killed (log: " + log + ")"};
+        return Status::Error(StatusCode::kFailed, "apply: no answer within " +
+                                                      Number(options_.apply_timeout.count() * kMsToS) +
+                                                      " s, killed (log: " + log + ")");
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     if (!WIFEXITED(*status) || WEXITSTATUS(*status) != 0) {
       const std::string last = LastLine(log);
-      return DriverError{DriverFault::kApplyFailed, "apply: the command " + DescribeExit(*status) +
-                                                        (last.empty() ? "" : ": " + last) + " (log: " + log + ")"};
+      return Status::Error(StatusCode::kFailed, "apply: the command " + DescribeExit(*status) +
+                                                    (last.empty() ? "" : ": " + last) + " (log: " + log + ")");
     }
     *active = target;
-    return std::nullopt;
+    return Status::Ok();
   }
 
  protected:
@@ -251,9 +251,9 @@ class CommandDriver final : public ExternalDriver {
   using ExternalDriver::ExternalDriver;
   std::string Describe() const override { return "command \"" + options_.run_command + "\""; }
 
-  std::optional<DriverError> Start(const RunRequest& run) override {
+  Status Start(const RunRequest& run) override {
     const auto command = ExpandTemplate(options_.run_command, RunValues(run));
-    if (!command) return DriverError{DriverFault::kRunNotCompleted, "command: " + command.message};
+    if (!command) return Status::Error(StatusCode::kInvalidArgument, "command: " + command.message);
     log_ = run.log_path;
     telemetry_path_ = run.telemetry_path;
     if (!telemetry_path_.empty()) std::filesystem::remove(telemetry_path_);
@@ -263,20 +263,20 @@ class CommandDriver final : public ExternalDriver {
     child_ = std::make_unique<Child>();
     std::string why;
     if (!child_->Spawn(*command, log_, options_.environment, &why))
-      return DriverError{DriverFault::kRunNotCompleted, "command: " + why};
-    return std::nullopt;
+      return Status::Error(StatusCode::kFailed, "command: " + why);
+    return Status::Ok();
   }
 
-  std::variant<RunProgress, DriverError> Poll() override {
-    if (!child_) return RunProgress::kDone;
+  Result<RunProgress> Poll() override {
+    using R = Result<RunProgress>;
+    if (!child_) return R::Ok(RunProgress::kDone);
     const std::optional<int> status = child_->Poll();
-    if (!status) return RunProgress::kRunning;
+    if (!status) return R::Ok(RunProgress::kRunning);
     child_.reset();
-    if (WIFEXITED(*status) && WEXITSTATUS(*status) == 0) return RunProgress::kDone;
+    if (WIFEXITED(*status) && WEXITSTATUS(*status) == 0) return R::Ok(RunProgress::kDone);
     const std::string last = log_.empty() ? "" : LastLine(log_);
-    return DriverError{DriverFault::kRunNotCompleted,
-                       "the command " + DescribeExit(*status) + (last.empty() ? "" : ": " + last) +
-                           (log_.empty() ? "" : " (log: " + log_ + ")")};
+    return R::Error(StatusCode::kFailed, "the command " + DescribeExit(*status) + (last.empty() ? "" : ": " + last) +
+                                             (log_.empty() ? "" : " (log: " + log_ + ")"));
   }
 
   Result<std::string> Stop() override {
@@ -311,13 +311,13 @@ class OperatorDriver final : public ExternalDriver {
   using ExternalDriver::ExternalDriver;
   std::string Describe() const override { return "operator at the terminal"; }
 
-  std::optional<DriverError> Start(const RunRequest& run) override {
+  Status Start(const RunRequest& run) override {
     running_ = true;
     Say("==> run " + std::to_string(run.index) + "/" + std::to_string(run.total) + ": drive " +
         DescribeForOperator(run.spec) + " now. The camera sees when you start and when you stop.");
-    return std::nullopt;
+    return Status::Ok();
   }
-  std::variant<RunProgress, DriverError> Poll() override { return RunProgress::kRunning; }
+  Result<RunProgress> Poll() override { return Result<RunProgress>::Ok(RunProgress::kRunning); }
   bool EndsByCamera() const override { return true; }
   Result<std::string> Stop() override {
     if (!running_) return Result<std::string>::Ok("no run in progress" + RunStopCommand());

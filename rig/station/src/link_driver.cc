@@ -22,8 +22,7 @@ class LinkDriver final : public RobotDriver {
 
   std::string Describe() const override { return "link on " + transport_.Describe(); }
 
-  std::optional<DriverError> Connect(ParamSet* params,
-                                     const std::function<void(const std::string&)>& log) override {
+  Status Connect(ParamSet* params, const std::function<void(const std::string&)>& log) override {
     log("connecting to the robot on " + transport_.Describe());
     const auto hello = client_.Hello();
     if (!hello) return Lost("handshake: " + hello.message, hello.status);
@@ -38,40 +37,41 @@ class LinkDriver final : public RobotDriver {
     // would only fill the line.
     if (const auto r = client_.SetTelemetryRate(0); !r)
       return Lost("setting the telemetry rate: " + r.message, r.status);
-    return std::nullopt;
+    return Status::Ok();
   }
 
-  std::optional<DriverError> Start(const RunRequest& run) override {
+  Status Start(const RunRequest& run) override {
     // Telemetry while the run lasts: the ticks for the station's explain.
     telemetry_.clear();
     if (const auto r = client_.SetTelemetryRate(kTelemetryHz); !r)
       return Lost("setting the telemetry rate: " + r.message, r.status);
     const auto started = client_.StartRun(robot_link::RunCommand::FromRunSpec(run.spec));
     if (!started) {
-      if (started.status == StatusCode::kNack)
-        return DriverError{DriverFault::kRunNotCompleted, "start: " + started.message};
+      if (started.status == StatusCode::kNack) return Status::Error(StatusCode::kNack, "start: " + started.message);
       return Lost("start: " + started.message, started.status);
     }
     run_id_ = *started.value;
     running_ = true;
-    return std::nullopt;
+    return Status::Ok();
   }
 
   // Asking STATUS ourselves (rather than waiting for the event) tells a
   // robot that stopped answering from a run that is merely long.
-  std::variant<RunProgress, DriverError> Poll() override {
+  Result<RunProgress> Poll() override {
     const auto status = client_.GetStatus();
-    if (!status) return *Lost(status.message, status.status);
-    if (status.value->state != robot_link::RunState::kIdle) return RunProgress::kRunning;
+    if (!status) return Result<RunProgress>::From(Lost(status.message, status.status));
+    if (status.value->state != robot_link::RunState::kIdle) return Result<RunProgress>::Ok(RunProgress::kRunning);
     running_ = false;
-    if (const auto r = client_.SetTelemetryRate(0); !r) return *Lost("setting the telemetry rate: " + r.message, r.status);
+    if (const auto r = client_.SetTelemetryRate(0); !r)
+      return Result<RunProgress>::From(Lost("setting the telemetry rate: " + r.message, r.status));
     if (status.value->last_run_id != run_id_)
-      return DriverError{DriverFault::kRobotLink, "the robot is idle and does not know the run (restarted?)"};
+      return Result<RunProgress>::Error(StatusCode::kProtocolError,
+                                        "the robot is idle and does not know the run (restarted?)");
     const robot_link::RunComplete& done = status.value->last_run;
     if (done.status != robot_link::RunStatus::kCompleted)
-      return DriverError{DriverFault::kRunNotCompleted,
-                         "the robot reports the run " + std::string(robot_link::ToString(done.status))};
-    return RunProgress::kDone;
+      return Result<RunProgress>::Error(StatusCode::kFailed,
+                                        "the robot reports the run " + std::string(robot_link::ToString(done.status)));
+    return Result<RunProgress>::Ok(RunProgress::kDone);
   }
 
   // Stop whatever runs, even when we believe nothing does: a stop is harmless.
@@ -88,15 +88,15 @@ class LinkDriver final : public RobotDriver {
 
   bool CanApply() const override { return true; }
 
-  std::optional<DriverError> Apply(const ParamSet& target, int, ParamSet* active) override {
+  Status Apply(const ParamSet& target, int, ParamSet* active) override {
     const auto push = client_.PushParams(target);
     if (!push) {
-      if (push.status == StatusCode::kLineCut) line_ok_ = false;
       const bool refused = push.status == StatusCode::kNack || push.status == StatusCode::kVerifyFailed;
-      return DriverError{refused ? DriverFault::kApplyFailed : DriverFault::kRobotLink, "push: " + push.message};
+      if (refused) return Status::Error(push.status, "push: " + push.message);
+      return Lost("push: " + push.message, push.status);
     }
     *active = push.value->active;
-    return std::nullopt;
+    return Status::Ok();
   }
 
   bool CanReadBack() const override { return true; }
@@ -112,9 +112,10 @@ class LinkDriver final : public RobotDriver {
   std::vector<DriverTelemetry> TakeTelemetry(std::string*) override { return std::move(telemetry_); }
 
  private:
-  std::optional<DriverError> Lost(const std::string& message, StatusCode code) {
+  // An error on the line: the robot link's cause, whatever its code.
+  Status Lost(const std::string& message, StatusCode code) {
     if (code == StatusCode::kLineCut) line_ok_ = false;
-    return DriverError{DriverFault::kRobotLink, message};
+    return Status::Error(IsLinkFailure(code) ? code : StatusCode::kProtocolError, message);
   }
 
   static constexpr uint16_t kTelemetryHz = 50;
@@ -128,6 +129,22 @@ class LinkDriver final : public RobotDriver {
 };
 
 }  // namespace
+
+bool IsLinkFailure(StatusCode code) {
+  switch (code) {
+    case StatusCode::kLineCut:
+    case StatusCode::kTimeout:
+    case StatusCode::kCrcErrors:
+    case StatusCode::kOpenFailed:
+    case StatusCode::kIoError:
+    case StatusCode::kVersionMismatch:
+    case StatusCode::kTableMismatch:
+    case StatusCode::kProtocolError:
+      return true;
+    default:
+      return false;
+  }
+}
 
 std::unique_ptr<RobotDriver> MakeLinkDriver(robot_link::Transport& transport,
                                             const robot_link::ClientOptions& options) {

@@ -3,12 +3,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <limits>
 #include <cstdio>
-#include <sstream>
 #include <filesystem>
+#include <limits>
+#include <sstream>
 #include <thread>
-#include <variant>
 
 #include <opencv2/imgproc.hpp>
 
@@ -32,13 +31,10 @@ using robot_link::ToWheelParams;
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
-StationStatus StatusOf(DriverFault fault) {
-  switch (fault) {
-    case DriverFault::kRobotLink: return StationStatus::kRobotLink;
-    case DriverFault::kRunNotCompleted: return StationStatus::kRunNotCompleted;
-    case DriverFault::kApplyFailed: return StationStatus::kPushRefused;
-  }
-  return StationStatus::kRunNotCompleted;
+// The station's cause of a driver's error (driver.h): the line's codes are the robot
+// link's; any other is the cause of the call that failed (`otherwise`).
+StationStatus CauseOf(const Status& error, StationStatus otherwise) {
+  return IsLinkFailure(error.status) ? StationStatus::kRobotLink : otherwise;
 }
 
 // The corners' centre and the farthest any corner is from `reference`.
@@ -366,7 +362,8 @@ std::optional<Station::Failure> Station::StartRun(const calibration::RunSpec& sp
   }
   // Where the tag stood: the start rest's last corners.
   watch->start_corners = *rest.found.back().corners_px;
-  if (auto e = driver_->Start(request)) return Failure{StatusOf(e->fault), watch->what + ": " + e->message};
+  if (const Status started = driver_->Start(request); !started)
+    return Failure{CauseOf(started, StationStatus::kRunNotCompleted), watch->what + ": " + started.message};
   run_in_progress_ = true;
   if (setup_.live) {
     if (index == 1) setup_.live->ClearTrajectory();  // the round's path
@@ -432,11 +429,12 @@ std::optional<Station::Failure> Station::WatchRun(StationRun* run, RunWatch* wat
     if (StopRequested()) return Failure{StationStatus::kInterrupted, watch->what + ": interrupted"};
     if (!driver_->EndsByCamera()) {
       const auto progress = driver_->Poll();
-      if (const DriverError* e = std::get_if<DriverError>(&progress)) {
+      if (!progress) {
         run_in_progress_ = false;
-        return Failure{StatusOf(e->fault), watch->what + ": " + e->message};
+        return Failure{CauseOf(Status::From(progress), StationStatus::kRunNotCompleted),
+                       watch->what + ": " + progress.message};
       }
-      if (std::get<RunProgress>(progress) == RunProgress::kDone) return std::nullopt;
+      if (*progress == RunProgress::kDone) return std::nullopt;
     }
     const Clock::duration elapsed = Clock::now() - watch->t0;
     if (elapsed > options_.run_timeout) {
@@ -748,12 +746,12 @@ void Station::Cleanup(StationResult* result) {
   }
   if (applied_since_start_) {
     ParamSet active;
-    if (const auto e = driver_->Apply(initial_, 0, &active); !e) {
+    if (const Status restored = driver_->Apply(initial_, 0, &active); restored) {
       result->restored = true;
       current_ = active;
       done.push_back("the unverified parameter set was replaced by the initial one");
     } else {
-      done.push_back("could not restore the initial parameters (" + e->message + ")");
+      done.push_back("could not restore the initial parameters (" + restored.message + ")");
     }
   }
   if (driver_->CanReadBack()) {
@@ -840,8 +838,8 @@ std::optional<Station::Failure> Station::CheckInputs(StationResult* result) {
 // The robot connected, the tag found at rest at the start, the plan made
 // (the default plan from where the robot stands when none was given).
 std::optional<Station::Failure> Station::ConnectAndPlan(StationResult* result, RestFrames* rest) {
-  if (auto e = driver_->Connect(&initial_, [this](const std::string& l) { Log(l); }))
-    return Failure{StatusOf(e->fault), e->message};
+  if (const Status connected = driver_->Connect(&initial_, [this](const std::string& l) { Log(l); }); !connected)
+    return Failure{CauseOf(connected, StationStatus::kRobotLink), connected.message};
   current_ = initial_;
   result->params_initial = initial_;
   result->robot = driver_->Info();
@@ -918,8 +916,8 @@ std::optional<Station::Failure> Station::ApplyCorrected(int round, StationIterat
   os << (driver_->CanReadBack() ? "pushing " : "applying ") << target;
   Log(os.str());
   ParamSet active;
-  if (const auto e = driver_->Apply(target, round, &active)) {
-    return Failure{StatusOf(e->fault), e->message};
+  if (const Status applied = driver_->Apply(target, round, &active); !applied) {
+    return Failure{CauseOf(applied, StationStatus::kPushRefused), applied.message};
   }
   applied_since_start_ = !active.SameBits(initial_);
   current_ = active;

@@ -70,10 +70,9 @@ Result<CameraFile> ReadCameraFile(const std::string& path);
 // The file's text in `format` (OpenCV: written by cv::FileStorage itself;
 // numbers with 17 significant digits, so a round trip is exact).
 std::string FormatCameraFile(const CameraFile& file, CameraFileFormat format);
-// Writes atomically (temporary file + rename); nullopt on success, else the
-// error line. Refuses intrinsics that fail Intrinsics::IsValid.
-std::optional<std::string> WriteCameraFile(const std::string& path, const CameraFile& file,
-                                           CameraFileFormat format);
+// Writes atomically (temporary file + rename). Refuses intrinsics that fail
+// Intrinsics::IsValid (kInvalidArgument); kIoError when the file cannot be written.
+Status WriteCameraFile(const std::string& path, const CameraFile& file, CameraFileFormat format);
 
 }  // namespace odocal::config
 

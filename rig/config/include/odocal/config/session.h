@@ -96,9 +96,9 @@ std::vector<std::string> SessionFiles(const Session& session);
 Result<Session> LoadSession(const std::string& path);
 // Writes `session` to `path` with paths relative to its directory, and (with
 // a camera) the intrinsics to session.camera_file (OpenCV FileStorage YAML;
-// camera_file.h). `comment` lines (without '#') head the file.
-std::optional<std::string> WriteSession(const Session& session, const std::string& path,
-                                        const std::vector<std::string>& comment = {});
+// camera_file.h). `comment` lines (without '#') head the file. The camera file's or
+// the session file's error (WriteCameraFile, WriteFileAtomically).
+Status WriteSession(const Session& session, const std::string& path, const std::vector<std::string>& comment = {});
 
 }  // namespace odocal::config
 

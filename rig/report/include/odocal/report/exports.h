@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/robot_model.h"
 
 namespace odocal::report {
@@ -31,14 +32,14 @@ std::string Ros2ExportYaml(const calibration::WheelParams& nominal,
                            const calibration::WheelParams& corrected);
 std::string FirmwareExportYaml(const calibration::WheelParams& corrected);
 
-// nullopt when every kind is known; call before the work so a typo fails fast.
-std::optional<std::string> CheckExports(const ExportRequests& requests);
+// kInvalidArgument naming the option unless every kind is known; call before the
+// work so a typo fails fast.
+Status CheckExports(const ExportRequests& requests);
 
-// Writes every requested export (atomically); nullopt, or the first error line.
-// An export without a corrected set is an error naming the option.
-std::optional<std::string> WriteExports(const ExportRequests& requests,
-                                        const calibration::WheelParams& nominal,
-                                        const std::optional<calibration::WheelParams>& corrected);
+// Writes every requested export (atomically); the first error. An export without a
+// corrected set is an error naming the option (kFailed).
+Status WriteExports(const ExportRequests& requests, const calibration::WheelParams& nominal,
+                    const std::optional<calibration::WheelParams>& corrected);
 
 }  // namespace odocal::report
 

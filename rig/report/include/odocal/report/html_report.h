@@ -23,16 +23,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "odocal/base/status.h"
 #include "odocal/measure/measure.h"
 
 namespace odocal::report {
 
 std::string ReportHtml(const nlohmann::json& report, const std::string& title);
 
-// Writes ReportHtml atomically to `path`; nullopt, or the error line.
-std::optional<std::string> WriteReportHtml(const nlohmann::json& report, const std::string& title,
-                                           const std::string& path);
-
+// Writes ReportHtml atomically to `path` (config::WriteFileAtomically's errors).
+Status WriteReportHtml(const nlohmann::json& report, const std::string& title, const std::string& path);
 
 }  // namespace odocal::report
 

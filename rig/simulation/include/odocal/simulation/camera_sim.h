@@ -32,10 +32,10 @@ struct RecordedRun {
 };
 
 // Records every run of `result` (in parallel across cores). `progress`
-// prints a line per finished run on stderr. nullopt on success.
-std::optional<std::string> RecordRuns(const config::Scenario& scenario, const SimulationResult& result,
-                                      const std::string& dir, bool progress,
-                                      std::vector<RecordedRun>* recorded);
+// prints a line per finished run on stderr. The first run's error (the renderer's,
+// the video's, the frames file's).
+Status RecordRuns(const config::Scenario& scenario, const SimulationResult& result, const std::string& dir,
+                  bool progress, std::vector<RecordedRun>* recorded);
 
 // What an operator would write down for where the camera hangs: positions to
 // 100 mm, yaw to 90 deg, "level" for roll and pitch.

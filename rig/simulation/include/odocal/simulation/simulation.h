@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "odocal/base/status.h"
 #include "odocal/calibration/robot_model.h"
 #include "odocal/config/scenario.h"
 #include "odocal/sim/virtual_robot.h"
@@ -29,10 +30,9 @@ struct RecordedRun;
 // Writes DIR/truth.json and DIR/<run>.telemetry.csv, DIR/<run>.trajectory.csv;
 // with `recorded` videos also DIR/session.yaml and DIR/camera.yaml (what an
 // operator would have) and the videos' entries in truth.json.
-// nullopt on success, else the error line.
-std::optional<std::string> WriteSimulation(const config::Scenario& scenario, const SimulationResult& result,
-                                           const std::string& dir,
-                                           const std::vector<RecordedRun>* recorded = nullptr);
+// The first file's error (config::WriteFileAtomically's, WriteSession's).
+Status WriteSimulation(const config::Scenario& scenario, const SimulationResult& result, const std::string& dir,
+                       const std::vector<RecordedRun>* recorded = nullptr);
 
 }  // namespace odocal::simulation
 

@@ -35,7 +35,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <variant>
 #include <vector>
 
 #include "odocal/base/status.h"
@@ -47,17 +46,15 @@
 
 namespace odocal::station {
 
-// What went wrong, in the station's causes (station.h StationStatus).
-enum class DriverFault {
-  kRobotLink,        // the link driver's line: not answering, cut, CRC
-  kRunNotCompleted,  // refused, failed, non-zero exit, killed
-  kApplyFailed,      // the push or the apply command failed
-};
-
-struct DriverError {
-  DriverFault fault;
-  std::string message;
-};
+// A driver's error is a Status. Its code says what went wrong, and the station's
+// cause (station.h StationStatus) follows from the code and the call:
+// - the line's codes (IsLinkFailure: kLineCut, kTimeout, kCrcErrors, kOpenFailed, kIoError,
+//   kVersionMismatch, kTableMismatch, kProtocolError) are the robot link's, whatever the call;
+// - otherwise Start's and Poll's (kNack: refused; kFailed: failed, a non-zero exit, killed;
+//   kInvalidArgument: a command template that does not expand) mean the run was not completed,
+//   and Apply's (kNack, kVerifyFailed, kFailed, kInvalidArgument) that the push was refused.
+// A driver that is not on a line (command, operator) never returns the line's codes.
+bool IsLinkFailure(StatusCode code);
 
 // The run the station asks for, as the templates see it.
 struct RunRequest {
@@ -89,13 +86,12 @@ class RobotDriver {
   virtual ~RobotDriver() = default;
   virtual std::string Describe() const = 0;
   // Connects; `params` gets the set the robot runs with.
-  virtual std::optional<DriverError> Connect(robot_link::ParamSet* params,
-                                             const std::function<void(const std::string&)>& log) = 0;
-  virtual std::optional<DriverError> Start(const RunRequest& run) = 0;
+  virtual Status Connect(robot_link::ParamSet* params, const std::function<void(const std::string&)>& log) = 0;
+  virtual Status Start(const RunRequest& run) = 0;
   // kDone once the driver knows the run ended well; an error when it ended
   // badly. A driver that cannot tell (operator) stays kRunning: the camera
   // decides (EndsByCamera).
-  virtual std::variant<RunProgress, DriverError> Poll() = 0;
+  virtual Result<RunProgress> Poll() = 0;
   virtual bool EndsByCamera() const { return false; }
   // Best effort, never throws: stops whatever runs. What it did; an error
   // (kLineCut, kFailed) saying why when the robot could not be told to stop.
@@ -104,8 +100,7 @@ class RobotDriver {
   virtual bool CanApply() const = 0;
   // Makes `target` the robot's set; `round` names the files written.
   // `active` gets what the robot runs with afterwards.
-  virtual std::optional<DriverError> Apply(const robot_link::ParamSet& target, int round,
-                                           robot_link::ParamSet* active) = 0;
+  virtual Status Apply(const robot_link::ParamSet& target, int round, robot_link::ParamSet* active) = 0;
   // The set as the robot reports it (nullopt when asking failed), where the
   // driver can ask (CanReadBack).
   virtual bool CanReadBack() const { return false; }

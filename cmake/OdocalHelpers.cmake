@@ -54,10 +54,22 @@ endfunction()
 # One library per concern: target odocal_<name>, alias odocal::<name>, public headers under
 # include/odocal/<name>/. PUBLIC lists what the public headers include, PRIVATE what only the
 # sources include: the link lists are the architecture (docs/architecture.md).
+# With ODOCAL_UNITY_BUILD (on by default) a module's sources compile eight to a translation
+# unit: Eigen's, Ceres', OpenCV's and nlohmann::json's headers are parsed and instantiated once
+# per eight files instead of once per file (the odocal binary's compile CPU 688 -> 405 s,
+# docs/performance.md). Names private to a source file (its anonymous namespace) are therefore
+# unique within its module: a clash is a compile error. -DODOCAL_UNITY_BUILD=OFF compiles
+# file by file (quicker when editing one file of a large module).
 function(odocal_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC;PRIVATE" ${ARGN})
   add_library(odocal_${name} ${ARG_SOURCES})
   add_library(odocal::${name} ALIAS odocal_${name})
   target_include_directories(odocal_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
   target_link_libraries(odocal_${name} PUBLIC ${ARG_PUBLIC} PRIVATE ${ARG_PRIVATE})
+  if(ODOCAL_UNITY_BUILD)
+    set_target_properties(odocal_${name} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
+    # GCC takes every file a unity file includes for a header, and a lambda of a file's own
+    # (anonymous-namespace) class for one that escapes it.
+    target_compile_options(odocal_${name} PRIVATE $<$<CXX_COMPILER_ID:GNU>:-Wno-subobject-linkage>)
+  endif()
 endfunction()

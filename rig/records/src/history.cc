@@ -213,11 +213,6 @@ std::string ValueText(const std::optional<Estimate>& e, int fallback_decimals) {
   return e ? ValueText(*e, fallback_decimals) : std::string("-");
 }
 
-json EstimateJson(const std::optional<Estimate>& e) {
-  if (!e) return nullptr;
-  return {{"value", e->value}, {"sigma", e->sigma ? json(*e->sigma) : json(nullptr)}};
-}
-
 template <typename T>
 json OrNull(const std::optional<T>& v) {
   return v ? json(*v) : json(nullptr);
@@ -457,11 +452,11 @@ json HistoryJson(const HistoryAnalysis& a) {
           {"analysis",
            {{"segment_start", a.segment_start},
             {"track_segment_start", a.track_segment_start},
-            {"wear_mm_per_week", EstimateJson(a.wear_mm_per_week)},
-            {"wear_mm_per_1000km", EstimateJson(a.wear_mm_per_1000km)},
-            {"track_mm_per_week", EstimateJson(a.track_mm_per_week)},
+            {"wear_mm_per_week", ToJson(a.wear_mm_per_week)},
+            {"wear_mm_per_1000km", ToJson(a.wear_mm_per_1000km)},
+            {"track_mm_per_week", ToJson(a.track_mm_per_week)},
             {"steps", steps},
-            {"emax_growth_mm_per_week", EstimateJson(a.emax_growth_mm_per_week)},
+            {"emax_growth_mm_per_week", ToJson(a.emax_growth_mm_per_week)},
             {"limit_crossing_utc", OrNull(a.limit_crossing_utc)},
             {"due_utc", OrNull(a.due_utc)},
             {"due", a.due},
@@ -616,7 +611,7 @@ json FleetJson(const FleetSummary& fleet) {
                       {"due_utc", OrNull(r.due_utc)},
                       {"limit_crossing_utc", OrNull(r.limit_crossing_utc)},
                       {"steps", r.steps},
-                      {"wear_mm_per_week", EstimateJson(r.wear_mm_per_week)},
+                      {"wear_mm_per_week", ToJson(r.wear_mm_per_week)},
                       {"warnings", r.warnings}});
   json causes = json::array();
   for (const auto& [limit, count] : fleet.causes) causes.push_back({{"limit", limit}, {"count", count}});

@@ -20,16 +20,11 @@ std::optional<double> Number(const json& j, const char* key) {
   return j[key].get<double>();
 }
 
-json EstimateJson(const std::optional<Estimate>& e) {
-  if (!e) return nullptr;
-  return {{"value", e->value}, {"sigma", e->sigma ? json(*e->sigma) : json(nullptr)}};
-}
-
 json WheelSetJson(const std::optional<WheelSet>& w) {
   if (!w) return nullptr;
-  return {{"left_wheel_diameter_mm", EstimateJson(w->left_wheel_diameter_mm)},
-          {"right_wheel_diameter_mm", EstimateJson(w->right_wheel_diameter_mm)},
-          {"track_mm", EstimateJson(w->track_mm)},
+  return {{"left_wheel_diameter_mm", ToJson(w->left_wheel_diameter_mm)},
+          {"right_wheel_diameter_mm", ToJson(w->right_wheel_diameter_mm)},
+          {"track_mm", ToJson(w->track_mm)},
           {"ticks_per_rev", w->ticks_per_rev}};
 }
 
@@ -237,6 +232,11 @@ Estimate WheelSet::MeanWheelDiameterMm() const {
   return e;
 }
 
+json ToJson(const std::optional<Estimate>& e) {
+  if (!e) return nullptr;
+  return {{"value", e->value}, {"sigma", e->sigma ? json(*e->sigma) : json(nullptr)}};
+}
+
 json ToJson(const Record& r) {
   return {{"robot", r.robot},
           {"kind", ToString(r.kind)},
@@ -247,10 +247,10 @@ json ToJson(const Record& r) {
           {"folder", r.folder},
           {"params_before", WheelSetJson(r.before)},
           {"params_after", WheelSetJson(r.after)},
-          {"Ed", EstimateJson(r.ed)},
-          {"Eb", EstimateJson(r.eb)},
-          {"emax_syst_before_mm", EstimateJson(r.emax_syst_before_mm)},
-          {"emax_syst_after_mm", EstimateJson(r.emax_syst_after_mm)},
+          {"Ed", ToJson(r.ed)},
+          {"Eb", ToJson(r.eb)},
+          {"emax_syst_before_mm", ToJson(r.emax_syst_before_mm)},
+          {"emax_syst_after_mm", ToJson(r.emax_syst_after_mm)},
           {"distance_km", r.distance_km ? json(*r.distance_km) : json(nullptr)},
           {"findings", r.findings},
           {"verdict", ToString(r.verdict)},

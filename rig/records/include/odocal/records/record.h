@@ -70,6 +70,8 @@ struct Record {
 };
 
 nlohmann::json ToJson(const Record& record);
+// An estimate as record.json and history.json write it: {"value", "sigma"}, null when absent.
+nlohmann::json ToJson(const std::optional<Estimate>& estimate);
 // A record.json read back; a missing or mistyped key is an error naming it.
 Result<Record> RecordFromJson(const nlohmann::json& j);
 

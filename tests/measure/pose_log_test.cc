@@ -438,6 +438,29 @@ TEST_F(PoseLogBadInput, VideoRunWithoutCameraKeysIsAnError) {
   EXPECT_THAT(r.err, HasSubstr("camera_file: missing (required: the session has video runs)"));
 }
 
+// A file that is not there and a file with no header line: each reader names the file and
+// what it is, with the code for each (the pose log's and the telemetry's own header asked for).
+TEST(PoseLogFiles, AMissingFileAndAnEmptyOneAreNamedWithTheirCodes) {
+  const std::string dir = test_util::MakeTempDir("odocal_poselog_files_");
+  const std::string missing = dir + "/missing.csv", empty = dir + "/empty.csv";
+  std::ofstream(empty).close();
+  const calibration::WheelParams nominal = test_util::NominalParams();
+
+  const auto no_log = measure::ReadPoseLog(missing);
+  EXPECT_EQ(no_log.status, StatusCode::kNotFound);
+  EXPECT_EQ(no_log.message, missing + ": cannot read the pose log");
+  const auto empty_log = measure::ReadPoseLog(empty);
+  EXPECT_EQ(empty_log.status, StatusCode::kBadFile);
+  EXPECT_EQ(empty_log.message, empty + ": empty pose log (expected a header t_s,x_mm,y_mm,heading_deg[,valid])");
+
+  const auto no_telemetry = measure::ReadTelemetryCsv(missing, nominal);
+  EXPECT_EQ(no_telemetry.status, StatusCode::kNotFound);
+  EXPECT_EQ(no_telemetry.message, missing + ": cannot read the telemetry");
+  const auto empty_telemetry = measure::ReadTelemetryCsv(empty, nominal);
+  EXPECT_EQ(empty_telemetry.status, StatusCode::kBadFile);
+  EXPECT_EQ(empty_telemetry.message, empty + ": empty telemetry (expected a header t_s,left_ticks,right_ticks,...)");
+}
+
 TEST(PoseLogScenario, ARecordedRunCannotBeSimulated) {
   const std::string dir = test_util::MakeTempDir("odocal_poselog_scenario_");
   std::ofstream(dir + "/s.yaml") << "seed: 1\nrobot:\n  nominal: {left_wheel_diameter_mm: 70, "

@@ -75,6 +75,27 @@ bool CheckHeader(const std::string& path, const std::string& line,
   return true;
 }
 
+// A CSV file read past its header line, the header checked (CheckHeader). `what` names the
+// file in the errors ("pose log"); `header` is the header the empty file's error asks for.
+struct CsvHead {
+  std::ifstream in;
+  std::vector<std::string> columns;
+};
+Result<CsvHead> OpenCsv(const std::string& path, const std::string& what, const std::string& header,
+                        const std::vector<std::string>& required, const std::vector<std::string>& optional,
+                        bool extra_allowed) {
+  CsvHead head{std::ifstream(path), {}};
+  if (!head.in) return Result<CsvHead>::Error(StatusCode::kNotFound, path + ": cannot read the " + what);
+  std::string line;
+  if (!std::getline(head.in, line))
+    return Result<CsvHead>::Error(StatusCode::kBadFile,
+                                  path + ": empty " + what + " (expected a header " + header + ")");
+  std::string error;
+  if (!CheckHeader(path, line, required, optional, extra_allowed, &head.columns, &error))
+    return Result<CsvHead>::Error(StatusCode::kBadFile, error);
+  return Result<CsvHead>::Ok(std::move(head));
+}
+
 struct Series {
   std::vector<double> t;
   std::vector<double> v;
@@ -162,16 +183,12 @@ double Variation(const std::vector<double>& values, double step) {
 Result<std::vector<PoseLogRow>> ReadPoseLog(const std::string& path) {
   using Rows = Result<std::vector<PoseLogRow>>;
   const auto fail = [](std::string message) { return Rows::Error(StatusCode::kBadFile, std::move(message)); };
-  std::ifstream in(path);
-  if (!in) return Rows::Error(StatusCode::kNotFound, path + ": cannot read the pose log");
+  Result<CsvHead> head = OpenCsv(path, "pose log", "t_s,x_mm,y_mm,heading_deg[,valid]",
+                                 {"t_s", "x_mm", "y_mm", "heading_deg"}, {"valid"}, false);
+  if (!head) return Rows::From(head);
+  std::ifstream& in = head->in;
+  const std::vector<std::string>& columns = head->columns;
   std::string line;
-  if (!std::getline(in, line)) {
-    return fail(path + ": empty pose log (expected a header t_s,x_mm,y_mm,heading_deg[,valid])");
-  }
-  std::vector<std::string> columns;
-  std::string header_error;
-  if (!CheckHeader(path, line, {"t_s", "x_mm", "y_mm", "heading_deg"}, {"valid"}, false, &columns, &header_error))
-    return fail(header_error);
   const size_t n_columns = columns.size();
   std::vector<PoseLogRow> rows;
   int line_no = 1;
@@ -220,17 +237,12 @@ Result<std::vector<calibration::TelemetryRecord>> ReadTelemetryCsv(const std::st
                                                                    const calibration::WheelParams& nominal) {
   using Records = Result<std::vector<calibration::TelemetryRecord>>;
   const auto fail = [](std::string message) { return Records::Error(StatusCode::kBadFile, std::move(message)); };
-  std::ifstream in(path);
-  if (!in) return Records::Error(StatusCode::kNotFound, path + ": cannot read the telemetry");
+  Result<CsvHead> head = OpenCsv(path, "telemetry", "t_s,left_ticks,right_ticks,...",
+                                 {"t_s", "left_ticks", "right_ticks"}, {"x_mm", "y_mm", "heading_deg"}, true);
+  if (!head) return Records::From(head);
+  std::ifstream& in = head->in;
+  const std::vector<std::string>& columns = head->columns;
   std::string line;
-  if (!std::getline(in, line)) {
-    return fail(path + ": empty telemetry (expected a header t_s,left_ticks,right_ticks,...)");
-  }
-  std::vector<std::string> columns;
-  std::string header_error;
-  if (!CheckHeader(path, line, {"t_s", "left_ticks", "right_ticks"}, {"x_mm", "y_mm", "heading_deg"}, true, &columns,
-                   &header_error))
-    return fail(header_error);
   const bool has_odometry = columns.size() >= 6 && columns[3] == "x_mm" && columns[4] == "y_mm" &&
                             columns[5] == "heading_deg";
   const size_t used = has_odometry ? 6 : 3;

@@ -1,20 +1,14 @@
 #include "odocal/calibration/seen_turning.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <limits>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/pose2.h"
 
 namespace odocal::calibration {
 namespace {
-
-std::string Sentence(const char* format, auto... args) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), format, args...);
-  return buffer;
-}
 
 double Deg(double rad) { return rad * kRadToDeg; }
 
@@ -90,13 +84,13 @@ std::optional<std::string> ContradictsPlan(const SeenTurning& seen, const std::v
     }
   if (const auto total = seen.total_rad()) {
     if (std::abs(*total - planned) > tolerance_rad)
-      return Sentence("the camera saw the robot turn %+.0f deg, the plan turns %+.0f deg", Deg(*total),
-                      Deg(planned));
+      return Format("the camera saw the robot turn %+.0f deg, the plan turns %+.0f deg", Deg(*total), Deg(planned));
   } else if (std::abs(WrapAngle(seen.net_wrapped_rad - planned)) > tolerance_rad) {
     // Start and end are seen: the heading modulo a turn is always known.
-    return Sentence("the camera saw the robot end %+.0f deg from the plan's heading (modulo a turn; the plan turns "
-                    "%+.0f deg)",
-                    Deg(WrapAngle(seen.net_wrapped_rad - planned)), Deg(planned));
+    return Format(
+        "the camera saw the robot end %+.0f deg from the plan's heading (modulo a turn; the plan turns "
+        "%+.0f deg)",
+        Deg(WrapAngle(seen.net_wrapped_rad - planned)), Deg(planned));
   }
   // A chain's turning outside what the plan turns over the same kind of
   // stretch (from the start, to the end, or any).
@@ -106,10 +100,10 @@ std::optional<std::string> ContradictsPlan(const SeenTurning& seen, const std::v
                        const char* stretch) -> std::optional<std::string> {
       const bool low = seen_low < plan_low - tolerance_rad;
       if (!low && seen_high <= plan_high + tolerance_rad) return std::nullopt;
-      return Sentence("while in view at %.1f-%.1f s the camera saw the robot turn %+.0f deg%s, where the plan turns "
-                      "between %+.0f and %+.0f deg",
-                      c.t_begin_s, c.t_end_s, Deg(low ? seen_low : seen_high), stretch, Deg(plan_low),
-                      Deg(plan_high));
+      return Format(
+          "while in view at %.1f-%.1f s the camera saw the robot turn %+.0f deg%s, where the plan turns "
+          "between %+.0f and %+.0f deg",
+          c.t_begin_s, c.t_end_s, Deg(low ? seen_low : seen_high), stretch, Deg(plan_low), Deg(plan_high));
     };
     std::optional<std::string> why;
     if (k == 0) why = outside(c.lowest_rad, c.highest_rad, lowest, highest, " from the start");

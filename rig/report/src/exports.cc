@@ -1,8 +1,7 @@
 #include "odocal/config/files.h"
 #include "odocal/report/exports.h"
 
-#include <cstdio>
-
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/calibration/corrections.h"
 #include "odocal/report/json.h"
@@ -10,11 +9,7 @@
 namespace odocal::report {
 namespace {
 
-std::string Number(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.9g", v);
-  return buf;
-}
+std::string Number(double v) { return Format("%.9g", v); }
 
 }  // namespace
 

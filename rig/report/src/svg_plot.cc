@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <sstream>
 
 #include "odocal/base/format.h"
@@ -24,18 +23,10 @@ std::vector<double> NiceTicks(double lo, double hi, int count) {
   return ticks;
 }
 
-std::string Num(double v, int precision) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
-  return buf;
-}
+std::string Num(double v, int precision) { return Format("%.*g", precision, v); }
 
 namespace {
-std::string F(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.1f", v);
-  return buf;
-}
+std::string F(double v) { return Fixed(v, 1); }
 }  // namespace
 
 Plot::Plot(double width_px, double height_px, Range x, Range y, bool equal_aspect, bool log_y,

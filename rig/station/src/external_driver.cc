@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +16,7 @@
 #include <sstream>
 #include <thread>
 
+#include "odocal/base/format.h"
 #include "odocal/base/units.h"
 #include "odocal/config/files.h"
 #include "odocal/measure/pose_log.h"
@@ -31,17 +31,9 @@ namespace {
 using robot_link::ParamSet;
 using Clock = std::chrono::steady_clock;
 
-std::string Number(double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.10g", v);
-  return buffer;
-}
+std::string Number(double v) { return Format("%.10g", v); }
 // Every bit of a parameter (an applied set must be the one estimated).
-std::string Exact(double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.17g", v);
-  return buffer;
-}
+std::string Exact(double v) { return Format("%.17g", v); }
 
 const std::set<std::string>& RunKeys() {
   static const std::set<std::string> keys = {"procedure", "direction", "side_mm",         "distance_mm",
@@ -337,28 +329,21 @@ class OperatorDriver final : public ExternalDriver {
 
 std::string DescribeForOperator(const calibration::RunSpec& s) {
   const std::string way = s.direction == calibration::Direction::kCw ? "clockwise" : "counter-clockwise";
-  char buffer[200];
   const std::string rate =
       s.turn_rate_rad_s ? " at " + Number(std::round(RadToDeg(*s.turn_rate_rad_s))) + " deg/s" : "";
   switch (s.procedure) {
     case calibration::Procedure::kUmbmark:
-      std::snprintf(buffer, sizeof(buffer), "the %s %.0f mm UMBMark square", way.c_str(), s.side_m * kMToMm);
-      break;
+      return Format("the %s %.0f mm UMBMark square", way.c_str(), s.side_m * kMToMm);
     case calibration::Procedure::kStraight:
-      std::snprintf(buffer, sizeof(buffer), "straight %s %.0f mm", s.distance_m < 0 ? "backwards" : "ahead",
-                    std::abs(s.distance_m) * kMToMm);
-      break;
+      return Format("straight %s %.0f mm", s.distance_m < 0 ? "backwards" : "ahead", std::abs(s.distance_m) * kMToMm);
     case calibration::Procedure::kSpin:
-      std::snprintf(buffer, sizeof(buffer), "%d %s turn%s in place%s", s.turns, way.c_str(),
-                    s.turns == 1 ? "" : "s", rate.c_str());
-      break;
+      return Format("%d %s turn%s in place%s", s.turns, way.c_str(), s.turns == 1 ? "" : "s", rate.c_str());
     case calibration::Procedure::kOutAndBack:
-      std::snprintf(buffer, sizeof(buffer), "out %.0f mm and back, turning %s, %d time%s", s.distance_m * kMToMm,
-                    way.c_str(), s.repeats, s.repeats == 1 ? "" : "s");
-      break;
-    default: std::snprintf(buffer, sizeof(buffer), "%s", std::string(calibration::ToString(s.procedure)).c_str());
+      return Format("out %.0f mm and back, turning %s, %d time%s", s.distance_m * kMToMm, way.c_str(), s.repeats,
+                    s.repeats == 1 ? "" : "s");
+    default:
+      return std::string(calibration::ToString(s.procedure));
   }
-  return buffer;
 }
 
 Result<std::string> ExpandTemplate(const std::string& text, const std::map<std::string, std::string>& values) {

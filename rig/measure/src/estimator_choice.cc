@@ -51,11 +51,7 @@ calibration::TrajectoryFitResult RefitWithout(const calibration::MeasuredSession
   return calibration::FitTrajectory(without, full.options, &warm);
 }
 
-std::string Mm(double m) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.2f", m * kMToMm);
-  return text;
-}
+std::string Mm(double m) { return Fixed(m * kMToMm, 2); }
 
 std::string Score(const CandidateScore& c) {
   return std::string(ToString(c.estimator)) + " " + Mm(c.mean_m) + " +/- " + Mm(c.sigma_m) + " mm";

@@ -205,11 +205,7 @@ std::vector<cv::Mat> FloorFrames(const SessionMeasurement& sm, const MeasureOpti
   return frames;
 }
 
-std::string Percent(double fraction, int decimals) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.*f %%", decimals, 100.0 * fraction);
-  return text;
-}
+std::string Percent(double fraction, int decimals) { return Fixed(100.0 * fraction, decimals) + " %"; }
 
 // The scale from a usable floor reference: the camera's height above the
 // reference's tags (to `mount`), and what the robot tag's print then measures.

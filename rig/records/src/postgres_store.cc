@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "backends.h"
+#include "odocal/base/format.h"
 #include "schema.h"
 
 namespace odocal::records::internal {
@@ -76,9 +77,7 @@ class PostgresStore final : public RecordStore {
     for (const std::optional<double>* v : {&row.ed, &row.eb, &row.emax_syst_before_mm, &row.emax_syst_after_mm,
                                            &row.mean_wheel_diameter_mm, &row.track_mm}) {
       if (*v) {
-        char buf[40];
-        std::snprintf(buf, sizeof(buf), "%.17g", **v);
-        numbers.emplace_back(buf);
+        numbers.push_back(Format("%.17g", **v));
         values.push_back(numbers.back().c_str());
       } else {
         values.push_back(nullptr);

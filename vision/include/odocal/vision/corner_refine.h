@@ -85,7 +85,7 @@ struct CornerRefineResult {
   StatusCode status = StatusCode::kFailed;
   bool ok() const { return status == StatusCode::kOk; }
   std::string message;
-  std::array<cv::Point2d, 4> corners_px{};  // refined, or the input when !ok
+  std::array<cv::Point2d, 4> corners_px{};  // refined, or the input when !ok()
   int edge_points_used = 0;
   double rms_line_residual_px = 0.0;
 };

@@ -97,7 +97,7 @@ std::vector<FloorTagSighting> ObserveFloorTags(const std::vector<cv::Mat>& frame
 struct FloorScaleResult {
   StatusCode status = StatusCode::kFailed;
   bool ok() const { return status == StatusCode::kOk; }
-  std::string message;  // why not, when !ok
+  std::string message;            // why not, when !ok()
   double camera_height_mm = 0.0;  // above the floor
   double sigma_camera_height_mm = 0.0;
   // Share of the height's variance by source (they add up to 1).

@@ -83,7 +83,7 @@ struct RejectedQuad {
 struct TagSurvey {
   StatusCode status = StatusCode::kFailed;
   bool ok() const { return status == StatusCode::kOk; }
-  std::string message;  // when !ok: bad options or image
+  std::string message;  // when !ok(): bad options or image
   std::vector<SurveyedTag> tags;
   std::vector<RejectedQuad> rejected;
 };

@@ -78,9 +78,10 @@ struct SetupCheckOptions {
 };
 
 struct SetupCheckResult {
-  StatusCode status = StatusCode::kFailed;  // a number could be given (the tag was found and refined)
+  StatusCode status = StatusCode::kFailed;
+  // A number could be given (the tag was found and refined).
   bool ok() const { return status == StatusCode::kOk; }
-  std::string message;  // why not, when !ok
+  std::string message;  // why not, when !ok()
   int frames = 0, frames_found = 0, frames_refined = 0;
   double fps = 0.0;
   vision::TagImageQuality quality;  // median over the refined frames

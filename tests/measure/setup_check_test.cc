@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -97,6 +98,7 @@ TEST(SetupCheck, SaysWhereAWideLensShrinksTheTagAtTheSquaresCorners) {
     // library refused.
     double truth = std::numeric_limits<double>::infinity();
     Pose2 where;
+    std::vector<std::pair<Pose2, double>> sides;  // each corner visited, the tag's side found there
     vision::TagSurveyOptions survey;
     survey.refine = false;
     for (const Pose2& at : SquareCorners(start, side_m)) {
@@ -113,13 +115,21 @@ TEST(SetupCheck, SaysWhereAWideLensShrinksTheTagAtTheSquaresCorners) {
         for (const auto& q : found.rejected) outlines.push_back(q.corners_px);
       ASSERT_EQ(outlines.size(), 1u) << at.x() << ", " << at.y() << " in " << window;
       const double side = ShortestSide(outlines[0]);
+      sides.emplace_back(at, side);
       if (side < truth) truth = side, where = at;
     }
     std::printf("figures: %.0f mm up, %.1f m squares: the tag at the smallest %.2f px (rendered and found: %.2f px) at (%.0f, %.0f) mm; "
                 "%.1f px where it stands\n",
                 c.height_mm, side_m, check.squares_min_tag_side_px, truth, where.x() * 1e3, where.y() * 1e3, check.quality.side_px);
     EXPECT_NEAR(check.squares_min_tag_side_px, truth, 0.03 * truth);
-    EXPECT_LT((check.squares_min_tag_side_at - where.translation()).norm(), 0.01);
+    // Where: a corner where the tag is as small as the smallest within the
+    // truth's own scatter (libapriltag's unrefined quads: up to 0.4 px
+    // between two visits of one corner; two corners of a square can tie).
+    const bool at_a_smallest = std::any_of(sides.begin(), sides.end(), [&](const auto& s) {
+      return s.second <= truth * 1.03 && (check.squares_min_tag_side_at - s.first.translation()).norm() < 0.01;
+    });
+    EXPECT_TRUE(at_a_smallest) << "said (" << check.squares_min_tag_side_at.transpose() << ") m; smallest at ("
+                               << where.translation().transpose() << ") m";
     // tag36h11: 8 cells at the border.
     EXPECT_EQ(check.squares_tag_too_small, truth < 8 * kTooSmallTagCellPx) << truth;
     const bool warned = std::any_of(check.warnings.begin(), check.warnings.end(), [](const std::string& w) {

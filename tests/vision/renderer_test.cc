@@ -58,6 +58,24 @@ TEST(Renderer, TruthCornersAreTheProjectedTagCorners) {
   EXPECT_EQ(f.image.size(), cv::Size(640, 480));
 }
 
+// The tag's black cells in a frame of the straight-down camera below: the 28
+// of the border ring plus the data bits that are black, read at the cell
+// centres (8 px cells: no ambiguity there).
+int BlackCells(const RenderedFrame& f) {
+  const auto c = f.corners_px;
+  int black_cells = 28;  // the border ring: 8*8 - 6*6
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) {
+      // Bilinear in the (undistorted, similarity) image: cell centre.
+      const double s = (i + 1.5) / 8.0, t = (j + 1.5) / 8.0;
+      const cv::Point2d bottom = c[0] + (c[1] - c[0]) * s, top = c[3] + (c[2] - c[3]) * s;
+      const cv::Point2d p = bottom + (top - bottom) * t;
+      black_cells += f.image.at<uint8_t>(cvRound(p.y), cvRound(p.x)) < 125 ? 1 : 0;
+    }
+  }
+  return black_cells;
+}
+
 // The integral of "blackness" over the image equals the black area of the
 // tag in pixels: anti-aliasing is area-correct, not just pretty.
 TEST(Renderer, EdgeAntiAliasingIsAreaCorrect) {
@@ -73,37 +91,23 @@ TEST(Renderer, EdgeAntiAliasingIsAreaCorrect) {
   auto renderer = MakeRenderer(cam, tag, o);
   const double scale_px_per_m = 800.0 / 1.0;  // 1150 - 150 mm above the tag plane
   for (double heading : {0.0, 0.3, 1.1}) {
-    // Edge pixels are integrated on a stratified grid shifted at random per
-    // pixel and frame: the coverage is unbiased, each frame's off by a little
-    // noise. The mean of eight frames must be area-correct.
-    double blackness = 0.0, expected = 0.0;
-    constexpr int kFrames = 8;
-    for (int frame = 0; frame < kFrames; ++frame) {
-      const RenderedFrame f = renderer->Render(Pose2::FromXYHeading(0.0031, -0.0017, heading));
-      cv::Mat fl;
-      f.image.convertTo(fl, CV_64F);
-      // Blackness in [0, 1] per pixel; 8-bit rounding is unbiased on average.
-      blackness += cv::sum((o.tag_white - fl) / (o.tag_white - o.tag_black))[0] / kFrames;
-      // Black cells: the 28 of the border ring plus the data bits that are
-      // black, read at the cell centres (8 px cells: no ambiguity there).
-      const auto c = f.corners_px;
-      int black_cells = 28;  // the border ring: 8*8 - 6*6
-      for (int i = 0; i < 6; ++i) {
-        for (int j = 0; j < 6; ++j) {
-          // Bilinear in the (undistorted, similarity) image: cell centre.
-          const double s = (i + 1.5) / 8.0, t = (j + 1.5) / 8.0;
-          const cv::Point2d bottom = c[0] + (c[1] - c[0]) * s, top = c[3] + (c[2] - c[3]) * s;
-          const cv::Point2d p = bottom + (top - bottom) * t;
-          black_cells += f.image.at<uint8_t>(cvRound(p.y), cvRound(p.x)) < 125 ? 1 : 0;
-        }
-      }
-      const double cell_px = 0.010 * scale_px_per_m;
-      expected = black_cells * cell_px * cell_px;
-    }
+    // The pixels the cells' edges cross inside the plate are integrated in
+    // closed form (each pixel's quadrilateral clipped by the cell lines), so
+    // one frame must be area-correct to the 8-bit rounding of its ~1000 edge
+    // pixels (~1.5e-5 of the black area). The stratified samples these
+    // pixels had before missed by 1-2e-4 a frame, unbiased over frames.
+    const RenderedFrame f = renderer->Render(Pose2::FromXYHeading(0.0031, -0.0017, heading));
+    cv::Mat fl;
+    f.image.convertTo(fl, CV_64F);
+    // Blackness in [0, 1] per pixel.
+    const double blackness = cv::sum((o.tag_white - fl) / (o.tag_white - o.tag_black))[0];
+    const double cell_px = 0.010 * scale_px_per_m;
+    const double expected = BlackCells(f) * cell_px * cell_px;
     // Measured: one sample per pixel misses by 2e-3, 2x2 by 3e-4; 16x16 edge
     // pixels with a fixed grid agree to < 1e-4 in total area but are biased
-    // edge by edge; the shifted grid is unbiased, 1-2e-4 per frame.
-    EXPECT_NEAR(blackness / expected, 1.0, 2e-4) << "heading " << heading;
+    // edge by edge; the shifted grid is unbiased, 1-2e-4 per frame; the
+    // closed form 2e-15, 1.5e-5 and 1.9e-6 at these three headings.
+    EXPECT_NEAR(blackness / expected, 1.0, 5e-5) << "heading " << heading;
   }
 }
 

@@ -2,6 +2,7 @@
 #include "odocal/vision/renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <random>
@@ -166,7 +167,10 @@ struct Renderer::Impl {
   TagSpec tag;
   RenderOptions options;
   int width = 0, height = 0;
-  cv::Mat bitmap;         // total_width^2, 0 = black, 1 = white
+  // Grey level of each cell of the tag's bitmap, row-major (total_width^2):
+  // looked up per sample by the cell's index, without dividing it back
+  // into a row and a column.
+  std::vector<double> cell_grey;
   int total_width = 0;
   int width_at_border = 0;
   double cell_m = 0.0;
@@ -211,9 +215,7 @@ struct Renderer::Impl {
 
   double Value(int id, double floor_value) const {
     if (id >= kFirstCell) {
-      const int k = id - kFirstCell;
-      return bitmap.at<uint8_t>(k / total_width, k % total_width) ? options.tag_white
-                                                                  : options.tag_black;
+      return cell_grey[id - kFirstCell];
     }
     if (id == kPlate) return options.tag_white;
     if (id == kBody) return options.body_grey;
@@ -310,18 +312,79 @@ struct Renderer::Impl {
         [&](int region, int i, int j) {
           return Value(region, bg_sharp.at<float>(roi.y + j / scale, roi.x + i / scale));
         },
+        [&](int k00, int k10, int k11, int k01, int, int, double* v) {
+          return CellsInClosedForm({q[k00], q[k10], q[k11], q[k01]}, {id[k00], id[k10], id[k11], id[k01]}, T_tag_robot,
+                                   v);
+        },
         acc);
   }
 
-  // The robot's tag: its bitmap (1 = white), cell size and plate.
+  // A pixel inside the plate whose corners (robot frame, counter-clockwise in
+  // the image) lie in at most two neighbouring columns and two neighbouring
+  // rows of the bitmap (its cells and the plate's margin around them) is cut
+  // by at most one line of each: its area mean in closed form, the pixel's
+  // quadrilateral clipped by those lines into up to four cells. The samples
+  // see the same quadrilateral through its bilinear map, which within a
+  // pixel matches the straight-sided one to far better than 1e-4 of its
+  // area; the closed form has no sampling noise. False for any other pixel
+  // (the plate's rim, the body's, two lines of a kind).
+  bool CellsInClosedForm(const std::array<Eigen::Vector2d, 4>& corners, const std::array<int, 4>& ids,
+                         const Rigid2& T_tag_robot, double* v) const {
+    // On the plate (convex), so is the whole pixel.
+    if (std::any_of(ids.begin(), ids.end(), [](int id) { return id < kPlate; })) return false;
+    const double half = 0.5 * total_width * cell_m;
+    // Column (row) of the bitmap, -1 and n the plate's margin.
+    const auto index = [&](double along) {
+      return std::clamp(static_cast<int>(std::floor((along + half) / cell_m)), -1, total_width);
+    };
+    Eigen::Vector2d t[4];
+    int c0 = total_width, c1 = -1, r0 = total_width, r1 = -1;
+    for (int m = 0; m < 4; ++m) {
+      t[m] = T_tag_robot * corners[m];
+      const int col = index(t[m].x()), row = index(-t[m].y());  // rows run down the tag
+      c0 = std::min(c0, col);
+      c1 = std::max(c1, col);
+      r0 = std::min(r0, row);
+      r1 = std::max(r1, row);
+    }
+    if (c1 - c0 > 1 || r1 - r0 > 1) return false;
+    const double x_line = -half + (c0 + 1) * cell_m;  // column c0 below it, c1 above
+    const double y_line = half - (r0 + 1) * cell_m;   // row r0 above it, r1 below
+    double sum = 0.0, area = 0.0;
+    for (int col = c0; col <= c1; ++col) {
+      for (int row = r0; row <= r1; ++row) {
+        Eigen::Vector2d by_x[5], by_y[6];
+        const Eigen::Vector2d* piece = t;
+        int n = 4;
+        if (c1 > c0) {
+          n = internal::ClipToHalfPlane(piece, n, 0, x_line, col == c0, by_x);
+          piece = by_x;
+        }
+        if (r1 > r0 && n >= 3) {
+          n = internal::ClipToHalfPlane(piece, n, 1, y_line, row == r1, by_y);
+          piece = by_y;
+        }
+        if (n < 3) continue;
+        const double a = internal::PolygonArea(piece, n);
+        const bool in_grid = col >= 0 && col < total_width && row >= 0 && row < total_width;
+        sum += a * (in_grid ? cell_grey[row * total_width + col] : options.tag_white);
+        area += a;
+      }
+    }
+    if (!(area > 0.0)) return false;
+    *v = sum / area;
+    return true;
+  }
+
+  // The robot's tag: its cells' grey levels, cell size and plate.
   void LoadTag() {
     auto family = internal::CreateFamily(tag.family);
     internal::ImageU8Ptr im(apriltag_to_image(family.get(), tag.id));
     total_width = im->width;
-    bitmap.create(im->height, im->width, CV_8U);
+    cell_grey.resize(static_cast<size_t>(im->height) * im->width);
     for (int r = 0; r < im->height; ++r) {
       for (int c = 0; c < im->width; ++c) {
-        bitmap.at<uint8_t>(r, c) = im->buf[r * im->stride + c] > 127 ? 1 : 0;
+        cell_grey[r * im->width + c] = im->buf[r * im->stride + c] > 127 ? options.tag_white : options.tag_black;
       }
     }
     width_at_border = family->width_at_border;

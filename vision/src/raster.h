@@ -6,17 +6,17 @@
 // point is classified into a region id. A pixel whose four corners share one
 // id is uniform (one look-up); a scene may give a mixed pixel's mean in
 // closed form (the robot's tag inside its plate: renderer.cc); any other
-// pixel is integrated with ss x ss stratified samples, the grid shifted within its strata by a per-pixel
-// pseudo-random offset. A fixed grid quantizes an edge's coverage to 1/ss
-// and, along an edge parallel to the pixel grid, every pixel makes the same
-// quantization error: a bias of up to 1/(2 ss) px in the rendered edge (0.03
-// px at ss = 16, 0.04 deg of tag heading), which no measurement can undo. The
-// shifted grid makes the coverage unbiased; what is left is per-pixel noise
-// that averages out along the edge. Plane points are interpolated bilinearly
-// between the
-// corners' (within one pixel the pixel-to-plane map is bilinear to far better
-// than 1e-4 px, so this is exact for the purpose and saves an undistortion
-// per sample).
+// pixel is integrated with ss x ss stratified samples, the grid shifted
+// within its strata by a per-pixel pseudo-random offset. A fixed grid
+// quantizes an edge's coverage to 1/ss and, along an edge parallel to the
+// pixel grid, every pixel makes the same quantization error: a bias of up to
+// 1/(2 ss) px in the rendered edge (0.03 px at ss = 16, 0.04 deg of tag
+// heading), which no measurement can undo. The shifted grid makes the
+// coverage unbiased; what is left is per-pixel noise that averages out along
+// the edge. Plane points are interpolated bilinearly between the corners'
+// (within one pixel the pixel-to-plane map is bilinear to far better than
+// 1e-4 px, so this is exact for the purpose and saves an undistortion per
+// sample).
 //
 // Pixels: OpenCV convention; pixel (u, v) covers [u-0.5, u+0.5] x [v-0.5, v+0.5].
 #ifndef ODOCAL_VISION_SRC_RASTER_H_

@@ -367,7 +367,8 @@ struct Renderer::Impl {
         if (n < 3) continue;
         const double a = internal::PolygonArea(piece, n);
         const bool in_grid = col >= 0 && col < total_width && row >= 0 && row < total_width;
-        sum += a * (in_grid ? cell_grey[row * total_width + col] : options.tag_white);
+        // On the plate: no floor value needed.
+        sum += a * Value(in_grid ? kFirstCell + row * total_width + col : kPlate, 0.0);
         area += a;
       }
     }
